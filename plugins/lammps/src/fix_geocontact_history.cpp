@@ -1,0 +1,168 @@
+// Per-contact history of pair_style geocontact (see fix_geocontact_history.h).
+#include "fix_geocontact_history.h"
+
+#include "atom.h"
+#include "error.h"
+
+#include <algorithm>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+FixGeocontactHistory::FixGeocontactHistory(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg)
+{
+  if (narg != 3) error->all(FLERR, "Illegal fix geocontact/history command: takes no arguments");
+  if (!atom->tag_enable) error->all(FLERR, "Fix geocontact/history requires atom IDs");
+  restart_peratom = 1;
+  create_attribute = 1;
+  maxexchange_dynamic = 1;
+  maxexchange = 2;
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+}
+
+FixGeocontactHistory::~FixGeocontactHistory()
+{
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+}
+
+int FixGeocontactHistory::setmask()
+{
+  return PRE_EXCHANGE | POST_NEIGHBOR | MIN_PRE_EXCHANGE | MIN_POST_NEIGHBOR;
+}
+
+// Comm::exchange sizes its buffers from maxexchange: the largest table this rank may send.
+void FixGeocontactHistory::update_maxexchange()
+{
+  size_t most = 0;
+  for (int i = 0; i < atom->nlocal; ++i) most = std::max(most, tables[i].size());
+  maxexchange = 2 + static_cast<int>(most) * kRecordSize;
+}
+
+void FixGeocontactHistory::setup_pre_exchange() { update_maxexchange(); }
+void FixGeocontactHistory::pre_exchange() { update_maxexchange(); }
+void FixGeocontactHistory::min_pre_exchange() { update_maxexchange(); }
+void FixGeocontactHistory::setup_post_neighbor() { neighbors_rebuilt = true; }
+void FixGeocontactHistory::post_neighbor() { neighbors_rebuilt = true; }
+void FixGeocontactHistory::min_post_neighbor() { neighbors_rebuilt = true; }
+
+void FixGeocontactHistory::grow_arrays(int nmax)
+{
+  if (static_cast<size_t>(nmax) > tables.size()) tables.resize(nmax);
+}
+
+void FixGeocontactHistory::copy_arrays(int i, int j, int /*delflag*/)
+{
+  tables[j] = tables[i];
+}
+
+void FixGeocontactHistory::set_arrays(int i)
+{
+  tables[i].clear();
+}
+
+// Layout: [count, (partner, 13 law slots, 3 tangential) x count]
+int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, double *buf)
+{
+  int m = 0;
+  buf[m++] = static_cast<double>(table.size());
+  for (const ContactRecord &r : table) {
+    const geocontact::ContactState &s = r.law;
+    buf[m++] = ubuf(r.partner).d;
+    buf[m++] = s.approach;
+    buf[m++] = s.force;
+    buf[m++] = s.max_approach;
+    buf[m++] = s.max_force;
+    buf[m++] = s.residual_approach;
+    buf[m++] = s.unloading_exponent;
+    buf[m++] = s.reloading_exponent;
+    buf[m++] = s.branch_value;
+    buf[m++] = s.ratchet_shift;
+    buf[m++] = s.pending_ratchet;
+    buf[m++] = s.cycles;
+    buf[m++] = s.work;
+    buf[m++] = static_cast<double>(s.branch);
+    buf[m++] = r.tangential[0];
+    buf[m++] = r.tangential[1];
+    buf[m++] = r.tangential[2];
+  }
+  return m;
+}
+
+int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const double *buf)
+{
+  int m = 0;
+  const int n = static_cast<int>(buf[m++]);
+  table.resize(n);
+  for (ContactRecord &r : table) {
+    geocontact::ContactState &s = r.law;
+    r.partner = static_cast<tagint>(ubuf(buf[m++]).i);
+    s.approach = buf[m++];
+    s.force = buf[m++];
+    s.max_approach = buf[m++];
+    s.max_force = buf[m++];
+    s.residual_approach = buf[m++];
+    s.unloading_exponent = buf[m++];
+    s.reloading_exponent = buf[m++];
+    s.branch_value = buf[m++];
+    s.ratchet_shift = buf[m++];
+    s.pending_ratchet = buf[m++];
+    s.cycles = buf[m++];
+    s.work = buf[m++];
+    s.branch = static_cast<int>(buf[m++]);
+    r.tangential[0] = buf[m++];
+    r.tangential[1] = buf[m++];
+    r.tangential[2] = buf[m++];
+  }
+  return m;
+}
+
+int FixGeocontactHistory::pack_exchange(int i, double *buf)
+{
+  return pack_table(tables[i], buf);
+}
+
+int FixGeocontactHistory::unpack_exchange(int nlocal, double *buf)
+{
+  grow_arrays(nlocal + 1);
+  return unpack_table(tables[nlocal], buf);
+}
+
+// Restart: buf[0] is the length of this fix's data for the atom, including buf[0] itself.
+int FixGeocontactHistory::pack_restart(int i, double *buf)
+{
+  const int m = 1 + pack_table(tables[i], buf + 1);
+  buf[0] = m;
+  return m;
+}
+
+void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
+  grow_arrays(nlocal + 1);
+  unpack_table(tables[nlocal], &extra[nlocal][m + 1]);
+}
+
+int FixGeocontactHistory::size_restart(int i)
+{
+  return 2 + static_cast<int>(tables[i].size()) * kRecordSize;
+}
+
+int FixGeocontactHistory::maxsize_restart()
+{
+  size_t most = 0;
+  for (int i = 0; i < atom->nlocal; ++i) most = std::max(most, tables[i].size());
+  return 2 + static_cast<int>(most) * kRecordSize;
+}
+
+double FixGeocontactHistory::memory_usage()
+{
+  double bytes = static_cast<double>(tables.capacity()) * sizeof(std::vector<ContactRecord>);
+  for (const auto &t : tables) bytes += static_cast<double>(t.capacity()) * sizeof(ContactRecord);
+  return bytes;
+}

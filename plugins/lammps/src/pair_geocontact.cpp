@@ -1,0 +1,603 @@
+// pair_style geocontact (see pair_geocontact.h and docs in examples/lammps/README.md).
+#include "pair_geocontact.h"
+
+#include "fix_geocontact_history.h"
+#include "geocontact/params.hpp"
+
+#include "atom.h"
+#include "comm.h"
+#include "error.h"
+#include "force.h"
+#include "memory.h"
+#include "modify.h"
+#include "neigh_list.h"
+#include "neighbor.h"
+#include "update.h"
+#include "utils.h"
+
+#include <cmath>
+#include <cstring>
+
+using namespace LAMMPS_NS;
+
+namespace {
+
+constexpr const char *kHistoryFixId = "GEOCONTACT_HISTORY";
+// Atom radii must equal the parameter file's sphere radius to this relative tolerance: the law
+// is calibrated for two identical spheres of that radius.
+constexpr double kRadiusTolerance = 1e-6;
+constexpr double kDefaultFriction = 0.5;
+
+inline double dot3(const double *a, const double *b)
+{
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+}  // namespace
+
+PairGeocontact::PairGeocontact(LAMMPS *lmp) : Pair(lmp)
+{
+  single_enable = 1;
+  no_virial_fdotr_compute = 1;  // forces only on owned atoms of a newton-off list: tally pairs
+  finitecutflag = 1;
+  restartinfo = 1;
+  single_extra = SV_COUNT;
+  svector = new double[SV_COUNT];
+  nextra = GV_COUNT;
+  pvector = new double[GV_COUNT];
+  for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
+  history_ = nullptr;
+  coeffs_ = nullptr;
+  type_radius_ = nullptr;
+}
+
+PairGeocontact::~PairGeocontact()
+{
+  delete[] svector;
+  delete[] pvector;
+  // Deleting the pair style (a new pair_style, clear) drops the contact history with it.
+  if (history_ && modify && modify->get_fix_by_id(kHistoryFixId))
+    modify->delete_fix(kHistoryFixId);
+  if (allocated) {
+    memory->destroy(setflag);
+    memory->destroy(cutsq);
+    memory->sfree(coeffs_);
+    delete[] type_radius_;
+  }
+}
+
+void PairGeocontact::allocate()
+{
+  allocated = 1;
+  const int n = atom->ntypes + 1;
+  memory->create(setflag, n, n, "pair:setflag");
+  memory->create(cutsq, n, n, "pair:cutsq");
+  coeffs_ = static_cast<TypePairLaw **>(memory->smalloc(sizeof(TypePairLaw *) * n +
+                                                        sizeof(TypePairLaw) * n * n,
+                                                        "pair:coeffs"));
+  auto *block = reinterpret_cast<TypePairLaw *>(coeffs_ + n);
+  for (int i = 0; i < n; ++i) coeffs_[i] = block + i * n;
+  type_radius_ = new double[n];
+  for (int i = 0; i < n; ++i) {
+    type_radius_[i] = 0.0;
+    for (int j = 0; j < n; ++j) {
+      setflag[i][j] = 0;
+      coeffs_[i][j] = {-1, kDefaultFriction, 0.0};
+    }
+  }
+}
+
+static void require_sphere(Atom *atom, Error *error)
+{
+  if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
+    error->all(FLERR, "Pair style geocontact requires atom style sphere (per-atom radius, mass, "
+                      "angular velocity and torque); current atom style is {}",
+               atom->atom_style);
+}
+
+void PairGeocontact::settings(int narg, char **arg)
+{
+  if (narg != 0)
+    error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (the "
+                      "parameters go in pair_coeff * * P.json)", arg[0]);
+}
+
+// Keep one copy of each distinct parameter document.
+int PairGeocontact::add_law(const std::string &text, const std::string &source)
+{
+  for (size_t k = 0; k < law_texts_.size(); ++k)
+    if (law_texts_[k] == text) return static_cast<int>(k);
+  geocontact::LawParams params;
+  try {
+    params = geocontact::parse_params(text, source);
+  } catch (const geocontact::InputError &e) {
+    error->all(FLERR, "pair_coeff geocontact: {}", e.what());
+  }
+  laws_.push_back(params);
+  law_texts_.push_back(text);
+  return static_cast<int>(laws_.size()) - 1;
+}
+
+void PairGeocontact::coeff(int narg, char **arg)
+{
+  if (narg < 3)
+    error->all(FLERR, "Incorrect args for pair coefficients: pair_coeff I J P.json "
+                      "[friction mu] [damping beta]");
+  require_sphere(atom, error);
+  if (!allocated) allocate();
+  int ilo, ihi, jlo, jhi;
+  utils::bounds(FLERR, arg[0], 1, atom->ntypes, ilo, ihi, error);
+  utils::bounds(FLERR, arg[1], 1, atom->ntypes, jlo, jhi, error);
+
+  // Rank 0 reads the file; every rank parses the same text, so errors are collective.
+  const std::string path = arg[2];
+  std::string text;
+  int status = 0;
+  if (comm->me == 0) {
+    try {
+      text = geocontact::read_text_file(path);
+    } catch (const geocontact::InputError &) {
+      status = 1;
+    }
+  }
+  MPI_Bcast(&status, 1, MPI_INT, 0, world);
+  if (status)
+    error->all(FLERR, "pair_coeff geocontact: parameter file not found or unreadable: {}", path);
+  int length = static_cast<int>(text.size());
+  MPI_Bcast(&length, 1, MPI_INT, 0, world);
+  text.resize(length);
+  MPI_Bcast(&text[0], length, MPI_CHAR, 0, world);
+  const int law = add_law(text, path);
+
+  double friction = kDefaultFriction, damping = 0.0;
+  for (int iarg = 3; iarg < narg; iarg += 2) {
+    if (iarg + 1 >= narg)
+      error->all(FLERR, "pair_coeff geocontact: keyword '{}' needs a value", arg[iarg]);
+    if (strcmp(arg[iarg], "friction") == 0) {
+      friction = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (friction < 0.0)
+        error->all(FLERR, "pair_coeff geocontact: friction must be >= 0, got {}", friction);
+    } else if (strcmp(arg[iarg], "damping") == 0) {
+      damping = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (damping < 0.0)
+        error->all(FLERR, "pair_coeff geocontact: damping must be >= 0, got {}", damping);
+    } else {
+      error->all(FLERR, "pair_coeff geocontact: unknown keyword '{}' (allowed: friction, "
+                        "damping)", arg[iarg]);
+    }
+  }
+
+  int count = 0;
+  for (int i = ilo; i <= ihi; ++i) {
+    for (int j = std::max(jlo, i); j <= jhi; ++j) {
+      coeffs_[i][j] = {law, friction, damping};
+      setflag[i][j] = 1;
+      ++count;
+    }
+  }
+  if (count == 0) error->all(FLERR, "Incorrect args for pair coefficients: no type pairs set");
+}
+
+void PairGeocontact::init_style()
+{
+  require_sphere(atom, error);
+  if (!atom->tag_enable) error->all(FLERR, "Pair style geocontact requires atom IDs");
+  if (comm->ghost_velocity == 0)
+    error->all(FLERR, "Pair style geocontact requires ghost atoms store velocity: use "
+                      "comm_modify vel yes");
+  // A half list with newton off: a pair across ranks is computed on both, each rank applying
+  // the force to its own atom and keeping that atom's copy of the history current, so the
+  // history needs no reverse communication.
+  neighbor->add_request(this, NeighConst::REQ_SIZE | NeighConst::REQ_NEWTON_OFF);
+
+  for (int t = 1; t <= atom->ntypes; ++t) {
+    if (!setflag[t][t])
+      error->all(FLERR, "Pair geocontact: no pair_coeff for atom type {} with itself", t);
+    type_radius_[t] = laws_[coeffs_[t][t].law].material.radius;
+  }
+
+  history_ = dynamic_cast<FixGeocontactHistory *>(modify->get_fix_by_id(kHistoryFixId));
+  if (!history_)
+    history_ = dynamic_cast<FixGeocontactHistory *>(
+        modify->add_fix(std::string(kHistoryFixId) + " all geocontact/history"));
+  if (!history_) error->all(FLERR, "Pair geocontact: could not create its history fix");
+  history_->neighbors_rebuilt = true;
+  check_atoms();
+}
+
+// Every atom must be a sphere of its type's calibrated radius (the law is for identical spheres).
+void PairGeocontact::check_atoms()
+{
+  const double *radius = atom->radius;
+  const int *type = atom->type;
+  const tagint *tag = atom->tag;
+  tagint bad = -1;
+  for (int i = 0; i < atom->nlocal && bad < 0; ++i) {
+    const double expected = type_radius_[type[i]];
+    if (!(std::fabs(radius[i] - expected) <= kRadiusTolerance * expected)) bad = tag[i];
+  }
+  tagint any = -1;
+  MPI_Allreduce(&bad, &any, 1, MPI_LMP_TAGINT, MPI_MAX, world);
+  if (any >= 0) {
+    double r = 0.0, rall = 0.0;
+    int t = 0, tall = 0;
+    for (int i = 0; i < atom->nlocal; ++i)
+      if (tag[i] == any) {
+        r = radius[i];
+        t = type[i];
+      }
+    MPI_Allreduce(&r, &rall, 1, MPI_DOUBLE, MPI_MAX, world);
+    MPI_Allreduce(&t, &tall, 1, MPI_INT, MPI_MAX, world);
+    error->all(FLERR, "Pair geocontact: atom {} (type {}) has radius {} m but its parameter file "
+                      "is for spheres of radius {} m; the law is calibrated for two identical "
+                      "spheres of that radius (set diameter accordingly)",
+               any, tall, rall, type_radius_[tall]);
+  }
+}
+
+double PairGeocontact::init_one(int i, int j)
+{
+  if (!setflag[i][j]) {
+    // Unlike types share a law only if both use the same parameter file.
+    const TypePairLaw &a = coeffs_[i][i], &b = coeffs_[j][j];
+    if (a.law != b.law)
+      error->all(FLERR, "Pair geocontact: types {} and {} use different parameter files; give "
+                        "pair_coeff {} {} explicitly", i, j, i, j);
+    coeffs_[i][j] = {a.law, 0.5 * (a.friction + b.friction), 0.5 * (a.damping + b.damping)};
+  }
+  const double r = laws_[coeffs_[i][j].law].material.radius;
+  if (std::fabs(r - type_radius_[i]) > kRadiusTolerance * r ||
+      std::fabs(r - type_radius_[j]) > kRadiusTolerance * r)
+    error->all(FLERR, "Pair geocontact: the parameter file of types {} {} is for radius {} m, "
+                      "unlike the files of the types themselves", i, j, r);
+  coeffs_[j][i] = coeffs_[i][j];
+  return 2.0 * r;
+}
+
+// Slots of each neighbor pair in the atoms' tables; records of partners no longer in the
+// neighbor list are forgotten (the history of a pair that separated by more than the skin).
+void PairGeocontact::index_contacts()
+{
+  auto &tables = history_->tables;
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  const int inum = list->inum;
+  const int *ilist = list->ilist;
+  const int *numneigh = list->numneigh;
+  int **firstneigh = list->firstneigh;
+
+  first_pair_.resize(inum + 1);
+  first_pair_[0] = 0;
+  for (int ii = 0; ii < inum; ++ii) first_pair_[ii + 1] = first_pair_[ii] + numneigh[ilist[ii]];
+  slot_i_.assign(first_pair_[inum], -1);
+  slot_j_.assign(first_pair_[inum], -1);
+
+  std::vector<int> first_record(nlocal + 1, 0);
+  for (int i = 0; i < nlocal; ++i)
+    first_record[i + 1] = first_record[i] + static_cast<int>(tables[i].size());
+  std::vector<char> keep(first_record[nlocal], 0);
+  for (int ii = 0; ii < inum; ++ii) {
+    const int i = ilist[ii];
+    const int *jlist = firstneigh[i];
+    for (int jj = 0; jj < numneigh[i]; ++jj) {
+      const int j = jlist[jj] & NEIGHMASK;
+      const int si = FixGeocontactHistory::find(tables[i], tag[j]);
+      if (si >= 0) keep[first_record[i] + si] = 1;
+      if (j < nlocal) {
+        const int sj = FixGeocontactHistory::find(tables[j], tag[i]);
+        if (sj >= 0) keep[first_record[j] + sj] = 1;
+      }
+    }
+  }
+  for (int i = 0; i < nlocal; ++i) {
+    auto &table = tables[i];
+    size_t kept = 0;
+    for (size_t k = 0; k < table.size(); ++k)
+      if (keep[first_record[i] + k]) table[kept++] = table[k];
+    table.resize(kept);
+  }
+  for (int ii = 0; ii < inum; ++ii) {
+    const int i = ilist[ii];
+    const int *jlist = firstneigh[i];
+    for (int jj = 0; jj < numneigh[i]; ++jj) {
+      const int j = jlist[jj] & NEIGHMASK;
+      const int k = first_pair_[ii] + jj;
+      slot_i_[k] = FixGeocontactHistory::find(tables[i], tag[j]);
+      if (j < nlocal) slot_j_[k] = FixGeocontactHistory::find(tables[j], tag[i]);
+    }
+  }
+}
+
+void PairGeocontact::compute(int eflag, int vflag)
+{
+  ev_init(eflag, vflag);
+  if (history_->neighbors_rebuilt) {
+    index_contacts();
+    history_->neighbors_rebuilt = false;
+  }
+  // During setup forces are evaluated but the history is not advanced (as pair granular):
+  // the first step of the run then moves from the stored state.
+  const bool commit = !update->setupflag;
+  const double dt = update->dt;
+
+  double **x = atom->x;
+  double **v = atom->v;
+  double **f = atom->f;
+  double **omega = atom->omega;
+  double **torque = atom->torque;
+  const double *radius = atom->radius;
+  const double *rmass = atom->rmass;
+  const int *type = atom->type;
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  auto &tables = history_->tables;
+
+  const int inum = list->inum;
+  const int *ilist = list->ilist;
+  const int *numneigh = list->numneigh;
+  int **firstneigh = list->firstneigh;
+
+  for (int ii = 0; ii < inum; ++ii) {
+    const int i = ilist[ii];
+    const int itype = type[i];
+    const double radi = radius[i];
+    const int *jlist = firstneigh[i];
+    const int jnum = numneigh[i];
+    const int first = first_pair_[ii];
+
+    for (int jj = 0; jj < jnum; ++jj) {
+      const int j = jlist[jj] & NEIGHMASK;
+      const int k = first + jj;
+      const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
+      const double rsq = dot3(del, del);
+      const double radsum = radi + radius[j];
+      int si = slot_i_[k];
+      if (rsq >= radsum * radsum && si < 0) continue;  // apart, never touched
+
+      const int jtype = type[j];
+      const TypePairLaw &tp = coeffs_[itype][jtype];
+      const geocontact::LawParams &law = laws_[tp.law];
+      if (si < 0 && std::fabs(radius[j] - type_radius_[jtype]) >
+              kRadiusTolerance * type_radius_[jtype])
+        error->one(FLERR, "Pair geocontact: atom {} has radius {} m, its parameter file is for "
+                          "spheres of radius {} m", tag[j], radius[j], type_radius_[jtype]);
+
+      ContactRecord rec;
+      if (si >= 0) {
+        rec = tables[i][si];
+      } else {
+        rec.partner = tag[j];
+        rec.law = geocontact::ContactState();
+        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+      }
+      const double r = std::sqrt(rsq);
+      const geocontact::StepResult res = geocontact::step(law, rec.law, radsum - r);
+
+      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, n[3] = {0.0, 0.0, 0.0};
+      if (res.force > 0.0) {
+        const double rinv = 1.0 / r;
+        n[0] = del[0] * rinv;
+        n[1] = del[1] * rinv;
+        n[2] = del[2] * rinv;
+        // relative velocity of the contact point of i with respect to that of j
+        const double vr[3] = {v[i][0] - v[j][0], v[i][1] - v[j][1], v[i][2] - v[j][2]};
+        const double vnn = dot3(vr, n);
+        const double wr[3] = {radi * omega[i][0] + radius[j] * omega[j][0],
+                              radi * omega[i][1] + radius[j] * omega[j][1],
+                              radi * omega[i][2] + radius[j] * omega[j][2]};
+        const double vt[3] = {vr[0] - vnn * n[0] - (wr[1] * n[2] - wr[2] * n[1]),
+                              vr[1] - vnn * n[1] - (wr[2] * n[0] - wr[0] * n[2]),
+                              vr[2] - vnn * n[2] - (wr[0] * n[1] - wr[1] * n[0])};
+
+        // Contact radius from the unloading stiffness S = 2 E* a; Mindlin k_t = 8 G* a.
+        const double stiffness_unload = geocontact::unloading_stiffness(law, rec.law);
+        const double a = stiffness_unload / (2.0 * law.material.effective_modulus());
+        const double kt = 8.0 * law.material.effective_shear_modulus() * a;
+
+        fn = res.force;
+        double damp_t = 0.0;
+        if (tp.damping > 0.0) {
+          const double mi = rmass[i], mj = rmass[j];
+          const double meff = mi * mj / (mi + mj);
+          // approach rate is -vnn; the damping force opposes it; no tension from damping
+          fn -= 2.0 * tp.damping * std::sqrt(meff * stiffness_unload) * vnn;
+          if (fn < 0.0) fn = 0.0;
+          damp_t = 2.0 * tp.damping * std::sqrt(meff * kt);
+        }
+
+        if (tp.friction > 0.0) {
+          double *fs = rec.tangential;
+          // Rotate the stored force into the current tangent plane, keeping its magnitude.
+          const double before = std::sqrt(dot3(fs, fs));
+          const double fsn = dot3(fs, n);
+          fs[0] -= fsn * n[0];
+          fs[1] -= fsn * n[1];
+          fs[2] -= fsn * n[2];
+          const double after = std::sqrt(dot3(fs, fs));
+          if (after > 0.0) {
+            const double scale = before / after;
+            fs[0] *= scale;
+            fs[1] *= scale;
+            fs[2] *= scale;
+          }
+          // Incremental Mindlin with the current stiffness: storing the force, not the
+          // displacement, so a changing contact radius never makes the force jump.
+          for (int c = 0; c < 3; ++c) fs[c] -= kt * vt[c] * dt;
+          for (int c = 0; c < 3; ++c) ft[c] = fs[c] - damp_t * vt[c];
+          const double limit = tp.friction * fn;
+          const double mag = std::sqrt(dot3(ft, ft));
+          if (mag > limit) {
+            // sliding: the stored force becomes the Coulomb force
+            const double scale = mag > 0.0 ? limit / mag : 0.0;
+            for (int c = 0; c < 3; ++c) {
+              ft[c] *= scale;
+              fs[c] = ft[c];
+            }
+          }
+        }
+      } else {
+        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+      }
+
+      if (commit) {
+        if (si < 0) {
+          tables[i].push_back(rec);
+          si = static_cast<int>(tables[i].size()) - 1;
+          slot_i_[k] = si;
+          history_->note_table_size(tables[i].size());
+        } else {
+          tables[i][si] = rec;
+        }
+        if (j < nlocal) {
+          ContactRecord mirror = rec;
+          mirror.partner = tag[i];
+          for (int c = 0; c < 3; ++c) mirror.tangential[c] = -rec.tangential[c];
+          int sj = slot_j_[k];
+          if (sj < 0) sj = FixGeocontactHistory::find(tables[j], tag[i]);
+          if (sj < 0) {
+            tables[j].push_back(mirror);
+            slot_j_[k] = static_cast<int>(tables[j].size()) - 1;
+            history_->note_table_size(tables[j].size());
+          } else {
+            tables[j][sj] = mirror;
+            slot_j_[k] = sj;
+          }
+        }
+      }
+      if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
+
+      const double fx = fn * n[0] + ft[0], fy = fn * n[1] + ft[1], fz = fn * n[2] + ft[2];
+      // torque of the tangential force about each centre: -r (n x Ft)
+      const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
+                             n[0] * ft[1] - n[1] * ft[0]};
+      f[i][0] += fx;
+      f[i][1] += fy;
+      f[i][2] += fz;
+      torque[i][0] -= radi * tor[0];
+      torque[i][1] -= radi * tor[1];
+      torque[i][2] -= radi * tor[2];
+      if (j < nlocal) {
+        f[j][0] -= fx;
+        f[j][1] -= fy;
+        f[j][2] -= fz;
+        torque[j][0] -= radius[j] * tor[0];
+        torque[j][1] -= radius[j] * tor[1];
+        torque[j][2] -= radius[j] * tor[2];
+      }
+      if (evflag) {
+        const double energy = eflag ? geocontact::elastic_energy(law, rec.law) : 0.0;
+        ev_tally_xyz(i, j, nlocal, 0, energy, 0.0, fx, fy, fz, del[0], del[1], del[2]);
+      }
+    }
+  }
+
+  if (eflag_global) {
+    // Each contact is recorded on both its atoms: half of every record, summed over ranks by
+    // compute pair, counts it once.
+    for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
+    for (int i = 0; i < nlocal; ++i) {
+      const int itype = type[i];
+      for (const ContactRecord &rec : tables[i]) {
+        // the law of the pair's types; the partner's type is not at hand, but a record exists
+        // only for type pairs with one law (init_one checks the radii agree)
+        const geocontact::LawParams &law = laws_[coeffs_[itype][itype].law];
+        const double stored = geocontact::elastic_energy(law, rec.law);
+        pvector[GV_DISSIPATED] += 0.5 * (rec.law.work - stored);
+        pvector[GV_ELASTIC] += 0.5 * stored;
+        if (rec.law.force > 0.0) pvector[GV_CONTACTS] += 0.5;
+        if (rec.law.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += 0.5;
+      }
+    }
+  }
+}
+
+double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
+                              double /*factor_coul*/, double /*factor_lj*/, double &fforce)
+{
+  for (int k = 0; k < SV_COUNT; ++k) svector[k] = 0.0;
+  fforce = 0.0;
+  if (!history_ || i >= atom->nlocal) return 0.0;
+  const int s = FixGeocontactHistory::find(history_->tables[i], atom->tag[j]);
+  if (s < 0) return 0.0;
+  const ContactRecord &rec = history_->tables[i][s];
+  const geocontact::LawParams &law = laws_[coeffs_[itype][jtype].law];
+  const geocontact::ContactState &st = rec.law;
+  const double r = std::sqrt(rsq);
+  fforce = r > 0.0 ? st.force / r : 0.0;
+  svector[SV_APPROACH] = st.approach;
+  svector[SV_NORMAL_FORCE] = st.force;
+  svector[SV_TANGENTIAL_FORCE] = std::sqrt(dot3(rec.tangential, rec.tangential));
+  svector[SV_MAX_APPROACH] = st.max_approach + st.ratchet_shift;
+  svector[SV_RESIDUAL_APPROACH] = st.residual_approach + st.ratchet_shift;
+  svector[SV_BRANCH] = st.branch;
+  svector[SV_CYCLES] = st.cycles;
+  svector[SV_WORK] = st.work;
+  svector[SV_DISSIPATED] = geocontact::dissipated_energy(law, st);
+  svector[SV_CONTACT_RADIUS] = geocontact::contact_radius(law, st);
+  return geocontact::elastic_energy(law, st);
+}
+
+// Restart: the parameter documents themselves (not their paths), so a restart is
+// self-contained, then per type pair the law index, friction and damping.
+void PairGeocontact::write_restart(FILE *fp)
+{
+  if (comm->me != 0) return;
+  const int nlaws = static_cast<int>(law_texts_.size());
+  fwrite(&nlaws, sizeof(int), 1, fp);
+  for (const std::string &text : law_texts_) {
+    const int length = static_cast<int>(text.size());
+    fwrite(&length, sizeof(int), 1, fp);
+    fwrite(text.data(), 1, length, fp);
+  }
+  for (int i = 1; i <= atom->ntypes; ++i)
+    for (int j = i; j <= atom->ntypes; ++j) {
+      fwrite(&setflag[i][j], sizeof(int), 1, fp);
+      if (setflag[i][j]) {
+        fwrite(&coeffs_[i][j].law, sizeof(int), 1, fp);
+        fwrite(&coeffs_[i][j].friction, sizeof(double), 1, fp);
+        fwrite(&coeffs_[i][j].damping, sizeof(double), 1, fp);
+      }
+    }
+}
+
+void PairGeocontact::read_restart(FILE *fp)
+{
+  allocate();
+  const int me = comm->me;
+  int nlaws = 0;
+  if (me == 0) utils::sfread(FLERR, &nlaws, sizeof(int), 1, fp, nullptr, error);
+  MPI_Bcast(&nlaws, 1, MPI_INT, 0, world);
+  for (int k = 0; k < nlaws; ++k) {
+    int length = 0;
+    if (me == 0) utils::sfread(FLERR, &length, sizeof(int), 1, fp, nullptr, error);
+    MPI_Bcast(&length, 1, MPI_INT, 0, world);
+    std::string text(length, '\0');
+    if (me == 0) utils::sfread(FLERR, &text[0], 1, length, fp, nullptr, error);
+    MPI_Bcast(&text[0], length, MPI_CHAR, 0, world);
+    add_law(text, "restart file");
+  }
+  for (int i = 1; i <= atom->ntypes; ++i)
+    for (int j = i; j <= atom->ntypes; ++j) {
+      if (me == 0) utils::sfread(FLERR, &setflag[i][j], sizeof(int), 1, fp, nullptr, error);
+      MPI_Bcast(&setflag[i][j], 1, MPI_INT, 0, world);
+      if (setflag[i][j]) {
+        TypePairLaw &c = coeffs_[i][j];
+        if (me == 0) {
+          utils::sfread(FLERR, &c.law, sizeof(int), 1, fp, nullptr, error);
+          utils::sfread(FLERR, &c.friction, sizeof(double), 1, fp, nullptr, error);
+          utils::sfread(FLERR, &c.damping, sizeof(double), 1, fp, nullptr, error);
+        }
+        MPI_Bcast(&c.law, 1, MPI_INT, 0, world);
+        MPI_Bcast(&c.friction, 1, MPI_DOUBLE, 0, world);
+        MPI_Bcast(&c.damping, 1, MPI_DOUBLE, 0, world);
+      }
+    }
+}
+
+double PairGeocontact::memory_usage()
+{
+  double bytes = Pair::memory_usage();
+  bytes += static_cast<double>(slot_i_.capacity() + slot_j_.capacity() + first_pair_.capacity()) *
+      sizeof(int);
+  return bytes;
+}

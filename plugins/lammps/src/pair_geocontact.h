@@ -1,0 +1,81 @@
+// pair_style geocontact: the hysteretic elastic-plastic normal law of geocontact
+// (docs/law.md) with a Mindlin-Coulomb tangential force, for atom style sphere.
+//
+//   pair_style geocontact
+//   pair_coeff * * P.json [friction mu] [damping beta]
+//
+// Normal force: the law for each contact, state per contact kept across neighbor-list rebuilds,
+// migrations and restarts (fix geocontact/history). Tangential force: the accumulated
+// tangential force (not displacement) is stored; its increment is -k_t v_t dt with the Mindlin
+// no-slip stiffness k_t = 8 G* a of the current contact radius a, capped by mu times the normal
+// force (Coulomb). Optional viscous damping: ratio beta of the critical damping of the contact's
+// unloading (normal) and Mindlin (tangential) stiffness.
+#ifdef PAIR_CLASS
+// clang-format off
+PairStyle(geocontact,PairGeocontact);
+// clang-format on
+#else
+
+#ifndef LMP_PAIR_GEOCONTACT_H
+#define LMP_PAIR_GEOCONTACT_H
+
+#include "pair.h"
+#include "geocontact/law.hpp"
+
+#include <string>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class FixGeocontactHistory;
+
+class PairGeocontact : public Pair {
+ public:
+  PairGeocontact(class LAMMPS *);
+  ~PairGeocontact() override;
+  void compute(int, int) override;
+  void settings(int, char **) override;
+  void coeff(int, char **) override;
+  void init_style() override;
+  double init_one(int, int) override;
+  double single(int, int, int, int, double, double, double, double &) override;
+  void write_restart(FILE *) override;
+  void read_restart(FILE *) override;
+  double memory_usage() override;
+
+  // per-contact values of single() (compute pair/local p1..p10)
+  enum SingleValue {
+    SV_APPROACH, SV_NORMAL_FORCE, SV_TANGENTIAL_FORCE, SV_MAX_APPROACH, SV_RESIDUAL_APPROACH,
+    SV_BRANCH, SV_CYCLES, SV_WORK, SV_DISSIPATED, SV_CONTACT_RADIUS, SV_COUNT
+  };
+  // global values (compute pair geocontact, summed over ranks)
+  enum GlobalValue {
+    GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_COUNT
+  };
+
+ protected:
+  struct TypePairLaw {
+    int law;                // index into laws_
+    double friction;        // Coulomb coefficient mu
+    double damping;         // fraction of critical damping beta
+  };
+
+  void allocate();
+  void check_atoms();
+  void index_contacts();
+  int add_law(const std::string &text, const std::string &source);
+
+  FixGeocontactHistory *history_;
+  std::vector<geocontact::LawParams> laws_;
+  std::vector<std::string> law_texts_;  // the parameter documents, for restart files
+  TypePairLaw **coeffs_;
+  double *type_radius_;                 // radius of each type's own law (m)
+
+  // slots of each neighbor-list pair in the tables of atom i and (owned) atom j; -1 if none
+  std::vector<int> slot_i_, slot_j_, first_pair_;
+};
+
+}  // namespace LAMMPS_NS
+
+#endif
+#endif

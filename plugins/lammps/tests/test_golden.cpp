@@ -1,0 +1,124 @@
+// Replays the golden vectors of the Python reference law (tests/golden.json, written by
+// `python -m geocontact.law.golden`) through the C++ header and checks forces, stiffnesses,
+// branches and final states. Exit status 0 when every case agrees.
+#include "geocontact/law.hpp"
+#include "geocontact/params.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <string>
+
+using geocontact::json::Value;
+
+namespace {
+
+// Relative tolerance against the case's scale (peak force, peak stiffness, ...): the two sides
+// do the same arithmetic, so only libm/numpy rounding separates them.
+constexpr double kTolerance = 1e-11;
+
+int failures = 0;
+
+void check(bool ok, const std::string &where, const std::string &what, double got,
+           double expected)
+{
+  if (ok) return;
+  if (++failures <= 20)
+    std::fprintf(stderr, "FAIL %s: %s = %.17g, reference %.17g\n", where.c_str(), what.c_str(),
+                 got, expected);
+}
+
+double number(const Value &v, const char *key)
+{
+  const Value *x = v.find(key);
+  if (!x || x->kind != Value::NUMBER) throw geocontact::InputError(std::string("golden: ") + key);
+  return x->number;
+}
+
+double max_abs(const Value &arr)
+{
+  double m = 0.0;
+  for (const Value &x : arr.array) m = std::fmax(m, std::fabs(x.number));
+  return m;
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: test_golden golden.json\n");
+    return 2;
+  }
+  const Value golden =
+      geocontact::json::parse(geocontact::read_text_file(argv[1]), argv[1]);
+  std::map<std::string, geocontact::LawParams> params;
+  for (const auto &kv : golden.find("params")->object)
+    params[kv.first] = geocontact::params_from_json(kv.second);
+
+  size_t n_cases = 0, n_steps = 0;
+  for (const Value &c : golden.find("cases")->array) {
+    const std::string name = c.find("name")->string;
+    const geocontact::LawParams &p = params.at(c.find("params")->string);
+    const Value &approaches = *c.find("approaches");
+    const Value &forces = *c.find("forces");
+    const Value &stiffnesses = *c.find("stiffnesses");
+    const Value &branches = *c.find("branches");
+    const double force_scale = std::fmax(max_abs(forces), 1e-300);
+    const double stiffness_scale = std::fmax(max_abs(stiffnesses), 1e-300);
+    const double approach_scale = std::fmax(max_abs(approaches), 1e-300);
+
+    geocontact::ContactState s;
+    for (size_t k = 0; k < approaches.array.size(); ++k) {
+      const auto r = geocontact::step(p, s, approaches.array[k].number);
+      const std::string where = name + " step " + std::to_string(k);
+      const double f = forces.array[k].number, kk = stiffnesses.array[k].number;
+      check(std::fabs(r.force - f) <= kTolerance * force_scale, where, "force", r.force, f);
+      check(std::fabs(r.stiffness - kk) <= kTolerance * stiffness_scale, where, "stiffness",
+            r.stiffness, kk);
+      check(s.branch == static_cast<int>(branches.array[k].number), where, "branch", s.branch,
+            branches.array[k].number);
+      ++n_steps;
+    }
+    const Value &fs = *c.find("final_state");
+    const std::string where = name + " final";
+    const double work_scale = std::fmax(force_scale * approach_scale, 1e-300);
+    struct Field {
+      const char *key;
+      double value, scale;
+    };
+    const Field fields[] = {
+        {"approach", s.approach, approach_scale},
+        {"force", s.force, force_scale},
+        {"max_approach", s.max_approach, approach_scale},
+        {"max_force", s.max_force, force_scale},
+        {"residual_approach", s.residual_approach, approach_scale},
+        {"unloading_exponent", s.unloading_exponent, 1.0},
+        {"reloading_exponent", s.reloading_exponent, 1.0},
+        {"branch_value", s.branch_value, std::fmax(1.0, std::fabs(number(fs, "branch_value")))},
+        {"ratchet_shift", s.ratchet_shift, approach_scale},
+        {"pending_ratchet", s.pending_ratchet, approach_scale},
+        {"cycles", s.cycles, std::fmax(1.0, number(fs, "cycles"))},
+        {"work", s.work, work_scale},
+    };
+    for (const Field &fd : fields) {
+      const double expected = number(fs, fd.key);
+      check(std::fabs(fd.value - expected) <= kTolerance * fd.scale, where, fd.key, fd.value,
+            expected);
+    }
+    check(s.branch == static_cast<int>(number(fs, "branch")), where, "branch", s.branch,
+          number(fs, "branch"));
+    const double ee = number(c, "elastic_energy"), de = number(c, "dissipated_energy");
+    check(std::fabs(geocontact::elastic_energy(p, s) - ee) <= kTolerance * work_scale, where,
+          "elastic_energy", geocontact::elastic_energy(p, s), ee);
+    check(std::fabs(geocontact::dissipated_energy(p, s) - de) <= kTolerance * work_scale, where,
+          "dissipated_energy", geocontact::dissipated_energy(p, s), de);
+    ++n_cases;
+  }
+  if (n_cases < 100) {
+    std::fprintf(stderr, "FAIL: only %zu golden cases\n", n_cases);
+    return 1;
+  }
+  std::printf("golden: %zu histories, %zu steps, %d failures\n", n_cases, n_steps, failures);
+  return failures == 0 ? 0 : 1;
+}

@@ -1,0 +1,86 @@
+// The parameter reader: the example file loads, and each kind of bad input is rejected with a
+// one-line message naming the field (the same rules as src/geocontact/law/params.py).
+#include "geocontact/params.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace {
+
+int failures = 0;
+
+void expect_error(const std::string &text, const std::string &needle, const char *what)
+{
+  try {
+    geocontact::parse_params(text, "test.json");
+    std::fprintf(stderr, "FAIL %s: accepted\n", what);
+    ++failures;
+  } catch (const geocontact::InputError &e) {
+    const std::string msg = e.what();
+    if (msg.find(needle) == std::string::npos || msg.find('\n') != std::string::npos) {
+      std::fprintf(stderr, "FAIL %s: message '%s' lacks '%s'\n", what, msg.c_str(),
+                   needle.c_str());
+      ++failures;
+    }
+  }
+}
+
+std::string replace(std::string text, const std::string &from, const std::string &to)
+{
+  const size_t at = text.find(from);
+  if (at == std::string::npos) {
+    std::fprintf(stderr, "FAIL: test fixture lacks '%s'\n", from.c_str());
+    ++failures;
+    return text;
+  }
+  return text.replace(at, from.size(), to);
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+  if (argc != 2) return 2;
+  const std::string good = geocontact::read_text_file(argv[1]);
+  const geocontact::LawParams p = geocontact::parse_params(good, argv[1]);
+  if (!(p.yield_approach > 0.0 && p.hertz_coefficient > 0.0 && p.material.radius == 0.1)) {
+    std::fprintf(stderr, "FAIL: example parameters not read\n");
+    ++failures;
+  }
+  // Kh = (4/3) E* sqrt(R*) for two identical spheres
+  const double es = 1e10 / (2.0 * (1.0 - 0.0625));
+  if (std::fabs(p.hertz_coefficient - 4.0 / 3.0 * es * std::sqrt(0.05)) >
+      1e-12 * p.hertz_coefficient) {
+    std::fprintf(stderr, "FAIL: Hertz coefficient\n");
+    ++failures;
+  }
+  try {
+    geocontact::load_params("/nonexistent/P.json");
+    ++failures;
+  } catch (const geocontact::InputError &e) {
+    if (std::string(e.what()).find("not found") == std::string::npos) ++failures;
+  }
+  expect_error("{\"schema\": ", "malformed JSON", "truncated JSON");
+  expect_error("[1, 2]", "params: must hold a JSON object", "not an object");
+  expect_error(good + "x", "unexpected text", "trailing text");
+  expect_error(replace(good, "geocontact.law/1", "geocontact.law/9"), "schema", "schema");
+  expect_error(replace(good, "\"youngs_modulus\": 10000000000.0", "\"youngs_modulus\": -1"),
+               "material.youngs_modulus: must be in", "negative modulus");
+  expect_error(replace(good, "\"poissons_ratio\": 0.25", "\"poissons_ratio\": \"a\""),
+               "material.poissons_ratio: expected a number", "string for number");
+  expect_error(replace(good, "\"radius\": 0.1", "\"radius_m\": 0.1"), "material.radius_m",
+               "unknown material key");
+  expect_error(replace(good, "\"limit\": 0.8", "\"limit\": 1.0"), "residual_approach.limit",
+               "residual limit out of range");
+  expect_error(replace(good, "\"approach_m\": 1.11e-06", "\"approach_m\": 2e-06"),
+               "yield.force_N", "yield force disagrees");
+  expect_error(replace(good, "\"elastic_plastic_exponent\": 1.2", "\"elastic_plastic_exponent\": 2.9"),
+               "creates energy", "energy check");
+  expect_error(replace(good, "\"unloading\"", "\"unloadin\""), "params.unloadin: unknown key",
+               "misspelt section");
+  expect_error(replace(good, "\"enabled\": true", "\"enabled\": 1"), "cyclic.enabled",
+               "cyclic flag type");
+  std::printf("params: %d failures\n", failures);
+  return failures == 0 ? 0 : 1;
+}

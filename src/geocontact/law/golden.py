@@ -1,0 +1,176 @@
+"""Golden test vectors of the law for other implementations (the C++ header in plugins/lammps).
+
+Random approach histories (deterministic seed) run through the scalar reference ``Contact``; the
+approaches in, and the forces, stiffnesses, branches and final states out, are written to one
+JSON file that the C++ test (``plugins/lammps/tests/test_golden.cpp``) replays. Regenerate with::
+
+    python -m geocontact.law.golden --out plugins/lammps/tests/golden.json
+
+Never edit the output by hand. Each case embeds its parameter document, so the file is
+self-contained. The history families cover what a DEM contact meets: random walks with
+separation and re-contact, partial reversals at every depth, deep plastic excursions beyond
+the fully plastic approach, and many cycles to one peak with the cyclic (ratchet) extension on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .params import LawParams, load_params
+from .reference import Contact
+
+GOLDEN_SCHEMA = "geocontact.golden/1"
+DEFAULT_PARAMS = Path(__file__).resolve().parents[3] / "examples" / "lammps" / "params.json"
+SEED = 20250722
+STATE_KEYS = ("approach", "force", "max_approach", "max_force", "residual_approach",
+              "unloading_exponent", "reloading_exponent", "branch", "branch_value",
+              "ratchet_shift", "pending_ratchet", "cycles", "work")
+
+
+def _sample(rng: np.random.Generator, targets: list[float], max_substeps: int) -> list[float]:
+    """Piecewise-linear path through the targets, each leg cut into 1..max_substeps steps
+    (one step may cross several branch ends, as a coarse DEM step does)."""
+    path = []
+    start = 0.0
+    for end in targets:
+        n = int(rng.integers(1, max_substeps + 1))
+        path += [start + (end - start) * (k + 1) / n for k in range(n)]
+        start = end
+    return path
+
+
+def _random_walk(rng, dy):
+    """Loads and unloads of random depth, with separations (negative approach) and re-contact."""
+    targets = []
+    for _ in range(int(rng.integers(3, 9))):
+        targets.append(float(rng.uniform(-2.0, 60.0)) * dy)
+    return _sample(rng, targets, 8)
+
+
+def _partial_reversals(rng, dy):
+    """A deep load, then reversals between random force levels on the same envelope."""
+    peak = float(rng.uniform(2.0, 40.0)) * dy
+    targets = [peak]
+    for _ in range(int(rng.integers(4, 12))):
+        targets.append(float(rng.uniform(0.0, 1.0)) * peak)
+    targets.append(peak * float(rng.uniform(1.0, 1.5)))
+    targets.append(float(rng.uniform(-0.5, 0.5)) * peak)
+    return _sample(rng, targets, 6)
+
+
+def _deep_plastic(rng, dy):
+    """Excursions far beyond the fully plastic approach, unloading to separation between."""
+    targets = []
+    level = float(rng.uniform(20.0, 200.0)) * dy
+    for _ in range(int(rng.integers(2, 5))):
+        targets += [level, float(rng.uniform(-1.0, 0.6)) * level]
+        level *= float(rng.uniform(1.2, 5.0))
+    return _sample(rng, targets, 5)
+
+
+def _cycles(rng, dy):
+    """Many cycles to one peak (full or partial unloading): the ratchet when cyclic is on."""
+    peak = float(rng.uniform(1.5, 80.0)) * dy
+    depth = float(rng.choice([1.0, 0.5, 0.2]))
+    targets = [peak]
+    for _ in range(int(rng.integers(5, 25))):
+        targets += [peak * (1.0 - depth) - (0.01 * peak if depth == 1.0 else 0.0), peak * 1.02]
+    return _sample(rng, targets, 3)
+
+
+def _elastic(rng, dy):
+    """Below yield all the way: Hertz on every branch."""
+    targets = [float(rng.uniform(-0.3, 1.0)) * dy for _ in range(int(rng.integers(3, 8)))]
+    return _sample(rng, targets, 6)
+
+
+FAMILIES = {
+    "random_walk": _random_walk,
+    "partial_reversals": _partial_reversals,
+    "deep_plastic": _deep_plastic,
+    "cycles": _cycles,
+    "elastic": _elastic,
+}
+
+
+def _variants(params: LawParams) -> dict[str, dict]:
+    """The parameter document as given, and with the cyclic extension switched on and off."""
+    base = params.to_dict()
+    base["provenance"] = {k: v for k, v in base["provenance"].items()
+                          if k != "geocontact_version"}
+    on = copy.deepcopy(base)
+    on["cyclic"]["enabled"] = True
+    if on["cyclic"]["residual_ratio"]["coefficient"] <= on["cyclic"]["tolerance"]:
+        on["cyclic"]["residual_ratio"] = {"coefficient": 0.3, "power": 1.0}
+    on["cyclic"].pop("critical_cycle", None)
+    off = copy.deepcopy(on)
+    off["cyclic"]["enabled"] = False
+    return {"cyclic_on": on, "cyclic_off": off}
+
+
+def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dict:
+    rng = np.random.default_rng(seed)
+    variants = _variants(params)
+    cases = []
+    for variant, doc in variants.items():
+        law = LawParams.from_dict(doc)
+        for family, make in FAMILIES.items():
+            for k in range(n_per_family // len(variants)):
+                approaches = make(rng, law.yield_approach)
+                contact = Contact(law)
+                forces, stiffnesses, branches = [], [], []
+                for a in approaches:
+                    f, s = contact.update(a)
+                    forces.append(f)
+                    stiffnesses.append(s)
+                    branches.append(contact.state.branch)
+                state = contact.state
+                cases.append({
+                    "name": f"{variant}/{family}/{k}",
+                    "params": variant,
+                    "approaches": approaches,
+                    "forces": forces,
+                    "stiffnesses": stiffnesses,
+                    "branches": branches,
+                    "final_state": {key: getattr(state, key) for key in STATE_KEYS},
+                    "elastic_energy": contact.elastic_energy,
+                    "dissipated_energy": contact.dissipated_energy,
+                })
+    return {
+        "schema": GOLDEN_SCHEMA,
+        "generator": "python -m geocontact.law.golden (scalar reference geocontact.law.Contact)",
+        "seed": seed,
+        "params": variants,
+        "cases": cases,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m geocontact.law.golden",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, help="output JSON file")
+    parser.add_argument("--params", default=str(DEFAULT_PARAMS),
+                        help="geocontact.law/1 parameter file (default: %(default)s)")
+    parser.add_argument("--per-family", type=int, default=50,
+                        help="histories per family, split over the cyclic on/off variants")
+    parser.add_argument("--seed", type=int, default=SEED)
+    args = parser.parse_args(argv)
+    golden = generate(load_params(args.params), args.per_family, args.seed)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".tmp")
+    # repr-exact floats (json writes the shortest round-tripping form)
+    tmp.write_text(json.dumps(golden, separators=(",", ":")) + "\n")
+    tmp.replace(out)
+    n_steps = sum(len(c["approaches"]) for c in golden["cases"])
+    print(f"golden: {len(golden['cases'])} histories, {n_steps} steps -> {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
