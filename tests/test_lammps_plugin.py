@@ -212,3 +212,144 @@ def test_tangential_force_follows_mindlin_then_coulomb():
     assert max(forces) == pytest.approx(friction * f_n, rel=1e-9)
     assert forces[-1] == pytest.approx(friction * f_n, rel=1e-9)
     lmp.close()
+
+
+# --- MPI: packing on 1 and 2 ranks, migration, restart -------------------------------------
+
+SCENARIOS = Path(__file__).with_name("lammps_scenarios.py")
+
+
+def run_scenario(ranks: int, *args: str) -> dict:
+    import json
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    mpiexec = Path(sys.executable).with_name("mpiexec")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "result.json"
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+        subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(SCENARIOS), *args,
+                        "--out", str(out)], check=True, env=env, timeout=600, cwd=tmp)
+        return json.loads(out.read_text())
+
+
+def test_contact_history_survives_migration_between_ranks():
+    one = run_scenario(1, "migration")["history"]
+    two = run_scenario(2, "migration")["history"]
+    assert two[0]["branch"] == 2 and two[0]["max"] > 25 * PARAMS.yield_approach  # plastic
+    positions = [h["x1"] for h in two]
+    assert min(positions) < -0.3 and max(positions) > 0.3  # the pair crossed x = 0 twice
+    reference = two[0]["force"]
+    for a, b in zip(one, two, strict=True):
+        # rigid translation: the same plastic contact on either side of the rank boundary
+        assert b["force"] == pytest.approx(reference, rel=1e-6)
+        assert b["max"] == a["max"] and b["residual"] == a["residual"]
+        assert b["force"] == pytest.approx(a["force"], rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def packing_runs(tmp_path_factory):
+    restart = tmp_path_factory.mktemp("restart") / "packing.restart"
+    serial = run_scenario(1, "packing", "--restart-out", str(restart))
+    parallel = run_scenario(2, "packing")
+    resumed = run_scenario(2, "packing", "--resume", str(restart))
+    return serial, parallel, resumed
+
+
+def _wall_force(samples):
+    return np.array([s["top_force_N"] for s in samples])
+
+
+def test_packing_gives_the_same_stress_strain_loop_on_1_and_2_ranks(packing_runs):
+    serial, parallel, _ = packing_runs
+    assert serial["atoms"] == parallel["atoms"] >= 2000
+    assert parallel["ranks"] == 2
+    f1, f2 = _wall_force(serial["samples"]), _wall_force(parallel["samples"])
+    peak = f1.max()
+    offsets = np.array([s["wall_offset_m"] for s in serial["samples"]])
+    assert offsets == pytest.approx([s["wall_offset_m"] for s in parallel["samples"]], abs=1e-15)
+    assert serial["samples"][-1]["plastic_contacts"] > 1000  # the loop is plastic
+    # Identical arithmetic up to the order of force sums: the first samples agree to rounding;
+    # later the branch reversals of a vibrating packing amplify rounding (a dynamical, not a
+    # numerical, divergence), so the loop is compared at the scale of its noise.
+    assert np.abs(f1[:6] - f2[:6]).max() <= 1e-9 * peak
+    assert np.abs(f1 - f2).max() <= 0.02 * peak
+    d1, d2 = serial["samples"][-1]["dissipated_J"], parallel["samples"][-1]["dissipated_J"]
+    assert d2 == pytest.approx(d1, rel=5e-3)
+
+
+def test_packing_resumes_from_a_restart_on_a_different_number_of_ranks(packing_runs):
+    serial, _, resumed = packing_runs
+    tail = serial["samples"][-len(resumed["samples"]):]
+    f1, fr = _wall_force(tail), _wall_force(resumed["samples"])
+    peak = _wall_force(serial["samples"]).max()
+    # contact history (plastic envelopes, tangential forces) came back from the file: the run
+    # continues where it stopped instead of starting from virgin contacts
+    assert abs(fr[0] - f1[0]) <= 1e-9 * peak
+    assert np.abs(f1 - fr).max() <= 0.02 * peak
+    assert resumed["samples"][0]["plastic_contacts"] == tail[0]["plastic_contacts"]
+    assert resumed["samples"][-1]["dissipated_J"] == pytest.approx(tail[-1]["dissipated_J"],
+                                                                   rel=5e-3)
+
+
+# --- bad input: LAMMPS errors with clear messages, never a crash -----------------------------
+
+def _setup_box(lmp, style="sphere"):
+    for line in ("units si", f"atom_style {style}", "region box block -1 1 -1 1 -1 1",
+                 "create_box 1 box", "create_atoms 1 single 0 0 0",
+                 "create_atoms 1 single 0.3 0 0", "comm_modify vel yes"):
+        lmp.command(line)
+
+
+@pytest.mark.parametrize("coeff, message", [
+    ("pair_coeff * * /nonexistent/P.json", "parameter file not found"),
+    ("pair_coeff * * {bad_json}", "malformed JSON"),
+    ("pair_coeff * * {bad_range}", "residual_approach.limit: must be in"),
+    ("pair_coeff * * {params} friction -1", "friction must be >= 0"),
+    ("pair_coeff * * {params} stickiness 1", "unknown keyword 'stickiness'"),
+])
+def test_bad_parameter_input_is_a_lammps_error(tmp_path, coeff, message):
+    bad_json = tmp_path / "bad.json"
+    bad_json.write_text(PARAMS_FILE.read_text()[:-20])
+    bad_range = tmp_path / "range.json"
+    bad_range.write_text(PARAMS_FILE.read_text().replace('"limit": 0.8', '"limit": 1.5'))
+    lmp = open_lammps()
+    _setup_box(lmp)
+    lmp.command("pair_style geocontact")
+    with pytest.raises(Exception, match=message):
+        lmp.command(coeff.format(bad_json=bad_json, bad_range=bad_range, params=PARAMS_FILE))
+    lmp.close()
+
+
+def test_wrong_atom_style_is_a_lammps_error():
+    lmp = open_lammps()
+    _setup_box(lmp, style="atomic")
+    lmp.command("pair_style geocontact")
+    with pytest.raises(Exception, match="requires atom style sphere"):
+        lmp.command(f"pair_coeff * * {PARAMS_FILE}")
+    lmp.close()
+
+
+def test_mismatched_radius_is_a_lammps_error():
+    lmp = open_lammps()
+    _setup_box(lmp)
+    lmp.command("set type 1 diameter 0.25")
+    lmp.command("pair_style geocontact")
+    lmp.command(f"pair_coeff * * {PARAMS_FILE}")
+    with pytest.raises(Exception, match="has radius 0.125 m but its parameter file"):
+        lmp.command("run 0")
+    lmp.close()
+
+
+def test_missing_ghost_velocities_is_a_lammps_error():
+    lmp = open_lammps()
+    _setup_box(lmp)
+    lmp.command("comm_modify vel no")
+    lmp.command(f"set type 1 diameter {2 * RADIUS}")
+    lmp.command("pair_style geocontact")
+    lmp.command(f"pair_coeff * * {PARAMS_FILE}")
+    with pytest.raises(Exception, match="comm_modify vel yes"):
+        lmp.command("run 0")
+    lmp.close()

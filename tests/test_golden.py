@@ -1,0 +1,26 @@
+"""The golden vectors checked by the C++ law (plugins/lammps/tests/golden.json) are exactly what
+`python -m geocontact.law.golden` writes today: regenerate them, never edit them."""
+
+import json
+from pathlib import Path
+
+from geocontact.law import load_params
+from geocontact.law.golden import DEFAULT_PARAMS, generate
+
+GOLDEN = Path(__file__).resolve().parents[1] / "plugins" / "lammps" / "tests" / "golden.json"
+
+
+def test_committed_golden_vectors_match_the_python_reference():
+    fresh = json.loads(json.dumps(generate(load_params(DEFAULT_PARAMS))))
+    committed = json.loads(GOLDEN.read_text())
+    assert committed == fresh, (
+        "golden vectors are stale: run python -m geocontact.law.golden "
+        "--out plugins/lammps/tests/golden.json")
+
+
+def test_golden_vectors_cover_every_branch_and_both_cyclic_variants():
+    golden = json.loads(GOLDEN.read_text())
+    assert len(golden["cases"]) >= 200
+    branches = {b for case in golden["cases"] for b in case["branches"]}
+    assert branches == {0, 1, 2, 3, 4}  # apart, virgin, unloading, reloading, ratchet
+    assert {case["params"] for case in golden["cases"]} == {"cyclic_on", "cyclic_off"}
