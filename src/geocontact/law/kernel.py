@@ -168,6 +168,9 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                 d = dmax
                 continue
             if up and b == UNLOADING:
+                if (not elastic) and (d - dres) >= (dmax - dres):
+                    b = VIRGIN  # reversed exactly at the envelope point: load on
+                    continue
                 if elastic:
                     depth = 1.0 - (force / fmax if fmax > 0.0 else 0.0)
                     expo = HERTZ_EXPONENT
@@ -227,13 +230,15 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
             force = 0.0
         elif b == VIRGIN:
             force = _virgin_force(p, target)
-            if force > 0.0:
+            if target <= dy:
+                stiff = HERTZ_EXPONENT * kh * math.sqrt(target)
+            elif force > 0.0:
                 stiff = _virgin_exponent(p, target) * force / target
         elif b == RATCHET:
             force = fmax
         elif dmax <= dy:
             force = kh * target**HERTZ_EXPONENT
-            stiff = HERTZ_EXPONENT * force / target
+            stiff = HERTZ_EXPONENT * kh * math.sqrt(target)
         else:
             t = (target - dres) / (dmax - dres)
             if t <= 0.0:
