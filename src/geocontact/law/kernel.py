@@ -258,7 +258,8 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
 
 
 class ContactArrays:
-    """State of ``n`` contacts, advanced together: ``force, stiffness = contacts.step(approach)``."""
+    """State of ``n`` contacts advanced together:
+    ``force, stiffness = contacts.step(approach)``."""
 
     def __init__(self, params: LawParams | None, n: int, *, _packed: np.ndarray | None = None):
         if n < 0:
