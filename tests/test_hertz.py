@@ -300,6 +300,14 @@ def test_large_friction_angle_yields_at_contact_edge(reference):
     assert not incipient_yield(reference).at_surface
 
 
+def test_first_yield_jumps_from_axis_to_edge():
+    """For nu = 0.25 the maximum leaves the axis (z ~ 0.81 a) for the contact edge at 49.06 deg."""
+    below = incipient_yield(preset("reference").with_(friction_angle_deg=49.0))
+    above = incipient_yield(preset("reference").with_(friction_angle_deg=49.1))
+    assert below.r_over_a == 0.0 and below.z_over_a == pytest.approx(0.81, abs=0.01)
+    assert above.at_surface and above.r_over_a == pytest.approx(1.0, abs=1e-6)
+
+
 def test_scaling_with_strength_and_radius(reference):
     base = incipient_yield(reference)
     stronger = incipient_yield(reference.with_(compressive_yield_stress=3 * 10e6))

@@ -3,14 +3,19 @@
 SPEC sections 2 and 4. Everything is in the ball-ball approach delta (SI units, compression
 positive); E* = E / (2 (1 - nu^2)) and R* = R / 2 come from :class:`~geocontact.material.Material`.
 
-Hertz (Johnson, *Contact Mechanics*, 1985, eqs. 4.22-4.25 with E*, R*)::
+Hertz (Johnson, *Contact Mechanics*, 1985, section 4.2, with E* and R*)::
 
     F = (4/3) E* sqrt(R*) delta^(3/2),   a = sqrt(R* delta),   p0 = 2 E* a / (pi R*)
 
 The sub-surface stress field is Huber's closed form (Johnson eq. 3.45), written here in a form
 that stays finite on the axis, on the surface and at the contact edge (see :func:`stress_field`).
 Because the field scales with p0, first yield is at p0_y = sigma_c / C where C is the largest
-p0-normalised Drucker-Prager measure over the half-space (:func:`incipient_yield`).
+p0-normalised Drucker-Prager measure over the half-space (:func:`incipient_yield`). For small
+friction angles C is on the axis (von Mises, nu = 0.3: p0_y = 1.613 sigma_c at z = 0.48 a); as
+beta grows the axis point moves deeper and, above a critical beta (49.06 deg for nu = 0.25), the
+maximum jumps to the contact edge r = a, z = 0, where the surface is in pure shear (Johnson
+eq. 3.44: sigma_r = -sigma_theta = (1 - 2 nu) p0 / 3, p = 0) and C = (1 - 2 nu)/(sqrt(3)(1 - tan
+beta / 3)).
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ def _output(value: np.ndarray, like) -> float | np.ndarray:
 
 
 def hertz_coefficient(material: Material) -> float:
-    """Kh = (4/3) E* sqrt(R*), so that F = Kh delta^(3/2) (Johnson eq. 4.23)."""
+    """Kh = (4/3) E* sqrt(R*), so that F = Kh delta^(3/2)."""
     return 4.0 / 3.0 * material.effective_modulus * math.sqrt(material.effective_radius)
 
 
@@ -52,13 +57,13 @@ def hertz_approach(material: Material, force) -> float | np.ndarray:
 
 
 def contact_radius(material: Material, approach) -> float | np.ndarray:
-    """a = sqrt(R* delta) (Johnson eq. 4.22); 0 without contact."""
+    """a = sqrt(R* delta); 0 without contact."""
     delta = np.clip(np.asarray(approach, dtype=float), 0.0, None)
     return _output(np.sqrt(material.effective_radius * delta), approach)
 
 
 def peak_pressure(material: Material, approach) -> float | np.ndarray:
-    """p0 = 2 E* a / (pi R*) (Johnson eq. 4.25); the mean pressure is 2 p0 / 3."""
+    """p0 = 2 E* a / (pi R*); the mean pressure is 2 p0 / 3."""
     a = np.asarray(contact_radius(material, approach))
     p0 = 2.0 * material.effective_modulus * a / (math.pi * material.effective_radius)
     return _output(p0, approach)
@@ -183,8 +188,8 @@ def drucker_prager_measure(field: StressField, tan_beta: float) -> np.ndarray:
 
 # --- incipient yield (SPEC section 4) ------------------------------------------------------
 
-# Search box of the first-yield point, in units of the contact radius: the field decays as
-# 1/rho^2 outside the contact and its extrema lie within a of the surface (Johnson fig. 3.9).
+# Search box of the first-yield point, in units of the contact radius: outside it the field has
+# decayed (as 1/rho^2 on the surface, 1/zeta^2 on the axis) far below its maxima.
 _SEARCH_EXTENT = 3.0
 # A location this close to z = 0 (in units of a) counts as on the surface.
 _SURFACE_TOLERANCE = 1e-6
