@@ -127,8 +127,8 @@ def stress_field(r_over_a, z_over_a, poissons_ratio: float) -> StressField:
     """
     rho = np.asarray(r_over_a, dtype=float)
     zeta = np.asarray(z_over_a, dtype=float)
-    if np.any(rho < 0) or np.any(zeta < 0) or not (np.all(np.isfinite(rho))
-                                                   and np.all(np.isfinite(zeta))):
+    valid = np.isfinite(rho) & np.isfinite(zeta) & (rho >= 0) & (zeta >= 0)
+    if not np.all(valid):
         raise InputError("stress_field: r_over_a and z_over_a must be finite and >= 0")
     nu = float(poissons_ratio)
     rho, zeta = np.broadcast_arrays(rho, zeta)
@@ -137,12 +137,14 @@ def stress_field(r_over_a, z_over_a, poissons_ratio: float) -> StressField:
     s = rho2 + zeta2 - 1.0
     D = np.hypot(s, 2.0 * zeta)
     outer = s >= 0.0
-    # u and w^2 = zeta^2/u, each from the cancellation-free expression of its side.
-    dps = np.where(outer, D + s, 1.0)  # D + s, only used where s >= 0
-    dms = np.where(outer, 1.0, D - s)  # D - s > 0 where s < 0
-    u = np.where(outer, 0.5 * (D + s), 2.0 * zeta2 / dms)
-    w2 = np.where(outer, np.where(dps > 0.0, 2.0 * zeta2 / np.where(dps > 0, dps, 1.0), 0.0),
-                  0.5 * (D - s))
+    # u = (D + s)/2 and w^2 = zeta^2/u = (D - s)/2, each from its cancellation-free form:
+    # u = (D + s)/2, w^2 = 2 zeta^2/(D + s) where s >= 0; u = 2 zeta^2/(D - s), w^2 = (D - s)/2
+    # where s < 0. D + s = 0 only at the contact edge, where u = w = 0.
+    d_plus_s = np.where(outer, D + s, 1.0)
+    d_minus_s = np.where(outer, 1.0, D - s)
+    at_edge = d_plus_s <= 0.0
+    u = np.where(outer, 0.5 * (D + s), 2.0 * zeta2 / d_minus_s)
+    w2 = np.where(outer, 2.0 * zeta2 / np.where(at_edge, 1.0, d_plus_s), 0.5 * (D - s))
     w = np.sqrt(w2)
 
     # (1 - w^2)/rho^2: series-free identity inside the cylinder rho^2 < 1 + zeta^2, direct outside.
