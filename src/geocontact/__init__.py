@@ -7,6 +7,7 @@ experiment) -> ``calibrate`` -> ``law`` (what DEM uses) -> analyses -> ``report`
 from importlib.metadata import PackageNotFoundError, version
 
 from .errors import ConvergenceError, GeocontactError, InputError
+from .hertz import hertz_force, incipient_yield
 from .material import Material, list_presets, load_material, preset
 
 try:
@@ -19,6 +20,8 @@ __all__ = [
     "GeocontactError",
     "InputError",
     "Material",
+    "hertz_force",
+    "incipient_yield",
     "__version__",
     "list_presets",
     "load_material",
