@@ -63,17 +63,17 @@ def _virgin_force(p, d):
 
 
 @njit(cache=True, inline="always", fastmath=_FAST)
-def _virgin_work(p, d):
-    if d <= 0.0:
-        return 0.0
-    dy, dp, fy, n1, n2 = p[P_DY], p[P_DP], p[P_FY], p[P_N1], p[P_N2]
-    if d <= dy:
-        return p[P_KH] * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0)
+def _virgin_work_from_force(p, d, f):
+    """Virgin work to d given the virgin force f at d: each regime is a power law, so
+    int F = (F d - F_start d_start)/(n + 1) needs no further pow."""
+    dy, dp, fy = p[P_DY], p[P_DP], p[P_FY]
     w_y = fy * dy / (HERTZ_EXPONENT + 1.0)
+    if d <= dy:
+        return f * d / (HERTZ_EXPONENT + 1.0)
     if d <= dp:
-        return w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0)
-    w_p = w_y + fy * dy / (n1 + 1.0) * ((dp / dy) ** (n1 + 1.0) - 1.0)
-    return w_p + p[P_FP] * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0)
+        return w_y + (f * d - fy * dy) / (p[P_N1] + 1.0)
+    w_p = w_y + (p[P_FP] * dp - fy * dy) / (p[P_N1] + 1.0)
+    return w_p + (f * d - p[P_FP] * dp) / (p[P_N2] + 1.0)
 
 
 @njit(cache=True, inline="always", fastmath=_FAST)
@@ -169,14 +169,16 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                     b = UNLOADING
                     bval = 1.0
                     continue
-                work += _virgin_work(p, target) - _virgin_work(p, d)
-                dmax = target
+                # one pow for the force, the work from it; one log, three exp for the envelope
                 fmax = _virgin_force(p, target)
+                work += (_virgin_work_from_force(p, target, fmax)
+                         - _virgin_work_from_force(p, d, force))
+                dmax = target
                 force = fmax
-                x = max(target / dy, 1.0)
-                dres = p[P_RHO] * (1.0 - x ** (-p[P_RS])) * target
-                nu = HERTZ_EXPONENT * x ** p[P_PU]
-                nr = min(HERTZ_EXPONENT * x ** p[P_PR], nu)
+                lx = math.log(max(target / dy, 1.0))
+                dres = -p[P_RHO] * math.expm1(-p[P_RS] * lx) * target
+                nu = HERTZ_EXPONENT * math.exp(p[P_PU] * lx)
+                nr = min(HERTZ_EXPONENT * math.exp(p[P_PR] * lx), nu)
                 cycles = 1.0
                 d = target
                 continue

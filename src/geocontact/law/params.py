@@ -179,7 +179,8 @@ class LawParams:
 
     def residual_ratio(self, depth):
         x = np.maximum(depth, 1.0)
-        return self.residual_limit * (1.0 - x ** (-self.residual_power))
+        # 1 - x^-s written with expm1: accurate just above yield, where it is tiny
+        return -self.residual_limit * np.expm1(-self.residual_power * np.log(x))
 
     def plastic_work_ratio(self, depth):
         """The FE's Wp/W_total fitted as a function of depth (diagnostic, SPEC 6)."""
