@@ -1,0 +1,18 @@
+"""The hysteretic normal contact law (SPEC section 6): parameters, the scalar reference path
+and the vectorised many-contact kernel."""
+
+from .kernel import ContactArrays
+from .params import SCHEMA, CyclicLaw, LawParams, load_params
+from .reference import BRANCH_NAMES, Contact, ContactState, force_history
+
+__all__ = [
+    "BRANCH_NAMES",
+    "SCHEMA",
+    "Contact",
+    "ContactArrays",
+    "ContactState",
+    "CyclicLaw",
+    "LawParams",
+    "force_history",
+    "load_params",
+]

@@ -1,0 +1,352 @@
+"""Law parameters: the versioned JSON document ``geocontact.law/1`` (INTERFACES, SPEC section 6).
+
+Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (docs/law.md):
+
+* virgin loading (SPEC 6): ``F = Kh d^1.5`` (d <= dy), ``Fy (d/dy)^n1`` (dy < d <= dp),
+  ``Fp (d/dp)^n2`` (d > dp), with ``dp = (fully_plastic_approach_ratio) * dy``;
+* unloading exponent ``n_u(x) = 1.5 x^pu`` (tends to 3/2 as x -> 1, Etsion et al. 2005 form);
+* reloading exponent ``n_r(x) = min(1.5 x^pr, n_u(x))`` (a reload curve never lies below the
+  unload curve, so a closed reload-unload loop cannot create energy);
+* residual approach ``d_res / d_max = rho_inf (1 - x^-s)`` (zero at yield, saturating below 1);
+* plastic work ratio ``Wp / W_total = w_inf (1 - x^-e)`` (the FE's; reported beside the law's
+  own loop area, which follows from the curves above);
+* cyclic extension: residual-approach increment of cycle N over the first cycle's residual
+  approach ``c N^-p``; critical cycle number where it falls below ``tolerance``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..material import Material
+
+SCHEMA = "geocontact.law/1"
+HERTZ_EXPONENT = 1.5
+# Grid of plastic depths on which a parameter set is checked for energy consistency.
+_CHECK_DEPTHS = np.geomspace(1.0, 1.0e4, 2001)
+
+
+def _number(where: str, data: dict[str, Any], key: str, lo=None, hi=None, lo_open=False,
+            hi_open=False) -> float:
+    if key not in data:
+        raise InputError(f"{where}.{key}: missing")
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}.{key}: expected a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise InputError(f"{where}.{key}: must be finite, got {value}")
+    bad_lo = lo is not None and (value <= lo if lo_open else value < lo)
+    bad_hi = hi is not None and (value >= hi if hi_open else value > hi)
+    if bad_lo or bad_hi:
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        low = "-inf" if lo is None else f"{lo:g}"
+        high = "inf" if hi is None else f"{hi:g}"
+        rng = f"{left}{low}, {high}{right}"
+        raise InputError(f"{where}.{key}: must be in {rng}, got {value:g}")
+    return value
+
+
+def _check_keys(where: str, data: Any, allowed: set[str]) -> dict[str, Any]:
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: must be an object")
+    unknown = sorted(set(data) - allowed)
+    if unknown:
+        names = ", ".join(sorted(allowed))
+        raise InputError(f"{where}.{unknown[0]}: unknown key (allowed: {names})")
+    return data
+
+
+@dataclass(frozen=True)
+class CyclicLaw:
+    """Optional ratchetting extension (SPEC 6): per-cycle residual-approach increments."""
+
+    enabled: bool = False
+    residual_ratio_coefficient: float = 0.0
+    residual_ratio_power: float = 1.0
+    plastic_work_ratio_coefficient: float = 0.0
+    plastic_work_ratio_power: float = 1.0
+    tolerance: float = 0.01
+
+    def residual_ratio(self, cycle: float) -> float:
+        """Increment of residual approach in cycle N (N >= 2) over the first cycle's residual."""
+        if cycle < 2.0:
+            return 0.0
+        ratio = self.residual_ratio_coefficient * cycle ** (-self.residual_ratio_power)
+        return ratio if ratio >= self.tolerance else 0.0
+
+    def critical_cycle(self) -> float:
+        """First cycle whose residual-approach increment ratio is below the tolerance."""
+        c, p = self.residual_ratio_coefficient, self.residual_ratio_power
+        if c <= self.tolerance:
+            return 2.0
+        return max(2.0, math.ceil((c / self.tolerance) ** (1.0 / p)))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "enabled": self.enabled,
+            "residual_ratio": {"coefficient": self.residual_ratio_coefficient,
+                               "power": self.residual_ratio_power},
+            "plastic_work_ratio": {"coefficient": self.plastic_work_ratio_coefficient,
+                                   "power": self.plastic_work_ratio_power},
+            "tolerance": self.tolerance,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> CyclicLaw:
+        w = "cyclic"
+        _check_keys(w, data, {"enabled", "residual_ratio", "plastic_work_ratio", "tolerance",
+                              "critical_cycle"})
+        enabled = data.get("enabled", False)
+        if not isinstance(enabled, bool):
+            raise InputError(f"cyclic.enabled: must be true or false, got {enabled!r}")
+        rr = _check_keys(f"{w}.residual_ratio", data.get("residual_ratio", {}),
+                         {"coefficient", "power"})
+        pw = _check_keys(f"{w}.plastic_work_ratio", data.get("plastic_work_ratio", {}),
+                         {"coefficient", "power"})
+        return cls(
+            enabled=enabled,
+            residual_ratio_coefficient=_number(f"{w}.residual_ratio", rr, "coefficient", 0, 1),
+            residual_ratio_power=_number(f"{w}.residual_ratio", rr, "power", 0, None, lo_open=True),
+            plastic_work_ratio_coefficient=_number(f"{w}.plastic_work_ratio", pw, "coefficient",
+                                                   0, 1),
+            plastic_work_ratio_power=_number(f"{w}.plastic_work_ratio", pw, "power", 0, None,
+                                             lo_open=True),
+            tolerance=_number(w, data, "tolerance", 0, 1, lo_open=True),
+        )
+
+
+@dataclass(frozen=True)
+class LawParams:
+    """Every parameter of the law, with the material and incipient yield it belongs to."""
+
+    material: Material
+    yield_approach: float
+    elastic_plastic_exponent: float
+    fully_plastic_approach_ratio: float
+    fully_plastic_exponent: float
+    unloading_power: float
+    reloading_power: float
+    residual_limit: float
+    residual_power: float
+    plastic_work_limit: float = 0.0
+    plastic_work_power: float = 1.0
+    cyclic: CyclicLaw = field(default_factory=CyclicLaw)
+    yield_extra: dict[str, Any] = field(default_factory=dict)
+    provenance: dict[str, Any] = field(default_factory=dict)
+    fit_errors: dict[str, Any] = field(default_factory=dict)
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        self._check_energy()
+
+    # --- derived constants ---------------------------------------------------------------
+    @property
+    def hertz_coefficient(self) -> float:
+        """Kh of F = Kh delta^1.5 for two identical spheres (SPEC 4)."""
+        m = self.material
+        return 4.0 / 3.0 * m.effective_modulus * math.sqrt(m.effective_radius)
+
+    @property
+    def yield_force(self) -> float:
+        # Fy from the same Hertz formula, so the virgin curve is continuous at delta_y exactly.
+        return self.hertz_coefficient * self.yield_approach**HERTZ_EXPONENT
+
+    @property
+    def fully_plastic_approach(self) -> float:
+        return self.fully_plastic_approach_ratio * self.yield_approach
+
+    @property
+    def fully_plastic_force(self) -> float:
+        return self.yield_force * self.fully_plastic_approach_ratio**self.elastic_plastic_exponent
+
+    # --- the fitted functions of the plastic depth x = delta_max / delta_y ----------------
+    def unloading_exponent(self, depth):
+        x = np.maximum(depth, 1.0)
+        return HERTZ_EXPONENT * x**self.unloading_power
+
+    def reloading_exponent(self, depth):
+        x = np.maximum(depth, 1.0)
+        return np.minimum(HERTZ_EXPONENT * x**self.reloading_power, self.unloading_exponent(x))
+
+    def residual_ratio(self, depth):
+        x = np.maximum(depth, 1.0)
+        return self.residual_limit * (1.0 - x ** (-self.residual_power))
+
+    def plastic_work_ratio(self, depth):
+        """The FE's Wp/W_total fitted as a function of depth (diagnostic, SPEC 6)."""
+        x = np.maximum(depth, 1.0)
+        return self.plastic_work_limit * (1.0 - x ** (-self.plastic_work_power))
+
+    def virgin_force(self, approach):
+        """Virgin loading curve F(delta), three regimes, continuous at delta_y and delta_p."""
+        d = np.maximum(np.asarray(approach, dtype=float), 0.0)
+        dy, dp = self.yield_approach, self.fully_plastic_approach
+        return np.where(
+            d <= dy,
+            self.hertz_coefficient * d**HERTZ_EXPONENT,
+            np.where(
+                d <= dp,
+                self.yield_force * (d / dy) ** self.elastic_plastic_exponent,
+                self.fully_plastic_force * (d / dp) ** self.fully_plastic_exponent,
+            ),
+        )
+
+    def virgin_work(self, approach):
+        """Work of the force along the virgin curve from 0 to delta (exact integral)."""
+        d = np.maximum(np.asarray(approach, dtype=float), 0.0)
+        dy, dp = self.yield_approach, self.fully_plastic_approach
+        fy, fp = self.yield_force, self.fully_plastic_force
+        n1, n2 = self.elastic_plastic_exponent, self.fully_plastic_exponent
+        w_y = fy * dy / (HERTZ_EXPONENT + 1.0)
+        w_p = w_y + fy * dy / (n1 + 1.0) * (self.fully_plastic_approach_ratio ** (n1 + 1.0) - 1.0)
+        return np.where(
+            d <= dy,
+            self.hertz_coefficient * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0),
+            np.where(
+                d <= dp,
+                w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0),
+                w_p + fp * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0),
+            ),
+        )
+
+    def envelope_plastic_work(self, max_approach):
+        """Plastic work of a full load-unload cycle to delta_max, as the law computes it:
+        the virgin work minus what the unloading curve gives back, Fmax (dmax - dres)/(n_u + 1)."""
+        dmax = np.asarray(max_approach, dtype=float)
+        x = dmax / self.yield_approach
+        returned = (self.virgin_force(dmax) * dmax * (1.0 - self.residual_ratio(x))
+                    / (self.unloading_exponent(x) + 1.0))
+        return self.virgin_work(dmax) - returned
+
+    def _check_energy(self) -> None:
+        """Reject parameter sets whose full-cycle plastic work is negative or shrinks with depth:
+        such a law would give back more energy than it took (SPEC 6, dissipation >= 0)."""
+        dmax = _CHECK_DEPTHS * self.yield_approach
+        wp = self.envelope_plastic_work(dmax) / (self.yield_force * self.yield_approach)
+        bad = np.flatnonzero((wp < -1e-9) | (np.diff(wp, prepend=wp[0]) < -1e-9))
+        if bad.size:
+            x = _CHECK_DEPTHS[bad[0]]
+            raise InputError(
+                "unloading/residual_approach: this parameter set creates energy (the cycle's "
+                f"plastic work decreases) at delta_max/delta_y = {x:.4g}; "
+                "raise residual_approach.limit or lower loading.elastic_plastic_exponent"
+            )
+
+    # --- JSON ----------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        from .. import __version__
+
+        ydict = {
+            **self.yield_extra,
+            "approach_m": self.yield_approach,
+            "force_N": self.yield_force,
+        }
+        return {
+            "schema": SCHEMA,
+            "label": self.label,
+            "material": self.material.to_dict(),
+            "yield": ydict,
+            "loading": {
+                "elastic_plastic_exponent": self.elastic_plastic_exponent,
+                "fully_plastic_approach_ratio": self.fully_plastic_approach_ratio,
+                "fully_plastic_exponent": self.fully_plastic_exponent,
+                "fully_plastic_approach_m": self.fully_plastic_approach,
+                "fully_plastic_force_N": self.fully_plastic_force,
+            },
+            "unloading": {"exponent_power": self.unloading_power},
+            "reloading": {"exponent_power": self.reloading_power},
+            "residual_approach": {"limit": self.residual_limit, "power": self.residual_power},
+            "plastic_work": {"limit": self.plastic_work_limit, "power": self.plastic_work_power},
+            "cyclic": {**self.cyclic.to_dict(), "critical_cycle": self.cyclic.critical_cycle()},
+            "provenance": {"geocontact_version": __version__, **self.provenance},
+            "fit_errors": self.fit_errors,
+        }
+
+    def save(self, path: str | Path) -> None:
+        """Write atomically (temporary file, then rename)."""
+        path = Path(path)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        tmp.replace(path)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], *, source: str = "parameters") -> LawParams:
+        top = {"schema", "label", "material", "yield", "loading", "unloading", "reloading",
+               "residual_approach", "plastic_work", "cyclic", "provenance", "fit_errors"}
+        _check_keys(source, data, top)
+        if data.get("schema") != SCHEMA:
+            raise InputError(f"schema: expected {SCHEMA!r}, got {data.get('schema')!r}")
+        for key in ("material", "yield", "loading", "unloading", "reloading", "residual_approach"):
+            if key not in data:
+                raise InputError(f"{key}: missing")
+        material = Material.from_dict(_check_keys("material", data["material"],
+                                                  set(data["material"]) if isinstance(
+                                                      data["material"], dict) else set()),
+                                      source="material")
+        yd = _check_keys("yield", data["yield"], set(data["yield"]) if isinstance(
+            data["yield"], dict) else set())
+        yield_approach = _number("yield", yd, "approach_m", 0, None, lo_open=True)
+        ld = _check_keys("loading", data["loading"], {
+            "elastic_plastic_exponent", "fully_plastic_approach_ratio", "fully_plastic_exponent",
+            "fully_plastic_approach_m", "fully_plastic_force_N"})
+        ud = _check_keys("unloading", data["unloading"], {"exponent_power"})
+        rd = _check_keys("reloading", data["reloading"], {"exponent_power"})
+        sd = _check_keys("residual_approach", data["residual_approach"], {"limit", "power"})
+        pw = _check_keys("plastic_work", data.get("plastic_work", {"limit": 0.0, "power": 1.0}),
+                         {"limit", "power"})
+        params = cls(
+            material=material,
+            yield_approach=yield_approach,
+            elastic_plastic_exponent=_number("loading", ld, "elastic_plastic_exponent", 0, 3,
+                                             lo_open=True),
+            fully_plastic_approach_ratio=_number("loading", ld, "fully_plastic_approach_ratio", 1,
+                                                 None),
+            fully_plastic_exponent=_number("loading", ld, "fully_plastic_exponent", 0, 3,
+                                           lo_open=True),
+            unloading_power=_number("unloading", ud, "exponent_power", -1, 1),
+            reloading_power=_number("reloading", rd, "exponent_power", -1, 1),
+            residual_limit=_number("residual_approach", sd, "limit", 0, 1, hi_open=True),
+            residual_power=_number("residual_approach", sd, "power", 0, 10, lo_open=True),
+            plastic_work_limit=_number("plastic_work", pw, "limit", 0, 1),
+            plastic_work_power=_number("plastic_work", pw, "power", 0, 10, lo_open=True),
+            cyclic=CyclicLaw.from_dict(data.get("cyclic", {"tolerance": 0.01})),
+            yield_extra={k: v for k, v in yd.items() if k not in ("approach_m", "force_N")},
+            provenance=dict(data.get("provenance", {})),
+            fit_errors=dict(data.get("fit_errors", {})),
+            label=str(data.get("label", "")),
+        )
+        if "force_N" in yd:
+            given = _number("yield", yd, "force_N", 0, None, lo_open=True)
+            if abs(given - params.yield_force) > 1e-6 * params.yield_force:
+                raise InputError(
+                    f"yield.force_N: {given:.6g} N disagrees with Hertz at yield.approach_m "
+                    f"({params.yield_force:.6g} N); the two must describe the same point"
+                )
+        return params
+
+
+def load_params(path: str | Path) -> LawParams:
+    """Read and validate a ``geocontact.law/1`` parameter file."""
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"params: file not found: {path}")
+    try:
+        data = json.loads(p.read_text())
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}"
+        ) from None
+    except UnicodeDecodeError:
+        raise InputError(f"params: {path} is not a UTF-8 text file") from None
+    if not isinstance(data, dict):
+        raise InputError(f"params: {path} must hold a JSON object")
+    return LawParams.from_dict(data, source="params")

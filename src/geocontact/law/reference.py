@@ -1,0 +1,261 @@
+"""Scalar reference implementation of the hysteretic law: one contact, written to read like
+SPEC section 6 and docs/law.md. The vectorised kernel (``kernel.py``) must agree with it.
+
+Normalised coordinates on the current envelope (after the ratchet shift ``s``)::
+
+    d' = d - s,   t = (d' - d_res) / (d_max - d_res),   f = F / F_max
+
+Branches and the partial-reversal rule (docs/law.md derives why it never creates energy):
+
+* APART     d' <= d_res: no force (no tension). Re-contact reloads along the main reloading curve.
+* VIRGIN    d' >= d_max: the three-regime loading curve; the envelope grows with it.
+* UNLOADING f = A t^n_u, through the reversal point (A = f_rev / t_rev^n_u >= 1): reaches zero
+            force exactly at d_res, so the residual approach is that of the envelope.
+* RELOADING f = t^k, through the reversal point and (d_max, F_max): k = ln f_rev / ln t_rev,
+            which lies in [n_r, n_u]; from full unloading k = n_r (the main reloading curve).
+* RATCHET   (cyclic extension only) at F_max the approach creeps by the cycle's increment of
+            residual approach before the virgin curve is rejoined, shifted by it.
+
+With ``E = F (d' - d_res) / (n_u + 1)`` (the energy unloading would give back), every step has
+dissipation ``F dd - dE >= 0``: zero on unloading, ``(n_u - k) F dd' / (n_u + 1)`` on reloading,
+the growth of the envelope's plastic work on virgin loading, ``F_max ds`` on a ratchet.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..errors import InputError
+from .params import HERTZ_EXPONENT, LawParams
+
+APART, VIRGIN, UNLOADING, RELOADING, RATCHET = 0, 1, 2, 3, 4
+BRANCH_NAMES = ("apart", "virgin", "unloading", "reloading", "ratchet")
+
+
+@dataclass
+class ContactState:
+    """Everything the law remembers about one contact (the DEM per-contact history)."""
+
+    approach: float = 0.0  # last approach d (m)
+    force: float = 0.0  # last force (N)
+    max_approach: float = 0.0  # d_max of the envelope, in shifted coordinates (m)
+    max_force: float = 0.0  # F_max = virgin force at d_max (N)
+    residual_approach: float = 0.0  # d_res of the envelope, shifted coordinates (m)
+    unloading_exponent: float = HERTZ_EXPONENT
+    reloading_exponent: float = HERTZ_EXPONENT
+    branch: int = APART
+    branch_value: float = 0.0  # A on unloading, k on reloading
+    ratchet_shift: float = 0.0  # s: accumulated ratchetting (m)
+    pending_ratchet: float = 0.0  # increment this reload will add when it reaches F_max (m)
+    cycles: float = 0.0  # equivalent cycles at the current envelope (depth-weighted)
+    work: float = 0.0  # exact work of the force since the start (J)
+
+
+class Contact:
+    """One contact advanced along an approach history: ``update(d) -> (force, stiffness)``."""
+
+    def __init__(self, params: LawParams):
+        self.params = params
+        self.kh = params.hertz_coefficient
+        self.yield_approach = params.yield_approach
+        self.state = ContactState()
+
+    # --- curves of the current branch --------------------------------------------------------
+    def _elastic(self) -> bool:
+        return self.state.max_approach <= self.yield_approach
+
+    def _normalised(self, d: float) -> float:
+        s = self.state
+        return (d - s.residual_approach) / (s.max_approach - s.residual_approach)
+
+    def _force_on_branch(self, d: float) -> float:
+        """Force at shifted approach d on the current branch."""
+        s = self.state
+        if s.branch == APART or d <= 0.0:
+            return 0.0
+        if s.branch == VIRGIN:
+            return float(self.params.virgin_force(d))
+        if self._elastic():
+            return self.kh * d**HERTZ_EXPONENT
+        t = self._normalised(d)
+        if t <= 0.0:
+            return 0.0
+        if s.branch == UNLOADING:
+            return s.branch_value * s.max_force * t**s.unloading_exponent
+        if s.branch == RELOADING:
+            return s.max_force * t**s.branch_value
+        return s.max_force  # RATCHET
+
+    def _branch_exponent(self) -> float:
+        s = self.state
+        if self._elastic():
+            return HERTZ_EXPONENT
+        return s.unloading_exponent if s.branch == UNLOADING else s.branch_value
+
+    def _stiffness(self, d: float, force: float) -> float:
+        s, p = self.state, self.params
+        if s.branch in (APART, RATCHET) or d <= 0.0:
+            return 0.0
+        if self._elastic() or (s.branch == VIRGIN and d <= p.yield_approach):
+            return HERTZ_EXPONENT * self.kh * math.sqrt(d)  # Hertz: dF/dd = 2 E* a
+        if force <= 0.0:
+            return 0.0
+        if s.branch == VIRGIN:
+            n = (p.elastic_plastic_exponent if d <= p.fully_plastic_approach
+                 else p.fully_plastic_exponent)
+            return n * force / d
+        return self._branch_exponent() * force / (d - s.residual_approach)
+
+    def _set_envelope(self, max_approach: float) -> None:
+        """Update F_max, d_res, n_u, n_r from the largest approach reached (SPEC 6)."""
+        s, p = self.state, self.params
+        x = max_approach / p.yield_approach
+        s.max_approach = max_approach
+        s.max_force = float(p.virgin_force(max_approach))
+        s.residual_approach = float(p.residual_ratio(x)) * max_approach
+        s.unloading_exponent = float(p.unloading_exponent(x))
+        s.reloading_exponent = float(p.reloading_exponent(x))
+
+    # --- reversals ------------------------------------------------------------------------
+    def _start_reloading(self, d: float) -> None:
+        """Reversal from unloading (or re-contact): the reloading curve through this point."""
+        s = self.state
+        if self._elastic():
+            depth, exponent = 1.0 - (s.force / s.max_force if s.max_force > 0 else 0.0), 1.5
+        else:
+            t = self._normalised(d)
+            f = s.force / s.max_force
+            if t <= 0.0 or f <= 0.0:
+                depth, exponent = 1.0, s.reloading_exponent
+            else:
+                depth = 1.0 - f
+                exponent = min(max(math.log(f) / math.log(t), s.reloading_exponent),
+                               s.unloading_exponent)
+        s.branch, s.branch_value = RELOADING, exponent
+        s.cycles += depth
+        cyclic = self.params.cyclic
+        s.pending_ratchet = (depth * cyclic.residual_ratio(s.cycles) * s.residual_approach
+                             if cyclic.enabled else 0.0)
+
+    def _start_unloading(self, d: float) -> None:
+        s = self.state
+        if s.branch == RATCHET:
+            # Reversal while ratchetting: the creep so far becomes permanent.
+            s.ratchet_shift += d - s.max_approach
+            s.pending_ratchet = 0.0
+        if s.branch in (VIRGIN, RATCHET) or self._elastic():
+            amplitude = 1.0
+        else:
+            t = self._normalised(d)
+            amplitude = (s.force / s.max_force) / t**s.unloading_exponent
+        s.branch, s.branch_value = UNLOADING, amplitude
+
+    # --- one monotone move along the current branch ---------------------------------------
+    def _move(self, d: float, target: float) -> float:
+        """Advance from shifted approach d toward target along the current branch, up to the
+        branch's end; accumulate the exact work and return where it stopped."""
+        s = self.state
+        up = target > d
+        if s.branch == APART:
+            contact_at = s.residual_approach
+            if not up:
+                return target
+            if target <= contact_at:
+                return target
+            if s.max_approach == 0.0:
+                s.branch = VIRGIN
+            else:
+                s.force = 0.0
+                self._start_reloading(contact_at)
+            return contact_at
+        if s.branch == VIRGIN:
+            if not up:
+                self._start_unloading(d)
+                return d
+            s.work += float(self.params.virgin_work(target) - self.params.virgin_work(d))
+            self._set_envelope(target)
+            s.cycles = 1.0
+            return target
+        if s.branch == RATCHET:
+            if not up:
+                self._start_unloading(d)  # moves the shift; update() re-bases d and target
+                return d
+            end = min(target, s.max_approach + s.pending_ratchet)
+            s.work += s.max_force * (end - d)
+            if end < s.max_approach + s.pending_ratchet:
+                return end
+            s.ratchet_shift += s.pending_ratchet
+            s.pending_ratchet = 0.0
+            s.branch = VIRGIN
+            return end  # in the old shifted coordinates; update() re-bases
+        # UNLOADING or RELOADING: F = C (d - base)^n, work = [F d - F d](base) / (n + 1)
+        if up and s.branch == UNLOADING:
+            if not self._elastic() and self._normalised(d) >= 1.0:
+                s.branch = VIRGIN  # reversed exactly at the envelope point: load on
+            else:
+                self._start_reloading(d)
+            return d
+        if not up and s.branch == RELOADING:
+            self._start_unloading(d)
+            return d
+        end = min(target, s.max_approach) if up else max(target, s.residual_approach)
+        base = 0.0 if self._elastic() else s.residual_approach
+        n = self._branch_exponent()
+        f_end = self._force_on_branch(end)
+        s.work += (f_end * (end - base) - s.force * (d - base)) / (n + 1.0)
+        s.force = f_end
+        if up and end >= s.max_approach:
+            s.branch = RATCHET if s.pending_ratchet > 0.0 else VIRGIN
+            s.force = s.max_force
+        elif not up and end <= s.residual_approach:
+            s.branch, s.force = APART, 0.0
+        return end
+
+    def update(self, approach: float) -> tuple[float, float]:
+        """Advance to a new approach; return (force N, tangent stiffness dF/d(approach) N/m)."""
+        if not math.isfinite(approach):
+            raise InputError(f"approach: must be a finite number of metres, got {approach}")
+        s = self.state
+        shift = s.ratchet_shift
+        d, target = s.approach - shift, approach - shift
+        for _ in range(16):  # a step crosses at most a few branch ends
+            if d == target:
+                break
+            d = self._move(d, target)
+            if s.ratchet_shift != shift:  # a ratchet moved the shifted coordinates
+                d += shift - s.ratchet_shift
+                target += shift - s.ratchet_shift
+                shift = s.ratchet_shift
+        else:  # pragma: no cover - guards a logic error, never expected
+            raise RuntimeError("law: step did not terminate")
+        s.approach = float(approach)
+        s.force = float(self._force_on_branch(target)) if s.branch != RATCHET else s.max_force
+        return s.force, self._stiffness(target, s.force)
+
+    # --- energies ---------------------------------------------------------------------------
+    @property
+    def elastic_energy(self) -> float:
+        """Energy unloading from here would give back: F (d' - d_res) / (n_u + 1)."""
+        s = self.state
+        if s.force <= 0.0:
+            return 0.0
+        d = s.approach - s.ratchet_shift
+        if self._elastic():
+            return s.force * d / (HERTZ_EXPONENT + 1.0)
+        return s.force * (d - s.residual_approach) / (s.unloading_exponent + 1.0)
+
+    @property
+    def dissipated_energy(self) -> float:
+        return self.state.work - self.elastic_energy
+
+
+def force_history(params: LawParams, approaches) -> tuple[list[float], list[float]]:
+    """The law along an approach history, scalar path: (forces, stiffnesses)."""
+    contact = Contact(params)
+    forces, stiffnesses = [], []
+    for a in approaches:
+        f, k = contact.update(float(a))
+        forces.append(f)
+        stiffnesses.append(k)
+    return forces, stiffnesses
