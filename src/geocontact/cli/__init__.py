@@ -12,7 +12,7 @@ import sys
 
 from ..errors import GeocontactError, InputError
 
-COMMANDS = ["presets"]
+COMMANDS = ["yield_", "law", "presets"]
 
 
 def build_parser() -> argparse.ArgumentParser:
