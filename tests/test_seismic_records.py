@@ -153,6 +153,7 @@ def test_process_scales_to_target_pga_and_locates_the_peak(tmp_path):
     assert np.max(np.abs(p.acceleration)) == pytest.approx(3.0)
     assert p.scale_factor == pytest.approx(3.0 / (0.4 * STANDARD_GRAVITY), rel=1e-3)
     assert p.peak_time_fraction == pytest.approx(0.3, abs=0.005)
+    assert p.upward_peak_time_fraction == pytest.approx(0.3, abs=0.005)  # cos is +1 at the peak
     # Arias intensity pi/(2 g) int a^2 dt, the same definition eqsig uses (g = 9.81 there).
     expected = math.pi / (2 * 9.81) * np.trapezoid(p.acceleration**2, dx=0.01)
     assert p.arias_intensity == pytest.approx(expected, rel=1e-9)

@@ -35,7 +35,9 @@ def write_figures(result, out: Path) -> list[str]:
     for ax, e in zip(axes[:, 0], events, strict=True):
         rec = e.record
         ax.plot(rec.time, rec.acceleration, lw=0.6, color="k")
-        ax.axvline(rec.peak_time, ls="--", color="C3")
+        i_peak = int(round(rec.peak_time / rec.dt))
+        ax.axvline(rec.peak_time, ls="--", color="C3", alpha=0.6)
+        ax.plot(rec.peak_time, rec.acceleration[i_peak], "o", color="C3", ms=4)
         ax.set_ylabel("a (m/s²)")
         ax.set_title(f"{e.label}: {rec.record.name} — PGA {rec.pga:.3g} m/s², peak at "
                      f"{100 * rec.peak_time_fraction:.1f} % of the record → {e.paper_rule}",

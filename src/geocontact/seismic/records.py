@@ -404,6 +404,7 @@ class ProcessedRecord:
     unscaled_pga: float  # m/s^2 after baseline correction, before scaling
     peak_time: float  # s
     peak_time_fraction: float  # peak time / record length
+    upward_peak_time_fraction: float  # of the largest positive (upward, compressive) value
     arias_intensity: float  # m/s, of the scaled record
     significant_duration: float  # s, 5-95 % of Arias intensity (Trifunac & Brady 1975)
     significant_duration_start: float
@@ -436,6 +437,7 @@ class ProcessedRecord:
             "pga_m_s2": self.pga,
             "peak_time_s": self.peak_time,
             "peak_time_fraction": self.peak_time_fraction,
+            "upward_peak_time_fraction": self.upward_peak_time_fraction,
             "arias_intensity_m_s": self.arias_intensity,
             "significant_duration_s": self.significant_duration,
             "significant_duration_start_s": self.significant_duration_start,
@@ -481,6 +483,7 @@ def process(record: Record, target_pga: float | None = 3.0, baseline: str = "lin
         unscaled_pga=unscaled_pga,
         peak_time=i_peak * record.dt,
         peak_time_fraction=i_peak * record.dt / record.duration,
+        upward_peak_time_fraction=int(np.argmax(acc)) * record.dt / record.duration,
         arias_intensity=float(arias[-1]),
         significant_duration=float(end - start),
         significant_duration_start=float(start),
