@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench examples clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,11 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/run.py
+
+# Regenerate the shipped illustrative parameter files (never edited by hand).
+examples: $(STAMP)
+	$(PY) -m geocontact.law.illustrative --material reference --out examples/params-illustrative.json
+	$(PY) -m geocontact.law.illustrative --material reference-weak --out examples/params-illustrative-weak.json
 
 clean:
 	rm -rf $(VENV) build out .pytest_cache .ruff_cache

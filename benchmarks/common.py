@@ -43,6 +43,7 @@ def write_table() -> None:
                     f"{d['peer_value']:.4g} {d['unit']} | {d['ratio']:.3f} | "
                     f"{d.get('note', '')} |")
     head = DOC.read_text().split("<!-- results -->")[0] if DOC.exists() else "# Benchmarks\n\n"
-    table = ("<!-- results -->\n| benchmark | geocontact | peer | peer value | cost ratio | note |\n"
+    table = ("<!-- results -->\n"
+             "| benchmark | geocontact | peer | peer value | cost ratio | note |\n"
              "| --- | --- | --- | --- | --- | --- |\n" + "\n".join(rows) + "\n")
     write_text_atomic(DOC, head + table)

@@ -95,8 +95,16 @@ def read_csv_column(path: str | Path, column: str) -> np.ndarray:
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
+    """Columns of possibly different lengths (a figure's curves); short ones end in blanks."""
     names = list(columns)
-    rows = zip(*(np.asarray(columns[n]).tolist() for n in names), strict=True)
-    lines = [",".join(names)] + [",".join(repr(v) if isinstance(v, float) else str(v)
-                                          for v in row) for row in rows]
+    values = [np.asarray(columns[n]).tolist() for n in names]
+    length = max((len(v) for v in values), default=0)
+
+    def cell(column, row):
+        if row >= len(column):
+            return ""
+        v = column[row]
+        return repr(v) if isinstance(v, float) else str(v)
+
+    lines = [",".join(names)] + [",".join(cell(c, r) for c in values) for r in range(length)]
     write_text_atomic(path, "\n".join(lines) + "\n")

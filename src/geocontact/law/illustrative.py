@@ -2,7 +2,7 @@
 analytic incipient yield of a material. Clearly labelled as an illustration (not a fit); they
 let users and tests run the law before an FE calibration exists.
 
-``python -m geocontact.law.illustrative --material reference --out examples/params-illustrative.json``
+``make examples`` regenerates the shipped files (``python -m geocontact.law.illustrative``).
 """
 
 from __future__ import annotations

@@ -122,7 +122,7 @@ class Contact:
         """Reversal from unloading (or re-contact): the reloading curve through this point."""
         s = self.state
         if self._elastic():
-            depth, exponent = 1.0 - (s.force / s.max_force if s.max_force > 0 else 0.0), 1.5
+            depth, exponent = 0.0, HERTZ_EXPONENT  # no cycle to count, nothing to ratchet
         else:
             t = self._normalised(d)
             f = s.force / s.max_force
