@@ -317,7 +317,11 @@ def run_seismic(params, main: EventSpec, aftershocks: list[EventSpec], settings:
         def base(t, t0=start, times=times, acc=acc):
             return np.interp(t - t0, times, acc, left=0.0, right=0.0)
 
-        column.run(rec.duration, base, event=i)
+        # in quarters, to report progress on long records (the state carries over exactly)
+        for quarter in range(4):
+            column.run(rec.duration / 4.0, base, event=i)
+            if progress and quarter < 3:
+                progress(f"  {25 * (quarter + 1)} % ({column.steps} steps)")
         end = column.t
         column.run(settings.gap, None, event=i)
         events.append(EventResult(label, spec, rec, start, end, column.t))
