@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean plugin test-plugin
+.PHONY: demo test lint bench examples clean plugin test-plugin
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -43,8 +43,13 @@ test: $(STAMP) lint test-plugin
 demo: $(STAMP)
 	$(VENV)/bin/geocontact demo --out out/demo
 
-bench: $(STAMP)
+bench: $(STAMP) plugin
 	$(PY) benchmarks/run.py
+
+# Regenerate the shipped illustrative parameter files (never edited by hand).
+examples: $(STAMP)
+	$(PY) -m geocontact.law.illustrative --material reference --out examples/params-illustrative.json
+	$(PY) -m geocontact.law.illustrative --material reference-weak --out examples/params-illustrative-weak.json
 
 clean:
 	rm -rf $(VENV) build out .pytest_cache .ruff_cache

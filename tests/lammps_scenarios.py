@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact.lammps_plugin import open_lammps  # noqa: E402
 
-PARAMS_FILE = ROOT / "examples" / "lammps" / "params.json"
+PARAMS_FILE = ROOT / "examples" / "params-illustrative.json"
 RADIUS = json.loads(PARAMS_FILE.read_text())["material"]["radius"]
 YIELD_APPROACH = json.loads(PARAMS_FILE.read_text())["yield"]["approach_m"]
 DENSITY = 2650.0
@@ -42,8 +42,18 @@ def _commands(lmp, lines):
         lmp.command(line)
 
 
-def _packing_settings(lmp):
+def _packing_settings(lmp, law_diagnostics: bool = True):
     """Everything that read_restart does not restore."""
+    if not law_diagnostics:  # a peer pair style: wall forces only
+        _commands(lmp, [
+            "comm_modify vel yes",
+            "neighbor 0.002 bin",
+            "neigh_modify every 1 delay 0 check yes",
+            "fix integrate mobile nve/sphere",
+            "compute ftop top reduce sum fz",
+            f"thermo {SAMPLE_EVERY}",
+        ])
+        return
     _commands(lmp, [
         "comm_modify vel yes",
         "neighbor 0.002 bin",
@@ -58,15 +68,20 @@ def _packing_settings(lmp):
     ])
 
 
-def build_packing(lmp):
+def build_packing(lmp, cells: int = CELLS, pair: list[str] | None = None):
+    """The fcc packing with its walls; `pair` replaces the geocontact pair_style/pair_coeff
+    lines (the benchmark's peers)."""
     spacing = 2.0 * RADIUS * math.sqrt(2.0)  # fcc: nearest neighbours exactly touch
+    newton = [line for line in pair or [] if line.startswith("newton")]  # before the box
+    pair = [line for line in pair if not line.startswith("newton")] if pair else None
     _commands(lmp, [
         "units si",
         "atom_style sphere",
         "atom_modify map array",
         "boundary p p f",
+        *newton,
         f"lattice fcc {spacing}",
-        f"region box block 0 {CELLS} 0 {CELLS} -0.25 {CELLS - 0.25}",
+        f"region box block 0 {cells} 0 {cells} -0.25 {cells - 0.25}",
         "create_box 1 box",
         "create_atoms 1 box",
         f"set type 1 diameter {2 * RADIUS}",
@@ -75,16 +90,16 @@ def build_packing(lmp):
         f"displace_atoms all random {0.2 * YIELD_APPROACH} {0.2 * YIELD_APPROACH} "
         f"{0.2 * YIELD_APPROACH} 4821 units box",
         f"region low block INF INF INF INF INF {0.1 * spacing} units box",
-        f"region high block INF INF INF INF {(CELLS - 0.6) * spacing} INF units box",
+        f"region high block INF INF INF INF {(cells - 0.6) * spacing} INF units box",
         "group bottom region low",
         "group top region high",
         "group walls union bottom top",
         "group mobile subtract all walls",
-        "pair_style geocontact",
-        f"pair_coeff * * {PARAMS_FILE} friction 0.5 damping 0.5",
+        *(pair or ["pair_style geocontact",
+                   f"pair_coeff * * {PARAMS_FILE} friction 0.5 damping 0.5"]),
         f"timestep {TIMESTEP}",
     ])
-    _packing_settings(lmp)
+    _packing_settings(lmp, law_diagnostics=pair is None)
 
 
 def run_legs(lmp, legs, z_start):

@@ -16,7 +16,7 @@ from geocontact.lammps_plugin import open_lammps, plugin_path
 from geocontact.law import Contact, load_params
 
 ROOT = Path(__file__).resolve().parents[1]
-PARAMS_FILE = ROOT / "examples" / "lammps" / "params.json"
+PARAMS_FILE = ROOT / "examples" / "params-illustrative.json"
 PARAMS = load_params(PARAMS_FILE)
 RADIUS = PARAMS.material.radius
 DENSITY = 2650.0
@@ -314,7 +314,7 @@ def test_bad_parameter_input_is_a_lammps_error(tmp_path, coeff, message):
     bad_json = tmp_path / "bad.json"
     bad_json.write_text(PARAMS_FILE.read_text()[:-20])
     bad_range = tmp_path / "range.json"
-    bad_range.write_text(PARAMS_FILE.read_text().replace('"limit": 0.8', '"limit": 1.5'))
+    bad_range.write_text(PARAMS_FILE.read_text().replace('"limit": 0.9', '"limit": 1.5', 1))
     lmp = open_lammps()
     _setup_box(lmp)
     lmp.command("pair_style geocontact")

@@ -71,15 +71,15 @@ int main(int argc, char **argv)
                "material.poissons_ratio: expected a number", "string for number");
   expect_error(replace(good, "\"radius\": 0.1", "\"radius_m\": 0.1"), "material.radius_m",
                "unknown material key");
-  expect_error(replace(good, "\"limit\": 0.8", "\"limit\": 1.0"), "residual_approach.limit",
+  expect_error(replace(good, "\"limit\": 0.9", "\"limit\": 1.0"), "residual_approach.limit",
                "residual limit out of range");
-  expect_error(replace(good, "\"approach_m\": 1.11e-06", "\"approach_m\": 2e-06"),
+  expect_error(replace(good, "\"approach_m\": 1.44", "\"approach_m\": 2.44"),
                "yield.force_N", "yield force disagrees");
-  expect_error(replace(good, "\"elastic_plastic_exponent\": 1.2", "\"elastic_plastic_exponent\": 2.9"),
+  expect_error(replace(good, "\"elastic_plastic_exponent\": 1.3", "\"elastic_plastic_exponent\": 2.9"),
                "creates energy", "energy check");
   expect_error(replace(good, "\"unloading\"", "\"unloadin\""), "params.unloadin: unknown key",
                "misspelt section");
-  expect_error(replace(good, "\"enabled\": true", "\"enabled\": 1"), "cyclic.enabled",
+  expect_error(replace(good, "\"enabled\": false", "\"enabled\": 0"), "cyclic.enabled",
                "cyclic flag type");
   std::printf("params: %d failures\n", failures);
   return failures == 0 ? 0 : 1;

@@ -15,7 +15,8 @@ def register(sub) -> None:
 def run(args) -> int:
     names = list_presets()
     if args.json:
-        print_json({n: {"description": preset_description(n), **preset(n).to_dict()} for n in names})
+        print_json({n: {"description": preset_description(n), **preset(n).to_dict()}
+                    for n in names})
     else:
         for n in names:
             print(f"{n:22s} {preset_description(n)}")

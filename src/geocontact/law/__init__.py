@@ -1,8 +1,8 @@
 """The hysteretic normal contact law (SPEC section 6): parameters, the scalar reference path
 and the vectorised many-contact kernel."""
 
-from .params import SCHEMA, CyclicLaw, LawParams, load_params
 from .kernel import ContactArrays
+from .params import SCHEMA, CyclicLaw, LawParams, load_params
 from .reference import BRANCH_NAMES, Contact, ContactState, force_history
 
 __all__ = [

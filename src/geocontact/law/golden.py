@@ -25,7 +25,7 @@ from .params import LawParams, load_params
 from .reference import Contact
 
 GOLDEN_SCHEMA = "geocontact.golden/1"
-DEFAULT_PARAMS = Path(__file__).resolve().parents[3] / "examples" / "lammps" / "params.json"
+DEFAULT_PARAMS = Path(__file__).resolve().parents[3] / "examples" / "params-illustrative.json"
 SEED = 20250722
 STATE_KEYS = ("approach", "force", "max_approach", "max_force", "residual_approach",
               "unloading_exponent", "reloading_exponent", "branch", "branch_value",

@@ -22,6 +22,9 @@ from .reference import APART, RATCHET, RELOADING, UNLOADING, VIRGIN
 (P_KH, P_DY, P_DP, P_FY, P_FP, P_N1, P_N2, P_PU, P_PR, P_RHO, P_RS, P_CYC_ON, P_CYC_C,
  P_CYC_P, P_CYC_TOL, P_HERTZ_ONLY) = range(16)
 N_PARAMS = 16
+# Inputs are checked finite before the kernel runs, so the no-NaN/no-inf assumptions hold;
+# contraction and approximate functions change results only at rounding level.
+_FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "afn"}
 
 STATE_FIELDS = ("approach", "force", "max_approach", "max_force", "residual_approach",
                 "unloading_exponent", "reloading_exponent", "branch_value", "ratchet_shift",
@@ -48,7 +51,7 @@ def pack_params(params: LawParams) -> np.ndarray:
     return p
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=_FAST)
 def _virgin_force(p, d):
     if d <= 0.0:
         return 0.0
@@ -59,21 +62,21 @@ def _virgin_force(p, d):
     return p[P_FP] * (d / p[P_DP]) ** p[P_N2]
 
 
-@njit(cache=True, inline="always")
-def _virgin_work(p, d):
-    if d <= 0.0:
-        return 0.0
-    dy, dp, fy, n1, n2 = p[P_DY], p[P_DP], p[P_FY], p[P_N1], p[P_N2]
-    if d <= dy:
-        return p[P_KH] * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0)
+@njit(cache=True, inline="always", fastmath=_FAST)
+def _virgin_work_from_force(p, d, f):
+    """Virgin work to d given the virgin force f at d: each regime is a power law, so
+    int F = (F d - F_start d_start)/(n + 1) needs no further pow."""
+    dy, dp, fy = p[P_DY], p[P_DP], p[P_FY]
     w_y = fy * dy / (HERTZ_EXPONENT + 1.0)
+    if d <= dy:
+        return f * d / (HERTZ_EXPONENT + 1.0)
     if d <= dp:
-        return w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0)
-    w_p = w_y + fy * dy / (n1 + 1.0) * ((dp / dy) ** (n1 + 1.0) - 1.0)
-    return w_p + p[P_FP] * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0)
+        return w_y + (f * d - fy * dy) / (p[P_N1] + 1.0)
+    w_p = w_y + (p[P_FP] * dp - fy * dy) / (p[P_N1] + 1.0)
+    return w_p + (f * d - p[P_FP] * dp) / (p[P_N2] + 1.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=_FAST)
 def _virgin_exponent(p, d):
     if d <= p[P_DY]:
         return HERTZ_EXPONENT
@@ -82,7 +85,7 @@ def _virgin_exponent(p, d):
     return p[P_N2]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _step(p, target_in, branch, st, force_out, stiffness_out):
     """Advance every contact i to approach target_in[i]. ``st`` is the (12, n) state array in the
     order of STATE_FIELDS; ``branch`` the int8 branch per contact."""
@@ -101,11 +104,39 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                 stiffness_out[i] = 0.0
             st[0, i] = approach_new
             continue
-        approach, force = st[0, i], st[1, i]
-        dmax, fmax, dres = st[2, i], st[3, i], st[4, i]
+        approach = st[0, i]
+        dmax = st[2, i]
+        b = branch[i]
+        # Fast paths (most contacts in a DEM step): no envelope change, exact same arithmetic.
+        if b == APART and approach_new <= st[4, i] + st[8, i]:
+            st[0, i] = approach_new  # stays apart: no force, nothing else changes
+            force_out[i] = 0.0
+            stiffness_out[i] = 0.0
+            continue
+        if dmax <= dy and approach_new <= dmax and st[9, i] == 0.0:
+            # elastic envelope: Hertz; conservative, so the work is the Hertz energy
+            st[0, i] = approach_new
+            if approach_new > 0.0:
+                root = math.sqrt(approach_new)
+                f = kh * approach_new * root
+                force_out[i] = f
+                stiffness_out[i] = HERTZ_EXPONENT * kh * root
+                st[1, i] = f
+                st[11, i] = f * approach_new / (HERTZ_EXPONENT + 1.0)
+                if approach_new != approach:
+                    branch[i] = RELOADING if approach_new > approach else UNLOADING
+                    st[7, i] = HERTZ_EXPONENT if approach_new > approach else 1.0
+            else:
+                force_out[i] = 0.0
+                stiffness_out[i] = 0.0
+                st[1, i] = 0.0
+                st[11, i] = 0.0
+                branch[i] = APART
+            continue
+        force = st[1, i]
+        fmax, dres = st[3, i], st[4, i]
         nu, nr, bval = st[5, i], st[6, i], st[7, i]
         shift, pending, cycles, work = st[8, i], st[9, i], st[10, i], st[11, i]
-        b = branch[i]
         d = approach - shift
         target = approach_new - shift
         for _ in range(16):
@@ -124,7 +155,8 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                     # re-contact: start reloading from full unloading (depth 1)
                     b = RELOADING
                     bval = HERTZ_EXPONENT if elastic else nr
-                    cycles += 1.0
+                    if not elastic:
+                        cycles += 1.0
                     pending = 0.0
                     if p[P_CYC_ON] != 0.0 and cycles >= 2.0:
                         ratio = p[P_CYC_C] * cycles ** (-p[P_CYC_P])
@@ -137,13 +169,16 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                     b = UNLOADING
                     bval = 1.0
                     continue
-                work += _virgin_work(p, target) - _virgin_work(p, d)
-                dmax = target
+                # one pow for the force, the work from it; one log, three exp for the envelope
                 fmax = _virgin_force(p, target)
-                x = max(target / dy, 1.0)
-                dres = p[P_RHO] * (1.0 - x ** (-p[P_RS])) * target
-                nu = HERTZ_EXPONENT * x ** p[P_PU]
-                nr = min(HERTZ_EXPONENT * x ** p[P_PR], nu)
+                work += (_virgin_work_from_force(p, target, fmax)
+                         - _virgin_work_from_force(p, d, force))
+                dmax = target
+                force = fmax
+                lx = math.log(max(target / dy, 1.0))
+                dres = -p[P_RHO] * math.expm1(-p[P_RS] * lx) * target
+                nu = HERTZ_EXPONENT * math.exp(p[P_PU] * lx)
+                nr = min(HERTZ_EXPONENT * math.exp(p[P_PR] * lx), nu)
                 cycles = 1.0
                 d = target
                 continue
@@ -168,8 +203,11 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                 d = dmax
                 continue
             if up and b == UNLOADING:
+                if (not elastic) and (d - dres) >= (dmax - dres):
+                    b = VIRGIN  # reversed exactly at the envelope point: load on
+                    continue
                 if elastic:
-                    depth = 1.0 - (force / fmax if fmax > 0.0 else 0.0)
+                    depth = 0.0  # elastic envelope: no cycle to count, nothing to ratchet
                     expo = HERTZ_EXPONENT
                 else:
                     t = (d - dres) / (dmax - dres)
@@ -221,39 +259,35 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                 b = APART
                 force = 0.0
             d = end
-        # force and tangent at the end of the step, on the branch the contact is on
+        # Force and tangent at the end of the step, on the branch the contact is on. The last
+        # move already evaluated the force at the target; only the slope is left to compute.
         stiff = 0.0
         if b == APART or target <= 0.0:
             force = 0.0
         elif b == VIRGIN:
-            force = _virgin_force(p, target)
-            if force > 0.0:
+            if target <= dy:
+                stiff = HERTZ_EXPONENT * kh * math.sqrt(target)
+            else:
                 stiff = _virgin_exponent(p, target) * force / target
         elif b == RATCHET:
             force = fmax
         elif dmax <= dy:
-            force = kh * target**HERTZ_EXPONENT
-            stiff = HERTZ_EXPONENT * force / target
-        else:
-            t = (target - dres) / (dmax - dres)
-            if t <= 0.0:
-                force = 0.0
-            elif b == UNLOADING:
-                force = bval * fmax * t**nu
-                stiff = nu * force / (target - dres)
-            else:
-                force = fmax * t**bval
-                stiff = bval * force / (target - dres)
+            stiff = HERTZ_EXPONENT * kh * math.sqrt(target)
+        elif force > 0.0:
+            stiff = (nu if b == UNLOADING else bval) * force / (target - dres)
         force_out[i] = force
         stiffness_out[i] = stiff
-        st[0, i], st[1, i], st[2, i], st[3, i], st[4, i] = approach_new, force, dmax, fmax, dres
-        st[5, i], st[6, i], st[7, i], st[8, i] = nu, nr, bval, shift
-        st[9, i], st[10, i], st[11, i] = pending, cycles, work
+        st[0, i], st[1, i], st[7, i], st[11, i] = approach_new, force, bval, work
+        if dmax != st[2, i]:
+            st[2, i], st[3, i], st[4, i], st[5, i], st[6, i] = dmax, fmax, dres, nu, nr
+        if cycles != st[10, i] or pending != st[9, i] or shift != st[8, i]:
+            st[8, i], st[9, i], st[10, i] = shift, pending, cycles
         branch[i] = b
 
 
 class ContactArrays:
-    """State of ``n`` contacts, advanced together: ``force, stiffness = contacts.step(approach)``."""
+    """State of ``n`` contacts advanced together:
+    ``force, stiffness = contacts.step(approach)``."""
 
     def __init__(self, params: LawParams | None, n: int, *, _packed: np.ndarray | None = None):
         if n < 0:

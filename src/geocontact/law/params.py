@@ -48,7 +48,9 @@ def _number(where: str, data: dict[str, Any], key: str, lo=None, hi=None, lo_ope
     if bad_lo or bad_hi:
         left = "(" if lo_open else "["
         right = ")" if hi_open else "]"
-        rng = f"{left}{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}{right}"
+        low = "-inf" if lo is None else f"{lo:g}"
+        high = "inf" if hi is None else f"{hi:g}"
+        rng = f"{left}{low}, {high}{right}"
         raise InputError(f"{where}.{key}: must be in {rng}, got {value:g}")
     return value
 
@@ -58,7 +60,8 @@ def _check_keys(where: str, data: Any, allowed: set[str]) -> dict[str, Any]:
         raise InputError(f"{where}: must be an object")
     unknown = sorted(set(data) - allowed)
     if unknown:
-        raise InputError(f"{where}.{unknown[0]}: unknown key (allowed: {', '.join(sorted(allowed))})")
+        names = ", ".join(sorted(allowed))
+        raise InputError(f"{where}.{unknown[0]}: unknown key (allowed: {names})")
     return data
 
 
@@ -123,7 +126,7 @@ class CyclicLaw:
 
 @dataclass(frozen=True)
 class LawParams:
-    """Every parameter of the hysteretic law, with the material and incipient yield it belongs to."""
+    """Every parameter of the law, with the material and incipient yield it belongs to."""
 
     material: Material
     yield_approach: float
@@ -176,7 +179,8 @@ class LawParams:
 
     def residual_ratio(self, depth):
         x = np.maximum(depth, 1.0)
-        return self.residual_limit * (1.0 - x ** (-self.residual_power))
+        # 1 - x^-s written with expm1: accurate just above yield, where it is tiny
+        return -self.residual_limit * np.expm1(-self.residual_power * np.log(x))
 
     def plastic_work_ratio(self, depth):
         """The FE's Wp/W_total fitted as a function of depth (diagnostic, SPEC 6)."""
@@ -339,7 +343,9 @@ def load_params(path: str | Path) -> LawParams:
     try:
         data = json.loads(p.read_text())
     except json.JSONDecodeError as exc:
-        raise InputError(f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}") from None
+        raise InputError(
+            f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}"
+        ) from None
     except UnicodeDecodeError:
         raise InputError(f"params: {path} is not a UTF-8 text file") from None
     if not isinstance(data, dict):

@@ -94,16 +94,18 @@ class Contact:
         return s.unloading_exponent if s.branch == UNLOADING else s.branch_value
 
     def _stiffness(self, d: float, force: float) -> float:
-        s = self.state
-        if s.branch in (APART, RATCHET) or force <= 0.0:
+        s, p = self.state, self.params
+        if s.branch in (APART, RATCHET) or d <= 0.0:
+            return 0.0
+        if self._elastic() or (s.branch == VIRGIN and d <= p.yield_approach):
+            return HERTZ_EXPONENT * self.kh * math.sqrt(d)  # Hertz: dF/dd = 2 E* a
+        if force <= 0.0:
             return 0.0
         if s.branch == VIRGIN:
-            p = self.params
-            n = (HERTZ_EXPONENT if d <= p.yield_approach else p.elastic_plastic_exponent
-                 if d <= p.fully_plastic_approach else p.fully_plastic_exponent)
+            n = (p.elastic_plastic_exponent if d <= p.fully_plastic_approach
+                 else p.fully_plastic_exponent)
             return n * force / d
-        base = d if self._elastic() else d - s.residual_approach
-        return self._branch_exponent() * force / base
+        return self._branch_exponent() * force / (d - s.residual_approach)
 
     def _set_envelope(self, max_approach: float) -> None:
         """Update F_max, d_res, n_u, n_r from the largest approach reached (SPEC 6)."""
@@ -120,7 +122,7 @@ class Contact:
         """Reversal from unloading (or re-contact): the reloading curve through this point."""
         s = self.state
         if self._elastic():
-            depth, exponent = 1.0 - (s.force / s.max_force if s.max_force > 0 else 0.0), 1.5
+            depth, exponent = 0.0, HERTZ_EXPONENT  # no cycle to count, nothing to ratchet
         else:
             t = self._normalised(d)
             f = s.force / s.max_force
@@ -189,7 +191,10 @@ class Contact:
             return end  # in the old shifted coordinates; update() re-bases
         # UNLOADING or RELOADING: F = C (d - base)^n, work = [F d - F d](base) / (n + 1)
         if up and s.branch == UNLOADING:
-            self._start_reloading(d)
+            if not self._elastic() and self._normalised(d) >= 1.0:
+                s.branch = VIRGIN  # reversed exactly at the envelope point: load on
+            else:
+                self._start_reloading(d)
             return d
         if not up and s.branch == RELOADING:
             self._start_unloading(d)

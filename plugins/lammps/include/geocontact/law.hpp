@@ -117,9 +117,10 @@ struct LawParams {
     const double x = std::max(depth, 1.0);
     return std::min(kHertzExponent * std::pow(x, reloading_power), unloading_exponent(x));
   }
+  // 1 - x^-s written with expm1: accurate just above yield, where it is tiny
   double residual_ratio(double depth) const
   {
-    return residual_limit * (1.0 - std::pow(std::max(depth, 1.0), -residual_power));
+    return -residual_limit * std::expm1(-residual_power * std::log(std::max(depth, 1.0)));
   }
 
   // Virgin loading curve, three regimes, continuous at delta_y and delta_p.
@@ -206,6 +207,32 @@ inline double pending_ratchet(const LawParams &p, double depth, double cycles,
 inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
+  // Fast paths (most contacts of a DEM step), same results as the general loop below.
+  if (s.branch == APART && approach_new <= s.residual_approach + s.ratchet_shift) {
+    s.approach = approach_new;  // stays apart: no force, nothing else changes
+    return {0.0, 0.0};
+  }
+  if (s.max_approach <= dy && approach_new <= s.max_approach && s.pending_ratchet == 0.0) {
+    // elastic envelope: Hertz; conservative, so the work is the Hertz energy
+    const double previous = s.approach;
+    s.approach = approach_new;
+    if (approach_new > 0.0) {
+      const double root = std::sqrt(approach_new);
+      const double f = kh * approach_new * root;
+      s.force = f;
+      s.work = f * approach_new / (kHertzExponent + 1.0);
+      if (approach_new != previous) {
+        s.branch = approach_new > previous ? RELOADING : UNLOADING;
+        s.branch_value = approach_new > previous ? kHertzExponent : 1.0;
+      }
+      return {f, kHertzExponent * kh * root};
+    }
+    s.force = 0.0;
+    s.work = 0.0;
+    s.branch = APART;
+    s.branch_value = 1.0;  // left along an (elastic) unloading curve, A = 1
+    return {0.0, 0.0};
+  }
   double force = s.force, dmax = s.max_approach, fmax = s.max_force, dres = s.residual_approach;
   double nu = s.unloading_exponent, nr = s.reloading_exponent, bval = s.branch_value;
   double shift = s.ratchet_shift, pending = s.pending_ratchet, cycles = s.cycles, work = s.work;
@@ -229,7 +256,7 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
         force = 0.0;
         b = RELOADING;
         bval = elastic ? kHertzExponent : nr;
-        cycles += 1.0;
+        if (!elastic) cycles += 1.0;  // an elastic envelope has no cycle to count
         pending = detail::pending_ratchet(p, 1.0, cycles, dres);
       }
       d = dres;
@@ -244,10 +271,10 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
       work += p.virgin_work(target) - p.virgin_work(d);
       dmax = target;
       fmax = p.virgin_force(target);
-      const double x = std::max(target / dy, 1.0);
-      dres = p.residual_limit * (1.0 - std::pow(x, -p.residual_power)) * target;
-      nu = kHertzExponent * std::pow(x, p.unloading_power);
-      nr = std::min(kHertzExponent * std::pow(x, p.reloading_power), nu);
+      const double x = target / dy;
+      dres = p.residual_ratio(x) * target;
+      nu = p.unloading_exponent(x);
+      nr = p.reloading_exponent(x);
       cycles = 1.0;
       d = target;
       continue;
@@ -278,9 +305,13 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
     }
     if (up && b == UNLOADING) {
       // reversal from unloading: the reloading curve through this point and (dmax, Fmax)
+      if (!elastic && (d - dres) >= (dmax - dres)) {
+        b = VIRGIN;  // reversed exactly at the envelope point: load on
+        continue;
+      }
       double depth, expo;
       if (elastic) {
-        depth = 1.0 - (fmax > 0.0 ? force / fmax : 0.0);
+        depth = 0.0;  // elastic envelope: no cycle to count, nothing to ratchet
         expo = kHertzExponent;
       } else {
         const double t = (d - dres) / (dmax - dres);
@@ -345,12 +376,13 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
     force = 0.0;
   } else if (b == VIRGIN) {
     force = p.virgin_force(target);
-    if (force > 0.0) stiff = p.virgin_exponent(target) * force / target;
+    stiff = target <= dy ? kHertzExponent * kh * std::sqrt(target)  // Hertz: 2 E* a
+                         : p.virgin_exponent(target) * force / target;
   } else if (b == RATCHET) {
     force = fmax;
   } else if (dmax <= dy) {
     force = kh * std::pow(target, kHertzExponent);
-    stiff = kHertzExponent * force / target;
+    stiff = kHertzExponent * kh * std::sqrt(target);
   } else {
     const double t = (target - dres) / (dmax - dres);
     if (t <= 0.0) {

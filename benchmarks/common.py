@@ -1,0 +1,49 @@
+"""Shared pieces of the benchmarks: result files (INTERFACES) and the docs table."""
+
+from __future__ import annotations
+
+import json
+import platform
+from pathlib import Path
+
+from geocontact import __version__
+from geocontact.io import write_json_atomic, write_text_atomic
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "out" / "bench"
+DOC = ROOT / "docs" / "benchmarks.md"
+
+
+def record(name: str, value: float, unit: str, peer: str, peer_value: float, **extra) -> dict:
+    """Write out/bench/NAME.json; ratio = this project's cost / the peer's cost."""
+    document = {
+        "name": name,
+        "value": value,
+        "unit": unit,
+        "peer": peer,
+        "peer_value": peer_value,
+        "ratio": extra.pop("ratio"),
+        "version": __version__,
+        "machine": {"cpu": platform.processor() or platform.machine(),
+                    "python": platform.python_version()},
+        **extra,
+    }
+    write_json_atomic(OUT / f"{name}.json", document)
+    print(f"{name}: {value:.4g} {unit}; {peer}: {peer_value:.4g} {unit}; "
+          f"cost ratio {document['ratio']:.3f}")
+    return document
+
+
+def write_table() -> None:
+    """Rewrite the results table of docs/benchmarks.md from every out/bench/*.json."""
+    rows = []
+    for path in sorted(OUT.glob("*.json")):
+        d = json.loads(path.read_text())
+        rows.append(f"| {d['name']} | {d['value']:.4g} {d['unit']} | {d['peer']} | "
+                    f"{d['peer_value']:.4g} {d['unit']} | {d['ratio']:.3f} | "
+                    f"{d.get('note', '')} |")
+    head = DOC.read_text().split("<!-- results -->")[0] if DOC.exists() else "# Benchmarks\n\n"
+    table = ("<!-- results -->\n"
+             "| benchmark | geocontact | peer | peer value | cost ratio | note |\n"
+             "| --- | --- | --- | --- | --- | --- |\n" + "\n".join(rows) + "\n")
+    write_text_atomic(DOC, head + table)

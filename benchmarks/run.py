@@ -1,0 +1,37 @@
+"""``make bench``: every benchmark, each against a peer measured in the same run.
+
+Writes out/bench/*.json and the results table of docs/benchmarks.md.
+Usage: python benchmarks/run.py [law] [lammps] [--quick]
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import write_table  # noqa: E402
+
+from geocontact.law import load_params  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-illustrative.json"
+
+
+def main(argv: list[str]) -> int:
+    quick = "--quick" in argv
+    names = [a for a in argv if not a.startswith("--")] or ["law", "lammps"]
+    if "law" in names:
+        import bench_law
+
+        bench_law.main(load_params(EXAMPLE), n=100_000 if quick else 1_000_000)
+    if "lammps" in names:
+        import bench_lammps
+
+        bench_lammps.main(cells=8 if quick else 17, steps=50 if quick else 200)
+    write_table()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,113 @@
+"""Small, shared file helpers: atomic writes, CSV columns in and out, provenance records."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import platform
+import tempfile
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+
+
+def provenance(command: str, inputs: dict[str, Any]) -> dict[str, Any]:
+    """What every result file records: the version and the inputs that made it."""
+    from . import __version__
+
+    return {
+        "geocontact_version": __version__,
+        "command": command,
+        "inputs": inputs,
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        "python": platform.python_version(),
+    }
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    """Write via a temporary file in the same folder and rename: never a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone to read
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.ndarray):
+        return [_json_safe(v) for v in value.tolist()]
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def write_json_atomic(path: str | Path, document: dict[str, Any]) -> None:
+    write_text_atomic(path, json.dumps(_json_safe(document), indent=2) + "\n")
+
+
+def read_csv_column(path: str | Path, column: str) -> np.ndarray:
+    """One numeric column of a CSV file with a header; one-line errors on any defect."""
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{column}: file not found: {path}")
+    try:
+        with p.open(newline="") as handle:
+            reader = csv.DictReader(row for row in handle if not row.startswith("#"))
+            if reader.fieldnames is None or column not in [f.strip() for f in reader.fieldnames]:
+                raise InputError(f"{path}: no column {column!r} (found: {reader.fieldnames})")
+            key = next(f for f in reader.fieldnames if f.strip() == column)
+            values = []
+            for line, row in enumerate(reader, start=2):
+                text = (row.get(key) or "").strip()
+                try:
+                    value = float(text)
+                except ValueError:
+                    raise InputError(
+                        f"{path}:{line}: {column} must be a number, got {text!r}"
+                    ) from None
+                if not math.isfinite(value):
+                    raise InputError(f"{path}:{line}: {column} must be finite, got {text}")
+                values.append(value)
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a UTF-8 text file") from None
+    except csv.Error as exc:
+        raise InputError(f"{path}: malformed CSV: {exc}") from None
+    if not values:
+        raise InputError(f"{path}: column {column!r} has no rows")
+    return np.asarray(values)
+
+
+def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
+    """Columns of possibly different lengths (a figure's curves); short ones end in blanks."""
+    names = list(columns)
+    values = [np.asarray(columns[n]).tolist() for n in names]
+    length = max((len(v) for v in values), default=0)
+
+    def cell(column, row):
+        if row >= len(column):
+            return ""
+        v = column[row]
+        return repr(v) if isinstance(v, float) else str(v)
+
+    lines = [",".join(names)] + [",".join(cell(c, r) for c in values) for r in range(length)]
+    write_text_atomic(path, "\n".join(lines) + "\n")

@@ -1,0 +1,45 @@
+"""Illustrative law parameters: the published forms with plausible, documented values and the
+analytic incipient yield of a material. Clearly labelled as an illustration (not a fit); they
+let users and tests run the law before an FE calibration exists.
+
+``make examples`` regenerates the shipped files (``python -m geocontact.law.illustrative``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from importlib import resources
+
+from ..hertz import incipient_yield
+from ..material import Material, load_material
+from .params import LawParams
+
+
+def illustrative_params(material: Material) -> LawParams:
+    blocks = json.loads((resources.files("geocontact") / "data" / "illustrative-law.json")
+                        .read_text())
+    y = incipient_yield(material)
+    document = {
+        "schema": "geocontact.law/1",
+        **blocks,
+        "material": material.to_dict(),
+        "yield": y.to_dict(),
+        "provenance": {"source": "illustration (data/illustrative-law.json)",
+                       "yield": "analytic Hertz + Drucker-Prager search (geocontact.hertz)"},
+    }
+    return LawParams.from_dict(document)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--material", default="reference", help="material TOML or preset name")
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args(argv)
+    illustrative_params(load_material(args.material)).save(args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,83 @@
+"""Self-contained HTML reports: figures embedded (base64 PNG), each figure's data as CSV beside
+it, every number traceable to the run that made it."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from .io import write_csv, write_text_atomic  # noqa: E402
+
+
+@dataclass
+class Figure:
+    name: str
+    title: str
+    caption: str
+    data: dict = field(default_factory=dict)  # column name -> array, written as NAME.csv
+
+
+@dataclass
+class Report:
+    title: str
+    intro: str
+    provenance: dict
+    sections: list = field(default_factory=list)  # (heading, [Figure | str])
+
+    def add(self, heading: str, *items) -> None:
+        self.sections.append((heading, list(items)))
+
+
+def save_figure(fig, directory: Path, figure: Figure) -> None:
+    directory.mkdir(parents=True, exist_ok=True)
+    fig.savefig(directory / f"{figure.name}.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    if figure.data:
+        write_csv(directory / f"{figure.name}.csv", figure.data)
+
+
+def write_html(report: Report, directory: Path, filename: str = "report.html") -> Path:
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'>",
+        f"<title>{html.escape(report.title)}</title>",
+        "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
+        "img{max-width:100%}table{border-collapse:collapse}td,th{border:1px solid #bbb;"
+        "padding:2px 6px}figcaption{color:#444}</style></head><body>",
+        f"<h1>{html.escape(report.title)}</h1><p>{report.intro}</p>",
+    ]
+    for heading, items in report.sections:
+        parts.append(f"<h2>{html.escape(heading)}</h2>")
+        for item in items:
+            if isinstance(item, Figure):
+                png = (directory / f"{item.name}.png").read_bytes()
+                data = base64.b64encode(png).decode()
+                csv_note = (f" Data: <code>{item.name}.csv</code>." if item.data else "")
+                parts.append(f"<figure><img alt='{html.escape(item.title)}' "
+                             f"src='data:image/png;base64,{data}'><figcaption><b>"
+                             f"{html.escape(item.title)}.</b> {item.caption}{csv_note}"
+                             "</figcaption></figure>")
+            else:
+                parts.append(item)
+    parts.append("<h2>Provenance</h2><pre>" + html.escape(json.dumps(report.provenance,
+                                                                        indent=2)) + "</pre>")
+    parts.append("</body></html>")
+    path = directory / filename
+    write_text_atomic(path, "\n".join(parts))
+    return path
+
+
+def table(headers: list[str], rows: list[list]) -> str:
+    def cell(v):
+        return f"{v:.4g}" if isinstance(v, float) else html.escape(str(v))
+
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
+    body = "".join("<tr>" + "".join(f"<td>{cell(v)}</td>" for v in r) + "</tr>" for r in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"

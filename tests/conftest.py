@@ -1,0 +1,35 @@
+import pytest
+
+from geocontact import preset
+from geocontact.law import CyclicLaw, LawParams
+
+# A yield approach of the order of the reference case's; the law itself does not care where
+# delta_y comes from (geocontact.hertz supplies it in real parameter files).
+YIELD_APPROACH = 2.0e-5
+
+
+def make_params(**changes) -> LawParams:
+    values = dict(
+        material=preset("reference"),
+        yield_approach=YIELD_APPROACH,
+        elastic_plastic_exponent=1.25,
+        fully_plastic_approach_ratio=20.0,
+        fully_plastic_exponent=1.1,
+        unloading_power=-0.03,
+        reloading_power=-0.06,
+        residual_limit=0.9,
+        residual_power=0.35,
+    )
+    values.update(changes)
+    return LawParams(**values)
+
+
+@pytest.fixture
+def params() -> LawParams:
+    return make_params()
+
+
+@pytest.fixture
+def cyclic_params() -> LawParams:
+    return make_params(cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=0.3,
+                                        residual_ratio_power=1.2, tolerance=0.01))

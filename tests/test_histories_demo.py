@@ -1,0 +1,61 @@
+"""Force-controlled driver, the paper's history presets, and the demo end to end."""
+
+import json
+
+import numpy as np
+import pytest
+
+from geocontact.errors import InputError
+from geocontact.histories import drive_by_force, load_history, preset_forces
+
+
+def test_presets_match_the_paper():
+    assert preset_forces("repeated", 3000) == [0.0] + [3000.0, 0.0] * 10
+    dec = preset_forces("mono-decreasing", 3000)[1::2]
+    np.testing.assert_allclose(dec, [3000, 2500, 2000, 1500, 1000, 500, 100])
+    inc = preset_forces("mono-increasing", 3000)[1::2]
+    assert inc[0] == pytest.approx(100) and inc[-1] == pytest.approx(3000) and len(inc) == 7
+
+
+def test_force_driver_hits_targets_and_accounts_cycles(params):
+    fmax = 200 * params.yield_force
+    run = drive_by_force(params, [0.0, fmax, 0.0, fmax, 0.0], points=20)
+    assert run.force.max() == pytest.approx(fmax, rel=1e-9)
+    assert len(run.cycles) == 2
+    first, second = run.cycles
+    assert first["residual_approach_m"] > 0
+    assert first["plastic_work_J"] == pytest.approx(
+        float(params.envelope_plastic_work(first["max_approach_m"])), rel=1e-6)
+    # second cycle to the same force: closed reload-unload loop, smaller dissipation
+    assert 0 <= second["plastic_work_J"] < first["plastic_work_J"]
+    assert second["residual_approach_m"] == pytest.approx(first["residual_approach_m"])
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[history]\nforces = [0, -5]\n", "history.forces[1]"),
+        ("[history]\nforces = [0, nan]\n", "history.forces[1]"),
+        ("[history]\npreset = \"sawtooth\"\n", "history.preset"),
+        ("[history]\npreset = \"repeated\"\npeak_force = -1\n", "history.peak_force"),
+        ("[history]\nspeed = 1\n", "history.speed"),
+        ("[oops\n", "malformed TOML"),
+    ],
+)
+def test_bad_history_files(tmp_path, text, message):
+    (tmp_path / "h.toml").write_text(text)
+    with pytest.raises(InputError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        load_history(tmp_path / "h.toml")
+
+
+def test_demo_writes_a_complete_report(tmp_path):
+    from geocontact.cli import main
+
+    assert main(["demo", "--out", str(tmp_path / "demo")]) == 0
+    out = tmp_path / "demo"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["cases"]["reference"]["yield"]["force_N"] == pytest.approx(2.757, rel=1e-3)
+    html = (out / "report.html").read_text()
+    assert html.count("data:image/png;base64") == 4
+    assert (out / "law_cycles.csv").exists()
+    assert not list(tmp_path.glob(".demo-*"))  # no half-written directory left behind

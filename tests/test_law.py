@@ -1,0 +1,287 @@
+"""Physical claims of the hysteretic law (SPEC section 6, docs/law.md), on random histories."""
+
+import math
+
+import numpy as np
+import pytest
+from conftest import YIELD_APPROACH, make_params
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from geocontact.errors import InputError
+from geocontact.law import Contact, ContactArrays, CyclicLaw, LawParams, force_history
+
+DY = YIELD_APPROACH
+
+# Random approach histories in units of delta_y: from apart, through elastic, elastic-plastic
+# and fully plastic depths, with reversals anywhere; the last point is apart again.
+depths = st.floats(min_value=-3.0, max_value=150.0, allow_nan=False)
+histories = st.lists(depths, min_size=1, max_size=25).map(
+    lambda xs: [0.0, *[x * DY for x in xs], -DY]
+)
+PARAMS = make_params()
+CYCLIC = make_params(cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=0.3,
+                                      residual_ratio_power=1.2, tolerance=0.01))
+
+
+def refine(path, per_step=7):
+    """Insert points between the turning points: the law is path dependent, so the dense path is
+    the same path."""
+    out = [path[0]]
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        out += list(np.linspace(a, b, per_step + 1)[1:])
+    return out
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.floats(min_value=-1.0, max_value=1.0), min_size=1, max_size=40))
+def test_below_yield_is_exactly_hertz(xs):
+    contact = Contact(PARAMS)
+    kh = PARAMS.hertz_coefficient
+    for x in xs:
+        d = x * DY
+        f, k = contact.update(d)
+        expected = kh * max(d, 0.0) ** 1.5
+        assert f == pytest.approx(expected, rel=1e-12, abs=0.0)
+        assert k == pytest.approx(1.5 * kh * math.sqrt(max(d, 0.0)), rel=1e-12, abs=0.0)
+    assert contact.dissipated_energy == pytest.approx(0.0, abs=1e-15 * PARAMS.yield_force * DY)
+
+
+@settings(max_examples=200, deadline=None)
+@given(histories)
+def test_never_tensile_and_zero_when_apart(path):
+    contact = Contact(CYCLIC)
+    for d in refine(path):
+        f, k = contact.update(d)
+        assert f >= 0.0 and k >= 0.0
+        if d <= 0.0:
+            assert f == 0.0
+        if d - contact.state.ratchet_shift <= contact.state.residual_approach:
+            assert f == 0.0
+
+
+@settings(max_examples=150, deadline=None)
+@given(histories, st.floats(min_value=-1.0, max_value=1.0))
+def test_force_continuous_in_approach(path, direction):
+    """From any state, the force after a step h goes to the current force as h -> 0."""
+    contact = Contact(CYCLIC)
+    for d in path:
+        contact.update(d)
+    f0 = contact.state.force
+    scale = max(contact.state.max_force, PARAMS.yield_force)
+    jumps = []
+    for h in (1e-6, 1e-9, 1e-12):
+        probe = Contact(CYCLIC)
+        probe.state = type(contact.state)(**vars(contact.state))
+        f, _ = probe.update(contact.state.approach + math.copysign(h * DY, direction))
+        jumps.append(abs(f - f0) / scale)
+    assert jumps[-1] < 1e-6
+    assert jumps[0] >= jumps[-1] - 1e-12
+
+
+@settings(max_examples=200, deadline=None)
+@given(histories, st.booleans())
+def test_no_energy_created_on_any_path(path, cyclic):
+    """Dissipation never decreases step by step, and a path from apart to apart does
+    non-negative work: the law's exact work against an independent trapezoid integration."""
+    params = CYCLIC if cyclic else PARAMS
+    contact = Contact(params)
+    dense = refine(path, per_step=200)
+    forces = []
+    dissipated = 0.0
+    scale = params.yield_force * DY
+    for d in dense:
+        f, _ = contact.update(d)
+        forces.append(f)
+        now = contact.dissipated_energy
+        assert now >= dissipated - 1e-9 * scale - 1e-12 * abs(contact.state.work)
+        dissipated = now
+    assert contact.state.force == 0.0
+    loop = contact.state.work
+    assert loop >= -1e-9 * scale
+    trapezoid = float(np.sum(0.5 * (np.array(forces[1:]) + forces[:-1]) * np.diff(dense)))
+    assert trapezoid == pytest.approx(loop, rel=2e-3, abs=1e-3 * scale)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(min_value=2.0, max_value=150.0),
+       st.lists(st.floats(min_value=0.0, max_value=1.0), min_size=2, max_size=12))
+def test_partial_loops_inside_the_envelope_dissipate(depth, turning_points):
+    """Unload-reload loops inside the envelope, at random depths: every closed loop does
+    non-negative work, the residual approach never moves, the envelope never grows."""
+    contact = Contact(PARAMS)
+    dmax = depth * DY
+    contact.update(dmax)
+    dres = contact.state.residual_approach
+    for fraction in turning_points:
+        d = min(dres + fraction * (dmax - dres), dmax)
+        before = contact.state.work
+        start = contact.state.approach
+        for x in refine([start, d, start], per_step=20)[1:]:
+            contact.update(x)
+        assert contact.state.work - before >= -1e-12 * max(abs(before), PARAMS.yield_force * DY)
+        assert contact.state.residual_approach == dres
+        assert contact.state.max_approach == dmax
+
+
+@pytest.mark.parametrize("depth", [0.5, 1.0, 1.5, 4.0, 20.0, 60.0, 300.0])
+def test_full_cycle_residual_approach_and_plastic_work(params, depth):
+    contact = Contact(params)
+    dmax = depth * DY
+    for d in np.linspace(0.0, dmax, 40):
+        contact.update(d)
+    fmax = contact.state.force
+    assert fmax == pytest.approx(float(params.virgin_force(dmax)), rel=1e-12)
+    dres = float(params.residual_ratio(depth)) * dmax
+    if depth <= 1.0:
+        assert dres == 0.0
+    else:
+        assert dres > 0.0
+    # unloading reaches zero exactly at the residual approach
+    f, _ = contact.update(dres + 1e-9 * dmax)
+    assert 0.0 < f < 1e-4 * fmax
+    f, _ = contact.update(dres)
+    assert f == 0.0
+    contact.update(-DY)
+    wp = float(params.envelope_plastic_work(dmax))
+    assert contact.dissipated_energy == pytest.approx(wp, rel=1e-10, abs=1e-14)
+    # reloading to dmax gives Fmax and continues on the virgin curve
+    for d in np.linspace(dres, dmax, 30):
+        f, _ = contact.update(d)
+    assert f == pytest.approx(fmax, rel=1e-12)
+    f, _ = contact.update(1.1 * dmax)
+    assert f == pytest.approx(float(params.virgin_force(1.1 * dmax)), rel=1e-12)
+
+
+def test_reloading_stiffer_than_unloading_and_loop_area(params):
+    dmax = 30 * DY
+    contact = Contact(params)
+    contact.update(dmax)
+    dres = contact.state.residual_approach
+    grid = np.linspace(dres, dmax, 101)
+    down = [contact.update(d)[0] for d in grid[::-1]][::-1]
+    up = [contact.update(d)[0] for d in grid]
+    assert all(u >= d_ - 1e-9 for u, d_ in zip(up, down, strict=True))
+    assert up[50] > down[50]
+
+
+def test_partial_unload_reload_keeps_residual_approach_and_dissipates(params):
+    contact = Contact(params)
+    dmax = 40 * DY
+    contact.update(dmax)
+    dres = contact.state.residual_approach
+    w0 = contact.dissipated_energy
+    mid = dres + 0.5 * (dmax - dres)
+    for _ in range(5):
+        for d in np.linspace(dmax, mid, 20):
+            contact.update(d)
+        for d in np.linspace(mid, dmax, 20):
+            contact.update(d)
+    assert contact.state.residual_approach == dres
+    # a reload from the main unloading curve retraces it (docs/law.md): elastic, to rounding
+    assert contact.dissipated_energy == pytest.approx(w0, rel=1e-12)
+    f, _ = contact.update(dres)
+    assert f == 0.0
+
+
+def test_tangent_matches_finite_difference(params):
+    contact = Contact(params)
+    for d in (30 * DY, 18 * DY, 25 * DY, 12 * DY):
+        contact.update(d)
+    for direction in (+1.0, -1.0):
+        probe = Contact(params)
+        probe.state = type(contact.state)(**vars(contact.state))
+        d0 = contact.state.approach
+        h = 1e-7 * d0
+        f0 = contact.state.force
+        f1, _ = probe.update(d0 + direction * h)
+        _, k1 = probe.update(d0 + 2 * direction * h)
+        fd = (f1 - f0) / (direction * h)
+        assert k1 == pytest.approx(fd, rel=1e-4)
+
+
+def test_scalar_and_vectorised_paths_agree():
+    rng = np.random.default_rng(7)
+    n, steps = 64, 400
+    # smooth random walks with reversals, through every regime
+    increments = rng.normal(0.0, 3.0, size=(steps, n)) * DY
+    paths = np.cumsum(increments, axis=0)
+    paths[-10:] = -DY
+    for params in (PARAMS, CYCLIC):
+        arrays = ContactArrays(params, n)
+        forces = np.empty((steps, n))
+        stiff = np.empty((steps, n))
+        for s in range(steps):
+            f, k = arrays.step(paths[s])
+            forces[s], stiff[s] = f, k
+        for i in range(n):
+            fs, ks = force_history(params, paths[:, i])
+            peak = max(max(fs), 1e-300)
+            np.testing.assert_allclose(forces[:, i], fs, rtol=1e-12, atol=1e-12 * peak)
+            np.testing.assert_allclose(stiff[:, i], ks, rtol=1e-12, atol=1e-12 * max(ks))
+        contact = Contact(params)
+        for d in paths[:, -1]:
+            contact.update(d)
+        assert arrays.dissipated_energy[-1] == pytest.approx(contact.dissipated_energy, rel=1e-12)
+
+
+def test_hertz_kernel_is_hertz(params):
+    arrays = ContactArrays.hertz(params.material, 3)
+    d = np.array([-1e-5, 0.0, 3e-4])
+    f, k = arrays.step(d)
+    kh = params.hertz_coefficient
+    np.testing.assert_allclose(f, [0.0, 0.0, kh * 3e-4**1.5], rtol=1e-14)
+    np.testing.assert_allclose(k, [0.0, 0.0, 1.5 * kh * 3e-4**0.5], rtol=1e-14)
+    assert np.all(arrays.dissipated_energy == 0.0)
+
+
+def test_kernel_rejects_bad_input(params):
+    arrays = ContactArrays(params, 2)
+    with pytest.raises(InputError, match="approach"):
+        arrays.step(np.array([0.0, np.nan]))
+    with pytest.raises(InputError, match="shape"):
+        arrays.step(np.zeros(3))
+    with pytest.raises(InputError, match="approach"):
+        Contact(params).update(float("inf"))
+
+
+def test_repeated_cycles_ratchet_and_shake_down(cyclic_params):
+    contact = Contact(cyclic_params)
+    dmax = 40 * DY
+    fmax = float(cyclic_params.virgin_force(dmax))
+    residuals = []
+    # force-controlled cycles: reload to Fmax (the ratchet creeps at Fmax), unload to zero
+    approach = 0.0
+    for _cycle in range(30):
+        for d in np.linspace(approach, dmax + 50 * DY, 400):
+            f, _ = contact.update(d)
+            if contact.state.branch == 1 and d > contact.state.ratchet_shift + dmax * 0.999:
+                break
+            if f >= fmax * (1 - 1e-12) and contact.state.branch != 4:
+                break
+        contact.update(-DY)
+        approach = -DY
+        residuals.append(contact.state.residual_approach + contact.state.ratchet_shift)
+    increments = np.diff(residuals)
+    assert increments[0] > 0.0
+    assert np.all(increments >= -1e-15)
+    nc = cyclic_params.cyclic.critical_cycle()
+    assert 2 < nc < 30
+    assert np.all(increments[int(nc):] == 0.0)  # elastic shakedown after the critical cycle
+
+
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        ({"residual_limit": 1.0}, None),
+        ({"elastic_plastic_exponent": 2.4, "residual_limit": 0.0}, "creates energy"),
+    ],
+)
+def test_parameter_sets_that_would_create_energy_are_rejected(change, field):
+    if field is None:
+        with pytest.raises(InputError):
+            LawParams.from_dict({**make_params().to_dict(),
+                                 "residual_approach": {"limit": 1.0, "power": 0.3}})
+        return
+    with pytest.raises(InputError, match=field):
+        make_params(**change)
