@@ -31,7 +31,7 @@ FixGeocontactHistory::~FixGeocontactHistory()
 
 int FixGeocontactHistory::setmask()
 {
-  return PRE_EXCHANGE | POST_NEIGHBOR | MIN_PRE_EXCHANGE | MIN_POST_NEIGHBOR;
+  return PRE_EXCHANGE | POST_NEIGHBOR | MIN_PRE_EXCHANGE | MIN_POST_NEIGHBOR | POST_RUN;
 }
 
 // Comm::exchange sizes its buffers from maxexchange: the largest table this rank may send.
@@ -42,9 +42,22 @@ void FixGeocontactHistory::update_maxexchange()
   maxexchange = 2 + static_cast<int>(most) * kRecordSize;
 }
 
-void FixGeocontactHistory::setup_pre_exchange() { update_maxexchange(); }
-void FixGeocontactHistory::pre_exchange() { update_maxexchange(); }
-void FixGeocontactHistory::min_pre_exchange() { update_maxexchange(); }
+void FixGeocontactHistory::setup_pre_exchange()
+{
+  sync();
+  update_maxexchange();
+}
+void FixGeocontactHistory::pre_exchange()
+{
+  sync();
+  update_maxexchange();
+}
+void FixGeocontactHistory::min_pre_exchange()
+{
+  sync();
+  update_maxexchange();
+}
+void FixGeocontactHistory::post_run() { sync(); }
 void FixGeocontactHistory::setup_post_neighbor() { neighbors_rebuilt = true; }
 void FixGeocontactHistory::post_neighbor() { neighbors_rebuilt = true; }
 void FixGeocontactHistory::min_post_neighbor() { neighbors_rebuilt = true; }
@@ -122,6 +135,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
 
 int FixGeocontactHistory::pack_exchange(int i, double *buf)
 {
+  sync();
   return pack_table(tables[i], buf);
 }
 
@@ -134,6 +148,7 @@ int FixGeocontactHistory::unpack_exchange(int nlocal, double *buf)
 // Restart: buf[0] is the length of this fix's data for the atom, including buf[0] itself.
 int FixGeocontactHistory::pack_restart(int i, double *buf)
 {
+  sync();
   const int m = 1 + pack_table(tables[i], buf + 1);
   buf[0] = m;
   return m;
@@ -150,11 +165,13 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 
 int FixGeocontactHistory::size_restart(int i)
 {
+  sync();
   return 2 + static_cast<int>(tables[i].size()) * kRecordSize;
 }
 
 int FixGeocontactHistory::maxsize_restart()
 {
+  sync();
   size_t most = 0;
   for (int i = 0; i < atom->nlocal; ++i) most = std::max(most, tables[i].size());
   return 2 + static_cast<int>(most) * kRecordSize;

@@ -19,6 +19,7 @@ FixStyle(geocontact/history,FixGeocontactHistory);
 #include "fix.h"
 #include "geocontact/law.hpp"
 
+#include <functional>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -43,6 +44,7 @@ class FixGeocontactHistory : public Fix {
   void setup_post_neighbor() override;
   void post_neighbor() override;
   void min_post_neighbor() override;
+  void post_run() override;
 
   void grow_arrays(int) override;
   void copy_arrays(int, int, int) override;
@@ -57,6 +59,17 @@ class FixGeocontactHistory : public Fix {
 
   // One table per owned atom (index = local atom index), read and written by the pair style.
   std::vector<std::vector<ContactRecord>> tables;
+  // During a run the pair updates only the record of the neighbor-list atom i of each contact;
+  // the mirror on atom j is brought up to date by sync() before anything reads or moves the
+  // tables (exchange, restart, end of run): it saves a scattered write per contact and step.
+  std::function<void()> sync_mirrors;
+  bool mirrors_stale = false;
+  void sync()
+  {
+    if (mirrors_stale && sync_mirrors) sync_mirrors();
+    mirrors_stale = false;
+  }
+
   // Set whenever neighbor lists were rebuilt (atoms may have moved between slots or ranks);
   // the pair re-indexes its contacts before the next force computation.
   bool neighbors_rebuilt = true;

@@ -55,6 +55,7 @@ PairGeocontact::~PairGeocontact()
 {
   delete[] svector;
   delete[] pvector;
+  if (history_ && modify && modify->get_fix_by_id(kHistoryFixId)) history_->sync_mirrors = nullptr;
   // Deleting the pair style (a new pair_style, clear) drops the contact history with it.
   if (history_ && modify && modify->get_fix_by_id(kHistoryFixId))
     modify->delete_fix(kHistoryFixId);
@@ -201,6 +202,7 @@ void PairGeocontact::init_style()
     history_ = dynamic_cast<FixGeocontactHistory *>(
         modify->add_fix(std::string(kHistoryFixId) + " all geocontact/history"));
   if (!history_) error->all(FLERR, "Pair geocontact: could not create its history fix");
+  history_->sync_mirrors = [this]() { sync_mirrors(); };
   history_->neighbors_rebuilt = true;
   check_atoms();
 }
@@ -258,6 +260,7 @@ double PairGeocontact::init_one(int i, int j)
 // neighbor list are forgotten (the history of a pair that separated by more than the skin).
 void PairGeocontact::index_contacts()
 {
+  history_->mirrors_stale = false;  // synced before the exchange that preceded this rebuild
   auto &tables = history_->tables;
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
@@ -269,8 +272,8 @@ void PairGeocontact::index_contacts()
   first_pair_.resize(inum + 1);
   first_pair_[0] = 0;
   for (int ii = 0; ii < inum; ++ii) first_pair_[ii + 1] = first_pair_[ii] + numneigh[ilist[ii]];
-  slot_i_.assign(first_pair_[inum], -1);
-  slot_j_.assign(first_pair_[inum], -1);
+  pair_records_.resize(first_pair_[inum]);
+  has_record_.assign(first_pair_[inum], 0);
 
   std::vector<int> first_record(nlocal + 1, 0);
   for (int i = 0; i < nlocal; ++i)
@@ -302,8 +305,49 @@ void PairGeocontact::index_contacts()
     for (int jj = 0; jj < numneigh[i]; ++jj) {
       const int j = jlist[jj] & NEIGHMASK;
       const int k = first_pair_[ii] + jj;
-      slot_i_[k] = FixGeocontactHistory::find(tables[i], tag[j]);
-      if (j < nlocal) slot_j_[k] = FixGeocontactHistory::find(tables[j], tag[i]);
+      const int si = FixGeocontactHistory::find(tables[i], tag[j]);
+      if (si >= 0) {
+        pair_records_[k] = tables[i][si];
+        has_record_[k] = 1;
+      }
+    }
+  }
+}
+
+// Write the records of the neighbor-list pairs back to the tables of both grains (mirrored on
+// the partner: its tangential force is the opposite).
+void PairGeocontact::sync_mirrors()
+{
+  if (!list || first_pair_.empty()) return;
+  auto &tables = history_->tables;
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  const int inum = std::min(list->inum, static_cast<int>(first_pair_.size()) - 1);
+  auto store = [&](int owner, const ContactRecord &rec) {
+    auto &table = tables[owner];
+    const int s = FixGeocontactHistory::find(table, rec.partner);
+    if (s >= 0) {
+      table[s] = rec;
+    } else {
+      table.push_back(rec);
+      history_->note_table_size(table.size());
+    }
+  };
+  for (int ii = 0; ii < inum; ++ii) {
+    const int i = list->ilist[ii];
+    const int *jlist = list->firstneigh[i];
+    const int jnum = first_pair_[ii + 1] - first_pair_[ii];
+    for (int jj = 0; jj < jnum; ++jj) {
+      const int k = first_pair_[ii] + jj;
+      if (!has_record_[k]) continue;
+      const int j = jlist[jj] & NEIGHMASK;
+      store(i, pair_records_[k]);
+      if (j < nlocal) {
+        ContactRecord mirror = pair_records_[k];
+        mirror.partner = tag[i];
+        for (int c = 0; c < 3; ++c) mirror.tangential[c] = -mirror.tangential[c];
+        store(j, mirror);
+      }
     }
   }
 }
@@ -319,6 +363,8 @@ void PairGeocontact::compute(int eflag, int vflag)
   // the first step of the run then moves from the stored state.
   const bool commit = !update->setupflag;
   const double dt = update->dt;
+  if (eflag_global)
+    for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
 
   double **x = atom->x;
   double **v = atom->v;
@@ -330,7 +376,6 @@ void PairGeocontact::compute(int eflag, int vflag)
   const int *type = atom->type;
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
-  auto &tables = history_->tables;
 
   const int inum = list->inum;
   const int *ilist = list->ilist;
@@ -351,20 +396,20 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
       const double rsq = dot3(del, del);
       const double radsum = radi + radius[j];
-      int si = slot_i_[k];
-      if (rsq >= radsum * radsum && si < 0) continue;  // apart, never touched
+      const bool known = has_record_[k];
+      if (rsq >= radsum * radsum && !known) continue;  // apart, never touched
 
       const int jtype = type[j];
       const TypePairLaw &tp = coeffs_[itype][jtype];
       const geocontact::LawParams &law = laws_[tp.law];
-      if (si < 0 && std::fabs(radius[j] - type_radius_[jtype]) >
+      if (!known && std::fabs(radius[j] - type_radius_[jtype]) >
               kRadiusTolerance * type_radius_[jtype])
         error->one(FLERR, "Pair geocontact: atom {} has radius {} m, its parameter file is for "
                           "spheres of radius {} m", tag[j], radius[j], type_radius_[jtype]);
 
       ContactRecord rec;
-      if (si >= 0) {
-        rec = tables[i][si];
+      if (known) {
+        rec = pair_records_[k];
       } else {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
@@ -440,29 +485,18 @@ void PairGeocontact::compute(int eflag, int vflag)
       }
 
       if (commit) {
-        if (si < 0) {
-          tables[i].push_back(rec);
-          si = static_cast<int>(tables[i].size()) - 1;
-          slot_i_[k] = si;
-          history_->note_table_size(tables[i].size());
-        } else {
-          tables[i][si] = rec;
-        }
-        if (j < nlocal) {
-          ContactRecord mirror = rec;
-          mirror.partner = tag[i];
-          for (int c = 0; c < 3; ++c) mirror.tangential[c] = -rec.tangential[c];
-          int sj = slot_j_[k];
-          if (sj < 0) sj = FixGeocontactHistory::find(tables[j], tag[i]);
-          if (sj < 0) {
-            tables[j].push_back(mirror);
-            slot_j_[k] = static_cast<int>(tables[j].size()) - 1;
-            history_->note_table_size(tables[j].size());
-          } else {
-            tables[j][sj] = mirror;
-            slot_j_[k] = sj;
-          }
-        }
+        pair_records_[k] = rec;
+        has_record_[k] = 1;
+        history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
+      }
+      if (eflag_global) {
+        // each contact once: whole if both grains are owned here, half if shared with a rank
+        const double w = j < nlocal ? 1.0 : 0.5;
+        const double stored = geocontact::elastic_energy(law, rec.law);
+        pvector[GV_DISSIPATED] += w * (rec.law.work - stored);
+        pvector[GV_ELASTIC] += w * stored;
+        if (rec.law.force > 0.0) pvector[GV_CONTACTS] += w;
+        if (rec.law.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
       }
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
 
@@ -490,25 +524,6 @@ void PairGeocontact::compute(int eflag, int vflag)
       }
     }
   }
-
-  if (eflag_global) {
-    // Each contact is recorded on both its atoms: half of every record, summed over ranks by
-    // compute pair, counts it once.
-    for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
-    for (int i = 0; i < nlocal; ++i) {
-      const int itype = type[i];
-      for (const ContactRecord &rec : tables[i]) {
-        // the law of the pair's types; the partner's type is not at hand, but a record exists
-        // only for type pairs with one law (init_one checks the radii agree)
-        const geocontact::LawParams &law = laws_[coeffs_[itype][itype].law];
-        const double stored = geocontact::elastic_energy(law, rec.law);
-        pvector[GV_DISSIPATED] += 0.5 * (rec.law.work - stored);
-        pvector[GV_ELASTIC] += 0.5 * stored;
-        if (rec.law.force > 0.0) pvector[GV_CONTACTS] += 0.5;
-        if (rec.law.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += 0.5;
-      }
-    }
-  }
 }
 
 double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
@@ -517,6 +532,7 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
   for (int k = 0; k < SV_COUNT; ++k) svector[k] = 0.0;
   fforce = 0.0;
   if (!history_ || i >= atom->nlocal) return 0.0;
+  history_->sync();
   const int s = FixGeocontactHistory::find(history_->tables[i], atom->tag[j]);
   if (s < 0) return 0.0;
   const ContactRecord &rec = history_->tables[i][s];
@@ -597,7 +613,7 @@ void PairGeocontact::read_restart(FILE *fp)
 double PairGeocontact::memory_usage()
 {
   double bytes = Pair::memory_usage();
-  bytes += static_cast<double>(slot_i_.capacity() + slot_j_.capacity() + first_pair_.capacity()) *
-      sizeof(int);
+  bytes += static_cast<double>(pair_records_.capacity()) * sizeof(ContactRecord);
+  bytes += static_cast<double>(has_record_.capacity() + first_pair_.capacity() * sizeof(int));
   return bytes;
 }

@@ -20,6 +20,7 @@ PairStyle(geocontact,PairGeocontact);
 #define LMP_PAIR_GEOCONTACT_H
 
 #include "pair.h"
+#include "fix_geocontact_history.h"
 #include "geocontact/law.hpp"
 
 #include <string>
@@ -63,6 +64,7 @@ class PairGeocontact : public Pair {
   void allocate();
   void check_atoms();
   void index_contacts();
+  void sync_mirrors();
   int add_law(const std::string &text, const std::string &source);
 
   FixGeocontactHistory *history_;
@@ -71,8 +73,12 @@ class PairGeocontact : public Pair {
   TypePairLaw **coeffs_;
   double *type_radius_;                 // radius of each type's own law (m)
 
-  // slots of each neighbor-list pair in the tables of atom i and (owned) atom j; -1 if none
-  std::vector<int> slot_i_, slot_j_, first_pair_;
+  // Between neighbor-list rebuilds the records live here, one per neighbor-list pair in list
+  // order (read and written sequentially each step); sync_mirrors() writes them back to the
+  // per-atom tables of both grains before the tables are moved, saved or read.
+  std::vector<ContactRecord> pair_records_;
+  std::vector<char> has_record_;
+  std::vector<int> first_pair_;
 };
 
 }  // namespace LAMMPS_NS

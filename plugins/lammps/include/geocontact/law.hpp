@@ -147,6 +147,18 @@ struct LawParams {
     return w_p + fully_plastic_force * dp / (n2 + 1.0) * (std::pow(d / dp, n2 + 1.0) - 1.0);
   }
 
+  // The same work given the virgin force f at d: each regime is a power law, so
+  // int F = (F d - F_start d_start)/(n + 1) needs no further pow (kernel.py).
+  double virgin_work_from_force(double d, double f) const
+  {
+    const double dy = yield_approach, dp = fully_plastic_approach, fy = yield_force;
+    const double w_y = fy * dy / (kHertzExponent + 1.0);
+    if (d <= dy) return f * d / (kHertzExponent + 1.0);
+    if (d <= dp) return w_y + (f * d - fy * dy) / (elastic_plastic_exponent + 1.0);
+    const double w_p = w_y + (fully_plastic_force * dp - fy * dy) / (elastic_plastic_exponent + 1.0);
+    return w_p + (f * d - fully_plastic_force * dp) / (fully_plastic_exponent + 1.0);
+  }
+
   double virgin_exponent(double d) const
   {
     if (d <= yield_approach) return kHertzExponent;
@@ -268,13 +280,15 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
         bval = 1.0;
         continue;
       }
-      work += p.virgin_work(target) - p.virgin_work(d);
-      dmax = target;
+      // one pow for the force, the work from it; one log, three exp for the envelope
       fmax = p.virgin_force(target);
-      const double x = target / dy;
-      dres = p.residual_ratio(x) * target;
-      nu = p.unloading_exponent(x);
-      nr = p.reloading_exponent(x);
+      work += p.virgin_work_from_force(target, fmax) - p.virgin_work_from_force(d, force);
+      dmax = target;
+      force = fmax;
+      const double lx = std::log(std::max(target / dy, 1.0));
+      dres = -p.residual_limit * std::expm1(-p.residual_power * lx) * target;
+      nu = kHertzExponent * std::exp(p.unloading_power * lx);
+      nr = std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
       cycles = 1.0;
       d = target;
       continue;
@@ -370,30 +384,20 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
     d = end;
   }
 
-  // force and tangent at the end of the step, on the branch the contact is on
+  // Force and tangent at the end of the step, on the branch the contact is on. The last move
+  // already evaluated the force at the target; only the slope is left to compute.
   double stiff = 0.0;
   if (b == APART || target <= 0.0) {
     force = 0.0;
   } else if (b == VIRGIN) {
-    force = p.virgin_force(target);
     stiff = target <= dy ? kHertzExponent * kh * std::sqrt(target)  // Hertz: 2 E* a
                          : p.virgin_exponent(target) * force / target;
   } else if (b == RATCHET) {
     force = fmax;
   } else if (dmax <= dy) {
-    force = kh * std::pow(target, kHertzExponent);
     stiff = kHertzExponent * kh * std::sqrt(target);
-  } else {
-    const double t = (target - dres) / (dmax - dres);
-    if (t <= 0.0) {
-      force = 0.0;
-    } else if (b == UNLOADING) {
-      force = bval * fmax * std::pow(t, nu);
-      stiff = nu * force / (target - dres);
-    } else {
-      force = fmax * std::pow(t, bval);
-      stiff = bval * force / (target - dres);
-    }
+  } else if (force > 0.0) {
+    stiff = (b == UNLOADING ? nu : bval) * force / (target - dres);
   }
   s.approach = approach_new;
   s.force = force;
