@@ -56,6 +56,7 @@ def test_demo_writes_a_complete_report(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["cases"]["reference"]["yield"]["force_N"] == pytest.approx(2.757, rel=1e-3)
     html = (out / "report.html").read_text()
-    assert html.count("data:image/png;base64") == 4
+    assert html.count("data:image/png;base64") == 7
+    assert summary["seismic"]["main_shock"]["record"]["pga_m_s2"] == pytest.approx(3.0)
     assert (out / "law_cycles.csv").exists()
     assert not list(tmp_path.glob(".demo-*"))  # no half-written directory left behind

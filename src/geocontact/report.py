@@ -23,6 +23,8 @@ class Figure:
     title: str
     caption: str
     data: dict = field(default_factory=dict)  # column name -> array, written as NAME.csv
+    image: str = ""  # path of an existing PNG relative to the report folder (default NAME.png)
+    data_file: str = ""  # path of an existing CSV holding the figure's data, if not ``data``
 
 
 @dataclass
@@ -57,9 +59,10 @@ def write_html(report: Report, directory: Path, filename: str = "report.html") -
         parts.append(f"<h2>{html.escape(heading)}</h2>")
         for item in items:
             if isinstance(item, Figure):
-                png = (directory / f"{item.name}.png").read_bytes()
+                png = (directory / (item.image or f"{item.name}.png")).read_bytes()
                 data = base64.b64encode(png).decode()
-                csv_note = (f" Data: <code>{item.name}.csv</code>." if item.data else "")
+                csv_name = item.data_file or (f"{item.name}.csv" if item.data else "")
+                csv_note = f" Data: <code>{csv_name}</code>." if csv_name else ""
                 parts.append(f"<figure><img alt='{html.escape(item.title)}' "
                              f"src='data:image/png;base64,{data}'><figcaption><b>"
                              f"{html.escape(item.title)}.</b> {item.caption}{csv_note}"

@@ -1,0 +1,5 @@
+"""Calibration of the law from FE cycles (SPEC section 7)."""
+
+from .fit import LevelData, fit_law, fit_loading
+
+__all__ = ["LevelData", "fit_law", "fit_loading"]

@@ -1,0 +1,66 @@
+"""The fitter recovers known parameters from cycles of a known law (with and without noise):
+a check of the fitting machinery, independent of where real cycles come from."""
+
+import numpy as np
+import pytest
+from conftest import make_params
+
+from geocontact.calibrate import LevelData, fit_law
+from geocontact.law import Contact
+
+
+def cycles_of(params, depths, noise=0.0, seed=0):
+    rng = np.random.default_rng(seed)
+    dy = params.yield_approach
+    levels = []
+    for depth in depths:
+        c = Contact(params)
+        dmax = depth * dy
+        for d in np.linspace(0, dmax, 100):
+            c.update(d)
+        fmax, dres = c.state.force, c.state.residual_approach
+        total = float(params.virgin_work(dmax))
+        down = np.linspace(dmax, dres, 80)
+        fd = np.array([c.update(d)[0] for d in down])
+        wp = c.dissipated_energy
+        up = np.linspace(dres, dmax, 80)
+        fr = np.array([c.update(d)[0] for d in up])
+        def wobble(n):
+            return 1 + noise * rng.standard_normal(n)
+
+        levels.append(LevelData(dmax, fmax, dres, wp, total, down, fd * wobble(fd.size),
+                                up, fr * wobble(fr.size)))
+    d = np.geomspace(0.2, max(depths), 200) * dy
+    f = params.virgin_force(d) * (1 + noise * rng.standard_normal(d.size))
+    return d, f, levels
+
+
+def test_fit_recovers_known_parameters():
+    truth = make_params(elastic_plastic_exponent=1.3, fully_plastic_approach_ratio=30.0,
+                        fully_plastic_exponent=1.12, unloading_power=-0.04,
+                        reloading_power=-0.07, residual_limit=0.85, residual_power=0.32,
+                        plastic_work_limit=0.0)
+    d, f, levels = cycles_of(truth, [2, 5, 12, 30, 70, 150, 300])
+    fitted = fit_law(truth.material, truth.yield_approach, d, f, levels)
+    assert fitted.elastic_plastic_exponent == pytest.approx(1.3, rel=2e-3)
+    assert fitted.fully_plastic_approach_ratio == pytest.approx(30.0, rel=0.05)
+    assert fitted.fully_plastic_exponent == pytest.approx(1.12, rel=5e-3)
+    assert fitted.unloading_power == pytest.approx(-0.04, abs=2e-3)
+    assert fitted.reloading_power == pytest.approx(-0.07, abs=2e-3)
+    assert fitted.residual_limit == pytest.approx(0.85, rel=1e-3)
+    assert fitted.residual_power == pytest.approx(0.32, rel=1e-3)
+    assert fitted.fit_errors["residual_ratio_rms"] < 1e-6
+
+
+def test_fit_is_stable_under_noise():
+    truth = make_params()
+    d, f, levels = cycles_of(truth, [2, 5, 12, 30, 70, 150], noise=0.01, seed=3)
+    fitted = fit_law(truth.material, truth.yield_approach, d, f, levels)
+    # forces of the fitted law stay within a few per cent of the truth on a held-out depth
+    dmax = 50 * truth.yield_approach
+    peaks = []
+    for p in (truth, fitted):
+        c = Contact(p)
+        peaks.append(c.update(dmax)[0])
+    assert peaks[1] == pytest.approx(peaks[0], rel=0.03)
+    assert fitted.fit_errors["unloading_curve_rms_of_peak"] < 0.02
