@@ -35,15 +35,22 @@ def record(name: str, value: float, unit: str, peer: str, peer_value: float, **e
 
 
 def write_table() -> None:
-    """Rewrite the results table of docs/benchmarks.md from every out/bench/*.json."""
-    rows = []
+    """Update the results table (the end of docs/benchmarks.md) with every out/bench/*.json;
+    rows of benchmarks not run this time stay as they were."""
+    text = DOC.read_text() if DOC.exists() else "# Benchmarks\n\n<!-- results -->\n"
+    head, _, tail = text.partition("<!-- results -->")
+    rows = {}
+    for line in tail.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("|") and cells[0] not in ("benchmark", "---"):
+            rows[cells[0]] = line
     for path in sorted(OUT.glob("*.json")):
         d = json.loads(path.read_text())
-        rows.append(f"| {d['name']} | {d['value']:.4g} {d['unit']} | {d['peer']} | "
-                    f"{d['peer_value']:.4g} {d['unit']} | {d['ratio']:.3f} | "
-                    f"{d.get('note', '')} |")
-    head = DOC.read_text().split("<!-- results -->")[0] if DOC.exists() else "# Benchmarks\n\n"
+        rows[d["name"]] = (f"| {d['name']} | {d['value']:.4g} {d['unit']} | {d['peer']} | "
+                           f"{d['peer_value']:.4g} {d['unit']} | {d['ratio']:.3f} | "
+                           f"{d.get('note', '')} |")
     table = ("<!-- results -->\n"
              "| benchmark | geocontact | peer | peer value | cost ratio | note |\n"
-             "| --- | --- | --- | --- | --- | --- |\n" + "\n".join(rows) + "\n")
-    write_text_atomic(DOC, head + table)
+             "| --- | --- | --- | --- | --- | --- |\n" + "\n".join(rows[k] for k in sorted(rows))
+             + "\n")
+    write_text_atomic(DOC, head + table)  # the table ends the page
