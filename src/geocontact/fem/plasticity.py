@@ -171,7 +171,7 @@ def return_mapping(
     plastic = f_tr > 1e-12 * scale
     a_cone = 3.0 * G + K * tb**2 + c**2 * H
     dlam = np.where(plastic, f_tr / a_cone, 0.0)
-    apex = plastic & (q_tr - 3.0 * G * dlam < 0.0)
+    apex = plastic & (q_tr - 3.0 * G * dlam < 0.0) & (tb > 0.0)  # no apex for von Mises
     cone = plastic & ~apex
 
     status = np.full(shape, ELASTIC, dtype=np.int8)

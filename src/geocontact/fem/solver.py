@@ -103,6 +103,7 @@ class ContactSolver:
     material: Material
     mesh: object  # skfem MeshTri2
     bbar: bool = True
+    volumetric_order: int = 0  # B-bar projection of the volumetric strain: 0 (P2/P0) or 1
     plastic: bool = True  # False: linear elastic material (verification, yield probes)
     tolerance: float = 1e-8  # relative residual (to the force scale)
     max_iterations: int = 40
@@ -152,9 +153,27 @@ class ContactSolver:
         B = np.stack(rows)
         if self.bbar:
             vol = B[:, 0] + B[:, 1] + B[:, 2]  # (12, elements, points)
-            mean = np.sum(vol * self.dvolume, axis=2) / np.sum(self.dvolume, axis=1)
-            B = B + ((mean[:, :, None] - vol) / 3.0)[:, None] * _IDENTITY[None, :, None, None]
+            projected = self._project_volumetric(vol)
+            B = B + ((projected - vol) / 3.0)[:, None] * _IDENTITY[None, :, None, None]
         return np.ascontiguousarray(B)
+
+    def _project_volumetric(self, vol: np.ndarray) -> np.ndarray:
+        """r-weighted L2 projection of the volumetric strain per element (P0 or P1)."""
+        dv = self.dvolume
+        if self.volumetric_order == 0:
+            mean = np.sum(vol * dv, axis=2) / np.sum(dv, axis=1)
+            return np.broadcast_to(mean[:, :, None], vol.shape)
+        r, z = self.radius_qp, self.z_qp
+        rc = np.sum(r * dv, axis=1, keepdims=True) / np.sum(dv, axis=1, keepdims=True)
+        zc = np.sum(z * dv, axis=1, keepdims=True) / np.sum(dv, axis=1, keepdims=True)
+        size = np.sqrt(np.abs(np.max(r, axis=1, keepdims=True) - np.min(r, axis=1, keepdims=True))
+                       ** 2 + (np.max(z, axis=1, keepdims=True)
+                               - np.min(z, axis=1, keepdims=True)) ** 2)
+        psi = np.stack([np.ones_like(r), (r - rc) / size, (z - zc) / size])  # (3, e, q)
+        mass = np.einsum("meq,neq,eq->emn", psi, psi, dv)
+        rhs = np.einsum("meq,jeq,eq->ejm", psi, vol, dv)
+        coef = np.linalg.solve(mass[:, None], rhs[..., None])[..., 0]  # (e, j, m)
+        return np.einsum("ejm,meq->jeq", coef, psi)
 
     def _pattern(self) -> _Assembly:
         edofs = self.element_dofs
@@ -169,15 +188,20 @@ class ContactSolver:
         np.add.at(indptr, urows + 1, 1)
         return _Assembly(rows, cols, slot, np.cumsum(indptr), indices)
 
+    def sphere_facets(self) -> np.ndarray:
+        """Boundary facets on the spherical surface (both end vertices on the sphere)."""
+        radius = self.material.radius
+        facets = self.mesh.boundary_facets()
+        ends = self.mesh.p[:, self.mesh.facets[:, facets]]  # (2, 2, facets)
+        dist = np.hypot(ends[0], ends[1] - radius)
+        on = np.all(np.abs(dist - radius) < 1e-7 * radius, axis=0)
+        return facets[on & (np.max(ends[0], axis=0) > 0.0)]
+
     def _tributary_areas(self, cand_points: np.ndarray) -> np.ndarray:
         """Ring area carried by each contact node: integral of its z shape function * 2 pi r."""
         from skfem import ElementTriP2, FacetBasis, LinearForm
 
-        radius = self.material.radius
-        facets = self.mesh.boundary_facets()
-        mid = self.mesh.p[:, self.mesh.facets[:, facets]].mean(axis=1)
-        arc = facets[np.hypot(mid[0], mid[1] - radius) > 0.999 * radius]
-        fb = FacetBasis(self.mesh, ElementTriP2(), facets=arc, intorder=6)
+        fb = FacetBasis(self.mesh, ElementTriP2(), facets=self.sphere_facets(), intorder=6)
 
         @LinearForm
         def ring(v, w):
@@ -229,35 +253,52 @@ class ContactSolver:
     def solve_step(self, old: State, force: float, *, label: str = "") -> State:
         """Equilibrium at the target force from the converged state ``old``.
 
-        Raises ConvergenceError (the caller cuts the step back) if Newton does not converge.
+        Two stages: an elastic predictor (linear elastic increment from ``old``, iterating only
+        on the contact active set) gives a displacement and contact set close to the solution;
+        then Newton with the return mapping and its consistent tangent. Raises
+        ConvergenceError (the caller cuts the step back) if Newton does not converge.
         """
-        u = old.displacement.copy()
-        w = old.top_displacement
-        active = old.active.copy()
+        u, w, active, _ = self._iterate(old, force, old.displacement.copy(),
+                                        old.top_displacement, old.active.copy(), elastic=True,
+                                        label=label)
+        if not self.plastic:
+            u, w, active, result = self._iterate(old, force, u, w, active, elastic=True,
+                                                 label=label, final=True)
+        else:
+            u, w, active, result = self._iterate(old, force, u, w, active, elastic=False,
+                                                 label=label, final=True)
+        return result
+
+    def _iterate(self, old: State, force: float, u: np.ndarray, w: float, active: np.ndarray,
+                 *, elastic: bool, label: str, final: bool = False):
         z0 = self.candidate_z0
         cdofs = self.candidate_dofs
         scale = max(abs(force), 1e-3 * self.force_scale, 1e-30)
         tol = self.tolerance * scale
-        fixed_r = self.axis_dofs
         top = self.top_dofs
-        history = []
+        residual_norm = math.inf
         for iteration in range(1, self.max_iterations + 1):
             u[top] = -w
             strain = self.strain(u)
-            stress, eqps, status, tangent = self._constitutive(old, strain)
+            if elastic:
+                stress = old.stress + np.einsum("cd,deq->ceq", self.elastic_matrix,
+                                                strain - old.strain)
+                eqps, status, tangent = old.eqps, np.zeros_like(old.status), None
+            else:
+                stress, eqps, status, tangent = self._constitutive(old, strain)
             f_int = self.internal_force(stress)
             reaction = f_int[cdofs]  # contact force on each candidate node (>0 compressive)
             gaps = z0 + u[cdofs]
             # Active-set update (primal-dual, complementarity lambda - c g with g = 0 or
             # lambda = 0 on either side): keep compressive contacts, add penetrating nodes.
-            new_active = np.where(active, reaction > -tol * 1e-3, gaps < 0.0)
+            new_active = np.where(active, reaction > 0.0, gaps < 0.0)
             if not new_active.any():
                 new_active[np.argmin(gaps)] = True  # F >= 0: the lowest node stays touching
             changed = bool(np.any(new_active != active))
             active = new_active
 
             free_mask = np.ones(self.ndofs, dtype=bool)
-            free_mask[fixed_r] = False
+            free_mask[self.axis_dofs] = False
             free_mask[top] = False
             free_mask[cdofs[active]] = False
             free = np.nonzero(free_mask)[0]
@@ -266,19 +307,22 @@ class ContactSolver:
             prescribed = np.zeros(self.ndofs)
             prescribed[cdofs[active]] = -z0[active] - u[cdofs[active]]
             residual_norm = max(np.max(np.abs(r_free), initial=0.0), abs(r_top))
-            history.append(residual_norm)
             if (not changed and residual_norm <= tol and iteration > 1
                     and np.all(prescribed == 0.0)):
-                return self._finish(old, u, w, stress, strain, eqps, status, active, force,
-                                    f_int, iteration)
+                if not final:
+                    return u, w, active, None
+                return u, w, active, self._finish(old, u, w, stress, strain, eqps, status,
+                                                  active, force, iteration)
 
             K = self.stiffness(tangent)
             # Extended unknowns [u_free, w]: u_top = -w couples the top column.
-            k_ff = K[free][:, free]
-            k_ft = -np.asarray(K[free][:, top].sum(axis=1)).ravel()
-            k_tt = float(K[top][:, top].sum())
-            k_pre = K[free] @ prescribed
-            k_tpre = -float(np.sum(K[top] @ prescribed))
+            k_free = K[free]
+            k_ff = k_free[:, free]
+            k_ft = -np.asarray(k_free[:, top].sum(axis=1)).ravel()
+            k_top = K[top]
+            k_tt = float(k_top[:, top].sum())
+            k_pre = k_free @ prescribed
+            k_tpre = -float(np.sum(k_top @ prescribed))
             n = len(free)
             A = sp.bmat([[k_ff, sp.csr_matrix(k_ft[:, None])],
                          [sp.csr_matrix(k_ft[None, :]), sp.csr_matrix([[k_tt]])]],
@@ -290,12 +334,14 @@ class ContactSolver:
             u[free] += step[:n]
             u[cdofs[active]] = -z0[active]
             w += step[n]
+        if not final:  # the predictor only has to get close
+            return u, w, active, None
         raise ConvergenceError(
             f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
-            f"iterations (residual {history[-1]:.3g} N, tolerance {tol:.3g} N)"
+            f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
         )
 
-    def _finish(self, old, u, w, stress, strain, eqps, status, active, force, f_int,
+    def _finish(self, old, u, w, stress, strain, eqps, status, active, force,
                 iterations) -> State:
         # Plastic dissipation of the increment, trapezoidal in the stress:
         # 1/2 (sigma_n + sigma_n+1) : d(eps_p) keeps work = elastic energy + dissipation exact
@@ -305,7 +351,14 @@ class ContactSolver:
                                    * self.dvolume)
         if not self.plastic:
             dissipation = 0.0
-        work = 0.5 * (old.force + force) * (w - old.top_displacement)
+        if old.force == 0.0 or force == 0.0:
+            # A contact that closes from, or opens to, zero force follows a Hertz-like power
+            # law F ~ (w - w0)^(3/2) (virgin loading, reloading from the residual shape, last
+            # unloading step): its exact integral replaces the trapezoid, which would be off
+            # by 25 % over such a step.
+            work = max(old.force, force) * (w - old.top_displacement) / 2.5
+        else:
+            work = 0.5 * (old.force + force) * (w - old.top_displacement)
         return State(
             displacement=u.copy(), top_displacement=float(w), stress=stress, strain=strain,
             eqps=eqps, status=status, active=active, force=float(force),
@@ -326,7 +379,11 @@ class ContactSolver:
 
     def contact_pressure(self, state: State) -> tuple[np.ndarray, np.ndarray]:
         """(r, pressure) at the surface nodes: nodal force / tributary ring area."""
-        return self.candidate_r, self.contact_forces(state) / self.candidate_area
+        area = self.candidate_area
+        pressure = np.divide(self.contact_forces(state), area, out=np.zeros_like(area),
+                             where=area > 1e-12 * np.max(area))
+        pressure[area <= 1e-12 * np.max(area)] = pressure[1]  # the axis node has no ring area
+        return self.candidate_r, pressure
 
     def contact_radius(self, state: State) -> float:
         """Radius of the contact circle.
@@ -335,7 +392,9 @@ class ContactSolver:
         between the edge is placed where the gap of the next two open nodes, extrapolated with
         the Hertzian edge law g ~ (r - a)^(3/2), vanishes.
         """
-        active = state.active & (self.contact_forces(state) > 0.0)
+        # nodes carrying more than the equilibrium tolerance (at F = 0 none does)
+        threshold = 10.0 * self.tolerance * max(state.force, 1e-3 * self.force_scale)
+        active = state.active & (self.contact_forces(state) > threshold)
         if not active.any():
             return 0.0
         last = int(np.nonzero(active)[0][-1])
@@ -361,12 +420,8 @@ class ContactSolver:
         """
         key = "surface_points"
         if key not in self._cache:
-            radius = self.material.radius
-            facets = self.mesh.boundary_facets()
-            verts = self.mesh.facets[:, facets]
-            mid = self.mesh.p[:, verts].mean(axis=1)
-            on_arc = np.hypot(mid[0], mid[1] - radius) > 0.999 * radius
-            facets, mid = facets[on_arc], mid[:, on_arc]
+            facets = self.sphere_facets()
+            mid = self.mesh.p[:, self.mesh.facets[:, facets]].mean(axis=1)
             elements = self.mesh.f2t[0, facets]
             dist = np.hypot(self.radius_qp[elements] - mid[0][:, None],
                             self.z_qp[elements] - mid[1][:, None])
