@@ -12,7 +12,7 @@ import sys
 
 from ..errors import GeocontactError, InputError
 
-COMMANDS = ["presets"]
+COMMANDS = ["presets", "fem"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -506,6 +506,7 @@ def write_result(result: FemResult, out: Path, solver: ContactSolver,
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=out.name + ".tmp-"))
+    tmp.chmod(0o755)
     try:
         with open(tmp / "curve.csv", "w", newline="") as fh:
             writer = csv.writer(fh)
