@@ -39,7 +39,7 @@ CURVE_COLUMNS = (
     "elastic_energy_J", "work_J", "peak_pressure_Pa", "plastic_points", "iterations",
 )
 # Load steps per monotonic segment of the history, by mesh preset.
-STEPS_PER_SEGMENT = {"coarse": 12, "default": 16, "fine": 30}
+STEPS_PER_SEGMENT = {"coarse": 12, "default": 24, "fine": 40}
 MAX_CUTBACKS = 8
 # Treatment of the volumetric strain of the P2 element (B-bar projection per element).
 VOLUMETRIC = {"bbar-p1": (True, 1), "bbar-p0": (True, 0), "full": (False, 0)}
