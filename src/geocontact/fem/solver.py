@@ -148,7 +148,7 @@ class ContactSolver:
         rows = []
         for phi in basis.basis:
             f = phi[0]
-            rows.append(np.stack([f.grad[0, 0], f.grad[1, 1], f.value[0] / r,
+            rows.append(np.stack([f.grad[0, 0], f.grad[1, 1], np.asarray(f)[0] / r,
                                   f.grad[0, 1] + f.grad[1, 0]]))
         B = np.stack(rows)
         if self.bbar:
