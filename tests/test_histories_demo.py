@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from geocontact.errors import InputError
-from geocontact.histories import drive_by_force, load_history, preset_forces
+from geocontact.histories import drive_by_force, load_history, preset_history
 
 
 def test_presets_match_the_paper():
-    assert preset_forces("repeated", 3000) == [0.0] + [3000.0, 0.0] * 10
-    dec = preset_forces("mono-decreasing", 3000)[1::2]
+    assert preset_history("repeated", 3000) == [0.0] + [3000.0, 0.0] * 10
+    dec = preset_history("mono-decreasing", 3000)[1::2]
     np.testing.assert_allclose(dec, [3000, 2500, 2000, 1500, 1000, 500, 100])
-    inc = preset_forces("mono-increasing", 3000)[1::2]
+    inc = preset_history("mono-increasing", 3000)[1::2]
     assert inc[0] == pytest.approx(100) and inc[-1] == pytest.approx(3000) and len(inc) == 7
 
 

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .hertz import incipient_yield
-from .histories import drive_by_force, preset_forces
+from .histories import drive_by_force, preset_history
 from .io import provenance, write_json_atomic
 from .law import Contact
 from .law.illustrative import illustrative_params
@@ -141,7 +141,7 @@ def run_demo(out: str | Path, progress=print) -> Path:
         data = {}
         for ax, hist in zip(axes, ("repeated", "mono-decreasing", "mono-increasing"),
                             strict=True):
-            run = drive_by_force(p, preset_forces(hist, 3000.0), points=40)
+            run = drive_by_force(p, preset_history(hist, 3000.0), points=40)
             ax.plot(run.approach * 1e3, run.force, lw=1)
             ax.set_title(hist, fontsize=10)
             ax.set_xlabel("approach (mm)")

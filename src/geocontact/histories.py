@@ -1,4 +1,4 @@
-"""Load histories of the paper (SPEC section 8) and a force-controlled driver for the law.
+"""A force-controlled driver for the law (the paper's histories live in ``force_history``).
 
 The law is approach-driven (what DEM needs); the paper's experiments are force-controlled. The
 driver walks each monotone segment of a piecewise-linear force history in approach, finding the
@@ -9,71 +9,12 @@ monotone along any branch while the approach moves one way).
 from __future__ import annotations
 
 import copy
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .force_history import PRESETS, load_history, preset_history  # noqa: F401
 from .law import Contact, LawParams
-
-PRESETS = ("repeated", "mono-increasing", "mono-decreasing", "single")
-
-
-def preset_forces(name: str, peak_force: float = 3000.0) -> list[float]:
-    """The paper's histories (SPEC 8) as force targets, scaled to ``peak_force`` (N)."""
-    if name == "single":
-        levels = [peak_force]
-    elif name == "repeated":
-        levels = [peak_force] * 10
-    elif name == "mono-decreasing":
-        levels = [peak_force * f for f in (1.0, 2500 / 3000, 2000 / 3000, 1500 / 3000,
-                                           1000 / 3000, 500 / 3000, 100 / 3000)]
-    elif name == "mono-increasing":
-        levels = list(np.linspace(100.0 / 3000.0, 1.0, 7) * peak_force)
-    else:
-        raise InputError(f"history.preset: unknown {name!r} (allowed: {', '.join(PRESETS)})")
-    forces = [0.0]
-    for level in levels:
-        forces += [float(level), 0.0]
-    return forces
-
-
-def load_history(path: str | Path) -> list[float]:
-    """Force targets from ``H.toml`` (INTERFACES): ``forces = [...]`` or ``preset = "..."``."""
-    p = Path(path)
-    if not p.exists():
-        raise InputError(f"history: file not found: {path}")
-    try:
-        data = tomllib.loads(p.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"history: malformed TOML in {path}: {exc}") from None
-    h = data.get("history")
-    if not isinstance(h, dict):
-        raise InputError("history: missing [history] table")
-    unknown = set(h) - {"forces", "preset", "peak_force"}
-    if unknown:
-        raise InputError(f"history.{sorted(unknown)[0]}: unknown key "
-                         "(allowed: forces, preset, peak_force)")
-    if "forces" in h:
-        forces = h["forces"]
-        if not isinstance(forces, list) or len(forces) < 2:
-            raise InputError("history.forces: must be a list of at least two forces (N)")
-        out = []
-        for i, f in enumerate(forces):
-            if isinstance(f, bool) or not isinstance(f, (int, float)) or not np.isfinite(f):
-                raise InputError(f"history.forces[{i}]: must be a finite number, got {f!r}")
-            if f < 0:
-                raise InputError(f"history.forces[{i}]: must be >= 0 N (compression), got {f}")
-            out.append(float(f))
-        return out
-    if "preset" in h:
-        peak = h.get("peak_force", 3000.0)
-        if isinstance(peak, bool) or not isinstance(peak, (int, float)) or not peak > 0:
-            raise InputError(f"history.peak_force: must be > 0 N, got {peak!r}")
-        return preset_forces(str(h["preset"]), float(peak))
-    raise InputError("history: needs forces = [...] or preset = \"...\"")
 
 
 @dataclass

@@ -1,0 +1,81 @@
+"""Force histories (INTERFACES ``H.toml``; SPEC section 8): the paper's named histories and the
+file parser, shared by the FE engine and the law's force-controlled driver."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+
+PRESETS = ("repeated", "mono-increasing", "mono-decreasing")
+
+
+def preset_history(name: str, peak_force: float) -> list[float]:
+    """The paper's named histories as force waypoints starting and ending at 0."""
+    if not (isinstance(peak_force, (int, float)) and peak_force > 0):
+        raise InputError(f"history.peak_force: must be > 0 N, got {peak_force!r}")
+    if name == "repeated":  # 10 cycles 0 -> F -> 0
+        peaks = [peak_force] * 10
+    elif name == "mono-decreasing":  # 3000, 2500, ..., 500, 100 N for F = 3000 N
+        peaks = [peak_force * k / 6.0 for k in range(6, 0, -1)] + [peak_force / 30.0]
+    elif name == "mono-increasing":  # seven cycles rising from 100 to 3000 N for F = 3000 N
+        peaks = list(np.linspace(peak_force / 30.0, peak_force, 7))
+    else:
+        raise InputError(
+            f"history.preset: unknown name {name!r} "
+            "(allowed: repeated, mono-increasing, mono-decreasing)"
+        )
+    forces = [0.0]
+    for p in peaks:
+        forces += [float(p), 0.0]
+    return forces
+
+
+def history_from_dict(data: dict[str, Any]) -> list[float]:
+    h = data.get("history")
+    if not isinstance(h, dict):
+        raise InputError("history: missing [history] table")
+    unknown = set(h) - {"forces", "preset", "peak_force"}
+    if unknown:
+        raise InputError(f"history.{sorted(unknown)[0]}: unknown key "
+                         "(allowed: forces, preset, peak_force)")
+    if "forces" in h and "preset" in h:
+        raise InputError("history: give either forces or preset, not both")
+    if "preset" in h:
+        return preset_history(str(h["preset"]), h.get("peak_force", 3000.0))
+    if "forces" not in h:
+        raise InputError("history.forces: missing (or give preset = ...)")
+    return validate_forces(h["forces"])
+
+
+def validate_forces(forces) -> list[float]:
+    if not isinstance(forces, (list, tuple, np.ndarray)) or len(forces) < 2:
+        raise InputError("history.forces: need a list of at least 2 force values (N)")
+    out = []
+    for i, f in enumerate(forces):
+        if isinstance(f, bool) or not isinstance(f, (int, float, np.floating, np.integer)):
+            raise InputError(f"history.forces[{i}]: expected a number, got {f!r}")
+        if not math.isfinite(float(f)) or f < 0:
+            raise InputError(f"history.forces[{i}]: must be a finite force >= 0 N, got {f!r}")
+        out.append(float(f))
+    if max(out) <= 0:
+        raise InputError("history.forces: the largest force must be > 0 N")
+    if out[0] != 0.0:
+        out.insert(0, 0.0)
+    return out
+
+
+def load_history(path: str | Path) -> list[float]:
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"history: file not found: {path}")
+    try:
+        data = tomllib.loads(p.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"history: malformed TOML in {path}: {exc}") from None
+    return history_from_dict(data)

@@ -1,0 +1,96 @@
+"""``geocontact fem``: files of INTERFACES, errors, checkpoint / resume, atomic output."""
+
+import csv
+import json
+
+import meshio
+import numpy as np
+import pytest
+
+import geocontact.fem.run as fem_run
+from geocontact.cli import main
+from geocontact.errors import ConvergenceError
+from geocontact.fem.run import checkpoint_path, preset_history, run_history
+from geocontact.material import preset
+
+FORCES = [0.0, 60.0, 0.0]
+
+
+def _history(tmp_path, text="[history]\nforces = [0, 60, 0]\n"):
+    path = tmp_path / "h.toml"
+    path.write_text(text)
+    return path
+
+
+def test_cli_writes_curve_summary_and_fields(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["fem", "--material", "reference", "--history", str(_history(tmp_path)),
+                 "--mesh", "coarse", "--steps", "6", "--out", str(out), "--json"])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary == json.loads((out / "summary.json").read_text())
+    for key in ("first_yield_force_N", "first_yield_approach_m", "fully_plastic_force_N",
+                "cycles", "mesh", "wall_time_s", "version", "inputs"):
+        assert key in summary
+    assert set(summary["mesh"]) >= {"elements", "nodes"}
+    (cycle,) = summary["cycles"]
+    assert set(cycle) >= {"max_force_N", "max_approach_m", "residual_approach_m",
+                          "plastic_work_J"}
+    with open(out / "curve.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert set(rows[0]) >= {"step", "force_N", "approach_m", "contact_radius_m",
+                            "plastic_dissipation_J", "elastic_energy_J"}
+    assert float(rows[-1]["force_N"]) == 0.0
+    assert max(float(r["force_N"]) for r in rows) == 60.0
+    vtus = sorted((out / "fields").glob("*.vtu"))
+    assert len(vtus) == 2  # the peak and the end of the cycle
+    fields = meshio.read(vtus[0])
+    assert {"eqps", "yield_state", "mises"} <= set(fields.cell_data)
+    assert not list(tmp_path.glob("run.tmp-*")) and not checkpoint_path(out).exists()
+
+
+def test_cli_bad_input_is_one_line_error(tmp_path, capsys):
+    code = main(["fem", "--material", "reference", "--history",
+                 str(_history(tmp_path, "[history]\nforces = [0, -5]\n")),
+                 "--out", str(tmp_path / "x")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "history.forces[1]" in err
+    assert not (tmp_path / "x").exists()
+
+
+def test_preset_histories():
+    assert preset_history("repeated", 3000.0) == [0.0] + [3000.0, 0.0] * 10
+    dec = preset_history("mono-decreasing", 3000.0)[1::2]
+    assert dec == pytest.approx([3000, 2500, 2000, 1500, 1000, 500, 100])
+    inc = preset_history("mono-increasing", 3000.0)[1::2]
+    assert inc[0] == pytest.approx(100.0) and inc[-1] == 3000.0 and len(inc) == 7
+
+
+def test_interrupted_run_keeps_checkpoint_and_resumes(tmp_path, monkeypatch):
+    material = preset("reference")
+    out = tmp_path / "run"
+    full = run_history(material, FORCES, mesh="coarse", steps_per_segment=6,
+                       write_fields=False)
+    real_advance = fem_run._advance
+    calls = {"n": 0}
+
+    def failing_advance(solver, state, target, step):
+        calls["n"] += 1
+        if calls["n"] > 5:
+            raise ConvergenceError(f"step {step}: simulated failure at F = {target:.6g} N")
+        return real_advance(solver, state, target, step)
+
+    monkeypatch.setattr(fem_run, "_advance", failing_advance)
+    with pytest.raises(ConvergenceError, match="step 6"):
+        run_history(material, FORCES, mesh="coarse", steps_per_segment=6, out=out)
+    assert checkpoint_path(out).exists()
+    assert not out.exists()  # no half-written result directory
+    monkeypatch.setattr(fem_run, "_advance", real_advance)
+    resumed = run_history(material, FORCES, mesh="coarse", steps_per_segment=6, out=out,
+                          resume=True, write_fields=False)
+    for column in ("force_N", "approach_m", "plastic_dissipation_J"):
+        np.testing.assert_allclose(resumed.curve[column], full.curve[column], rtol=1e-9,
+                                   atol=1e-15)
+    assert resumed.summary["first_yield_force_N"] == pytest.approx(
+        full.summary["first_yield_force_N"])
+    assert (out / "summary.json").exists() and not checkpoint_path(out).exists()
