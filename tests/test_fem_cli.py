@@ -46,7 +46,9 @@ def test_cli_writes_curve_summary_and_fields(tmp_path, capsys):
     assert len(vtus) == 2  # the peak and the end of the cycle
     fields = meshio.read(vtus[0])
     assert {"eqps", "yield_state", "mises"} <= set(fields.cell_data)
-    assert not list(tmp_path.glob("run.tmp-*")) and not checkpoint_path(out).exists()
+    # nothing half-written or left over beside the result: only the history and the run
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h.toml", "run"]
+    assert not checkpoint_path(out).exists()
 
 
 def test_cli_bad_input_is_one_line_error(tmp_path, capsys):

@@ -8,8 +8,6 @@ work against plastic depth — and the paper's three force histories driven thro
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -17,7 +15,7 @@ import numpy as np
 
 from .hertz import incipient_yield
 from .histories import drive_by_force, preset_history
-from .io import provenance, write_json_atomic
+from .io import atomic_directory, provenance, write_json_atomic
 from .law import Contact
 from .law.illustrative import illustrative_params
 from .material import preset
@@ -72,8 +70,14 @@ def _seismic_section(report: Report, params, work: Path, progress) -> dict:
 
 
 def run_demo(out: str | Path, progress=print) -> Path:
+    """Write the demo's run directory atomically; returns the report's path."""
     out = Path(out)
-    work = Path(tempfile.mkdtemp(prefix=".demo-", dir=out.parent if out.parent.exists() else None))
+    with atomic_directory(out) as work:
+        _write_demo(work, out, progress)
+    return out / "report.html"
+
+
+def _write_demo(work: Path, out: Path, progress) -> None:
     summary: dict = {"cases": {}}
     report = Report(
         title="geocontact — reference case",
@@ -161,8 +165,3 @@ def run_demo(out: str | Path, progress=print) -> Path:
     summary["seismic"] = _seismic_section(report, params, work, progress)
     write_json_atomic(work / "summary.json", {**summary, "provenance": report.provenance})
     write_html(report, work)
-    if out.exists():
-        shutil.rmtree(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    work.rename(out)
-    return out / "report.html"

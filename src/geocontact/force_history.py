@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
+from .io import read_text_input
 
 PRESETS = ("repeated", "mono-increasing", "mono-decreasing")
 
@@ -71,11 +72,8 @@ def validate_forces(forces) -> list[float]:
 
 
 def load_history(path: str | Path) -> list[float]:
-    p = Path(path)
-    if not p.exists():
-        raise InputError(f"history: file not found: {path}")
     try:
-        data = tomllib.loads(p.read_text())
+        data = tomllib.loads(read_text_input(path, "history"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"history: malformed TOML in {path}: {exc}") from None
     return history_from_dict(data)

@@ -7,7 +7,10 @@ import json
 import math
 import os
 import platform
+import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -30,39 +33,82 @@ def provenance(command: str, inputs: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write via a temporary file in the same folder and rename: never a half-written file."""
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same suffix, so writers infer the format) that is
+    renamed onto ``path`` when the block succeeds and removed when it fails: a reader never
+    sees a half-written file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
+        yield Path(tmp)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone to read
         os.replace(tmp, path)
-    except BaseException:
+    finally:
         Path(tmp).unlink(missing_ok=True)
-        raise
 
 
-def _json_safe(value: Any) -> Any:
+@contextmanager
+def atomic_directory(path: str | Path) -> Iterator[Path]:
+    """A temporary folder beside ``path``, swapped into place when the block succeeds (an older
+    ``path`` is replaced) and removed when it fails: a result directory is never half-written."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.tmp-"))
+    tmp.chmod(0o755)
+    try:
+        yield tmp
+        old = None
+        if path.exists():
+            old = path.parent / f".{path.name}.old-{os.getpid()}"
+            os.replace(path, old)
+        os.replace(tmp, path)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+
+
+def json_safe(value: Any) -> Any:
+    """JSON-ready copy: numpy scalars and arrays to Python, NaN and inf to null."""
     if isinstance(value, (float, np.floating)):
         return float(value) if math.isfinite(value) else None
     if isinstance(value, np.integer):
         return int(value)
     if isinstance(value, np.ndarray):
-        return [_json_safe(v) for v in value.tolist()]
+        return [json_safe(v) for v in value.tolist()]
     if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
+        return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
+        return [json_safe(v) for v in value]
     return value
 
 
 def write_json_atomic(path: str | Path, document: dict[str, Any]) -> None:
-    write_text_atomic(path, json.dumps(_json_safe(document), indent=2) + "\n")
+    write_text_atomic(path, json.dumps(json_safe(document), indent=2) + "\n")
+
+
+def read_text_input(path: str | Path, what: str) -> str:
+    """The text of an input file; a missing file, a directory or non-UTF-8 bytes give a
+    one-line InputError naming ``what`` (the field the file was given for)."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{what}: file not found: {path}")
+    if path.is_dir():
+        raise InputError(f"{what}: {path} is a directory, expected a file")
+    try:
+        return path.read_text()
+    except UnicodeDecodeError:
+        raise InputError(f"{what}: {path} is not a UTF-8 text file") from None
 
 
 def read_csv_column(path: str | Path, column: str) -> np.ndarray:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import InputError
+from .io import read_text_input
 
 MATERIAL_KEYS = (
     "youngs_modulus",
@@ -184,11 +185,9 @@ def load_material(path: str | Path) -> Material:
             return preset(str(path))
         raise InputError(f"material: file not found: {path}")
     try:
-        data = tomllib.loads(p.read_text())
+        data = tomllib.loads(read_text_input(p, "material"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"material: malformed TOML in {path}: {exc}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"material: {path} is not a UTF-8 text file") from None
     return Material.from_dict(data, source=str(path))
 
 

@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .io import write_csv, write_text_atomic  # noqa: E402
+from .io import atomic_path, write_csv, write_text_atomic  # noqa: E402
 
 
 @dataclass
@@ -40,7 +40,8 @@ class Report:
 
 def save_figure(fig, directory: Path, figure: Figure) -> None:
     directory.mkdir(parents=True, exist_ok=True)
-    fig.savefig(directory / f"{figure.name}.png", dpi=110, bbox_inches="tight")
+    with atomic_path(directory / f"{figure.name}.png") as tmp:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight")
     plt.close(fig)
     if figure.data:
         write_csv(directory / f"{figure.name}.csv", figure.data)

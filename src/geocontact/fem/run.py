@@ -16,10 +16,7 @@ import csv
 import hashlib
 import json
 import math
-import os
-import shutil
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +32,7 @@ from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
     validate_forces,
 )
 from ..hertz import incipient_yield
+from ..io import atomic_directory, atomic_path, write_json_atomic
 from ..material import Material
 from .mesh import PRESETS, build_mesh, mesh_preset
 from .plasticity import APEX, ELASTIC
@@ -135,14 +133,8 @@ def _signature(material: Material, forces: list[float], mesh: str, steps: int) -
 
 
 def _atomic_savez(path: Path, **arrays) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp.npz")
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def checkpoint_path(out: str | Path) -> Path:
@@ -422,12 +414,8 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int) -> S
 # --- output files ------------------------------------------------------------------------------
 def write_result(result: FemResult, out: Path, solver: ContactSolver,
                  fields: dict[int, State]) -> None:
-    """Write the directory atomically: build DIR.tmp-xxx, then rename it into place."""
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=out.name + ".tmp-"))
-    tmp.chmod(0o755)
-    try:
+    """Write the run directory atomically (io.atomic_directory)."""
+    with atomic_directory(out) as tmp:
         with open(tmp / "curve.csv", "w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(CURVE_COLUMNS)
@@ -439,19 +427,7 @@ def write_result(result: FemResult, out: Path, solver: ContactSolver,
             (tmp / "fields").mkdir()
             for step, state in fields.items():
                 write_fields(solver, state, tmp / "fields" / f"step_{step:05d}.vtu")
-        from ..cli.common import _clean
-
-        (tmp / "summary.json").write_text(json.dumps(_clean(result.summary), indent=2) + "\n")
-        old = None
-        if out.exists():
-            old = out.parent / f"{out.name}.old-{os.getpid()}"
-            os.replace(out, old)
-        os.replace(tmp, out)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        write_json_atomic(tmp / "summary.json", result.summary)
 
 
 def write_fields(solver: ContactSolver, state: State, path: Path) -> None:

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import write_text_atomic
 from .params import LawParams, load_params
 from .reference import Contact
 
@@ -162,11 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     golden = generate(load_params(args.params), args.per_family, args.seed)
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
     # repr-exact floats (json writes the shortest round-tripping form)
-    tmp.write_text(json.dumps(golden, separators=(",", ":")) + "\n")
-    tmp.replace(out)
+    write_text_atomic(out, json.dumps(golden, separators=(",", ":")) + "\n")
     n_steps = sum(len(c["approaches"]) for c in golden["cases"])
     print(f"golden: {len(golden['cases'])} histories, {n_steps} steps -> {out}")
     return 0

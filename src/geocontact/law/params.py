@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..io import read_text_input, write_text_atomic
 from ..material import Material
 
 SCHEMA = "geocontact.law/1"
@@ -274,10 +275,7 @@ class LawParams:
 
     def save(self, path: str | Path) -> None:
         """Write atomically (temporary file, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
-        tmp.replace(path)
+        write_text_atomic(path, json.dumps(self.to_dict(), indent=2) + "\n")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], *, source: str = "parameters") -> LawParams:
@@ -337,17 +335,12 @@ class LawParams:
 
 def load_params(path: str | Path) -> LawParams:
     """Read and validate a ``geocontact.law/1`` parameter file."""
-    p = Path(path)
-    if not p.exists():
-        raise InputError(f"params: file not found: {path}")
     try:
-        data = json.loads(p.read_text())
+        data = json.loads(read_text_input(path, "params"))
     except json.JSONDecodeError as exc:
         raise InputError(
             f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}"
         ) from None
-    except UnicodeDecodeError:
-        raise InputError(f"params: {path} is not a UTF-8 text file") from None
     if not isinstance(data, dict):
         raise InputError(f"params: {path} must hold a JSON object")
     return LawParams.from_dict(data, source="params")

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.constants import g as STANDARD_GRAVITY
 
 from ..errors import InputError
+from ..io import read_text_input
 
 # Unit name -> factor to m/s^2. Aliases map to these canonical names.
 UNIT_FACTORS = {"g": STANDARD_GRAVITY, "m/s2": 1.0, "cm/s2": 0.01}
@@ -117,17 +118,6 @@ def _split_fortran(token: str, where: str) -> list[float]:
     return [_parse_number(p, where) for p in parts]
 
 
-def _read_text(path: Path, what: str) -> str:
-    if not path.exists():
-        raise InputError(f"{what}: file not found: {path}")
-    if path.is_dir():
-        raise InputError(f"{what}: {path} is a directory, expected a file")
-    try:
-        return path.read_text()
-    except UnicodeDecodeError:
-        raise InputError(f"{what}: {path} is not a text file") from None
-
-
 def read_at2(path: str | Path, unit: str | None = None) -> Record:
     """Read a PEER NGA ``.AT2`` acceleration file.
 
@@ -136,7 +126,7 @@ def read_at2(path: str | Path, unit: str | None = None) -> Record:
     header's unit; without either, the file is rejected.
     """
     path = Path(path)
-    text = _read_text(path, "record")
+    text = read_text_input(path, "record")
     lines = text.splitlines()
     if len(lines) < 4:
         raise InputError(
@@ -230,7 +220,7 @@ def read_table(path: str | Path, unit: str | None = None) -> Record:
     given. The time column must start anywhere but be uniformly spaced.
     """
     path = Path(path)
-    text = _read_text(path, "record")
+    text = read_text_input(path, "record")
     header: list[str] = []
     rows: list[tuple[float, float]] = []
     for lineno, raw in enumerate(text.splitlines(), start=1):
