@@ -76,6 +76,14 @@ def largest_contact_radius_estimate(material: Material, force: float) -> float:
     return 1.2 * max(hertz, plastic)
 
 
+def history_mesh(material: Material, max_force: float, mesh: str = "default"):
+    """The mesh of a history whose largest force is ``max_force``: it resolves every contact
+    radius from the yield contact radius to the largest one (``mesh.build_mesh``)."""
+    a_min = yield_contact_radius_estimate(material)
+    a_max = max(largest_contact_radius_estimate(material, max_force), 2.0 * a_min)
+    return build_mesh(material.radius, a_min, a_max, mesh)
+
+
 def _hertz_force(material: Material, contact_radius: float) -> float:
     return 4.0 * material.effective_modulus * contact_radius**3 / (3.0 * material.effective_radius)
 
@@ -281,9 +289,7 @@ def run_history(
     if saved is not None:
         fe_mesh = _skfem_mesh_from_arrays(saved["mesh_doflocs"], saved["mesh_t"])
     else:
-        a_min = yield_contact_radius_estimate(material)
-        a_max = max(largest_contact_radius_estimate(material, fmax), 2.0 * a_min)
-        fe_mesh = build_mesh(material.radius, a_min, a_max, mesh)
+        fe_mesh = history_mesh(material, fmax, mesh)
     if volumetric not in VOLUMETRIC:
         raise InputError(f"volumetric: unknown {volumetric!r} (allowed: {', '.join(VOLUMETRIC)})")
     bbar, order = VOLUMETRIC[volumetric]
@@ -467,6 +473,6 @@ def write_fields(solver: ContactSolver, state: State, path: Path) -> None:
 
 
 __all__ = [
-    "CURVE_COLUMNS", "FemResult", "PRESETS", "history_from_dict", "load_history",
+    "CURVE_COLUMNS", "FemResult", "PRESETS", "history_from_dict", "history_mesh", "load_history",
     "load_schedule", "preset_history", "run_history", "write_result",
 ]
