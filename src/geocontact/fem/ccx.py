@@ -98,12 +98,15 @@ def _lines(values, per_line: int = 8) -> list[str]:
 
 def write_deck(path: str | Path, material: Material, mesh: AxisymmetricMesh,
                interferences: list[float], increments: list[int], *,
-               penalty: float = PENALTY_DEFAULT) -> dict[str, Any]:
+               penalty: float = PENALTY_DEFAULT,
+               residual_tolerance: float | None = None) -> dict[str, Any]:
     """Write the CalculiX input deck; returns what it chose (penalty slope, node/element counts).
 
     ``interferences``: top-face displacement waypoints w >= 0 of the half model (m), one
     *STEP per waypoint, the first starting from w = 0; ``increments``: the largest number of
     increments per step (CalculiX may cut back, never coarsen beyond it).
+    ``residual_tolerance``: the largest residual / average nodal force accepted (CalculiX's
+    R_n, and R_p after 9 iterations; None keeps its defaults, 0.005 and 0.02).
     """
     if material.friction_angle_deg != 0.0:
         raise InputError("ccx: CalculiX's *PLASTIC is von Mises; need friction_angle_deg = 0, "
@@ -171,7 +174,12 @@ def write_deck(path: str | Path, material: Material, mesh: AxisymmetricMesh,
         lines += [
             "*STEP, INC=100000",
             "*STATIC",
-            f"{_num(dt)}, 1.0, {_num(dt * 1e-5)}, {_num(dt)}",
+            f"{_num(dt)}, 1.0, {_num(dt * 1e-3)}, {_num(dt)}",
+        ]
+        if residual_tolerance is not None:
+            tol = _num(residual_tolerance)
+            lines += ["*CONTROLS, PARAMETERS=FIELD", f"{tol}, , , , {tol}"]
+        lines += [
             "*BOUNDARY", f"TOP, 2, 2, {_num(-w)}",
             "*NODE PRINT, NSET=TOP, TOTALS=ONLY",
             "RF",
@@ -262,7 +270,8 @@ def ccx_executable() -> str | None:
 
 
 def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
-            increments: list[int], *, penalty: float = PENALTY_DEFAULT, threads: int = 1,
+            increments: list[int], *, penalty: float = PENALTY_DEFAULT,
+            residual_tolerance: float | None = None, threads: int = 1,
             workdir: str | Path | None = None) -> CcxResult:
     """Run CalculiX through the approach (ball-ball) waypoints ``approaches`` (loading and
     unloading steps); wall and CPU time are those of the ``ccx`` process alone."""
@@ -276,7 +285,7 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
     work.mkdir(parents=True, exist_ok=True)
     try:
         info = write_deck(work / "sphere.inp", material, mesh, interferences, increments,
-                          penalty=penalty)
+                          penalty=penalty, residual_tolerance=residual_tolerance)
         env = dict(os.environ, OMP_NUM_THREADS=str(threads),
                    CCX_NPROC_EQUATION_SOLVER=str(threads), CCX_NPROC_RESULTS=str(threads),
                    CCX_NPROC_STIFFNESS=str(threads))
@@ -313,6 +322,7 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
                         "penalty_slope_Pa_per_m": info["penalty_slope_Pa_per_m"],
                         "smallest_edge_m": info["smallest_edge_m"],
                         "slave_faces": info["contact_faces"]},
+            "residual_tolerance": residual_tolerance,
             "threads": threads,
             "ccx": exe,
         }
