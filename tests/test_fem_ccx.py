@@ -108,6 +108,9 @@ def test_ccx_elastic_contact_matches_hertz(mesh):
     checks the deck, the force scaling from CalculiX's 2 degree sector and the reader."""
     approach = float(hertz.hertz_approach(VON_MISES, 0.5 * hertz.incipient_yield(VON_MISES).force))
     result = run_ccx(VON_MISES, mesh, [approach], [3])
-    d, f = result.curve["approach_m"][1:], result.curve["force_N"][1:]
-    assert f == pytest.approx(hertz.hertz_force(VON_MISES, d), rel=0.02)
+    d, f = result.curve["approach_m"], result.curve["force_N"]
+    # at 0.5 Fy (contact radius resolved by the coarse mesh): 0.5 % under Hertz when written;
+    # the smaller contacts of the first increments are under-resolved (4 % low at 1/3)
+    assert f[-1] == pytest.approx(hertz.hertz_force(VON_MISES, d[-1]), rel=0.01)
+    assert np.all(np.diff(f) > 0)
     assert result.summary["cpu_time_s"] > 0 and result.summary["increments"] == 3
