@@ -42,6 +42,9 @@ def test_hardening_sweep_on_fe(tmp_path):
     assert on_disk["schema"] == "geocontact.sweeps/1"
     assert on_disk["provenance"]["inputs"]["peak_force_N"] == 60.0
     assert (tmp_path / "sw" / "curves_m.csv").read_text().startswith("approach_over_max@0")
+    assert main(["report", str(tmp_path / "sw")]) == 0
+    html = (tmp_path / "sw" / "report.html").read_text()
+    assert "Influence of material properties" in html and "sweep_m.csv" in html
 
 
 def test_bad_sweep_input(tmp_path, capsys):
