@@ -20,7 +20,7 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-illustrativ
 
 def main(argv: list[str]) -> int:
     quick = "--quick" in argv
-    names = [a for a in argv if not a.startswith("--")] or ["law", "lammps", "ccx"]
+    names = [a for a in argv if not a.startswith("--")] or ["law", "lammps", "fem", "ccx"]
     if "law" in names:
         import bench_law
 
@@ -29,6 +29,10 @@ def main(argv: list[str]) -> int:
         import bench_lammps
 
         bench_lammps.main(cells=8 if quick else 17, steps=50 if quick else 200)
+    if "fem" in names:
+        import bench_fem
+
+        bench_fem.main(mesh="coarse" if quick else "default")
     if "ccx" in names:
         import bench_ccx
 
