@@ -1,7 +1,7 @@
 """``make bench``: every benchmark, each against a peer measured in the same run.
 
 Writes out/bench/*.json and the results table of docs/benchmarks.md.
-Usage: python benchmarks/run.py [law] [lammps] [ccx] [--quick]
+Usage: python benchmarks/run.py [law] [lammps] [fem] [ccx] [--quick]
 """
 
 from __future__ import annotations
