@@ -9,9 +9,13 @@ fully plastic onset Fp (geocontact.fem.run.fully_plastic_onset) and the wall tim
 relative difference of each mesh from the fine one. Fp is also evaluated for other sizes of the
 contact core over which the yielded fraction is measured (the criterion's sensitivity).
 
-    PYTHONPATH=src .venv/bin/python scripts/verify_mesh_convergence.py     # about 5-10 min
+    PYTHONPATH=src .venv/bin/python scripts/verify_mesh_convergence.py     # about 10 min
+    ... verify_mesh_convergence.py --steps preset --tag _preset_steps   # each mesh's own steps
 
-Writes docs/verification/mesh_convergence.{csv,md,json} and fp_fractions.csv.
+The same number of load steps on every mesh (default 24 per segment) isolates the mesh; with
+``--steps preset`` each mesh runs its own preset (what ``geocontact fem --mesh M`` does), which
+mixes in the load-step dependence. Writes docs/verification/mesh_convergence{TAG}.{csv,md,json}
+and fp_fractions{TAG}.csv.
 """
 
 from __future__ import annotations
@@ -39,9 +43,10 @@ APPROACH_FRACTIONS = (0.25, 0.5, 1.0)
 CORE_EXTENTS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 
 
-def _run(material, mesh: str) -> dict:
+def _run(material, mesh: str, steps: int | None) -> dict:
     started = time.perf_counter()
-    result = run_history(material, FORCES, mesh=mesh, write_fields=False, keep_states=True)
+    result = run_history(material, FORCES, mesh=mesh, write_fields=False, keep_states=True,
+                         steps_per_segment=steps)
     wall = time.perf_counter() - started
     c, s, solver = result.curve, result.summary, result.solver
     (cycle,) = s["cycles"]
@@ -53,7 +58,8 @@ def _run(material, mesh: str) -> dict:
               for e, f in fractions.items()}
     return {
         "mesh": mesh, "elements": s["mesh"]["elements"], "nodes": s["mesh"]["nodes"],
-        "steps": s["steps"], "steps_per_segment": STEPS_PER_SEGMENT[mesh], "wall_time_s": wall,
+        "steps": s["steps"], "steps_per_segment": s["inputs"]["steps_per_segment"],
+        "wall_time_s": wall,
         "loading_force_N": c["force_N"][loading], "loading_approach_m": c["approach_m"][loading],
         "max_approach_m": cycle["max_approach_m"],
         "residual_approach_m": cycle["residual_approach_m"],
@@ -76,10 +82,15 @@ def _force_at(run: dict, approach: float) -> float:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=MESHES)
+    parser.add_argument("--steps", default="24",
+                        help="load steps per segment for every mesh (default 24, the default "
+                        "mesh's), or 'preset' for each mesh's own (coarse 12, default 24, fine 40)")
+    parser.add_argument("--tag", default="", help="suffix of the output file names")
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args(argv)
+    steps = None if args.steps == "preset" else int(args.steps)
     material = preset("reference")
-    runs = [_run(material, m) for m in args.meshes]
+    runs = [_run(material, m, steps) for m in args.meshes]
     reference_approach = min(r["max_approach_m"] for r in runs)
 
     quantities = [(f"force at {int(100 * q)} % approach (N)", lambda r, q=q:
@@ -101,8 +112,8 @@ def main(argv=None) -> int:
             (v[i] / v[last] - 1.0) if v[i] is not None and v[last] else None
             for v in table.values()]
     args.out.mkdir(parents=True, exist_ok=True)
-    write_csv(args.out / "mesh_convergence.csv", {k: [("" if x is None else x) for x in v]
-                                                  for k, v in columns.items()})
+    write_csv(args.out / f"mesh_convergence{args.tag}.csv",
+              {k: [("" if x is None else x) for x in v] for k, v in columns.items()})
     long = {"mesh": [], "step": [], "force_N": [], "approach_m": []}
     long.update({f"yielded_fraction_core_{e}": [] for e in CORE_EXTENTS})
     for r in runs:
@@ -113,11 +124,11 @@ def main(argv=None) -> int:
         long["approach_m"] += list(r["loading_approach_m"])
         for e in CORE_EXTENTS:
             long[f"yielded_fraction_core_{e}"] += list(r["fractions"][e])
-    write_csv(args.out / "fp_fractions.csv", long)
+    write_csv(args.out / f"fp_fractions{args.tag}.csv", long)
     record = {
         **provenance("scripts/verify_mesh_convergence.py", {
             "material": material.to_dict(), "forces_N": FORCES, "meshes": args.meshes,
-            "steps_per_segment": {m: STEPS_PER_SEGMENT[m] for m in args.meshes},
+            "steps_per_segment": {m: steps or STEPS_PER_SEGMENT[m] for m in args.meshes},
             "reference_approach_m": reference_approach,
             "fully_plastic_criterion": {"fraction": FULLY_PLASTIC_FRACTION,
                                         "core": FULLY_PLASTIC_CORE}}),
@@ -126,14 +137,14 @@ def main(argv=None) -> int:
                                                           "loading_approach_m", "fractions")}
                  for r in runs],
     }
-    write_json_atomic(args.out / "mesh_convergence.json", record)
-    text = _markdown(record, runs)
-    write_text_atomic(args.out / "mesh_convergence.md", text)
+    write_json_atomic(args.out / f"mesh_convergence{args.tag}.json", record)
+    text = _markdown(record, runs, args.tag)
+    write_text_atomic(args.out / f"mesh_convergence{args.tag}.md", text)
     print(text)
     return 0
 
 
-def _markdown(record: dict, runs: list[dict]) -> str:
+def _markdown(record: dict, runs: list[dict], tag: str) -> str:
     names = [r["mesh"] for r in runs]
     last = names[-1]
     head = "| quantity | " + " | ".join(names) + " | " + " | ".join(
@@ -141,9 +152,12 @@ def _markdown(record: dict, runs: list[dict]) -> str:
     lines = [
         "# Mesh convergence on the reference cycle (0 -> 6000 N -> 0)",
         "",
+        "Load steps per segment: " + ", ".join(f"{r['mesh']} {r['steps_per_segment']}"
+                                               for r in runs) + ".",
+        "",
         f"Made by `{record['command']}` (geocontact {record['geocontact_version']}, "
-        f"{record['created_utc']}); inputs and raw numbers in mesh_convergence.json, the "
-        "yielded fractions per step in fp_fractions.csv. Fixed approaches are fractions of "
+        f"{record['created_utc']}); inputs and raw numbers in mesh_convergence{tag}.json, the "
+        f"yielded fractions per step in fp_fractions{tag}.csv. Fixed approaches are fractions of "
         f"{record['inputs']['reference_approach_m']:.5e} m (the smallest peak approach of the "
         "runs). Fp: yielded fraction of the contact core r < "
         f"{record['inputs']['fully_plastic_criterion']['core']} a reaching "

@@ -145,7 +145,8 @@ def _figure(path, w, fe, material, jg, ke, analytic, summary) -> None:
     from geocontact.io import atomic_path
 
     grid = np.geomspace(0.1, LARGEST * 1.1, 300)
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    fig, (ax, dev) = plt.subplots(2, 1, figsize=(6.4, 6.4), sharex=True,
+                                  gridspec_kw={"height_ratios": [2.2, 1]})
     ax.loglog(w[w > 0], fe[w > 0], "o", ms=3.5, color="k", label="geocontact FE (this run)")
     ax.loglog(grid, fits.jackson_green_load(material, grid), "-", color="tab:blue",
               label="Jackson & Green (2005)")
@@ -156,12 +157,22 @@ def _figure(path, w, fe, material, jg, ke, analytic, summary) -> None:
     wy = analytic.approach / 2.0 / jg.interference
     ax.loglog([wy], [analytic.force / jg.force], "s", mfc="none", color="tab:green", ms=8,
               label="analytic first yield (geocontact.hertz)")
-    ax.set_xlim(0.1, LARGEST * 1.1)
-    ax.set_xlabel(r"$\omega/\omega_c$ (JG normalisation)")
     ax.set_ylabel(r"$P/P_c$")
     ax.set_title(r"von Mises sphere on a rigid flat, $E/\sigma_c$ = 1000, $\nu$ = 0.3")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="upper left", fontsize=8)
+    shown = w >= 1.0
+    ke_w = fits.kogut_etsion_load(w * jg.interference / ke.interference) * ke.force / jg.force
+    dev.semilogx(w[shown], 100 * (fe[shown] / fits.jackson_green_load(material, w[shown]) - 1),
+                 "o-", ms=3, color="tab:blue", label="FE vs JG")
+    dev.semilogx(w[shown], 100 * (fe[shown] / ke_w[shown] - 1), "s-", ms=3, color="tab:red",
+                 label="FE vs KE")
+    dev.axhline(0.0, color="0.5", lw=0.8)
+    dev.set_xlim(0.1, LARGEST * 1.1)
+    dev.set_xlabel(r"$\omega/\omega_c$ (JG normalisation)")
+    dev.set_ylabel("FE / fit - 1 (%)")
+    dev.grid(True, which="both", alpha=0.3)
+    dev.legend(fontsize=8)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, bbox_inches="tight")
     plt.close(fig)
