@@ -86,8 +86,10 @@ struct LawParams {
   double reloading_power = 0.0;               // p_r
   double residual_limit = 0.0;                // rho_inf
   double residual_power = 1.0;                // s
+  double residual_transition = 1.0;           // x0 (1: the original rho_inf (1 - x^-s))
   double plastic_work_limit = 0.0;
   double plastic_work_power = 1.0;
+  double plastic_work_transition = 1.0;
   CyclicLaw cyclic;
   std::string label;
 
@@ -117,10 +119,16 @@ struct LawParams {
     const double x = std::max(depth, 1.0);
     return std::min(kHertzExponent * std::pow(x, reloading_power), unloading_exponent(x));
   }
-  // 1 - x^-s written with expm1: accurate just above yield, where it is tiny
+  // log of (1 + (x - 1)/x0), the residual form's depth variable; exactly log x when x0 = 1
+  double residual_log_depth(double depth) const
+  {
+    const double x = std::max(depth, 1.0);
+    return residual_transition == 1.0 ? std::log(x) : std::log1p((x - 1.0) / residual_transition);
+  }
+  // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield
   double residual_ratio(double depth) const
   {
-    return -residual_limit * std::expm1(-residual_power * std::log(std::max(depth, 1.0)));
+    return -residual_limit * std::expm1(-residual_power * residual_log_depth(depth));
   }
 
   // Virgin loading curve, three regimes, continuous at delta_y and delta_p.
@@ -286,7 +294,8 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
       dmax = target;
       force = fmax;
       const double lx = std::log(std::max(target / dy, 1.0));
-      dres = -p.residual_limit * std::expm1(-p.residual_power * lx) * target;
+      const double lr = p.residual_transition == 1.0 ? lx : p.residual_log_depth(target / dy);
+      dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * target;
       nu = kHertzExponent * std::exp(p.unloading_power * lx);
       nr = std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
       cycles = 1.0;

@@ -124,14 +124,14 @@ inline CyclicLaw parse_cyclic(const json::Value *c)
 }  // namespace detail
 
 // Reject parameter sets whose full-cycle plastic work is negative or shrinks with depth on
-// x in [1, 1e4] (2001 geometric points, as params.py): such a law would create energy.
+// x in [1, 1e7] (3001 geometric points, as params.py): such a law would create energy.
 inline void check_energy(const LawParams &p)
 {
-  const int n = 2001;
+  const int n = 3001;
   const double scale = p.yield_force * p.yield_approach;
   double previous = 0.0;
   for (int k = 0; k < n; ++k) {
-    const double x = std::pow(10.0, 4.0 * k / (n - 1));
+    const double x = std::pow(10.0, 7.0 * k / (n - 1));
     const double wp = p.envelope_plastic_work(x * p.yield_approach) / scale;
     if (k == 0) previous = wp;
     if (wp < -1e-9 || wp - previous < -1e-9) {
@@ -186,13 +186,18 @@ inline LawParams params_from_json(const json::Value &doc)
   detail::check_keys(rd, "reloading", {"exponent_power"});
   p.reloading_power = number(rd, "reloading", "exponent_power", -1.0, 1.0);
   const json::Value &sd = detail::object_at(doc, "residual_approach", "residual_approach");
-  detail::check_keys(sd, "residual_approach", {"limit", "power"});
+  detail::check_keys(sd, "residual_approach", {"limit", "power", "transition_depth"});
   p.residual_limit = number(sd, "residual_approach", "limit", 0.0, 1.0, false, true);
   p.residual_power = number(sd, "residual_approach", "power", 0.0, 10.0, true);
+  if (sd.find("transition_depth"))
+    p.residual_transition = number(sd, "residual_approach", "transition_depth", 0.0, 1e6, true);
   if (const json::Value *pw = doc.find("plastic_work")) {
-    detail::check_keys(*pw, "plastic_work", {"limit", "power"});
+    detail::check_keys(*pw, "plastic_work", {"limit", "power", "transition_depth"});
     p.plastic_work_limit = number(*pw, "plastic_work", "limit", 0.0, 1.0);
     p.plastic_work_power = number(*pw, "plastic_work", "power", 0.0, 10.0, true);
+    if (pw->find("transition_depth"))
+      p.plastic_work_transition =
+          number(*pw, "plastic_work", "transition_depth", 0.0, 1e6, true);
   }
   p.cyclic = detail::parse_cyclic(doc.find("cyclic"));
   if (const json::Value *label = doc.find("label"))
