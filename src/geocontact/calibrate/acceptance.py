@@ -170,6 +170,11 @@ def acceptance_table(comparisons: list[Comparison]) -> dict[str, Any]:
     }
 
 
+def _columns(c: Comparison) -> dict[str, np.ndarray]:
+    return {"approach_m": c.approach, "fe_force_N": c.fe_force, "law_force_N": c.law_force,
+            "law_residual_approach_m": c.law_residual}
+
+
 def write_comparison_data(comparisons: list[Comparison], directory: str | Path) -> list[Path]:
     """One CSV per run: approach, FE force, law force, law residual approach."""
     from ..io import write_csv
@@ -178,9 +183,7 @@ def write_comparison_data(comparisons: list[Comparison], directory: str | Path) 
     paths = []
     for c in comparisons:
         path = directory / f"{c.name}.csv"
-        write_csv(path, {"approach_m": c.approach, "fe_force_N": c.fe_force,
-                         "law_force_N": c.law_force,
-                         "law_residual_approach_m": c.law_residual})
+        write_csv(path, _columns(c))
         paths.append(path)
     return paths
 
@@ -210,8 +213,7 @@ def draw_comparison_figures(comparisons: list[Comparison], directory: str | Path
             caption=f"{c.description or c.kind}; force history "
                     f"{', '.join(f'{f:.4g}' for f in c.forces)} N. The law is driven along the "
                     "FE approach path.",
-            data={"approach_m": c.approach, "fe_force_N": c.fe_force,
-                  "law_force_N": c.law_force},
+            data=_columns(c),
         )
         save_figure(fig, directory, figure)
         figures.append(figure)
