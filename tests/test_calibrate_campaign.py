@@ -184,11 +184,17 @@ def test_kernel_and_reference_agree_with_a_transition_depth():
 
 
 # --- the shipped calibrated files ---------------------------------------------------------
-@pytest.mark.parametrize("name, material", [("params-reference.json", "reference"),
-                                            ("params-reference-weak.json", "reference-weak")])
-def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material):
+# Force tolerance (% of peak) on a fresh coarse FE cycle: sigma_c = 10 MPa meets the 5 % goal;
+# sigma_c = 1 MPa does not (docs/calibration.md: 3.7-7 % on its default-mesh held-out runs, and
+# the coarse mesh differs from default by several % at these depths), so its bound is what the
+# docs claim, not the goal.
+@pytest.mark.parametrize("name, material, tolerance", [
+    ("params-reference.json", "reference", 5.0),
+    ("params-reference-weak.json", "reference-weak", 12.0),
+])
+def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material, tolerance):
     """The shipped file is an FE calibration of its material, and the law driven with it follows
-    a coarse FE cycle it never saw (another mesh, another peak) within a few % of the peak."""
+    a coarse FE cycle it never saw (another mesh, another peak) within its documented accuracy."""
     params = load_params(EXAMPLES / name)
     doc = json.loads((EXAMPLES / name).read_text())
     assert doc["provenance"]["source"].startswith("FE calibration")
@@ -200,5 +206,5 @@ def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material):
     job = FemJob(params.material, (0.0, peak, 0.0), mesh="coarse", steps_per_segment=8)
     (result,) = run_campaign([job], tmp_path, progress=False)
     comparison = compare(params, job, result, name="check", kind="held-out")
-    assert comparison.force_rms_percent < 8.0
+    assert comparison.force_rms_percent < tolerance
     assert comparison.residual_error_percent < 10.0
