@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench examples clean plugin test-plugin ccx
+.PHONY: demo test lint bench examples calibrate-examples clean plugin test-plugin ccx
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -55,6 +55,16 @@ bench: $(STAMP) plugin ccx
 examples: $(STAMP)
 	$(PY) -m geocontact.law.illustrative --material reference --out examples/params-illustrative.json
 	$(PY) -m geocontact.law.illustrative --material reference-weak --out examples/params-illustrative-weak.json
+
+# FE calibrations shipped in examples/ (docs/calibration.md): the FE campaign (7 load-unload-reload
+# levels from 2 Fy to 6000 N) + fit + held-out acceptance runs, for sigma_c = 10 MPa and 1 MPa.
+# FE results are cached in out/cache/fem (a rerun only refits); CALIBRATE_MESH=coarse is ~4x faster.
+CALIBRATE_MESH ?= default
+calibrate-examples: $(STAMP)
+	$(VENV)/bin/geocontact calibrate --material reference --mesh $(CALIBRATE_MESH) --acceptance \
+	  --out examples/params-reference.json
+	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh $(CALIBRATE_MESH) --acceptance \
+	  --out examples/params-reference-weak.json
 
 clean:
 	rm -rf $(VENV) build out .pytest_cache .ruff_cache

@@ -15,7 +15,7 @@ from common import write_table  # noqa: E402
 
 from geocontact.law import load_params  # noqa: E402
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-illustrative.json"
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-reference.json"
 
 
 def main(argv: list[str]) -> int:

@@ -11,11 +11,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import curve_fit
+from scipy.optimize import least_squares
 
 from ..errors import InputError
-from ..law.params import HERTZ_EXPONENT, LawParams
+from ..law.params import HERTZ_EXPONENT, LawParams, saturating_ratio
 from ..material import Material
+
+# Upper bound of a saturating ratio's limit (the JSON allows [0, 1)).
+MAX_LIMIT = 1.0 - 1e-9
 
 
 @dataclass
@@ -53,7 +56,9 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient):
     """n1, delta_p/delta_y, n2 of the three-regime virgin curve (continuous at dy and dp).
 
     For each candidate delta_p on a log grid, n1 and n2 are linear least-squares problems in
-    log space (anchored at the yield point and at delta_p); the best delta_p wins."""
+    log space (anchored at the yield point and at delta_p); the best delta_p wins. Points are
+    weighted by their share of log(delta) (trapezoid), so every decade of depth counts the same
+    however the FE placed its load steps (they crowd near yield)."""
     d = np.asarray(approach, dtype=float)
     f = np.asarray(force, dtype=float)
     dy = yield_approach
@@ -61,22 +66,35 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient):
     use = (d > 1.05 * dy) & (f > 0)
     if use.sum() < 5:
         raise InputError("calibration: the loading curve needs >= 5 points beyond yield")
-    x, y = np.log(d[use] / dy), np.log(f[use] / fy)
+    order = np.argsort(d[use])
+    x, y = np.log(d[use][order] / dy), np.log(f[use][order] / fy)
+    w = _trapezoid_weights(x)
     best = None
-    for ratio in np.geomspace(1.5, max(2.0, 0.95 * np.exp(x.max())), 120):
+    for ratio in np.geomspace(1.5, max(2.0, 0.95 * np.exp(x.max())), 240):
         lp = np.log(ratio)
         a, b = x <= lp, x > lp
-        n1 = float(np.dot(x[a], y[a]) / np.dot(x[a], x[a])) if a.sum() >= 2 else 1.5
+        wa, wb = w[a], w[b]
+        n1 = (float(np.dot(wa * x[a], y[a]) / np.dot(wa * x[a], x[a])) if a.sum() >= 2
+              else 1.5)
         yp = n1 * lp
-        n2 = (float(np.dot(x[b] - lp, y[b] - yp) / np.dot(x[b] - lp, x[b] - lp))
+        n2 = (float(np.dot(wb * (x[b] - lp), y[b] - yp) / np.dot(wb * (x[b] - lp), x[b] - lp))
               if b.sum() >= 2 else n1)
         model = np.where(a, n1 * x, yp + n2 * (x - lp))
-        err = float(np.sqrt(np.mean((np.exp(model) - np.exp(y)) ** 2 / np.exp(2 * y))))
+        err = float(np.sqrt(np.sum(w * np.expm1(model - y) ** 2) / np.sum(w)))
         if best is None or err < best[0]:
             best = (err, n1, ratio, n2)
     err, n1, ratio, n2 = best
     return {"elastic_plastic_exponent": n1, "fully_plastic_approach_ratio": float(ratio),
             "fully_plastic_exponent": n2, "rms_relative_error": err}
+
+
+def _trapezoid_weights(x: np.ndarray) -> np.ndarray:
+    """Weight of each point of an increasing coordinate: half the gaps on either side."""
+    gap = np.diff(x)
+    w = np.zeros_like(x)
+    w[:-1] += 0.5 * gap
+    w[1:] += 0.5 * gap
+    return w if np.any(w > 0) else np.ones_like(x)
 
 
 def _power_of_depth(depth, exponents):
@@ -89,18 +107,41 @@ def _power_of_depth(depth, exponents):
 
 
 def _saturating(depth, values, what):
-    """limit, power of values = limit (1 - x^-power)."""
+    """limit, power, transition of values = limit (1 - (1 + (x - 1)/transition)^-power).
 
-    def form(x, limit, power):
-        return limit * (1.0 - x ** (-power))
+    Least squares on log(1 - values): the relative error of the complement (for the residual
+    approach, the elastic recovery dmax - dres, which sets where the unloading curve lies in a
+    DEM contact driven by approach; at depth the recovery is a few % of dmax and an absolute fit
+    of the ratio would misplace it by tens of %). Started from a grid over the transition depth;
+    with fewer than 4 levels the transition is fixed at 1 (the original two-parameter form)."""
+    depth = np.asarray(depth, dtype=float)
+    values = np.asarray(values, dtype=float)
+    if np.any(values >= 1.0) or np.any(values < 0.0):
+        raise InputError(f"calibration: {what} ratios must lie in [0, 1)")
+    target = np.log1p(-values)
 
-    try:
-        (limit, power), _ = curve_fit(form, depth, values, p0=(0.8, 0.3),
-                                      bounds=([0.0, 1e-3], [0.999, 10.0]))
-    except RuntimeError:
-        raise InputError(f"calibration: the {what} fit did not converge") from None
-    rms = float(np.sqrt(np.mean((form(depth, limit, power) - values) ** 2)))
-    return float(limit), float(power), rms
+    def residual(theta):
+        limit, power, log_transition = theta
+        model = saturating_ratio(depth, limit, power, float(np.exp(log_transition)))
+        return np.log1p(-np.minimum(model, 1.0 - 1e-15)) - target
+
+    free_transition = depth.size >= 4
+    best = None
+    for log_transition in (np.log(np.geomspace(1.0, 1e3, 10)) if free_transition else [0.0]):
+        lo = [0.0, 1e-3, log_transition - 1e-9 if not free_transition else -1e-9]
+        hi = [MAX_LIMIT, 10.0, log_transition + 1e-9 if not free_transition else np.log(1e6)]
+        start = np.clip([min(values.max() * 1.2, 0.99), 0.3, log_transition], lo, hi)
+        fit = least_squares(residual, start, bounds=(lo, hi), x_scale=[0.1, 0.1, 1.0])
+        if best is None or fit.cost < best.cost:
+            best = fit
+    if best is None or not best.success:
+        raise InputError(f"calibration: the {what} fit did not converge")
+    limit, power, log_transition = (float(v) for v in best.x)
+    transition = float(np.exp(log_transition)) if free_transition else 1.0
+    model = saturating_ratio(depth, limit, power, transition)
+    rms = float(np.sqrt(np.mean((model - values) ** 2)))
+    complement = float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))
+    return limit, power, transition, rms, complement
 
 
 def fit_law(material: Material, yield_approach: float, loading_approach, loading_force,
@@ -126,9 +167,9 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     p_u, rms_nu = _power_of_depth(depth, np.array(n_u))
     p_r, rms_nr = _power_of_depth(depth, np.array(n_r))
     residual = np.array([lv.residual_approach / lv.max_approach for lv in levels])
-    rho, s, rms_res = _saturating(depth, residual, "residual approach")
+    rho, s, x0, rms_res, rms_recovery = _saturating(depth, residual, "residual approach")
     work = np.array([lv.plastic_work / lv.total_work for lv in levels])
-    w_lim, w_pow, rms_w = _saturating(depth, work, "plastic work")
+    w_lim, w_pow, w_x0, rms_w, _ = _saturating(depth, work, "plastic work")
     fit_errors = {
         "loading_rms_relative": loading.pop("rms_relative_error"),
         "unloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_u)))),
@@ -136,6 +177,7 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         "unloading_exponent_rms": rms_nu,
         "reloading_exponent_rms": rms_nr,
         "residual_ratio_rms": rms_res,
+        "elastic_recovery_rms_relative": rms_recovery,
         "plastic_work_ratio_rms": rms_w,
         "per_level": [{"depth": float(x), "unloading_exponent": a, "reloading_exponent": b,
                        "residual_ratio": float(r), "plastic_work_ratio": float(w)}
@@ -148,8 +190,10 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         reloading_power=p_r,
         residual_limit=rho,
         residual_power=s,
+        residual_transition=x0,
         plastic_work_limit=w_lim,
         plastic_work_power=w_pow,
+        plastic_work_transition=w_x0,
         fit_errors=fit_errors,
         provenance=dict(provenance or {}),
         label="calibrated",

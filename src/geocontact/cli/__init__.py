@@ -12,7 +12,8 @@ import sys
 
 from ..errors import GeocontactError, InputError
 
-COMMANDS = ["demo", "yield_", "law", "fem", "sweep", "seismic", "report", "presets"]
+COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "sweep", "seismic", "report",
+            "presets"]
 
 
 def build_parser() -> argparse.ArgumentParser:

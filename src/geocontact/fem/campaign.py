@@ -13,6 +13,7 @@ interrupted half-way resumes from its FE checkpoint.
 from __future__ import annotations
 
 import csv
+import functools
 import hashlib
 import json
 import os
@@ -50,7 +51,7 @@ class FemJob:
 
         return {"material": self.material.to_dict(), "forces_N": list(self.forces),
                 "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
-                "version": __version__}
+                "version": __version__, "fe_code": fe_code_hash()}
 
     def key(self) -> str:
         """Hash of everything that decides the result (inputs and code version)."""
@@ -59,6 +60,23 @@ class FemJob:
 
     def name(self) -> str:
         return self.label or f"Fmax={max(self.forces):g}N"
+
+
+# The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
+# detector, a solver fix) invalidates cached results even when the version string is unchanged.
+_FE_SOURCES = ("fem/mesh.py", "fem/plasticity.py", "fem/run.py", "fem/solver.py",
+               "force_history.py", "hertz.py", "material.py")
+
+
+@functools.cache
+def fe_code_hash() -> str:
+    """Hash of the FE engine's source files (part of every cache key)."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    for name in _FE_SOURCES:
+        digest.update(name.encode())
+        digest.update((root / name).read_bytes())
+    return digest.hexdigest()[:16]
 
 
 def load_result(directory: str | Path) -> FemResult:

@@ -20,8 +20,8 @@ from .reference import APART, RATCHET, RELOADING, UNLOADING, VIRGIN
 
 # Layout of the packed parameter vector handed to the kernel.
 (P_KH, P_DY, P_DP, P_FY, P_FP, P_N1, P_N2, P_PU, P_PR, P_RHO, P_RS, P_CYC_ON, P_CYC_C,
- P_CYC_P, P_CYC_TOL, P_HERTZ_ONLY) = range(16)
-N_PARAMS = 16
+ P_CYC_P, P_CYC_TOL, P_HERTZ_ONLY, P_RX0) = range(17)
+N_PARAMS = 17
 # Inputs are checked finite before the kernel runs, so the no-NaN/no-inf assumptions hold;
 # contraction and approximate functions change results only at rounding level.
 _FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "afn"}
@@ -44,6 +44,7 @@ def pack_params(params: LawParams) -> np.ndarray:
     p[P_PR] = params.reloading_power
     p[P_RHO] = params.residual_limit
     p[P_RS] = params.residual_power
+    p[P_RX0] = params.residual_transition
     p[P_CYC_ON] = 1.0 if params.cyclic.enabled else 0.0
     p[P_CYC_C] = params.cyclic.residual_ratio_coefficient
     p[P_CYC_P] = params.cyclic.residual_ratio_power
@@ -176,7 +177,10 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                 dmax = target
                 force = fmax
                 lx = math.log(max(target / dy, 1.0))
-                dres = -p[P_RHO] * math.expm1(-p[P_RS] * lx) * target
+                # residual form with transition depth x0 (params.saturating_ratio); x0 = 1: lx
+                lr = lx if p[P_RX0] == 1.0 else math.log1p((max(target / dy, 1.0) - 1.0)
+                                                           / p[P_RX0])
+                dres = -p[P_RHO] * math.expm1(-p[P_RS] * lr) * target
                 nu = HERTZ_EXPONENT * math.exp(p[P_PU] * lx)
                 nr = min(HERTZ_EXPONENT * math.exp(p[P_PR] * lx), nu)
                 cycles = 1.0

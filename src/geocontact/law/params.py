@@ -7,9 +7,11 @@ Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (d
 * unloading exponent ``n_u(x) = 1.5 x^pu`` (tends to 3/2 as x -> 1, Etsion et al. 2005 form);
 * reloading exponent ``n_r(x) = min(1.5 x^pr, n_u(x))`` (a reload curve never lies below the
   unload curve, so a closed reload-unload loop cannot create energy);
-* residual approach ``d_res / d_max = rho_inf (1 - x^-s)`` (zero at yield, saturating below 1);
-* plastic work ratio ``Wp / W_total = w_inf (1 - x^-e)`` (the FE's; reported beside the law's
-  own loop area, which follows from the curves above);
+* residual approach ``d_res / d_max = rho_inf (1 - (1 + (x - 1)/x0)^-s)`` (zero at yield,
+  below 1 everywhere; x0 = 1 is the original ``rho_inf (1 - x^-s)``, a larger transition depth
+  x0 gives the slow start and log-like rise the FE shows);
+* plastic work ratio ``Wp / W_total = w_inf (1 - (1 + (x - 1)/x0w)^-e)`` (the FE's; reported
+  beside the law's own loop area, which follows from the curves above);
 * cyclic extension: residual-approach increment of cycle N over the first cycle's residual
   approach ``c N^-p``; critical cycle number where it falls below ``tolerance``.
 """
@@ -31,7 +33,18 @@ from ..material import Material
 SCHEMA = "geocontact.law/1"
 HERTZ_EXPONENT = 1.5
 # Grid of plastic depths on which a parameter set is checked for energy consistency.
-_CHECK_DEPTHS = np.geomspace(1.0, 1.0e4, 2001)
+# 1e7 covers the deepest calibrations (sigma_c = 1 MPa at 6000 N reaches x ~ 2e5).
+_CHECK_DEPTHS = np.geomspace(1.0, 1.0e7, 3001)
+
+
+def saturating_ratio(depth, limit: float, power: float, transition: float = 1.0):
+    """``limit (1 - (1 + (x - 1)/transition)^-power)``: zero at x = 1, rising to ``limit``.
+
+    Written with expm1/log1p so it is accurate just above yield, where it is tiny; with
+    transition = 1 it is exactly the original ``limit (1 - x^-power)`` (log x, as before)."""
+    x = np.maximum(depth, 1.0)
+    lx = np.log(x) if transition == 1.0 else np.log1p((x - 1.0) / transition)
+    return -limit * np.expm1(-power * lx)
 
 
 def _number(where: str, data: dict[str, Any], key: str, lo=None, hi=None, lo_open=False,
@@ -140,6 +153,8 @@ class LawParams:
     residual_power: float
     plastic_work_limit: float = 0.0
     plastic_work_power: float = 1.0
+    residual_transition: float = 1.0
+    plastic_work_transition: float = 1.0
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
@@ -179,14 +194,13 @@ class LawParams:
         return np.minimum(HERTZ_EXPONENT * x**self.reloading_power, self.unloading_exponent(x))
 
     def residual_ratio(self, depth):
-        x = np.maximum(depth, 1.0)
-        # 1 - x^-s written with expm1: accurate just above yield, where it is tiny
-        return -self.residual_limit * np.expm1(-self.residual_power * np.log(x))
+        return saturating_ratio(depth, self.residual_limit, self.residual_power,
+                                self.residual_transition)
 
     def plastic_work_ratio(self, depth):
         """The FE's Wp/W_total fitted as a function of depth (diagnostic, SPEC 6)."""
-        x = np.maximum(depth, 1.0)
-        return self.plastic_work_limit * (1.0 - x ** (-self.plastic_work_power))
+        return saturating_ratio(depth, self.plastic_work_limit, self.plastic_work_power,
+                                self.plastic_work_transition)
 
     def virgin_force(self, approach):
         """Virgin loading curve F(delta), three regimes, continuous at delta_y and delta_p."""
@@ -266,8 +280,10 @@ class LawParams:
             },
             "unloading": {"exponent_power": self.unloading_power},
             "reloading": {"exponent_power": self.reloading_power},
-            "residual_approach": {"limit": self.residual_limit, "power": self.residual_power},
-            "plastic_work": {"limit": self.plastic_work_limit, "power": self.plastic_work_power},
+            "residual_approach": _saturating_dict(self.residual_limit, self.residual_power,
+                                                  self.residual_transition),
+            "plastic_work": _saturating_dict(self.plastic_work_limit, self.plastic_work_power,
+                                             self.plastic_work_transition),
             "cyclic": {**self.cyclic.to_dict(), "critical_cycle": self.cyclic.critical_cycle()},
             "provenance": {"geocontact_version": __version__, **self.provenance},
             "fit_errors": self.fit_errors,
@@ -299,9 +315,10 @@ class LawParams:
             "fully_plastic_approach_m", "fully_plastic_force_N"})
         ud = _check_keys("unloading", data["unloading"], {"exponent_power"})
         rd = _check_keys("reloading", data["reloading"], {"exponent_power"})
-        sd = _check_keys("residual_approach", data["residual_approach"], {"limit", "power"})
+        sd = _check_keys("residual_approach", data["residual_approach"],
+                         {"limit", "power", "transition_depth"})
         pw = _check_keys("plastic_work", data.get("plastic_work", {"limit": 0.0, "power": 1.0}),
-                         {"limit", "power"})
+                         {"limit", "power", "transition_depth"})
         params = cls(
             material=material,
             yield_approach=yield_approach,
@@ -317,6 +334,8 @@ class LawParams:
             residual_power=_number("residual_approach", sd, "power", 0, 10, lo_open=True),
             plastic_work_limit=_number("plastic_work", pw, "limit", 0, 1),
             plastic_work_power=_number("plastic_work", pw, "power", 0, 10, lo_open=True),
+            residual_transition=_transition("residual_approach", sd),
+            plastic_work_transition=_transition("plastic_work", pw),
             cyclic=CyclicLaw.from_dict(data.get("cyclic", {"tolerance": 0.01})),
             yield_extra={k: v for k, v in yd.items() if k not in ("approach_m", "force_N")},
             provenance=dict(data.get("provenance", {})),
@@ -331,6 +350,20 @@ class LawParams:
                     f"({params.yield_force:.6g} N); the two must describe the same point"
                 )
         return params
+
+
+def _saturating_dict(limit: float, power: float, transition: float) -> dict[str, float]:
+    # transition_depth = 1 (the original form) is left out: such files read as before
+    out = {"limit": limit, "power": power}
+    if transition != 1.0:
+        out["transition_depth"] = transition
+    return out
+
+
+def _transition(where: str, data: dict[str, Any]) -> float:
+    if "transition_depth" not in data:
+        return 1.0
+    return _number(where, data, "transition_depth", 0, 1e6, lo_open=True)
 
 
 def load_params(path: str | Path) -> LawParams:

@@ -1,0 +1,274 @@
+"""The calibration campaign (SPEC section 7): FE cycles at several peak loads -> law parameters.
+
+Each calibration run is one FE force history ``0 -> F -> 0 -> F -> 0`` (data/calibration.toml),
+so one run gives the virgin loading curve, the unloading curve, the residual approach and the
+loop work of the first cycle, and the reloading curve. The peaks are geometric from ~2 Fy into
+the fully plastic range. The runs go through ``geocontact.fem.campaign`` (Dask, cached by their
+inputs), then ``fit_law`` fits the forms of docs/law.md.
+
+    params, runs = calibrate(material, mesh="default")   # LawParams, list of CalibrationRun
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, replace
+from importlib import resources
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
+from ..fem.run import FemResult
+from ..hertz import hertz_coefficient, incipient_yield
+from ..law.params import LawParams
+from ..material import Material
+from .fit import LevelData, fit_law
+
+MIN_LEVELS = 3
+
+
+def settings() -> dict[str, Any]:
+    """The defaults of data/calibration.toml (campaign and acceptance)."""
+    text = (resources.files("geocontact") / "data" / "calibration.toml").read_text()
+    return tomllib.loads(text)
+
+
+def force_range(material: Material, max_force: float | None = None) -> tuple[float, float]:
+    """Lowest and highest calibration peak (N): lowest_peak_over_yield x the analytic Fy and
+    max_force (default from data/calibration.toml)."""
+    campaign = settings()["campaign"]
+    high = campaign["max_force_N"] if max_force is None else max_force
+    _check_positive("--max-force", high)
+    low = campaign["lowest_peak_over_yield"] * incipient_yield(material).force
+    if high <= low:
+        raise InputError(f"--max-force: {high:g} N is not above the lowest calibration peak "
+                         f"{low:.4g} N (= {campaign['lowest_peak_over_yield']:g} Fy)")
+    return low, high
+
+
+def peak_forces(material: Material, levels: int | None = None,
+                max_force: float | None = None) -> list[float]:
+    """Geometric peak loads from ~2 Fy to max_force (SPEC section 7)."""
+    n = settings()["campaign"]["levels"] if levels is None else levels
+    if isinstance(n, bool) or not isinstance(n, int) or n < MIN_LEVELS:
+        raise InputError(f"--levels: need an integer >= {MIN_LEVELS}, got {n!r}")
+    low, high = force_range(material, max_force)
+    return [float(f) for f in np.geomspace(low, high, n)]
+
+
+def check_peaks(material: Material, peaks) -> list[float]:
+    """User-given peak loads: >= MIN_LEVELS distinct values, all above the analytic Fy."""
+    peaks = sorted(float(p) for p in peaks)
+    for p in peaks:
+        _check_positive("--peak-forces", p)
+    if len(set(peaks)) < MIN_LEVELS:
+        raise InputError(f"--peak-forces: need >= {MIN_LEVELS} distinct peak loads, "
+                         f"got {len(set(peaks))}")
+    fy = incipient_yield(material).force
+    if peaks[0] <= 1.2 * fy:
+        raise InputError(f"--peak-forces: {peaks[0]:g} N is within 20 % of first yield "
+                         f"(Fy = {fy:.4g} N); the lowest level must be plastic")
+    return sorted(set(peaks))
+
+
+def _check_positive(what: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+            math.isfinite(value) and value > 0):
+        raise InputError(f"{what}: must be a positive number of newtons, got {value!r}")
+
+
+def calibration_jobs(material: Material, peaks, mesh: str = "default",
+                     steps_per_segment: int | None = None) -> list[FemJob]:
+    shape = settings()["campaign"]["history"]
+    return [FemJob(material, tuple(float(s) * peak for s in shape), mesh=mesh,
+                   steps_per_segment=steps_per_segment, label=f"calibration F={peak:.4g}N")
+            for peak in peaks]
+
+
+# --- extraction -------------------------------------------------------------------------------
+@dataclass
+class CalibrationRun:
+    """One FE calibration run and what the fit takes from it."""
+
+    job: FemJob
+    result: FemResult
+    level: LevelData
+    loading_approach: np.ndarray  # the virgin loading segment (from zero force to the peak)
+    loading_force: np.ndarray
+    plastic_dissipation: float  # FE plastic dissipation of the first cycle (pair, J)
+    second_residual_approach: float | None  # residual approach after the reload cycle
+
+
+def _rows(result: FemResult, steps: tuple[int, int]) -> slice:
+    index = {int(s): i for i, s in enumerate(result.curve["step"])}
+    return slice(index[steps[0]], index[steps[1]] + 1)
+
+
+def extract_run(job: FemJob, result: FemResult) -> CalibrationRun:
+    """LevelData of a ``0 -> F -> 0 -> F [-> 0]`` FE run: ball-ball approach, pair energies.
+
+    Plastic work is what unloading does not give back (SPEC 6): the work of the force over the
+    closed first cycle (the FE's loop work); the FE plastic dissipation is kept beside it (the
+    two differ by the elastic energy locked in by residual stresses)."""
+    cycles = result.summary["cycles"]
+    if len(cycles) < 2 or cycles[0]["residual_approach_m"] is None:
+        raise InputError(f"calibration run {job.name()}: needs a closed first cycle and a "
+                         f"reload (history 0 -> F -> 0 -> F), got {len(cycles)} cycle(s)")
+    c = result.curve
+    d, f, work = c["approach_m"], c["force_N"], c["work_J"]
+    first, second = _rows(result, tuple(cycles[0]["steps"])), _rows(result, tuple(
+        cycles[1]["steps"]))
+    peak = first.start + int(np.argmax(f[first]))
+    repeak = second.start + int(np.argmax(f[second]))
+    level = LevelData(
+        max_approach=float(d[peak]),
+        max_force=float(f[peak]),
+        residual_approach=float(cycles[0]["residual_approach_m"]),
+        plastic_work=float(cycles[0]["loop_work_J"]),
+        total_work=float(work[peak] - work[first.start]),
+        unloading_approach=d[peak:first.stop].copy(),
+        unloading_force=f[peak:first.stop].copy(),
+        reloading_approach=d[second.start:repeak + 1].copy(),
+        reloading_force=f[second.start:repeak + 1].copy(),
+    )
+    return CalibrationRun(
+        job=job, result=result, level=level,
+        loading_approach=d[first.start:peak + 1].copy(),
+        loading_force=f[first.start:peak + 1].copy(),
+        plastic_dissipation=float(cycles[0]["plastic_work_J"]),
+        second_residual_approach=cycles[1]["residual_approach_m"],
+    )
+
+
+def fe_yield(material: Material, runs: list[CalibrationRun]) -> dict[str, Any]:
+    """First yield as the FE detected it (median over the runs) beside the analytic value.
+
+    The law's yield approach is the Hertz approach of the FE first-yield force, so that
+    Fy = Kh dy^1.5 holds exactly and the law's Fy is the FE's (docs/calibration.md)."""
+    forces = np.array([r.result.summary["first_yield_force_N"] for r in runs
+                       if r.result.summary.get("first_yield_force_N")], dtype=float)
+    analytic = incipient_yield(material)
+    if forces.size == 0:
+        raise InputError("calibration: no FE run detected first yield; raise the peak loads")
+    fy = float(np.median(forces))
+    approach = (fy / hertz_coefficient(material)) ** (2.0 / 3.0)
+    fe_approaches = [r.result.summary["first_yield_approach_m"] for r in runs
+                     if r.result.summary.get("first_yield_approach_m")]
+    return {
+        "approach_m": approach,
+        "source": "FE first yield (median over the calibration runs); approach = Hertz "
+                  "approach of that force",
+        "fe_force_N": fy,
+        "fe_force_spread_N": [float(forces.min()), float(forces.max())],
+        "fe_approach_m": float(np.median(fe_approaches)),
+        "analytic_force_N": analytic.force,
+        "analytic_approach_m": analytic.approach,
+        "fe_over_analytic_force": fy / analytic.force,
+        "analytic": analytic.to_dict(),
+    }
+
+
+def fe_fully_plastic(runs: list[CalibrationRun]) -> dict[str, Any]:
+    """The FE's fully plastic onset Fp per run (the detector is the FE engine's, docs/fem.md)."""
+    values = [(r.level.max_force, r.result.summary.get("fully_plastic_force_N"),
+               r.result.summary.get("fully_plastic_approach_m")) for r in runs]
+    reached = [(p, f, d) for p, f, d in values if f is not None]
+    top = max(runs, key=lambda r: r.level.max_force).result.summary
+    return {
+        "force_N": top.get("fully_plastic_force_N"),
+        "approach_m": top.get("fully_plastic_approach_m"),
+        "source": "FE run with the highest peak",
+        "per_run": [{"peak_force_N": p, "force_N": f, "approach_m": d} for p, f, d in values],
+        "reached_in_runs": len(reached),
+    }
+
+
+def calibrate(material: Material, *, peaks=None, levels: int | None = None,
+              max_force: float | None = None, mesh: str = "default",
+              steps_per_segment: int | None = None, cache_dir=DEFAULT_CACHE,
+              scheduler: str | None = None, workers: int | None = None,
+              progress: bool = True) -> tuple[LawParams, list[CalibrationRun]]:
+    """FE campaign + extraction + fit. Returns the law and the runs it was fitted to."""
+    peaks = (check_peaks(material, peaks) if peaks is not None
+             else peak_forces(material, levels, max_force))
+    jobs = calibration_jobs(material, peaks, mesh, steps_per_segment)
+    results = run_campaign(jobs, cache_dir, scheduler=scheduler, workers=workers,
+                           progress=progress)
+    runs = [extract_run(job, result) for job, result in zip(jobs, results, strict=True)]
+    return fit_runs(material, runs), runs
+
+
+def virgin_curve(runs: list[CalibrationRun]) -> tuple[np.ndarray, np.ndarray, list[float]]:
+    """The virgin loading curve stitched from every run's loading segment: between the peaks of
+    levels k-1 and k it is run k's.
+
+    Monotone loading is path-independent, so one run to the highest peak would do in exact
+    arithmetic; in the FE it does not: each run's mesh is sized for its own peak and its load
+    steps are spread over its own force range, so the highest run resolves low forces worst
+    (sigma_c = 1 MPa, coarse mesh: its curve lies 20 % below the 592 N run's at 500 N and
+    steps in a staircase as contact nodes engage). The run with the smallest peak above a force
+    is the best-resolved one there. Returns approach, force and the stitch forces."""
+    ordered = sorted(runs, key=lambda r: r.level.max_force)
+    approach, force, stitches = [], [], []
+    below = 0.0
+    for run in ordered:
+        keep = (run.loading_force > below) | (below == 0.0)
+        approach.append(run.loading_approach[keep])
+        force.append(run.loading_force[keep])
+        if below > 0.0:
+            stitches.append(below)
+        below = run.level.max_force
+    return np.concatenate(approach), np.concatenate(force), stitches
+
+
+def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
+    """Fit the law to extracted calibration runs (no FE work: reruns from cached results)."""
+    yield_info = fe_yield(material, runs)
+    top = max(runs, key=lambda r: r.level.max_force)
+    job = top.job
+    loading_approach, loading_force, stitches = virgin_curve(runs)
+    provenance = {
+        "source": "FE calibration (geocontact calibrate)",
+        "fe": {
+            "mesh": job.mesh,
+            "steps_per_segment": job.steps_per_segment
+            or runs[0].result.summary["inputs"]["steps_per_segment"],
+            "elements": [r.result.summary["mesh"]["elements"] for r in runs],
+            "history_shape": settings()["campaign"]["history"],
+            "peak_forces_N": [r.level.max_force for r in runs],
+            "cache_keys": [r.job.key() for r in runs],
+            "fe_versions": sorted({str(r.result.summary.get("version")) for r in runs}),
+            "wall_time_s": [r.result.summary["wall_time_s"] for r in runs],
+            "virgin_curve_from": "every run's loading segment, run k between the peaks of "
+                                 "levels k-1 and k",
+            "virgin_curve_stitches_N": stitches,
+        },
+        "fully_plastic_fe": fe_fully_plastic(runs),
+    }
+    params = fit_law(material, yield_info["approach_m"], loading_approach, loading_force,
+                     [r.level for r in runs], provenance=provenance)
+    extra = {k: v for k, v in yield_info.items() if k != "approach_m"}
+    errors = dict(params.fit_errors)
+    fp = provenance["fully_plastic_fe"]["force_N"]
+    errors["fully_plastic"] = {
+        "fe_force_N": fp,
+        "law_force_N": params.fully_plastic_force,
+        "law_over_fe": None if fp is None else params.fully_plastic_force / fp,
+    }
+    errors["yield"] = {"fe_force_N": yield_info["fe_force_N"],
+                       "analytic_force_N": yield_info["analytic_force_N"],
+                       "fe_over_analytic": yield_info["fe_over_analytic_force"]}
+    errors["per_level_energy"] = [
+        {"peak_force_N": r.level.max_force, "fe_loop_work_J": r.level.plastic_work,
+         "fe_plastic_dissipation_J": r.plastic_dissipation,
+         "law_loop_work_J": float(params.envelope_plastic_work(r.level.max_approach)),
+         "fe_total_work_J": r.level.total_work,
+         "second_cycle_residual_increment_ratio": (
+             None if r.second_residual_approach is None else
+             (r.second_residual_approach - r.level.residual_approach)
+             / r.level.residual_approach)}
+        for r in runs]
+    return replace(params, yield_extra=extra, fit_errors=errors)

@@ -1,0 +1,140 @@
+"""``geocontact calibrate``: FE campaign + fit -> law parameters (INTERFACES, SPEC section 7)."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from ..errors import InputError
+from .common import print_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "calibrate",
+        help="FE runs at several peak loads + fit -> law parameters (P.json)",
+        description="Run the FE calibration campaign (load-unload-reload cycles at peak loads "
+        "geometric from ~2 Fy to --max-force; Dask, cached by inputs), fit the law "
+        "(docs/law.md forms) and write P.json (geocontact.law/1). With --acceptance, also run "
+        "the held-out FE histories and write P.acceptance.json and P.acceptance/ (CSV, PNG). "
+        "Defaults: geocontact/data/calibration.toml.",
+    )
+    p.add_argument("--material", required=True, help="material TOML file or preset name")
+    p.add_argument("--out", required=True, help="law parameter file to write (JSON)")
+    p.add_argument("--mesh", default="default", choices=["coarse", "default", "fine"])
+    p.add_argument("--steps", type=int, default=None,
+                   help="FE load steps per monotonic segment (default: by mesh preset)")
+    levels = p.add_mutually_exclusive_group()
+    levels.add_argument("--levels", type=int, default=None, metavar="N",
+                        help="number of peak loads (default 7)")
+    levels.add_argument("--peak-forces", default=None, metavar="F1,F2,...",
+                        help="explicit peak loads in N (comma-separated)")
+    p.add_argument("--max-force", type=float, default=None, metavar="F",
+                   help="highest peak load, N (default 6000)")
+    p.add_argument("--acceptance", action="store_true",
+                   help="also compare the law with held-out FE runs (P.acceptance.json)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler address (default: a local cluster)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local Dask workers (default: one per core)")
+    p.add_argument("--cache", default=None, metavar="DIR",
+                   help="FE result cache (default out/cache/fem)")
+    p.add_argument("--json", action="store_true", help="print the parameter file on stdout")
+    p.set_defaults(run=run)
+
+
+def _peak_list(text: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise InputError(f"--peak-forces: expected comma-separated numbers (N), got {text!r}"
+                         ) from None
+
+
+def run(args) -> int:
+    from ..calibrate.acceptance import (
+        acceptance_table,
+        compare,
+        draw_comparison_figures,
+        run_acceptance,
+        write_comparison_data,
+    )
+    from ..calibrate.campaign import calibrate
+    from ..fem.campaign import DEFAULT_CACHE
+    from ..io import provenance, write_json_atomic
+    from ..material import load_material
+
+    started = time.perf_counter()
+    if args.steps is not None and args.steps < 1:
+        raise InputError(f"--steps: must be >= 1, got {args.steps}")
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    out = Path(args.out)
+    if out.suffix != ".json":
+        raise InputError(f"--out: expected a .json file name, got {args.out!r}")
+    material = load_material(args.material)
+    peaks = _peak_list(args.peak_forces) if args.peak_forces is not None else None
+    cache = Path(args.cache) if args.cache else DEFAULT_CACHE
+    common = dict(mesh=args.mesh, steps_per_segment=args.steps, cache_dir=cache,
+                  scheduler=args.scheduler, workers=args.workers, progress=not args.json)
+    params, runs = calibrate(material, peaks=peaks, levels=args.levels,
+                             max_force=args.max_force, **common)
+    inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
+              "levels": args.levels, "peak_forces": args.peak_forces,
+              "max_force": args.max_force, "cache": str(cache)}
+    record = provenance("calibrate", inputs)
+    record.pop("geocontact_version")  # LawParams.to_dict writes it first
+    params = _with_provenance(params, record)
+    params.save(out)
+    acceptance_note = ""
+    if args.acceptance:
+        fitted = [compare(params, r.job, r.result, name=f"fitted-{i}", kind="fitted",
+                          description=f"calibration run, peak {r.level.max_force:.4g} N")
+                  for i, r in enumerate(runs, 1)]
+        held = run_acceptance(params, material, max_force=args.max_force, **common)
+        comparisons = fitted + held
+        folder = out.with_suffix(".acceptance")
+        write_comparison_data(comparisons, folder)
+        draw_comparison_figures(comparisons, folder)
+        table = acceptance_table(comparisons)
+        table["params"] = out.name
+        table["figures"] = folder.name
+        table["provenance"] = provenance("calibrate --acceptance", inputs)
+        write_json_atomic(out.with_suffix(".acceptance.json"), table)
+        acceptance_note = _acceptance_lines(table)
+    wall = time.perf_counter() - started
+    if args.json:
+        print_json(params.to_dict())
+        return 0
+    e = params.fit_errors
+    print(f"wrote {out} ({len(runs)} FE levels, {args.mesh} mesh, {wall:.1f} s)")
+    print(f"yield: FE {e['yield']['fe_force_N']:.4g} N, analytic "
+          f"{e['yield']['analytic_force_N']:.4g} N; FE Fp "
+          + ("not reached" if e["fully_plastic"]["fe_force_N"] is None
+             else f"{e['fully_plastic']['fe_force_N']:.4g} N"))
+    print(f"fit: loading {100 * e['loading_rms_relative']:.2f} % RMS, unloading "
+          f"{100 * e['unloading_curve_rms_of_peak']:.2f} % of peak, reloading "
+          f"{100 * e['reloading_curve_rms_of_peak']:.2f} % of peak, elastic recovery "
+          f"{100 * e['elastic_recovery_rms_relative']:.2f} %")
+    if acceptance_note:
+        print(acceptance_note, end="")
+    return 0
+
+
+def _with_provenance(params, record):
+    from dataclasses import replace
+
+    return replace(params, provenance={**params.provenance, **record})
+
+
+def _acceptance_lines(table: dict) -> str:
+    lines = [f"acceptance (goals: force RMS <= {table['goals']['force_rms_percent_of_peak']:g} "
+             f"% of peak, residual approach <= "
+             f"{table['goals']['residual_approach_error_percent']:g} %):"]
+    for r in table["runs"]:
+        res = r["residual_approach_error_percent"]
+        lines.append(f"  {r['kind']:8s} {r['name']:22s} peak {r['peak_force_N']:9.4g} N  "
+                     f"force RMS {r['force_rms_percent_of_peak']:5.2f} %  residual "
+                     + ("   -" if res is None else f"{res:5.1f} %"))
+    lines.append("held-out goals " + ("met" if table["held_out_all_met"] else "NOT met"))
+    return "\n".join(lines) + "\n"

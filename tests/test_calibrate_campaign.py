@@ -1,0 +1,210 @@
+"""``geocontact calibrate``: FE campaign -> fit -> P.json, cached reruns, acceptance on held-out
+FE runs, bad input; the residual-approach form with a transition depth; the shipped files.
+
+Coarse mesh, few load steps and a low force range keep this fast; the numbers that matter
+(default mesh, 7 levels to 6000 N) are in docs/calibration.md."""
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import make_params
+
+from geocontact.calibrate.acceptance import compare
+from geocontact.calibrate.campaign import check_peaks, force_range, peak_forces
+from geocontact.cli import main
+from geocontact.errors import InputError
+from geocontact.fem.campaign import FemJob, run_campaign
+from geocontact.law import Contact, ContactArrays, LawParams, force_history, load_params
+from geocontact.law.params import saturating_ratio
+from geocontact.material import load_material
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning",
+                                        "ignore::UserWarning")
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+# 4 levels from 2 Fy to 300 N (F/Fy ~ 110), 4 steps per segment: a small, fast campaign.
+ARGS = ["--material", "reference", "--mesh", "coarse", "--steps", "4", "--levels", "4",
+        "--max-force", "300", "--workers", "2"]
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    root = tmp_path_factory.mktemp("calibrate")
+    out = root / "P.json"
+    started = time.perf_counter()
+    code = main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(out),
+                 "--acceptance"])
+    assert code == 0
+    return root, out, time.perf_counter() - started
+
+
+def test_cli_writes_a_valid_calibrated_parameter_file(calibrated):
+    root, out, _ = calibrated
+    params = load_params(out)  # validates schema, ranges and the energy check
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "geocontact.law/1"
+    fe = doc["provenance"]["fe"]
+    assert fe["mesh"] == "coarse" and fe["steps_per_segment"] == 4
+    assert len(fe["peak_forces_N"]) == 4 and len(fe["cache_keys"]) == 4
+    assert all((root / "cache" / key / "summary.json").exists() for key in fe["cache_keys"])
+    assert doc["provenance"]["command"] == "calibrate"
+    # FE first yield used (law Fy == FE Fy), the analytic one recorded beside it
+    y = doc["yield"]
+    assert params.yield_force == pytest.approx(y["fe_force_N"], rel=1e-12)
+    assert y["fe_over_analytic_force"] == pytest.approx(1.0, abs=0.05)
+    assert "fully_plastic" in doc["fit_errors"]
+    # the fit describes the FE cycles it came from
+    e = doc["fit_errors"]
+    assert e["loading_rms_relative"] < 0.03
+    assert e["unloading_curve_rms_of_peak"] < 0.03
+    assert e["elastic_recovery_rms_relative"] < 0.05
+
+
+def test_law_reproduces_the_fe_curves_it_was_fitted_to(calibrated):
+    root, out, _ = calibrated
+    table = json.loads((root / "P.acceptance.json").read_text())
+    fitted = [r for r in table["runs"] if r["kind"] == "fitted"]
+    assert len(fitted) == 4
+    for row in fitted:
+        assert row["force_rms_percent_of_peak"] < 5.0, row["name"]
+    # the deeper levels' residual approach (the shallowest is ~2 % of dmax, FE-noise sized)
+    for row in fitted[1:]:
+        assert row["residual_approach_error_percent"] < 10.0, row["name"]
+
+
+def test_acceptance_table_figures_and_data(calibrated):
+    root, out, _ = calibrated
+    table = json.loads((root / "P.acceptance.json").read_text())
+    held = [r for r in table["runs"] if r["kind"] == "held-out"]
+    assert {r["name"] for r in held} == {"held-out-peak-low", "held-out-peak-high",
+                                         "partial-unload-reload", "new-envelope"}
+    for row in held:
+        assert np.isfinite(row["force_rms_percent_of_peak"])
+        png = root / "P.acceptance" / f"{row['name']}.png"
+        assert png.stat().st_size > 1000
+        data = np.genfromtxt(root / "P.acceptance" / f"{row['name']}.csv", delimiter=",",
+                             names=True)
+        assert {"approach_m", "fe_force_N", "law_force_N"} <= set(data.dtype.names)
+    # a new envelope after a reload: the FE closes two cycles and both residuals are compared
+    (envelope,) = [r for r in held if r["name"] == "new-envelope"]
+    assert len(envelope["residuals"]) == 2
+
+
+def test_rerun_reads_the_cache_and_is_instant(calibrated, capsys):
+    root, out, first_wall = calibrated
+    again = root / "again.json"
+    started = time.perf_counter()
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(again),
+                 "--json"]) == 0
+    wall = time.perf_counter() - started
+    assert wall < 5.0 and wall < 0.5 * first_wall
+    printed = json.loads(capsys.readouterr().out)
+    a, b = json.loads(out.read_text()), json.loads(again.read_text())
+    assert printed["loading"] == b["loading"]
+    for key in ("loading", "unloading", "reloading", "residual_approach", "yield"):
+        assert a[key] == b[key]
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--levels", "2"], "--levels"),
+    (["--peak-forces", "10,abc"], "--peak-forces"),
+    (["--peak-forces", "1,2,3"], "first yield"),
+    (["--peak-forces", "100,100,200"], "distinct"),
+    (["--max-force", "-5"], "--max-force"),
+    (["--max-force", "3"], "not above"),
+    (["--steps", "0"], "--steps"),
+    (["--workers", "0"], "--workers"),
+])
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, message):
+    args = ["calibrate", "--material", "reference", "--mesh", "coarse", "--cache",
+            str(tmp_path), "--out", str(tmp_path / "P.json"), *extra]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and message in err
+    assert not (tmp_path / "P.json").exists()
+
+
+def test_bad_material_and_output_name(tmp_path, capsys):
+    assert main(["calibrate", "--material", "granite", "--out", str(tmp_path / "P.json")]) == 2
+    assert main(["calibrate", "--material", "reference", "--out", str(tmp_path / "P.txt")]) == 2
+    for line in capsys.readouterr().err.strip().splitlines():
+        assert line.startswith("error:")
+
+
+def test_peak_forces_span_from_twice_yield_geometrically():
+    material = load_material("reference")
+    peaks = peak_forces(material, levels=7, max_force=6000.0)
+    assert len(peaks) == 7 and peaks[-1] == pytest.approx(6000.0)
+    assert peaks[0] == pytest.approx(2.0 * 2.757, rel=1e-3)
+    ratios = np.diff(np.log(peaks))
+    assert np.allclose(ratios, ratios[0])
+    with pytest.raises(InputError):
+        check_peaks(material, [10.0, 20.0])
+
+
+# --- the residual-approach form with a transition depth (docs/law.md) ---------------------
+def test_transition_depth_one_is_the_original_form():
+    x = np.geomspace(1.0, 1e5, 50)
+    assert np.array_equal(saturating_ratio(x, 0.8, 0.3, 1.0), -0.8 * np.expm1(-0.3 * np.log(x)))
+    slow = saturating_ratio(x, 0.8, 0.3, 10.0)
+    assert slow[0] == 0.0 and np.all(np.diff(slow) > 0) and np.all(slow < 0.8)
+    assert np.all(slow[1:] < saturating_ratio(x, 0.8, 0.3, 1.0)[1:])
+
+
+def test_transition_depth_round_trips_and_old_files_read_as_before():
+    params = make_params(residual_transition=6.0, residual_limit=0.99, residual_power=0.3)
+    doc = params.to_dict()
+    assert doc["residual_approach"]["transition_depth"] == 6.0
+    again = LawParams.from_dict(json.loads(json.dumps(doc)))
+    assert again.residual_transition == 6.0
+    assert "transition_depth" not in make_params().to_dict()["residual_approach"]
+    with pytest.raises(InputError, match="transition_depth"):
+        LawParams.from_dict({**doc, "residual_approach": {"limit": 0.9, "power": 0.3,
+                                                          "transition_depth": -1.0}})
+
+
+def test_kernel_and_reference_agree_with_a_transition_depth():
+    params = make_params(residual_transition=6.0, residual_limit=0.99, residual_power=0.3)
+    rng = np.random.default_rng(11)
+    n, steps = 16, 300
+    paths = np.cumsum(rng.normal(0.0, 3.0, size=(steps, n)), axis=0) * params.yield_approach
+    arrays = ContactArrays(params, n)
+    forces = np.array([arrays.step(paths[s])[0].copy() for s in range(steps)])
+    for i in range(n):
+        reference, _ = force_history(params, paths[:, i])
+        np.testing.assert_allclose(forces[:, i], reference, rtol=1e-11,
+                                   atol=1e-12 * max(max(reference), 1e-300))
+    contact = Contact(params)
+    contact.update(40 * params.yield_approach)
+    assert contact.state.residual_approach == pytest.approx(
+        float(params.residual_ratio(40.0)) * 40 * params.yield_approach, rel=1e-14)
+
+
+# --- the shipped calibrated files ---------------------------------------------------------
+# Force tolerance (% of peak) on a fresh coarse FE cycle: sigma_c = 10 MPa meets the 5 % goal;
+# sigma_c = 1 MPa does not (docs/calibration.md: 3.7-7 % on its default-mesh held-out runs, and
+# the coarse mesh differs from default by several % at these depths), so its bound is what the
+# docs claim, not the goal.
+@pytest.mark.parametrize("name, material, tolerance", [
+    ("params-reference.json", "reference", 5.0),
+    ("params-reference-weak.json", "reference-weak", 12.0),
+])
+def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material, tolerance):
+    """The shipped file is an FE calibration of its material, and the law driven with it follows
+    a coarse FE cycle it never saw (another mesh, another peak) within its documented accuracy."""
+    params = load_params(EXAMPLES / name)
+    doc = json.loads((EXAMPLES / name).read_text())
+    assert doc["provenance"]["source"].startswith("FE calibration")
+    assert doc["provenance"]["fe"]["mesh"] in {"default", "fine"}
+    assert len(doc["provenance"]["fe"]["peak_forces_N"]) >= 6
+    assert params.material == load_material(material)
+    low, high = force_range(params.material)
+    peak = low * (high / low) ** 0.6  # between calibration levels (u = 0.5, 0.67)
+    job = FemJob(params.material, (0.0, peak, 0.0), mesh="coarse", steps_per_segment=8)
+    (result,) = run_campaign([job], tmp_path, progress=False)
+    comparison = compare(params, job, result, name="check", kind="held-out")
+    assert comparison.force_rms_percent < tolerance
+    assert comparison.residual_error_percent < 10.0
