@@ -18,11 +18,14 @@ from geocontact.law import Contact, load_params
 ROOT = Path(__file__).resolve().parents[1]
 PARAMS_FILE = ROOT / "examples" / "params-illustrative.json"
 PARAMS = load_params(PARAMS_FILE)
+# an FE calibration (its residual form has a transition depth, docs/law.md)
+CALIBRATED_FILE = ROOT / "examples" / "params-reference.json"
 RADIUS = PARAMS.material.radius
 DENSITY = 2650.0
 
 
-def two_spheres(gap: float, *, friction: float = 0.0, damping: float = 0.0, extra=()):
+def two_spheres(gap: float, *, friction: float = 0.0, damping: float = 0.0, extra=(),
+                params_file=PARAMS_FILE):
     """Two grains of the parameter file's radius on the x axis, `gap` apart (surface to
     surface), in a fixed box; atom 1 at the origin."""
     lmp = open_lammps()
@@ -41,7 +44,7 @@ def two_spheres(gap: float, *, friction: float = 0.0, damping: float = 0.0, extr
         "neighbor 0.01 bin",
         "neigh_modify every 1 delay 0 check yes",
         "pair_style geocontact",
-        f"pair_coeff * * {PARAMS_FILE} friction {friction} damping {damping}",
+        f"pair_coeff * * {params_file} friction {friction} damping {damping}",
         "compute pl all pair/local p1 p2 p3 p4 p5 p6",
         *extra,
     ):
@@ -77,11 +80,14 @@ def approach_path(dy: float) -> list[float]:
     return [a * dy for a in path]
 
 
-def test_two_spheres_reproduce_the_python_law_along_the_same_approach_history():
-    dy = PARAMS.yield_approach
-    lmp = two_spheres(gap=0.5 * dy)
+@pytest.mark.parametrize("params_file", [PARAMS_FILE, CALIBRATED_FILE],
+                         ids=["illustrative", "calibrated"])
+def test_two_spheres_reproduce_the_python_law_along_the_same_approach_history(params_file):
+    params = load_params(params_file)
+    dy = params.yield_approach
+    lmp = two_spheres(gap=0.5 * dy, params_file=params_file)
     lmp.command("run 0")
-    reference = Contact(PARAMS)
+    reference = Contact(params)
     lammps_force, python_force = [], []
     for step, approach in enumerate(approach_path(dy)):
         lmp.command(f"set atom 2 x {2 * RADIUS - approach!r}")
@@ -101,7 +107,7 @@ def test_two_spheres_reproduce_the_python_law_along_the_same_approach_history():
         python_force.append(reference.update(seen_approach)[0])
     lammps_force, python_force = np.array(lammps_force), np.array(python_force)
     peak = python_force.max()
-    assert peak > 10 * PARAMS.yield_force  # well into the plastic range
+    assert peak > 10 * params.yield_force  # well into the plastic range
     assert np.any(python_force[65:95] == 0.0) and np.all(python_force[-5:] > 0)  # re-contact
     assert np.max(np.abs(lammps_force - python_force)) <= 1e-9 * peak
     lmp.close()

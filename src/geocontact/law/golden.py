@@ -111,7 +111,10 @@ def _variants(params: LawParams) -> dict[str, dict]:
     on["cyclic"].pop("critical_cycle", None)
     off = copy.deepcopy(on)
     off["cyclic"]["enabled"] = False
-    return {"cyclic_on": on, "cyclic_off": off}
+    # the residual form with a transition depth (the FE calibrations use one)
+    transition = copy.deepcopy(off)
+    transition["residual_approach"]["transition_depth"] = 7.5
+    return {"cyclic_on": on, "cyclic_off": off, "transition": transition}
 
 
 def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dict:
