@@ -1,5 +1,6 @@
 """``geocontact report DIR``: results recognised, figures embedded, data beside them."""
 
+import json
 import shutil
 from pathlib import Path
 
@@ -36,3 +37,18 @@ def test_report_bad_directory(tmp_path, capsys):
     assert main(["report", str(bad)]) == 2
     assert "malformed JSON" in capsys.readouterr().err
     assert not (bad / "report.html").exists()
+
+
+def test_report_of_a_calibration_shows_its_acceptance(tmp_path):
+    for name in ("params-reference.json", "params-reference.acceptance.json"):
+        shutil.copy(EXAMPLES / name, tmp_path / name)
+    shutil.copytree(EXAMPLES / "params-reference.acceptance",
+                    tmp_path / "params-reference.acceptance")
+    assert main(["report", str(tmp_path)]) == 0
+    html = (tmp_path / "report.html").read_text()
+    assert "Calibration acceptance (params-reference.json)" in html
+    assert "held-out-peak-low" in html
+    # every FE-vs-law figure of the acceptance folder is embedded, each with its CSV named
+    runs = json.loads((tmp_path / "params-reference.acceptance.json").read_text())["runs"]
+    assert html.count("data:image/png;base64,") == 2 + len(runs)
+    assert all(f"params-reference.acceptance/{r['name']}.csv" in html for r in runs)

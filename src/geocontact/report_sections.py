@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from html import escape as html_escape
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -198,6 +199,41 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
                table(["parameter", "value"], rows),
                table(["fit error", "value"], [[k, v] for k, v in errors.items()])
                if errors else "<p>No fit errors recorded (not an FE calibration).</p>", f1, f2)
+    acceptance = path.with_suffix(".acceptance.json")
+    if acceptance.is_file():
+        acceptance_section(report, acceptance, root)
+
+
+def acceptance_section(report: Report, path: Path, root: Path) -> None:
+    """The calibration's acceptance table and its FE-vs-law figures (written by calibrate)."""
+    try:
+        t = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: malformed JSON: {exc}") from None
+    folder = path.parent / t.get("figures", path.with_suffix("").stem)
+    rel = folder.relative_to(root).as_posix()
+    rows = [[r["kind"], r["name"], r["description"], r["peak_force_N"],
+             r["force_rms_percent_of_peak"],
+             "-" if r["residual_approach_error_percent"] is None
+             else r["residual_approach_error_percent"],
+             "yes" if r["meets_force_goal"] and r["meets_residual_goal"] is not False else "no"]
+            for r in t["runs"]]
+    goals = t["goals"]
+    items: list = [
+        f"<p>The law driven along each FE run's approach path ({html_escape(t['definition'])})."
+        f" Goals on held-out runs: force RMS ≤ {goals['force_rms_percent_of_peak']:g} % of "
+        f"the peak, residual approach within {goals['residual_approach_error_percent']:g} %. "
+        f"Held-out goals {'met' if t['held_out_all_met'] else '<b>not met</b>'}.</p>",
+        table(["kind", "run", "history", "peak (N)", "force RMS (% of peak)",
+               "residual error (%)", "meets goals"], rows)]
+    for r in t["runs"]:
+        if (folder / f"{r['name']}.png").is_file():
+            items.append(Figure(f"acceptance_{r['name']}", f"FE vs law: {r['name']}",
+                                f"{r['description']}; forces "
+                                f"{', '.join(f'{f:.4g}' for f in r['forces_N'])} N.",
+                                image=f"{rel}/{r['name']}.png",
+                                data_file=f"{rel}/{r['name']}.csv"))
+    report.add(f"Calibration acceptance ({t.get('params', path.name)})", *items)
 
 
 # --- material sweeps -----------------------------------------------------------------------------

@@ -52,16 +52,8 @@ def _peak_list(text: str) -> list[float]:
 
 
 def run(args) -> int:
-    from ..calibrate.acceptance import (
-        acceptance_table,
-        compare,
-        draw_comparison_figures,
-        run_acceptance,
-        write_comparison_data,
-    )
-    from ..calibrate.campaign import calibrate
+    from ..calibrate.workflow import calibrate_to_file
     from ..fem.campaign import DEFAULT_CACHE
-    from ..io import provenance, write_json_atomic
     from ..material import load_material
 
     started = time.perf_counter()
@@ -75,33 +67,15 @@ def run(args) -> int:
     material = load_material(args.material)
     peaks = _peak_list(args.peak_forces) if args.peak_forces is not None else None
     cache = Path(args.cache) if args.cache else DEFAULT_CACHE
-    common = dict(mesh=args.mesh, steps_per_segment=args.steps, cache_dir=cache,
-                  scheduler=args.scheduler, workers=args.workers, progress=not args.json)
-    params, runs = calibrate(material, peaks=peaks, levels=args.levels,
-                             max_force=args.max_force, **common)
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache)}
-    record = provenance("calibrate", inputs)
-    record.pop("geocontact_version")  # LawParams.to_dict writes it first
-    params = _with_provenance(params, record)
-    params.save(out)
-    acceptance_note = ""
-    if args.acceptance:
-        fitted = [compare(params, r.job, r.result, name=f"fitted-{i}", kind="fitted",
-                          description=f"calibration run, peak {r.level.max_force:.4g} N")
-                  for i, r in enumerate(runs, 1)]
-        held = run_acceptance(params, material, max_force=args.max_force, **common)
-        comparisons = fitted + held
-        folder = out.with_suffix(".acceptance")
-        write_comparison_data(comparisons, folder)
-        draw_comparison_figures(comparisons, folder)
-        table = acceptance_table(comparisons)
-        table["params"] = out.name
-        table["figures"] = folder.name
-        table["provenance"] = provenance("calibrate --acceptance", inputs)
-        write_json_atomic(out.with_suffix(".acceptance.json"), table)
-        acceptance_note = _acceptance_lines(table)
+    params, runs, table = calibrate_to_file(
+        material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
+        acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
+        cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
+        progress=not args.json)
+    acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:
         print_json(params.to_dict())
@@ -119,12 +93,6 @@ def run(args) -> int:
     if acceptance_note:
         print(acceptance_note, end="")
     return 0
-
-
-def _with_provenance(params, record):
-    from dataclasses import replace
-
-    return replace(params, provenance={**params.provenance, **record})
 
 
 def _acceptance_lines(table: dict) -> str:
