@@ -315,15 +315,19 @@ SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
 ]
 
 
-def build_report(directory: str | Path, title: str | None = None, intro: str = "") -> Path:
-    """Write DIR/report.html (and DIR/figures/) from every result found in DIR."""
+def build_report(directory: str | Path, title: str | None = None, intro: str = "",
+                 preface: list[tuple[str, list]] | None = None) -> Path:
+    """Write DIR/report.html (and DIR/figures/) from every result found in DIR; ``preface``:
+    (heading, items) sections placed first (the demo's own tables and figures)."""
     root = Path(directory)
     if not root.is_dir():
         raise InputError(f"report: not a directory: {directory}")
     figures = root / FIGURES
     report = Report(title=title or f"geocontact — {root.name}", intro=intro,
                     provenance=provenance("report", {"directory": str(root)}))
-    found = 0
+    for heading, items in preface or []:
+        report.add(heading, *items)
+    found = len(preface or [])
     for sub in [root] + sorted(p for p in root.iterdir() if p.is_dir() and p.name != FIGURES):
         for path in law_files(sub):
             law_section(report, path, root, figures)

@@ -126,7 +126,8 @@ def _curves(material: Material, result: FemResult) -> dict[str, np.ndarray]:
 
 
 def run_sweeps(out: str | Path, names: list[str] | None = None, *, mesh: str = "default",
-               peak_force: float | None = None, cache_dir: str | Path = DEFAULT_CACHE,
+               peak_force: float | None = None, steps_per_segment: int | None = None,
+               cache_dir: str | Path = DEFAULT_CACHE,
                scheduler: str | None = None, workers: int | None = None,
                progress: bool = True) -> dict[str, Any]:
     """Run the sweeps (all by default) and write ``out``: summary.json (every point's numbers
@@ -137,7 +138,8 @@ def run_sweeps(out: str | Path, names: list[str] | None = None, *, mesh: str = "
     if not np.isfinite(fmax) or fmax <= 0:
         raise InputError(f"peak_force: must be a positive number of newtons, got {fmax}")
     points = sweep_materials(definition, names)
-    jobs = [FemJob(m, (0.0, fmax, 0.0), mesh=mesh, label=f"{s}={v:g}") for s, v, m in points]
+    jobs = [FemJob(m, (0.0, fmax, 0.0), mesh=mesh, steps_per_segment=steps_per_segment,
+                   label=f"{s}={v:g}") for s, v, m in points]
     results = run_campaign(jobs, cache_dir, scheduler=scheduler, workers=workers,
                            progress=progress)
     tolerance = float(definition["constant_tolerance"])
@@ -145,7 +147,8 @@ def run_sweeps(out: str | Path, names: list[str] | None = None, *, mesh: str = "
         "schema": SCHEMA, "peak_force_N": fmax, "mesh": mesh, "base": definition["base"],
         "constant_tolerance": tolerance, "sweeps": {},
         "provenance": provenance("sweep", {"sweeps": names, "peak_force_N": fmax,
-                                           "mesh": mesh, "definitions": definition["sweep"]}),
+                                           "mesh": mesh, "steps_per_segment": steps_per_segment,
+                                           "definitions": definition["sweep"]}),
     }
     table: dict[str, list] = {"sweep": [], "value": []}
     curves: dict[str, dict[str, np.ndarray]] = {name: {} for name in names}

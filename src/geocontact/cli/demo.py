@@ -10,10 +10,15 @@ from ..demo import run_demo
 def register(sub) -> None:
     p = sub.add_parser("demo", help="run the main job on the reference case, write a report")
     p.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
+    p.add_argument("--quick", action="store_true",
+                   help="tiny loads and few FE steps: checks the pipeline in about a minute, "
+                   "not the reference results")
+    p.add_argument("--cache", default="out/cache/fem", help="FE result cache directory")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
-    path = run_demo(args.out, progress=lambda m: print(m, file=sys.stderr))
+    path = run_demo(args.out, progress=lambda m: print(m, file=sys.stderr), quick=args.quick,
+                    cache_dir=args.cache)
     print(f"report: {path}")
     return 0
