@@ -12,7 +12,7 @@ import sys
 
 from ..errors import GeocontactError, InputError
 
-COMMANDS = ["demo", "yield_", "law", "fem", "seismic", "presets"]
+COMMANDS = ["demo", "yield_", "law", "fem", "cycles", "seismic", "presets"]
 
 
 def build_parser() -> argparse.ArgumentParser:
