@@ -1,0 +1,100 @@
+"""The paper's loading histories on our FE engine (SPEC section 8; docs/cycles.md).
+
+Runs repeated (10 x 3000 N), monotonically decreasing (3000 -> 100 N) and monotonically
+increasing (100 -> 3000 N) histories for sigma_c = 10 MPa (preset ``reference``) and 1 MPa
+(``reference-weak``), and the repeated history for a von Mises grain of the same strength
+(``reference-von-mises``), as one FE campaign cached in ``out/cache/fem``; analyses every run
+with ``geocontact.cycles``; writes to ``out/paper-histories/``:
+
+* ``<run>.json`` - the run's inputs, FE summary and cycle analysis; ``cycles.csv`` - every cycle
+  of every run;
+* ``findings.json`` / ``findings.csv`` - the paper's statements with our numbers;
+* ``params-cyclic-<run>.json`` - the law parameters given with ``--params`` (default: the shipped
+  illustrative ones for the material) with ``cyclic`` fitted to the repeated runs;
+* ``index.json`` - settings, wall time, file list.
+
+    PYTHONPATH=src python scripts/paper_histories.py [--mesh coarse] [--steps N] [--workers 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from geocontact.cycles import CSV_COLUMNS, with_cyclic
+from geocontact.errors import InputError
+from geocontact.io import provenance, write_csv, write_json_atomic
+from geocontact.law import load_params
+from geocontact.paper_histories import paper_findings, run_paper_histories
+
+ROOT = Path(__file__).resolve().parents[1]
+ILLUSTRATIVE = {"reference": ROOT / "examples" / "params-illustrative.json",
+                "reference-weak": ROOT / "examples" / "params-illustrative-weak.json"}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
+    ap.add_argument("--steps", type=int, default=None, help="FE steps per monotonic segment")
+    ap.add_argument("--tolerance", type=float, default=0.01)
+    ap.add_argument("--workers", type=int, default=None, help="Dask workers (default: cores)")
+    ap.add_argument("--cache", default="out/cache/fem")
+    ap.add_argument("--out", default="out/paper-histories")
+    ap.add_argument("--only", nargs="*", default=None, help="run names (default: all)")
+    args = ap.parse_args(argv)
+    started = time.perf_counter()
+    runs = run_paper_histories(args.mesh, args.cache, steps_per_segment=args.steps,
+                               tolerance=args.tolerance, workers=args.workers, only=args.only)
+    out = Path(args.out)
+    files = []
+    rows = []
+    for name, run in runs.items():
+        write_json_atomic(out / f"{name}.json", run.to_dict())
+        files.append(f"{name}.json")
+        rows += [[name, *["" if r[c] is None else r[c] for c in CSV_COLUMNS[1:]]]
+                 for r in run.analysis.cycles]
+    write_csv(out / "cycles.csv", {c: np.array([r[i] for r in rows], dtype=object)
+                                   for i, c in enumerate(CSV_COLUMNS)})
+    findings = paper_findings(runs)
+    write_json_atomic(out / "findings.json", {"findings": findings})
+    write_csv(out / "findings.csv", {
+        "statement": np.array([f["statement"] for f in findings], dtype=object),
+        "agrees": np.array(["n/a" if f["agrees"] is None else str(f["agrees"])
+                            for f in findings], dtype=object),
+        "rule": np.array([f["rule"] for f in findings], dtype=object),
+    })
+    files += ["cycles.csv", "findings.json", "findings.csv"]
+    for name, run in runs.items():
+        if run.history != "repeated" or run.material_name not in ILLUSTRATIVE:
+            continue
+        params = load_params(ILLUSTRATIVE[run.material_name])
+        try:
+            fitted = with_cyclic(params, run.analysis, provenance={
+                "fe_run": name, "fe_inputs": run.summary.get("inputs"),
+                "base_params": str(ILLUSTRATIVE[run.material_name].relative_to(ROOT)),
+                "command": "scripts/paper_histories.py"})
+        except InputError as exc:  # a ratchetting run has no cyclic law: say so, keep going
+            print(f"{name}: no cyclic law fitted ({exc})", file=sys.stderr)
+            continue
+        fitted.save(out / f"params-cyclic-{name}.json")
+        files.append(f"params-cyclic-{name}.json")
+    wall = time.perf_counter() - started
+    write_json_atomic(out / "index.json", {
+        "wall_time_s": wall, "mesh": args.mesh, "steps_per_segment": args.steps,
+        "tolerance": args.tolerance, "files": files,
+        "fe_wall_time_s": {n: r.summary.get("wall_time_s") for n, r in runs.items()},
+        "provenance": provenance("scripts/paper_histories.py", vars(args)),
+    })
+    for f in findings:
+        verdict = {True: "agrees", False: "DISAGREES", None: "n/a"}[f["agrees"]]
+        print(f"[{verdict}] {f['statement']}")
+    print(f"wrote {out} in {wall:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
