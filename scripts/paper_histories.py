@@ -45,10 +45,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", default="out/cache/fem")
     ap.add_argument("--out", default="out/paper-histories")
     ap.add_argument("--only", nargs="*", default=None, help="run names (default: all)")
+    ap.add_argument("--check-mesh", default=None, choices=["coarse", "default", "fine"],
+                    help="also run repeated-10MPa on this mesh (mesh sensitivity of the "
+                         "cyclic quantities)")
     args = ap.parse_args(argv)
     started = time.perf_counter()
     runs = run_paper_histories(args.mesh, args.cache, steps_per_segment=args.steps,
-                               tolerance=args.tolerance, workers=args.workers, only=args.only)
+                               tolerance=args.tolerance, workers=args.workers, only=args.only,
+                               mesh_checks=({"repeated-10MPa": args.check_mesh}
+                                            if args.check_mesh else None))
     out = Path(args.out)
     files = []
     rows = []
@@ -69,7 +74,8 @@ def main(argv: list[str] | None = None) -> int:
     })
     files += ["cycles.csv", "findings.json", "findings.csv"]
     for name, run in runs.items():
-        if run.history != "repeated" or run.material_name not in ILLUSTRATIVE:
+        if (run.history != "repeated" or run.material_name not in ILLUSTRATIVE
+                or "@" in name):
             continue
         params = load_params(ILLUSTRATIVE[run.material_name])
         try:
@@ -82,10 +88,23 @@ def main(argv: list[str] | None = None) -> int:
             continue
         fitted.save(out / f"params-cyclic-{name}.json")
         files.append(f"params-cyclic-{name}.json")
+    mesh_check = {}
+    for name in (n for n in runs if "@" in n):
+        base = runs[name.split("@")[0]]
+        mesh_check[name] = {
+            run.name: {"mesh": run.summary["inputs"]["mesh"],
+                       "elements": run.summary["mesh"]["elements"],
+                       "residual_increment_ratio": [c["residual_increment_ratio"]
+                                                    for c in run.analysis.cycles],
+                       "plastic_work_ratio": [c["plastic_work_ratio"]
+                                              for c in run.analysis.cycles],
+                       "critical_cycles": run.analysis.critical_cycles,
+                       "state": run.analysis.state}
+            for run in (base, runs[name])}
     wall = time.perf_counter() - started
     write_json_atomic(out / "index.json", {
         "wall_time_s": wall, "mesh": args.mesh, "steps_per_segment": args.steps,
-        "tolerance": args.tolerance, "files": files,
+        "tolerance": args.tolerance, "files": files, "mesh_check": mesh_check,
         "fe_wall_time_s": {n: r.summary.get("wall_time_s") for n, r in runs.items()},
         "provenance": provenance("scripts/paper_histories.py", vars(args)),
     })

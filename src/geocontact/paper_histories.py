@@ -28,6 +28,7 @@ from .cycles import (
     fe_cycle_windows,
     reloading_stiffness,
 )
+from .errors import InputError
 from .force_history import preset_history
 from .material import Material, preset
 
@@ -76,28 +77,36 @@ class PaperRun:
 def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
                         steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                         workers: int | None = None, only: list[str] | None = None,
+                        mesh_checks: dict[str, str] | None = None,
                         progress: bool = True) -> dict[str, PaperRun]:
-    """Run (or read from the cache) the FE runs of the study and analyse their cycles."""
+    """Run (or read from the cache) the FE runs of the study and analyse their cycles.
+
+    ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
+    returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities)."""
     from .fem.campaign import FemJob, run_campaign
 
     runs = study()["runs"]
     names = [n for n in runs if only is None or n in only]
+    plan = [(n, n, mesh) for n in names]
+    plan += [(f"{n}@{m}", n, m) for n, m in (mesh_checks or {}).items()]
     jobs = []
-    for name in names:
+    for label, name, run_mesh in plan:
+        if name not in runs:
+            raise InputError(f"run: unknown name {name!r} (allowed: {', '.join(runs)})")
         spec = runs[name]
         forces = preset_history(spec["history"], float(spec["peak_force"]))
-        jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=mesh,
-                           steps_per_segment=steps_per_segment, label=name))
+        jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=run_mesh,
+                           steps_per_segment=steps_per_segment, label=label))
     results = run_campaign(jobs, cache_dir=cache_dir, workers=workers, progress=progress)
     out = {}
-    for name, job, result in zip(names, jobs, results, strict=True):
+    for (label, name, _), job, result in zip(plan, jobs, results, strict=True):
         cycles = result.summary["cycles"]
-        out[name] = PaperRun(
-            name=name, material_name=runs[name]["material"], material=job.material,
+        out[label] = PaperRun(
+            name=label, material_name=runs[name]["material"], material=job.material,
             history=runs[name]["history"], forces=list(job.forces), curve=result.curve,
             summary=result.summary,
-            analysis=analyse(cycles, tolerance=tolerance, source=f"fe {name}"),
-            extra={t: analyse(cycles, tolerance=t, source=f"fe {name}")
+            analysis=analyse(cycles, tolerance=tolerance, source=f"fe {label}"),
+            extra={t: analyse(cycles, tolerance=t, source=f"fe {label}")
                    for t in EXTRA_TOLERANCES},
         )
     return out
