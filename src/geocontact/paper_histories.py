@@ -87,8 +87,9 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
 
     runs = study()["runs"]
     names = [n for n in runs if only is None or n in only]
-    plan = [(n, n, mesh) for n in names]
-    plan += [(f"{n}@{m}", n, m) for n, m in (mesh_checks or {}).items()]
+    # the checks first: on a finer mesh they are the longest runs, so they start at once
+    plan = [(f"{n}@{m}", n, m) for n, m in (mesh_checks or {}).items()]
+    plan += [(n, n, mesh) for n in names]
     jobs = []
     for label, name, run_mesh in plan:
         if name not in runs:
