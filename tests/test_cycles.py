@@ -52,6 +52,22 @@ def test_power_law_fit_recovers_known_coefficient_and_power():
     assert fit.power == pytest.approx(1.7, abs=0.15)
 
 
+def test_geometric_fit_recovers_a_constant_factor_per_cycle():
+    n = np.arange(1, 11)
+    ratio = np.where(n == 1, 1.0, 0.08 * 0.5**n)
+    geo = cy.fit_geometric(n, ratio)
+    assert geo.coefficient == pytest.approx(0.08, rel=1e-9)
+    assert geo.factor == pytest.approx(0.5, rel=1e-9)
+    # 0.08 * 0.5^N < 1e-3 first at N = 7 (0.08/128 = 6.25e-4; N = 6 gives 1.25e-3)
+    assert geo.critical_cycle(1e-3) == 7
+    # the power law fits such data worse than the geometric law does
+    power = cy.fit_power_law(n, ratio)
+    assert power.rms_log10_error > 10 * max(geo.rms_log10_error, 1e-12)
+    a = cy.analyse(synthetic(ratio * 1e-5, ratio), tolerance=1e-3)
+    assert a.to_dict()["fits"]["geometric"]["residual_increment_ratio"]["critical_cycle"] == 7
+    assert a.critical_cycles["measured"]["residual_increment"] == 7
+
+
 def test_power_law_fit_skips_non_positive_ratios_and_needs_two_points():
     fit = cy.fit_power_law([1, 2, 3, 4, 5], [1.0, 0.1, -1e-6, 0.1 * 4**-2, 0.1 * 5**-2])
     assert fit.cycles_excluded == [3]

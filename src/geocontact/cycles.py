@@ -91,33 +91,78 @@ class PowerLaw:
         return asdict(self)
 
 
-def fit_power_law(cycles, ratios) -> PowerLaw | None:
-    """Least-squares fit of log(ratio) = log(c) - p log(N) over N >= 2 with ratio > 0.
-
-    Returns None with fewer than two usable cycles."""
+def _log_fit(cycles, ratios, abscissa):
+    """Least squares of log(ratio) against abscissa(N) over N >= 2 with ratio > 0."""
     n = np.asarray(cycles, dtype=float)
     r = np.asarray(ratios, dtype=float)
     later = n >= 2
     use = later & (r > 0.0) & np.isfinite(r)
-    excluded = [int(k) for k in n[later & ~use]]
     if np.count_nonzero(use) < 2:
         return None
-    x, y = np.log(n[use]), np.log(r[use])
+    x, y = abscissa(n[use]), np.log(r[use])
     slope, intercept = np.polyfit(x, y, 1)
     residual = y - (intercept + slope * x)
     se = None
     if x.size > 2:
         sxx = float(np.sum((x - x.mean()) ** 2))
         se = float(math.sqrt(float(np.sum(residual**2)) / (x.size - 2) / sxx))
-    return PowerLaw(
-        coefficient=float(math.exp(intercept)),
-        power=float(-slope),
-        cycles_used=[int(k) for k in n[use]],
-        cycles_excluded=excluded,
-        rms_log10_error=float(np.sqrt(np.mean(residual**2)) / math.log(10.0)),
-        max_relative_error=float(np.max(np.abs(np.expm1(-residual)))),
-        power_standard_error=se,
-    )
+    errors = {
+        "cycles_used": [int(k) for k in n[use]],
+        "cycles_excluded": [int(k) for k in n[later & ~use]],
+        "rms_log10_error": float(np.sqrt(np.mean(residual**2)) / math.log(10.0)),
+        "max_relative_error": float(np.max(np.abs(np.expm1(-residual)))),
+    }
+    return float(slope), float(intercept), se, errors
+
+
+def fit_power_law(cycles, ratios) -> PowerLaw | None:
+    """Least-squares fit of log(ratio) = log(c) - p log(N) over N >= 2 with ratio > 0.
+
+    Returns None with fewer than two usable cycles."""
+    fit = _log_fit(cycles, ratios, np.log)
+    if fit is None:
+        return None
+    slope, intercept, se, errors = fit
+    return PowerLaw(coefficient=math.exp(intercept), power=-slope, power_standard_error=se,
+                    **errors)
+
+
+@dataclass(frozen=True)
+class GeometricLaw:
+    """ratio(N) = coefficient * factor^N: a constant factor per cycle. A diagnostic beside the
+    power law (the paper's form, which the law uses): FE ratios that fall by a steady factor
+    per cycle are fitted better by it, and its critical cycle is then the better estimate."""
+
+    coefficient: float
+    factor: float
+    cycles_used: list[int]
+    cycles_excluded: list[int]
+    rms_log10_error: float
+    max_relative_error: float
+
+    def __call__(self, cycle):
+        return self.coefficient * self.factor ** np.asarray(cycle, dtype=float)
+
+    def critical_cycle(self, tolerance: float) -> int | None:
+        """First N >= 2 with c q^N < tolerance; None if the ratio does not decay."""
+        if self.coefficient * self.factor**2 < tolerance:
+            return 2
+        if self.factor >= 1.0:
+            return None
+        n = math.log(tolerance / self.coefficient) / math.log(self.factor)
+        return max(2, math.floor(n) + 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def fit_geometric(cycles, ratios) -> GeometricLaw | None:
+    """Least-squares fit of log(ratio) = log(c) + N log(q) over N >= 2 with ratio > 0."""
+    fit = _log_fit(cycles, ratios, lambda n: n)
+    if fit is None:
+        return None
+    slope, intercept, _, errors = fit
+    return GeometricLaw(coefficient=math.exp(intercept), factor=math.exp(slope), **errors)
 
 
 def cycle_table(cycles: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -174,6 +219,7 @@ class CycleAnalysis:
     state: str
     eventual_state: str
     rules: dict[str, str] = field(default_factory=dict)
+    geometric_fits: dict[str, Any] = field(default_factory=dict)  # diagnostic, see GeometricLaw
 
     @property
     def critical_cycle(self) -> int | None:
@@ -192,6 +238,8 @@ class CycleAnalysis:
                 "plastic_work_ratio": (self.plastic_work_fit.to_dict()
                                        if self.plastic_work_fit else None),
                 "form": "ratio = coefficient * N^-power, least squares in log-log over N >= 2",
+                "geometric": self.geometric_fits,
+                "geometric_form": "ratio = coefficient * factor^N (diagnostic)",
             },
             "critical_cycles": self.critical_cycles,
             "state": self.state,
@@ -228,9 +276,14 @@ def analyse(cycles: list[dict[str, Any]], *, tolerance: float = DEFAULT_TOLERANC
                and first["plastic_work_J"]
                <= ELASTIC_FLOOR * first["max_force_N"] * first["max_approach_m"])
     residual_fit = plastic_fit = None
+    geometric: dict[str, Any] = {}
     if not elastic:
         residual_fit = fit_power_law(n, [r["residual_increment_ratio"] for r in rows])
         plastic_fit = fit_power_law(n, [r["plastic_work_ratio"] for r in rows])
+        for key in ("residual_increment_ratio", "plastic_work_ratio"):
+            g = fit_geometric(n, [r[key] for r in rows])
+            geometric[key] = None if g is None else {
+                **g.to_dict(), "critical_cycle": g.critical_cycle(tolerance)}
 
     measured_res = _first_below(rows, "residual_increment_ratio", tolerance)
     measured_wp = _first_below(rows, "plastic_work_ratio", tolerance)
@@ -260,7 +313,7 @@ def analyse(cycles: list[dict[str, Any]], *, tolerance: float = DEFAULT_TOLERANC
     return CycleAnalysis(source=source, tolerance=float(tolerance), horizon=int(horizon),
                          cycles=rows, residual_fit=residual_fit, plastic_work_fit=plastic_fit,
                          critical_cycles=critical, state=state, eventual_state=eventual,
-                         rules=dict(RULES))
+                         rules=dict(RULES), geometric_fits=geometric)
 
 
 def _later(a: int | None, b: int | None) -> int | None:
@@ -533,7 +586,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 __all__ = [
     "DEFAULT_TOLERANCE", "ELASTIC", "ELASTIC_SHAKEDOWN", "PLASTIC_SHAKEDOWN", "RATCHETTING",
-    "UNDETERMINED", "CycleAnalysis", "PowerLaw", "analyse", "cycle_table", "fe_cycle_windows",
-    "fit_power_law", "law_cycles_along_path", "law_cycles_by_force", "reloading_stiffness",
-    "run_cycles", "shakedown_rule", "with_cyclic",
+    "UNDETERMINED", "CycleAnalysis", "GeometricLaw", "PowerLaw", "analyse", "cycle_table",
+    "fe_cycle_windows", "fit_geometric", "fit_power_law", "law_cycles_along_path",
+    "law_cycles_by_force", "reloading_stiffness", "run_cycles", "shakedown_rule", "with_cyclic",
 ]
