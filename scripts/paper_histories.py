@@ -9,6 +9,7 @@ with ``geocontact.cycles``; writes to ``out/paper-histories/``:
 * ``<run>.json`` - the run's inputs, FE summary and cycle analysis; ``cycles.csv`` - every cycle
   of every run;
 * ``findings.json`` / ``findings.csv`` - the paper's statements with our numbers;
+  ``tables.md`` - both as the Markdown tables of docs/cycles.md;
 * ``params-cyclic-<run>.json`` - the law parameters given with ``--params`` (default: the shipped
   illustrative ones for the material) with ``cyclic`` fitted to the repeated runs;
 * ``index.json`` - settings, wall time, file list.
@@ -27,13 +28,57 @@ import numpy as np
 
 from geocontact.cycles import CSV_COLUMNS, with_cyclic
 from geocontact.errors import InputError
-from geocontact.io import provenance, write_csv, write_json_atomic
+from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
 from geocontact.law import load_params
 from geocontact.paper_histories import paper_findings, run_paper_histories
 
 ROOT = Path(__file__).resolve().parents[1]
 ILLUSTRATIVE = {"reference": ROOT / "examples" / "params-illustrative.json",
                 "reference-weak": ROOT / "examples" / "params-illustrative-weak.json"}
+
+
+def _fmt(value) -> str:
+    """Compact text of a finding's value for a Markdown table."""
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if isinstance(value, dict):
+        return "; ".join(f"{k}: {_fmt(v)}" for k, v in value.items())
+    if isinstance(value, list):
+        return ", ".join(_fmt(v) for v in value)
+    return str(value)
+
+
+def markdown(runs, findings) -> str:
+    """The tables of docs/cycles.md: per run, then the paper's statements."""
+    lines = ["| run | mesh | cycles | FE steps | FE wall s | cycle 2 residual / plastic-work "
+             "ratio | last cycle | power law residual c, p (rms log10) | power law Wp c, p "
+             "(rms log10) | geometric factor residual / Wp | Nc fitted (res, Wp) | "
+             "Nc measured (res, Wp) | state | eventual |",
+             "|" + " --- |" * 14]
+    for name, run in runs.items():
+        a, c = run.analysis, run.analysis.cycles
+        rf, wf = a.residual_fit, a.plastic_work_fit
+        g = a.geometric_fits
+        geo = " / ".join(_fmt(g[k]["factor"]) if g.get(k) else "-"
+                         for k in ("residual_increment_ratio", "plastic_work_ratio"))
+        fit = [f"{f.coefficient:.3g}, {f.power:.3g} ({f.rms_log10_error:.2g})" if f else "-"
+               for f in (rf, wf)]
+        ncf, ncm = a.critical_cycles["fitted"], a.critical_cycles["measured"]
+        lines.append(
+            f"| {name} | {run.summary['inputs']['mesh']} | {len(c)} | {run.summary['steps']} | "
+            f"{run.summary['wall_time_s']:.0f} | {_fmt(c[1]['residual_increment_ratio'])} / "
+            f"{_fmt(c[1]['plastic_work_ratio'])} | {_fmt(c[-1]['residual_increment_ratio'])} / "
+            f"{_fmt(c[-1]['plastic_work_ratio'])} | {fit[0]} | {fit[1]} | {geo} | "
+            f"{ncf['residual_increment']}, {ncf['plastic_work']} | "
+            f"{ncm['residual_increment']}, {ncm['plastic_work']} | {a.state} | "
+            f"{a.eventual_state} |")
+    lines += ["", "| statement | quantity | ours | paper | agrees |", "|" + " --- |" * 5]
+    for f in findings:
+        verdict = {True: "yes", False: "**no**", None: "n/a"}[f["agrees"]]
+        paper = "-" if f["paper_value"] is None else _fmt(f["paper_value"])
+        lines.append(f"| {f['statement']} | {f['quantity']} | {_fmt(f['our_value'])} | "
+                     f"{paper} | {verdict} |")
+    return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -72,7 +117,8 @@ def main(argv: list[str] | None = None) -> int:
                             for f in findings], dtype=object),
         "rule": np.array([f["rule"] for f in findings], dtype=object),
     })
-    files += ["cycles.csv", "findings.json", "findings.csv"]
+    write_text_atomic(out / "tables.md", markdown(runs, findings))
+    files += ["cycles.csv", "findings.json", "findings.csv", "tables.md"]
     for name, run in runs.items():
         if (run.history != "repeated" or run.material_name not in ILLUSTRATIVE
                 or "@" in name):
