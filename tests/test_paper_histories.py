@@ -6,7 +6,7 @@ import pytest
 from geocontact import cycles as cy
 from geocontact.force_history import preset_history
 from geocontact.material import preset
-from geocontact.paper_histories import PaperRun, paper_findings, study
+from geocontact.paper_histories import EXTRA_TOLERANCES, PaperRun, paper_findings, study
 
 
 def synthetic_run(name, history, material, increments, plastic_work, stiffening=0.0):
@@ -39,7 +39,8 @@ def synthetic_run(name, history, material, increments, plastic_work, stiffening=
     return PaperRun(name=name, material_name=material, material=preset(material), history=history,
                     forces=forces, curve=curve, summary={"cycles": cycles},
                     analysis=cy.analyse(cycles, source=name),
-                    extra={1e-3: cy.analyse(cycles, tolerance=1e-3, source=name)})
+                    extra={t: cy.analyse(cycles, tolerance=t, source=name)
+                           for t in EXTRA_TOLERANCES})
 
 
 def decay(first, c, p, n):
