@@ -431,7 +431,9 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
         "state": analysis.state,
         **(provenance or {}),
     }
-    return replace(params, cyclic=cyclic, fit_errors=fit_errors, provenance=prov)
+    label = f"{params.label} | cyclic: fitted to {analysis.source} ({len(analysis.cycles)} cycles)"
+    return replace(params, cyclic=cyclic, fit_errors=fit_errors, provenance=prov,
+                   label=label.lstrip(" |"))
 
 
 def _fit_error(fit: PowerLaw) -> dict[str, Any]:
