@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geocontact.cycles import CSV_COLUMNS, with_cyclic
+from geocontact.cycles import with_cyclic, write_cycles_csv
 from geocontact.errors import InputError
 from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
 from geocontact.law import load_params
@@ -101,14 +101,10 @@ def main(argv: list[str] | None = None) -> int:
                                             if args.check_mesh else None))
     out = Path(args.out)
     files = []
-    rows = []
     for name, run in runs.items():
         write_json_atomic(out / f"{name}.json", run.to_dict())
         files.append(f"{name}.json")
-        rows += [[name, *["" if r[c] is None else r[c] for c in CSV_COLUMNS[1:]]]
-                 for r in run.analysis.cycles]
-    write_csv(out / "cycles.csv", {c: np.array([r[i] for r in rows], dtype=object)
-                                   for i, c in enumerate(CSV_COLUMNS)})
+    write_cycles_csv(out / "cycles.csv", {name: run.analysis for name, run in runs.items()})
     findings = paper_findings(runs)
     write_json_atomic(out / "findings.json", {"findings": findings})
     write_csv(out / "findings.csv", {

@@ -32,12 +32,16 @@ from __future__ import annotations
 
 import copy
 import math
+import sys
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ._version import __version__
 from .errors import InputError
+from .io import provenance, write_csv, write_json_atomic
 from .law.params import power_law_critical_cycle
 
 ELASTIC = "elastic"
@@ -480,6 +484,14 @@ CSV_COLUMNS = ("source", "cycle", "max_force_N", "max_approach_m", "residual_app
                "plastic_work_ratio", "loop_work_J", "max_approach_ratio")
 
 
+def write_cycles_csv(path, analyses: dict[str, CycleAnalysis]) -> None:
+    """One row per (source, cycle) of every analysis, atomically."""
+    rows = [[name, *["" if r[c] is None else r[c] for c in CSV_COLUMNS[1:]]]
+            for name, a in analyses.items() for r in a.cycles]
+    write_csv(path, {c: np.array([r[i] for r in rows], dtype=object)
+                     for i, c in enumerate(CSV_COLUMNS)})
+
+
 def check_cyclic_history(forces: list[float]) -> None:
     """A cycle analysis needs the history to come back to zero force at its end."""
     if forces[-1] != 0.0:
@@ -512,10 +524,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
     ``fit_params`` (a path) also ``params`` with its cyclic extension fitted to the FE.
 
     Every file is written atomically; ``summary.json`` is written last. Returns its content."""
-    from pathlib import Path
-
-    from .fem.run import run_history
-    from .io import provenance, write_csv, write_json_atomic
+    from .fem.run import run_history  # the FE is an optional extra: imported when used
 
     forces = [float(f) for f in forces]
     check_cyclic_history(forces)
@@ -534,8 +543,6 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                              steps_per_segment=steps_per_segment, resume=resume,
                              progress=progress, write_fields=True)
     elif progress:
-        import sys
-
         print(f"cycles: reusing the finished FE run in {fe_dir}", file=sys.stderr)
     fe_cycles = result.summary["cycles"]
     analyses = {"fe": analyse(fe_cycles, tolerance=tolerance, source="fe")}
@@ -553,13 +560,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
             "law_residual_approach_m": path["residual_approach_m"],
             "law_dissipated_energy_J": path["dissipated_energy_J"]})
         write_csv(out / "law_by_force.csv", force_path)
-    rows = [[name, *["" if r[c] is None else r[c] for c in CSV_COLUMNS[1:]]]
-            for name, a in analyses.items() for r in a.cycles]
-    write_csv(out / "cycles.csv", {c: np.array([r[i] for r in rows], dtype=object)
-                                   for i, c in enumerate(CSV_COLUMNS)})
+    write_cycles_csv(out / "cycles.csv", analyses)
     fs = result.summary
-    from . import __version__
-
     summary = {
         "version": __version__,
         "analyses": {name: a.to_dict() for name, a in analyses.items()},
@@ -591,4 +593,5 @@ __all__ = [
     "UNDETERMINED", "CycleAnalysis", "GeometricLaw", "PowerLaw", "analyse", "cycle_table",
     "fe_cycle_windows", "fit_geometric", "fit_power_law", "law_cycles_along_path",
     "law_cycles_by_force", "reloading_stiffness", "run_cycles", "shakedown_rule", "with_cyclic",
+    "write_cycles_csv",
 ]
