@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench examples clean plugin test-plugin
+.PHONY: demo test lint bench examples clean plugin test-plugin ccx
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -43,7 +43,12 @@ test: $(STAMP) lint test-plugin
 demo: $(STAMP)
 	$(VENV)/bin/geocontact demo --out out/demo
 
-bench: $(STAMP) plugin
+# CalculiX, the FE peer of `benchmarks/run.py ccx` (Debian/Ubuntu package; not needed by `test`)
+ccx:
+	command -v ccx >/dev/null || (apt-get update && apt-get install -y calculix-ccx) \
+	  || (sudo apt-get update && sudo apt-get install -y calculix-ccx)
+
+bench: $(STAMP) plugin ccx
 	$(PY) benchmarks/run.py
 
 # Regenerate the shipped illustrative parameter files (never edited by hand).

@@ -1,7 +1,7 @@
 """``make bench``: every benchmark, each against a peer measured in the same run.
 
 Writes out/bench/*.json and the results table of docs/benchmarks.md.
-Usage: python benchmarks/run.py [law] [lammps] [--quick]
+Usage: python benchmarks/run.py [law] [lammps] [fem] [ccx] [--quick]
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-illustrativ
 
 def main(argv: list[str]) -> int:
     quick = "--quick" in argv
-    names = [a for a in argv if not a.startswith("--")] or ["law", "lammps"]
+    names = [a for a in argv if not a.startswith("--")] or ["law", "lammps", "fem", "ccx"]
     if "law" in names:
         import bench_law
 
@@ -29,6 +29,14 @@ def main(argv: list[str]) -> int:
         import bench_lammps
 
         bench_lammps.main(cells=8 if quick else 17, steps=50 if quick else 200)
+    if "fem" in names:
+        import bench_fem
+
+        bench_fem.main(mesh="coarse" if quick else "default")
+    if "ccx" in names:
+        import bench_ccx
+
+        bench_ccx.main(quick=quick)
     write_table()
     return 0
 

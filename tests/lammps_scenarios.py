@@ -68,18 +68,23 @@ def _packing_settings(lmp, law_diagnostics: bool = True):
     ])
 
 
+BOX_LEVEL_COMMANDS = ("atom_style", "newton")  # only valid before create_box
+
+
 def build_packing(lmp, cells: int = CELLS, pair: list[str] | None = None):
     """The fcc packing with its walls; `pair` replaces the geocontact pair_style/pair_coeff
-    lines (the benchmark's peers)."""
+    lines (the benchmark's peers). Its `atom_style` and `newton` lines, which LAMMPS accepts
+    only before the box exists, go there (an `atom_style` line replaces `atom_style sphere`)."""
     spacing = 2.0 * RADIUS * math.sqrt(2.0)  # fcc: nearest neighbours exactly touch
-    newton = [line for line in pair or [] if line.startswith("newton")]  # before the box
-    pair = [line for line in pair if not line.startswith("newton")] if pair else None
+    box_level = [line for line in pair or [] if line.startswith(BOX_LEVEL_COMMANDS)]
+    pair = [line for line in pair if line not in box_level] if pair else None
+    atom_style = [line for line in box_level if line.startswith("atom_style")]
     _commands(lmp, [
         "units si",
-        "atom_style sphere",
+        *(atom_style or ["atom_style sphere"]),
         "atom_modify map array",
         "boundary p p f",
-        *newton,
+        *[line for line in box_level if line not in atom_style],
         f"lattice fcc {spacing}",
         f"region box block 0 {cells} 0 {cells} -0.25 {cells - 0.25}",
         "create_box 1 box",

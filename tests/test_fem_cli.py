@@ -39,7 +39,8 @@ def test_cli_writes_curve_summary_and_fields(tmp_path, capsys):
     with open(out / "curve.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert set(rows[0]) >= {"step", "force_N", "approach_m", "contact_radius_m",
-                            "plastic_dissipation_J", "elastic_energy_J"}
+                            "plastic_dissipation_J", "elastic_energy_J",
+                            "yielded_contact_fraction", "yielded_core_fraction"}
     assert float(rows[-1]["force_N"]) == 0.0
     assert max(float(r["force_N"]) for r in rows) == 60.0
     vtus = sorted((out / "fields").glob("*.vtu"))

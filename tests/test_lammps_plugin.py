@@ -214,6 +214,199 @@ def test_tangential_force_follows_mindlin_then_coulomb():
     lmp.close()
 
 
+# --- restart in the middle of a cycle -------------------------------------------------------
+
+SLIP_SPEED = 2e-4  # m/s sideways: the tangential force sticks, then slides, through the path
+
+
+def force_on(lmp, tag: int) -> np.ndarray:
+    """Force on the atom with ID `tag` (atom order may change across a restart)."""
+    ids = lmp.numpy.extract_atom("id")
+    return np.array(lmp.numpy.extract_atom("f")[int(np.flatnonzero(ids == tag)[0])])
+
+
+def drive_slipping_pair(lmp, approaches) -> np.ndarray:
+    """Atom 2 set at each approach, one step each, while it slides sideways at SLIP_SPEED (no
+    integrator: positions stay as set). Rows: force on atom 1 (x, y), then p1..p6 of the pair."""
+    rows = []
+    for k, approach in enumerate(approaches):
+        lmp.command(f"set atom 2 x {2 * RADIUS - approach!r}")
+        lmp.command(f"run 1 pre {'yes' if k == 0 else 'no'} post no")
+        local = pair_local(lmp)
+        rows.append([*force_on(lmp, 1)[:2], *(local[0] if local is not None else np.zeros(6))])
+    return np.array(rows)
+
+
+def slipping_pair():
+    lmp = two_spheres(gap=0.5 * PARAMS.yield_approach, friction=0.5, extra=["timestep 1e-4"])
+    lmp.command(f"set atom 2 vy {SLIP_SPEED!r}")
+    return lmp
+
+
+@pytest.mark.parametrize("branch, stop", [(2, 33), (3, 47)], ids=["unloading", "reloading"])
+def test_restart_written_mid_cycle_continues_with_the_same_forces(tmp_path, branch, stop):
+    """A restart written while the contact is on an unloading or reloading branch, with a
+    tangential force built up, read into a new LAMMPS and continued along the same path gives
+    the forces of the uninterrupted run."""
+    path = approach_path(PARAMS.yield_approach)
+    lmp = slipping_pair()
+    uninterrupted = drive_slipping_pair(lmp, path)
+    lmp.close()
+
+    lmp = slipping_pair()
+    before = drive_slipping_pair(lmp, path[:stop])
+    assert before[-1, 7] == branch  # p6: the contact is mid-cycle when the file is written
+    assert before[-1, 5] > 20 * PARAMS.yield_approach  # p4: past yield (plastic envelope)
+    assert abs(before[-1, 1]) > 0.0  # a tangential force to carry over
+    restart = tmp_path / "mid-cycle.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+
+    lmp = open_lammps()
+    lmp.command(f"read_restart {restart}")
+    for line in ("comm_modify vel yes", "neighbor 0.01 bin",
+                 "neigh_modify every 1 delay 0 check yes",
+                 "compute pl all pair/local p1 p2 p3 p4 p5 p6"):
+        lmp.command(line)
+    after = drive_slipping_pair(lmp, path[stop:])
+    lmp.close()
+    resumed = np.vstack([before, after])
+    peak = np.abs(uninterrupted[:, 0]).max()
+    assert np.any(uninterrupted[stop:, 7] == 2) and np.any(uninterrupted[stop:, 7] == 3)
+    # same arithmetic from the same stored state: measured difference 0
+    assert np.abs(resumed - uninterrupted)[:, :4].max() <= 1e-12 * peak
+    assert np.array_equal(resumed[:, 5:], uninterrupted[:, 5:])  # δmax, δres, branch
+
+
+# --- energy minimization ----------------------------------------------------------------------
+
+def pressed_pair(load: float, dmax: float):
+    """Atom 1 held, atom 2 pushed onto it by a constant force `load` whose potential energy
+    (-F·x) enters the minimizer's energy; line-search steps at most `dmax`."""
+    lmp = two_spheres(gap=0.0)
+    for line in ("group one id 1", "group two id 2", "fix hold one setforce 0 0 0",
+                 f"fix load two addforce {-load!r} 0 0", "fix_modify load energy yes",
+                 f"min_modify dmax {dmax!r}", "thermo_style custom step pe"):
+        lmp.command(line)
+    return lmp
+
+
+def approach_and_energy(lmp, load: float) -> tuple[float, float]:
+    """Current approach and the pair energy (pe minus the load's potential energy)."""
+    x = lmp.numpy.extract_atom("x")
+    return 2 * RADIUS - (x[1][0] - x[0][0]), lmp.get_thermo("pe") - load * x[1][0]
+
+
+def test_minimize_finds_the_hertz_equilibrium_with_consistent_energy():
+    dy = PARAMS.yield_approach
+    load = 0.3 * PARAMS.yield_force
+    lmp = pressed_pair(load, dmax=0.05 * dy)
+    lmp.command(f"minimize 0 {1e-9 * load!r} 10000 100000")
+    approach, energy = approach_and_energy(lmp, load)
+    expected = (load / PARAMS.hertz_coefficient) ** (2.0 / 3.0)
+    assert approach == pytest.approx(expected, rel=1e-6)
+    # the energy minimized is the Hertz energy: 2/5 Kh δ^{5/2}
+    assert energy == pytest.approx(0.4 * PARAMS.hertz_coefficient * approach**2.5, rel=1e-9)
+    assert force_on(lmp, 2)[0] == pytest.approx(0.0, abs=1e-6 * load)  # balanced
+    lmp.close()
+
+
+def test_pair_energy_is_the_potential_of_the_force_on_an_unloading_branch():
+    """Finite differences of the pair energy (run 0 evaluates without advancing the history)
+    give the force, on the elastic branch and on an unloading branch of a plastic contact."""
+    dy = PARAMS.yield_approach
+    lmp = two_spheres(gap=0.0)
+    lmp.command("thermo_style custom step pe")
+
+    def energy_and_force(approach):
+        lmp.command(f"set atom 2 x {2 * RADIUS - approach!r}")
+        lmp.command("run 0 post no")
+        return lmp.get_thermo("pe"), force_on(lmp, 2)[0]
+
+    for approach in (0.7 * dy, None):
+        if approach is None:  # plastic: load to 30 δy, unload to 20 δy (history advanced)
+            for target in (30 * dy, 20 * dy):
+                lmp.command(f"set atom 2 x {2 * RADIUS - target!r}")
+                lmp.command("run 1 post no")
+            assert pair_local(lmp)[0, 5] == 2  # unloading branch
+            approach = 20 * dy
+        h = 1e-4 * approach
+        e_plus, _ = energy_and_force(approach + h)
+        e_minus, _ = energy_and_force(approach - h)
+        _, force = energy_and_force(approach)
+        assert (e_plus - e_minus) / (2 * h) == pytest.approx(force, rel=1e-6)
+    lmp.close()
+
+
+def test_minimize_settles_a_plastic_contact_on_its_unloading_curve():
+    """A contact loaded to 30 δy then minimized under half its force settles where the
+    unloading curve of the Python law carries the load, its envelope unchanged. Every force
+    evaluation of the minimizer advances the history (as pair granular), so the line search's
+    back-and-forth leaves the contact on an unloading or a (tiny) reloading branch."""
+    import copy
+
+    dy = PARAMS.yield_approach
+    reference = Contact(PARAMS)
+    load = 0.5 * reference.update(30 * dy)[0]
+    lmp = pressed_pair(load, dmax=0.05 * dy)
+    lmp.command(f"set atom 2 x {2 * RADIUS - 30 * dy!r}")
+    lmp.command("run 1 post no")  # commits the plastic envelope
+    envelope = pair_local(lmp)[0, 3:5]  # δmax, δres
+    lmp.command(f"minimize 0 {1e-9 * load!r} 10000 100000")
+    approach, _ = approach_and_energy(lmp, load)
+    rows = pair_local(lmp)
+    assert copy.deepcopy(reference).update(approach)[0] == pytest.approx(load, rel=1e-6)
+    assert force_on(lmp, 2)[0] == pytest.approx(0.0, abs=1e-6 * load)  # balanced
+    assert rows[0, 5] in (2, 3) and np.array_equal(rows[0, 3:5], envelope)  # same envelope
+    lmp.close()
+
+
+# --- two atom types, two parameter files -----------------------------------------------------
+
+WEAK_FILE = ROOT / "examples" / "params-illustrative-weak.json"
+
+
+def two_type_pairs(coeffs: list[str], approach: float):
+    """Three pairs at the same approach along x: types 1-1 (y = 0), 2-2 (y = 0.5) and 1-2
+    (y = -0.5); atoms 2, 4, 6 are the right-hand grains."""
+    lmp = open_lammps()
+    right = 2 * RADIUS - approach
+    for line in ("units si", "atom_style sphere", "atom_modify map array", "boundary f f f",
+                 "comm_modify vel yes", "region box block -1 1 -1 1 -1 1", "create_box 2 box",
+                 "create_atoms 1 single 0 0 0", f"create_atoms 1 single {right!r} 0 0",
+                 "create_atoms 2 single 0 0.5 0", f"create_atoms 2 single {right!r} 0.5 0",
+                 "create_atoms 1 single 0 -0.5 0", f"create_atoms 2 single {right!r} -0.5 0",
+                 f"set group all diameter {2 * RADIUS}", f"set group all density {DENSITY}",
+                 "neighbor 0.01 bin", "pair_style geocontact", *coeffs):
+        lmp.command(line)
+    return lmp
+
+
+def test_two_types_use_their_own_and_the_explicit_mixed_parameter_files():
+    strong, weak = PARAMS, load_params(WEAK_FILE)
+    approach = 5 * strong.yield_approach  # elastic-plastic for the strong, deep for the weak
+    lmp = two_type_pairs([f"pair_coeff 1 1 {PARAMS_FILE} friction 0",
+                          f"pair_coeff 2 2 {WEAK_FILE} friction 0",
+                          f"pair_coeff 1 2 {WEAK_FILE} friction 0"], approach)
+    lmp.command("run 1 post no")
+    x = lmp.numpy.extract_atom("x")
+    for right, params in ((1, strong), (3, weak), (5, weak)):
+        seen = 2 * RADIUS - (x[right][0] - x[right - 1][0])
+        expected = Contact(params).update(seen)[0]
+        assert force_on(lmp, right + 1)[0] == pytest.approx(expected, rel=1e-12)
+    assert force_on(lmp, 2)[0] > 3 * force_on(lmp, 6)[0]  # the files differ, visibly
+    lmp.close()
+
+
+def test_unlike_types_with_different_files_need_an_explicit_pair_coeff():
+    lmp = two_type_pairs([f"pair_coeff 1 1 {PARAMS_FILE}", f"pair_coeff 2 2 {WEAK_FILE}"],
+                         PARAMS.yield_approach)
+    with pytest.raises(Exception, match="types 1 and 2 use different parameter files; give "
+                                        "pair_coeff 1 2 explicitly"):
+        lmp.command("run 0")
+    lmp.close()
+
+
 # --- MPI: packing on 1 and 2 ranks, migration, restart -------------------------------------
 
 SCENARIOS = Path(__file__).with_name("lammps_scenarios.py")

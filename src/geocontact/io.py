@@ -111,8 +111,10 @@ def read_text_input(path: str | Path, what: str) -> str:
         raise InputError(f"{what}: {path} is not a UTF-8 text file") from None
 
 
-def read_csv_column(path: str | Path, column: str) -> np.ndarray:
-    """One numeric column of a CSV file with a header; one-line errors on any defect."""
+def read_csv_column(path: str | Path, column: str, ragged: bool = False) -> np.ndarray:
+    """One numeric column of a CSV file with a header; one-line errors on any defect.
+    ``ragged``: the column may end before the file does (blank cells, as ``write_csv`` writes
+    columns of different lengths)."""
     p = Path(path)
     if not p.exists():
         raise InputError(f"{column}: file not found: {path}")
@@ -125,6 +127,8 @@ def read_csv_column(path: str | Path, column: str) -> np.ndarray:
             values = []
             for line, row in enumerate(reader, start=2):
                 text = (row.get(key) or "").strip()
+                if ragged and not text:
+                    continue
                 try:
                     value = float(text)
                 except ValueError:

@@ -12,7 +12,7 @@ import sys
 
 from ..errors import GeocontactError, InputError
 
-COMMANDS = ["demo", "yield_", "law", "fem", "cycles", "seismic", "presets"]
+COMMANDS = ["demo", "yield_", "law", "fem", "cycles", "sweep", "seismic", "report", "presets"]
 
 
 def build_parser() -> argparse.ArgumentParser:

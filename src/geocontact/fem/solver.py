@@ -35,7 +35,6 @@ from scipy.sparse.linalg import splu
 from ..errors import ConvergenceError
 from ..material import Material
 from .plasticity import (
-    ELASTIC,
     DruckerPrager,
     elastic_energy_density,
     elastic_strain,
@@ -46,6 +45,9 @@ from .plasticity import (
 TWO_PI = 2.0 * math.pi
 _IDENTITY = np.array([1.0, 1.0, 1.0, 0.0])
 CONTACT_CANDIDATE_HEIGHT = 0.3  # surface nodes with z0 < 0.3 R may touch the flat
+# A point counts as yielding (fully plastic onset, SPEC section 4) when its Drucker-Prager ratio
+# is within 1 % of the yield surface: a point that yielded and unloads by round-off still counts.
+YIELD_RATIO_AT_YIELD = 0.99
 
 
 @dataclass
@@ -413,30 +415,47 @@ class ContactSolver:
         """Drucker-Prager measure at every point (1 on the yield surface)."""
         return yield_ratio(self.model, state.stress, state.eqps)
 
-    def surface_points(self, state: State) -> tuple[np.ndarray, np.ndarray]:
-        """(element, point) of the quadrature point nearest each contact-surface facet in contact.
+    def surface_layer(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The quadrature points just under the spherical surface and the strip each stands for.
 
-        The contact area is fully plastic when all of them are yielding (SPEC section 4, Fp).
+        For every surface facet, the three quadrature points of its element nearest the facet
+        (with the 6-point rule about 0.1 of the element height deep, so the layer thins with the
+        mesh); each represents the part of the facet between the radii halfway to its
+        neighbours. Returns flat arrays (elements, points, r_inner, r_outer).
         """
-        key = "surface_points"
+        key = "surface_layer"
         if key not in self._cache:
             facets = self.sphere_facets()
-            mid = self.mesh.p[:, self.mesh.facets[:, facets]].mean(axis=1)
+            ends = self.mesh.p[:, self.mesh.facets[:, facets]]  # (r/z, end, facet)
             elements = self.mesh.f2t[0, facets]
-            dist = np.hypot(self.radius_qp[elements] - mid[0][:, None],
-                            self.z_qp[elements] - mid[1][:, None])
-            self._cache[key] = (facets, elements, np.argmin(dist, axis=1),
-                                self.mesh.p[0, self.mesh.facets[:, facets]].max(axis=0))
-        facets, elements, points, facet_rmax = self._cache[key]
-        a = self.contact_radius(state)
-        inside = facet_rmax <= a * (1 + 1e-9)
-        return elements[inside], points[inside]
+            (r1, r2), (z1, z2) = ends
+            qr, qz = self.radius_qp[elements], self.z_qp[elements]
+            chord = np.hypot(r2 - r1, z2 - z1)[:, None]
+            depth = np.abs((r2 - r1)[:, None] * (z1[:, None] - qz)
+                           - (z2 - z1)[:, None] * (r1[:, None] - qr)) / chord
+            points = np.argsort(depth, axis=1)[:, :3]
+            radii = np.take_along_axis(qr, points, axis=1)
+            order = np.argsort(radii, axis=1)
+            points = np.take_along_axis(points, order, axis=1)
+            radii = np.take_along_axis(radii, order, axis=1)
+            bounds = np.stack([np.minimum(r1, r2), 0.5 * (radii[:, 0] + radii[:, 1]),
+                               0.5 * (radii[:, 1] + radii[:, 2]), np.maximum(r1, r2)], axis=1)
+            self._cache[key] = (np.repeat(elements, 3), points.ravel(),
+                                bounds[:, :3].ravel(), bounds[:, 1:].ravel())
+        return self._cache[key]
 
-    def contact_area_fully_plastic(self, state: State) -> bool:
-        elements, points = self.surface_points(state)
-        if len(elements) == 0:
-            return False
-        return bool(np.all(state.status[elements, points] != ELASTIC))
+    def yielded_contact_fraction(self, state: State, extent: float = 1.0) -> float:
+        """Fraction of the projected area of the disc r < extent * a (a the contact radius)
+        whose surface layer (:meth:`surface_layer`) is at yield, i.e. within
+        ``YIELD_RATIO_AT_YIELD`` of the yield surface (SPEC section 4, Fp); 0 without contact.
+        """
+        a = extent * self.contact_radius(state)
+        if a <= 0.0:
+            return 0.0
+        elements, points, r_inner, r_outer = self.surface_layer()
+        area = np.clip(r_outer, 0.0, a) ** 2 - np.clip(r_inner, 0.0, a) ** 2
+        at_yield = self.yield_ratio(state)[elements, points] >= YIELD_RATIO_AT_YIELD
+        return float(np.sum(area[at_yield]) / a**2)
 
 
 def solve_linear(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:

@@ -1,0 +1,303 @@
+"""``geocontact report DIR``: recognise the results in a run directory and turn each into a
+report section (figures from the results' own data, each figure's data as CSV beside it).
+
+Recognised, in DIR itself and in its immediate sub-directories:
+
+* an FE run (``curve.csv`` + ``summary.json`` with ``cycles``): force-approach curve, energies;
+* law parameters (``*.json`` with ``"schema": "geocontact.law/1"``): the law's curves, residual
+  approach and plastic work against depth with the FE points it was fitted to;
+* material sweeps (``summary.json`` with ``"schema": "geocontact.sweeps/1"``);
+* a seismic run (``summary.json`` with ``events``; its own figures are embedded).
+
+Sections for other result kinds register themselves in ``SECTIONS`` (first match wins).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .errors import InputError
+from .io import provenance, read_csv_column
+from .report import Figure, Report, save_figure, table, write_html
+
+FIGURES = "figures"
+
+
+def _summary(directory: Path) -> dict | None:
+    path = directory / "summary.json"
+    if not path.is_file():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: malformed JSON: {exc}") from None
+
+
+def _save(fig, figures: Path, figure: Figure) -> Figure:
+    """Save into DIR/figures/ and point the figure at it (paths relative to DIR)."""
+    save_figure(fig, figures, figure)
+    figure.image = f"{FIGURES}/{figure.name}.png"
+    if figure.data:
+        figure.data_file = f"{FIGURES}/{figure.name}.csv"
+    return figure
+
+
+def _rel(directory: Path, root: Path) -> str:
+    rel = directory.relative_to(root).as_posix()
+    return "" if rel == "." else rel + "/"
+
+
+# --- FE run --------------------------------------------------------------------------------------
+
+
+def is_fe_run(directory: Path) -> bool:
+    s = _summary(directory)
+    return bool(s) and "cycles" in s and "mesh" in s and (directory / "curve.csv").is_file()
+
+
+def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
+    s = _summary(directory)
+    col = {c: read_csv_column(directory / "curve.csv", c) for c in
+           ("force_N", "approach_m", "work_J", "elastic_energy_J", "plastic_dissipation_J",
+            "contact_radius_m")}
+    tag = _rel(directory, root).strip("/").replace("/", "_") or "fe"
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(col["approach_m"] * 1e3, col["force_N"], lw=1.2)
+    ax.set_xlabel("ball–ball approach (mm)")
+    ax.set_ylabel("force (N)")
+    f1 = Figure(f"{tag}_force_approach", f"FE force–approach ({_rel(directory, root) or '.'})",
+                f"{len(s['cycles'])} cycle(s), mesh {s['mesh'].get('preset', '?')} "
+                f"({s['mesh']['elements']} elements).",
+                {"approach_m": col["approach_m"], "force_N": col["force_N"]})
+    _save(fig, figures, f1)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    step = np.arange(len(col["work_J"]))
+    balance = col["elastic_energy_J"] + col["plastic_dissipation_J"]
+    ax.plot(step, col["work_J"], label="work of the force")
+    ax.plot(step, balance, "--", label="elastic energy + plastic dissipation")
+    ax.plot(step, col["plastic_dissipation_J"], label="plastic dissipation")
+    ax.set_xlabel("step")
+    ax.set_ylabel("energy (J, pair)")
+    ax.legend(fontsize=8)
+    f2 = Figure(f"{tag}_energy", "Energy balance of the FE run",
+                "The work of the force against stored plus dissipated energy, step by step.",
+                {"step": step, "work_J": col["work_J"], "elastic_J": col["elastic_energy_J"],
+                 "plastic_J": col["plastic_dissipation_J"]})
+    _save(fig, figures, f2)
+    rows = [[i + 1, c["max_force_N"], c["max_approach_m"] * 1e6,
+             "-" if c["residual_approach_m"] is None else c["residual_approach_m"] * 1e6,
+             c["plastic_work_J"]] for i, c in enumerate(s["cycles"])]
+    fy, fp = s.get("first_yield_force_N"), s.get("fully_plastic_force_N")
+    report.add(
+        f"FE run {_rel(directory, root) or '.'}",
+        f"<p>First yield {'not reached' if fy is None else f'{fy:.4g} N'}; fully plastic "
+        f"{'not reached' if fp is None else f'{fp:.4g} N'}; wall time "
+        f"{s['wall_time_s']:.1f} s; version {s.get('version')}.</p>",
+        table(["cycle", "Fmax (N)", "δmax (µm)", "δres (µm)", "Wp (J)"], rows), f1, f2)
+
+
+# --- law parameters ------------------------------------------------------------------------------
+
+
+def law_files(directory: Path) -> list[Path]:
+    found = []
+    for path in sorted(directory.glob("*.json")):
+        try:
+            if json.loads(path.read_text()).get("schema") == "geocontact.law/1":
+                found.append(path)
+        except (json.JSONDecodeError, AttributeError, UnicodeDecodeError):
+            continue
+    return found
+
+
+def law_curves(params, depths) -> list[tuple]:
+    """Load to each depth (in delta_y), unload until apart, reload past the peak."""
+    from .law import Contact
+
+    dy = params.yield_approach
+    curves = []
+    for depth in depths:
+        c = Contact(params)
+        dmax = depth * dy
+        up = np.linspace(0, dmax, 200)
+        fu = [c.update(d)[0] for d in up]
+        dres = c.state.residual_approach
+        down = np.linspace(dmax, dres, 200)
+        fd = [c.update(d)[0] for d in down]
+        again = np.linspace(dres, 1.2 * dmax, 200)
+        fr = [c.update(d)[0] for d in again]
+        curves.append((depth, up, fu, down, fd, again, fr))
+    return curves
+
+
+def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
+    from .law import load_params
+
+    params = load_params(path)
+    dy, fy = params.yield_approach, params.yield_force
+    tag = path.relative_to(root).with_suffix("").as_posix().replace("/", "_")
+    per_level = (params.fit_errors or {}).get("per_level", [])
+    depth_max = max([lv["depth"] for lv in per_level], default=200.0)
+    depths = [d for d in (1.0, 5.0, 20.0, 80.0, 200.0, 800.0) if d <= 1.05 * depth_max] or [5.0]
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    data = {}
+    for depth, up, fu, down, fd, again, fr in law_curves(params, depths):
+        line, = ax.plot(up / dy, np.array(fu) / fy, lw=1.4, label=f"δmax = {depth:g} δy")
+        ax.plot(down / dy, np.array(fd) / fy, "--", color=line.get_color(), lw=1)
+        ax.plot(again / dy, np.array(fr) / fy, ":", color=line.get_color(), lw=1)
+        data[f"approach_over_dy_{depth:g}"] = np.concatenate([up, down, again]) / dy
+        data[f"force_over_fy_{depth:g}"] = np.concatenate([fu, fd, fr]) / fy
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(0.1, 1.5 * max(depths))
+    ax.set_ylim(1e-2, None)
+    ax.set_xlabel("δ / δy")
+    ax.set_ylabel("F / Fy")
+    ax.legend(fontsize=8)
+    f1 = Figure(f"{tag}_cycles", "The law: loading (solid), unloading (dashed), reloading "
+                "(dotted)", "From several peak depths; reloading rejoins the virgin curve.", data)
+    _save(fig, figures, f1)
+
+    x = np.geomspace(1, max(1000.0, 1.5 * depth_max), 200)
+    law_wp = params.envelope_plastic_work(x * dy) / params.virgin_work(x * dy)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.semilogx(x, params.residual_ratio(x), label="δres / δmax (law)")
+    ax.semilogx(x, law_wp, label="Wp / Wtotal (law's loop area)")
+    ax.semilogx(x, params.plastic_work_ratio(x), "--", label="Wp / Wtotal (fitted form)")
+    data = {"depth": x, "residual_ratio": params.residual_ratio(x),
+            "plastic_work_ratio_law": law_wp,
+            "plastic_work_ratio_form": params.plastic_work_ratio(x)}
+    if per_level:
+        d = np.array([lv["depth"] for lv in per_level])
+        ax.semilogx(d, [lv["residual_ratio"] for lv in per_level], "o", label="δres / δmax (FE)")
+        ax.semilogx(d, [lv["plastic_work_ratio"] for lv in per_level], "s",
+                    label="Wp / Wtotal (FE)")
+        data["fe_depth"] = d
+        data["fe_residual_ratio"] = np.array([lv["residual_ratio"] for lv in per_level])
+        data["fe_plastic_work_ratio"] = np.array([lv["plastic_work_ratio"] for lv in per_level])
+    ax.set_xlabel("δmax / δy")
+    ax.legend(fontsize=8)
+    f2 = Figure(f"{tag}_residual_work", "Residual approach and plastic work against depth",
+                "The law's forms" + (" against the FE levels they were fitted to." if per_level
+                                     else " (no FE levels recorded in this file)."), data)
+    _save(fig, figures, f2)
+    rows = [[k, v] for k, v in (
+        ("label", params.label), ("Fy (N)", fy), ("δy (µm)", dy * 1e6),
+        ("n1", params.elastic_plastic_exponent), ("δp/δy", params.fully_plastic_approach_ratio),
+        ("n2", params.fully_plastic_exponent), ("p_u", params.unloading_power),
+        ("p_r", params.reloading_power), ("ρ∞", params.residual_limit),
+        ("s", params.residual_power), ("w∞", params.plastic_work_limit),
+        ("e", params.plastic_work_power))]
+    errors = {k: v for k, v in (params.fit_errors or {}).items() if isinstance(v, float)}
+    report.add(f"Law parameters {path.relative_to(root).as_posix()}",
+               table(["parameter", "value"], rows),
+               table(["fit error", "value"], [[k, v] for k, v in errors.items()])
+               if errors else "<p>No fit errors recorded (not an FE calibration).</p>", f1, f2)
+
+
+# --- material sweeps -----------------------------------------------------------------------------
+
+
+def is_sweeps(directory: Path) -> bool:
+    s = _summary(directory)
+    return bool(s) and s.get("schema") == "geocontact.sweeps/1"
+
+
+def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
+    s = _summary(directory)
+    items: list = [f"<p>One FE run 0 → {s['peak_force_N']:g} N → 0 per point, mesh "
+                   f"<code>{s['mesh']}</code>, base material <code>{s['base']}</code>.</p>"]
+    rows = []
+    for name, entry in s["sweeps"].items():
+        curves = directory / f"curves_{name}.csv"
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+        data = {}
+        for point in entry["points"]:
+            v = point["value"]
+            label = f"{entry['label']} = {v * entry['scale']:g}"
+            cols = {c: read_csv_column(curves, f"{c}@{v:g}", ragged=True) for c in
+                    ("approach_over_max", "force_over_max", "approach_over_yield",
+                     "force_over_yield")}
+            axes[0].plot(cols["approach_over_max"], cols["force_over_max"], lw=1, label=label)
+            axes[1].loglog(cols["approach_over_yield"][1:], cols["force_over_yield"][1:], lw=1,
+                           label=label)
+            data.update({f"{k}@{v:g}": a for k, a in cols.items()})
+        axes[0].set_xlabel("δ / δmax")
+        axes[0].set_ylabel("F / Fmax")
+        axes[1].set_xlabel("δ / δy")
+        axes[1].set_ylabel("F / Fy")
+        axes[0].legend(fontsize=7)
+        fig_item = Figure(f"sweep_{name}", f"Influence of {entry['label']}",
+                          "Loading and unloading at the same peak force, normalised by the peak "
+                          "(left) and by incipient yield (right).", data)
+        _save(fig, figures, fig_item)
+        items.append(fig_item)
+        for st in entry["statements"]:
+            rows.append([name, st["statement"], st["quantity"],
+                         ", ".join(f"{x:.3g}" for x in st["values"]), st["expected"],
+                         st["found"], "agrees" if st["agrees"] else "disagrees"])
+    items.append(table(["sweep", "paper's statement", "quantity", "our values (sweep order)",
+                        "paper", "ours", "verdict"], rows))
+    report.add("Influence of material properties", *items)
+
+
+# --- seismic -------------------------------------------------------------------------------------
+
+
+def is_seismic(directory: Path) -> bool:
+    s = _summary(directory)
+    return bool(s) and bool(s.get("events")) and "record" in s["events"][0]
+
+
+def seismic_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
+    s = _summary(directory)
+    rel = _rel(directory, root)
+    items: list = []
+    rows = [[e["label"], e["record"].get("name", ""),
+             e["paper_rule"]["peak_time_fraction"], e["paper_rule"]["history_class"],
+             e["settlement_m"] * 1e6] for e in s["events"]]
+    items.append(table(["event", "record", "peak-time fraction", "paper's rule",
+                        "settlement (µm)"], rows))
+    for name in s.get("figures", []):
+        stem = Path(name).stem
+        csv = {"record": "records.csv"}.get(stem, "history.csv")
+        items.append(Figure(f"seismic_{stem}", stem.replace("_", " ").capitalize(),
+                            "From the seismic run.", image=f"{rel}{name}",
+                            data_file=f"{rel}{csv}"))
+    report.add(f"Seismic run {rel or '.'}", *items)
+
+
+SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
+    (is_sweeps, sweeps_section),
+    (is_seismic, seismic_section),
+    (is_fe_run, fe_section),
+]
+
+
+def build_report(directory: str | Path, title: str | None = None, intro: str = "") -> Path:
+    """Write DIR/report.html (and DIR/figures/) from every result found in DIR."""
+    root = Path(directory)
+    if not root.is_dir():
+        raise InputError(f"report: not a directory: {directory}")
+    figures = root / FIGURES
+    report = Report(title=title or f"geocontact — {root.name}", intro=intro,
+                    provenance=provenance("report", {"directory": str(root)}))
+    found = 0
+    for sub in [root] + sorted(p for p in root.iterdir() if p.is_dir() and p.name != FIGURES):
+        for path in law_files(sub):
+            law_section(report, path, root, figures)
+            found += 1
+        for test, section in SECTIONS:
+            if test(sub):
+                section(report, sub, root, figures)
+                found += 1
+                break
+    if not found:
+        raise InputError(f"report: no geocontact results found in {directory} (looked for FE "
+                         "runs, law parameter files, sweeps, seismic runs)")
+    return write_html(report, root)
