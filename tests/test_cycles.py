@@ -249,6 +249,11 @@ def test_cycles_command_on_a_short_fe_history(tmp_path, capsys):
     again = json.loads(capsys.readouterr().out)
     assert again["analyses"]["fe"]["cycles"] == fe["cycles"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fitted.json", "h.toml", "run"]
+    # the report recognises the cyclic-history run (and its FE run in fe/)
+    assert main(["report", str(out)]) == 0
+    html = (out / "report.html").read_text()
+    assert "Cyclic history" in html and "FE run fe" in html
+    assert (out / "figures" / "cycles_cycles_ratios.csv").exists()
 
 
 @pytest.mark.parametrize(
