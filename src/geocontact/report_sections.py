@@ -312,6 +312,9 @@ def cycles_section(report: Report, directory: Path, root: Path, figures: Path) -
         ax.axhline(s["analyses"]["fe"]["tolerance"], color="0.6", ls=":", lw=0.8)
         ax.set_xlabel("cycle N")
         ax.set_title(label, fontsize=9)
+        cycles = sorted({int(k) for k in n if k >= 2})
+        if 0 < len(cycles) <= 12:
+            ax.set_xticks(cycles)
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("ratio to cycle 1")
