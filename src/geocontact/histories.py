@@ -3,7 +3,8 @@
 The law is approach-driven (what DEM needs); the paper's experiments are force-controlled. The
 driver walks each monotone segment of a piecewise-linear force history in approach, finding the
 approach of each force target by bisection on a copy of the contact state (the force is
-monotone along any branch while the approach moves one way).
+monotone along any branch while the approach moves one way). The ratchet of the cyclic extension
+is a creep at constant force F_max; a force-controlled reload to F_max goes through all of it.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 
 from .force_history import PRESETS, load_history, preset_history  # noqa: F401
 from .law import Contact, LawParams
+from .law.reference import RATCHET
 
 
 @dataclass
@@ -64,6 +66,14 @@ def drive_by_force(params: LawParams, forces: list[float], points: int = 60) -> 
                 contact.update(d)
                 path_d.append(d)
                 path_f.append(contact.state.force)
+                if contact.state.branch == RATCHET:
+                    # at F_max the ratchet creeps at constant force: under force control the
+                    # whole creep happens at this target (bisection stops at its start)
+                    s = contact.state
+                    d = s.max_approach + s.pending_ratchet + s.ratchet_shift
+                    contact.update(d)
+                    path_d.append(d)
+                    path_f.append(contact.state.force)
             cycle_max_f = max(cycle_max_f, contact.state.force)
             cycle_max_d = max(cycle_max_d, contact.state.approach)
         elif f1 < f0:

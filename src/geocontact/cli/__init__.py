@@ -12,7 +12,7 @@ import sys
 
 from ..errors import GeocontactError, InputError
 
-COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "sweep", "seismic", "report",
+COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "report",
             "presets"]
 
 

@@ -79,6 +79,19 @@ def _check_keys(where: str, data: Any, allowed: set[str]) -> dict[str, Any]:
     return data
 
 
+def power_law_critical_cycle(coefficient: float, power: float, tolerance: float) -> int | None:
+    """First cycle N >= 2 at which the ratio c N^-p is below ``tolerance``; None if it never
+    is (p <= 0: the ratio does not decay) or only beyond 1e15 cycles."""
+    if coefficient <= tolerance:
+        return 2
+    if power <= 0.0:
+        return None
+    log_n = math.log(coefficient / tolerance) / power
+    if log_n > math.log(1e15):
+        return None
+    return max(2, math.ceil(math.exp(log_n)))
+
+
 @dataclass(frozen=True)
 class CyclicLaw:
     """Optional ratchetting extension (SPEC 6): per-cycle residual-approach increments."""
@@ -97,12 +110,15 @@ class CyclicLaw:
         ratio = self.residual_ratio_coefficient * cycle ** (-self.residual_ratio_power)
         return ratio if ratio >= self.tolerance else 0.0
 
-    def critical_cycle(self) -> float:
+    def critical_cycle(self) -> int | None:
         """First cycle whose residual-approach increment ratio is below the tolerance."""
-        c, p = self.residual_ratio_coefficient, self.residual_ratio_power
-        if c <= self.tolerance:
-            return 2.0
-        return max(2.0, math.ceil((c / self.tolerance) ** (1.0 / p)))
+        return power_law_critical_cycle(self.residual_ratio_coefficient,
+                                        self.residual_ratio_power, self.tolerance)
+
+    def plastic_work_critical_cycle(self) -> int | None:
+        """First cycle whose plastic-work ratio is below the tolerance."""
+        return power_law_critical_cycle(self.plastic_work_ratio_coefficient,
+                                        self.plastic_work_ratio_power, self.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -21,8 +21,9 @@ classified:
 
 :func:`shakedown_state` reads what the law did rather than what the force did: the growth of the
 residual approach and of the dissipated energy in the second half of the significant cycles,
-relative to their growth over the whole history (SPEC section 6: elastic shakedown when both
-stop, plastic shakedown when only the residual approach stops, ratchetting when it keeps growing).
+relative to their growth over the whole history, by the rule of ``geocontact.cycles``
+(:func:`geocontact.cycles.shakedown_rule`; SPEC section 6: elastic shakedown when both stop,
+plastic shakedown when only the residual approach stops, ratchetting when it keeps growing).
 """
 
 from __future__ import annotations
@@ -32,6 +33,14 @@ from typing import Any
 
 import numpy as np
 
+# The shakedown states and their rule are shared with the cyclic-history analysis.
+from ..cycles import (  # noqa: F401  (the states are re-exported for the seismic callers)
+    ELASTIC,
+    ELASTIC_SHAKEDOWN,
+    PLASTIC_SHAKEDOWN,
+    RATCHETTING,
+    shakedown_rule,
+)
 from ..errors import InputError
 
 DECREASING = "extended monotonically decreasing"
@@ -41,10 +50,6 @@ SINGLE = "single"
 NO_LOADING = "none"
 REPEATED_OR_INCREASING = "repeated/monotonically increasing"
 
-ELASTIC = "elastic"
-ELASTIC_SHAKEDOWN = "elastic shakedown"
-PLASTIC_SHAKEDOWN = "plastic shakedown"
-RATCHETTING = "ratchetting"
 
 # The paper's records: El Centro 7 % and Kobe 19 % behave as decreasing, Wenchuan 25 % does not.
 PAPER_EARLY_PEAK_FRACTION = 0.20
@@ -214,11 +219,7 @@ def shakedown_state(force: np.ndarray, residual_approach: np.ndarray,
     # first significant peak from which the residual approach stays within tolerance of its end
     unsettled = np.flatnonzero(~settled)
     cycle = int(unsettled[-1] + 2) if unsettled.size else 1
-    if dr_late > tolerance * dr:
-        state = RATCHETTING
+    state = shakedown_rule(dr_late, dr, dd_late, dd, tolerance)
+    if state == RATCHETTING:
         cycle = None
-    elif dd_late > tolerance * dd:
-        state = PLASTIC_SHAKEDOWN
-    else:
-        state = ELASTIC_SHAKEDOWN
     return ShakedownState(state, dr, dr_late, dd, dd_late, cycle)

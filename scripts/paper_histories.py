@@ -1,0 +1,161 @@
+"""The paper's loading histories on our FE engine (SPEC section 8; docs/cycles.md).
+
+Runs repeated (10 x 3000 N), monotonically decreasing (3000 -> 100 N) and monotonically
+increasing (100 -> 3000 N) histories for sigma_c = 10 MPa (preset ``reference``) and 1 MPa
+(``reference-weak``), and the repeated history for a von Mises grain of the same strength
+(``reference-von-mises``), as one FE campaign cached in ``out/cache/fem``; analyses every run
+with ``geocontact.cycles``; writes to ``out/paper-histories/``:
+
+* ``<run>.json`` - the run's inputs, FE summary and cycle analysis; ``cycles.csv`` - every cycle
+  of every run;
+* ``findings.json`` / ``findings.csv`` - the paper's statements with our numbers;
+  ``tables.md`` - both as the Markdown tables of docs/cycles.md;
+* ``params-cyclic-<run>.json`` - the law parameters given with ``--params`` (default: the shipped
+  illustrative ones for the material) with ``cyclic`` fitted to the repeated runs;
+* ``index.json`` - settings, wall time, file list.
+
+    PYTHONPATH=src python scripts/paper_histories.py [--mesh coarse] [--steps N] [--workers 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from geocontact.cycles import with_cyclic, write_cycles_csv
+from geocontact.errors import InputError
+from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
+from geocontact.law import load_params
+from geocontact.paper_histories import paper_findings, run_paper_histories
+
+ROOT = Path(__file__).resolve().parents[1]
+ILLUSTRATIVE = {"reference": ROOT / "examples" / "params-illustrative.json",
+                "reference-weak": ROOT / "examples" / "params-illustrative-weak.json"}
+
+
+def _fmt(value) -> str:
+    """Compact text of a finding's value for a Markdown table."""
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if isinstance(value, dict):
+        return "; ".join(f"{k}: {_fmt(v)}" for k, v in value.items())
+    if isinstance(value, list):
+        return ", ".join(_fmt(v) for v in value)
+    return str(value)
+
+
+def markdown(runs, findings) -> str:
+    """The tables of docs/cycles.md: per run, then the paper's statements."""
+    lines = ["| run | mesh | cycles | FE steps | FE wall s | cycle 2 residual / plastic-work "
+             "ratio | last cycle | power law residual c, p (rms log10) | power law Wp c, p "
+             "(rms log10) | geometric factor residual / Wp | Nc fitted (res, Wp) | "
+             "Nc measured (res, Wp) | state | eventual |",
+             "|" + " --- |" * 14]
+    for name, run in runs.items():
+        a, c = run.analysis, run.analysis.cycles
+        rf, wf = a.residual_fit, a.plastic_work_fit
+        g = a.geometric_fits
+        geo = " / ".join(_fmt(g[k]["factor"]) if g.get(k) else "-"
+                         for k in ("residual_increment_ratio", "plastic_work_ratio"))
+        fit = [f"{f.coefficient:.3g}, {f.power:.3g} ({f.rms_log10_error:.2g})" if f else "-"
+               for f in (rf, wf)]
+        ncf, ncm = a.critical_cycles["fitted"], a.critical_cycles["measured"]
+        lines.append(
+            f"| {name} | {run.summary['inputs']['mesh']} | {len(c)} | {run.summary['steps']} | "
+            f"{run.summary['wall_time_s']:.0f} | {_fmt(c[1]['residual_increment_ratio'])} / "
+            f"{_fmt(c[1]['plastic_work_ratio'])} | {_fmt(c[-1]['residual_increment_ratio'])} / "
+            f"{_fmt(c[-1]['plastic_work_ratio'])} | {fit[0]} | {fit[1]} | {geo} | "
+            f"{ncf['residual_increment']}, {ncf['plastic_work']} | "
+            f"{ncm['residual_increment']}, {ncm['plastic_work']} | {a.state} | "
+            f"{a.eventual_state} |")
+    lines += ["", "| statement | quantity | ours | paper | agrees |", "|" + " --- |" * 5]
+    for f in findings:
+        verdict = {True: "yes", False: "**no**", None: "n/a"}[f["agrees"]]
+        paper = "-" if f["paper_value"] is None else _fmt(f["paper_value"])
+        lines.append(f"| {f['statement']} | {f['quantity']} | {_fmt(f['our_value'])} | "
+                     f"{paper} | {verdict} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
+    ap.add_argument("--steps", type=int, default=None, help="FE steps per monotonic segment")
+    ap.add_argument("--tolerance", type=float, default=0.01)
+    ap.add_argument("--workers", type=int, default=None, help="Dask workers (default: cores)")
+    ap.add_argument("--cache", default="out/cache/fem")
+    ap.add_argument("--out", default="out/paper-histories")
+    ap.add_argument("--only", nargs="*", default=None, help="run names (default: all)")
+    ap.add_argument("--check-mesh", default=None, choices=["coarse", "default", "fine"],
+                    help="also run repeated-10MPa on this mesh (mesh sensitivity of the "
+                         "cyclic quantities)")
+    args = ap.parse_args(argv)
+    started = time.perf_counter()
+    runs = run_paper_histories(args.mesh, args.cache, steps_per_segment=args.steps,
+                               tolerance=args.tolerance, workers=args.workers, only=args.only,
+                               mesh_checks=({"repeated-10MPa": args.check_mesh}
+                                            if args.check_mesh else None))
+    out = Path(args.out)
+    files = []
+    for name, run in runs.items():
+        write_json_atomic(out / f"{name}.json", run.to_dict())
+        files.append(f"{name}.json")
+    write_cycles_csv(out / "cycles.csv", {name: run.analysis for name, run in runs.items()})
+    findings = paper_findings(runs)
+    write_json_atomic(out / "findings.json", {"findings": findings})
+    write_csv(out / "findings.csv", {
+        "statement": np.array([f["statement"] for f in findings], dtype=object),
+        "agrees": np.array(["n/a" if f["agrees"] is None else str(f["agrees"])
+                            for f in findings], dtype=object),
+        "rule": np.array([f["rule"] for f in findings], dtype=object),
+    })
+    write_text_atomic(out / "tables.md", markdown(runs, findings))
+    files += ["cycles.csv", "findings.json", "findings.csv", "tables.md"]
+    for name, run in runs.items():
+        if (run.history != "repeated" or run.material_name not in ILLUSTRATIVE
+                or "@" in name):
+            continue
+        params = load_params(ILLUSTRATIVE[run.material_name])
+        try:
+            fitted = with_cyclic(params, run.analysis, provenance={
+                "fe_run": name, "fe_inputs": run.summary.get("inputs"),
+                "base_params": str(ILLUSTRATIVE[run.material_name].relative_to(ROOT)),
+                "command": "scripts/paper_histories.py"})
+        except InputError as exc:  # a ratchetting run has no cyclic law: say so, keep going
+            print(f"{name}: no cyclic law fitted ({exc})", file=sys.stderr)
+            continue
+        fitted.save(out / f"params-cyclic-{name}.json")
+        files.append(f"params-cyclic-{name}.json")
+    mesh_check = {}
+    for name in (n for n in runs if "@" in n):
+        base = runs[name.split("@")[0]]
+        mesh_check[name] = {
+            run.name: {"mesh": run.summary["inputs"]["mesh"],
+                       "elements": run.summary["mesh"]["elements"],
+                       "residual_increment_ratio": [c["residual_increment_ratio"]
+                                                    for c in run.analysis.cycles],
+                       "plastic_work_ratio": [c["plastic_work_ratio"]
+                                              for c in run.analysis.cycles],
+                       "critical_cycles": run.analysis.critical_cycles,
+                       "state": run.analysis.state}
+            for run in (base, runs[name])}
+    wall = time.perf_counter() - started
+    write_json_atomic(out / "index.json", {
+        "wall_time_s": wall, "mesh": args.mesh, "steps_per_segment": args.steps,
+        "tolerance": args.tolerance, "files": files, "mesh_check": mesh_check,
+        "fe_wall_time_s": {n: r.summary.get("wall_time_s") for n, r in runs.items()},
+        "provenance": provenance("scripts/paper_histories.py", vars(args)),
+    })
+    for f in findings:
+        verdict = {True: "agrees", False: "DISAGREES", None: "n/a"}[f["agrees"]]
+        print(f"[{verdict}] {f['statement']}")
+    print(f"wrote {out} in {wall:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,370 @@
+"""The paper's loading-history study on our FE engine, and its findings checked against it.
+
+The runs (repeated, monotonically decreasing and increasing histories for sigma_c = 10 and
+1 MPa, and the repeated history for a von Mises grain of the same strength) and the numbers the
+paper quotes live in ``data/paper-histories.toml``. ``run_paper_histories`` runs them as one FE
+campaign (cached, resumable) and analyses each with ``geocontact.cycles``; ``paper_findings``
+turns the analyses into the table of docs/cycles.md: each of the paper's statements, the
+quantity that tests it, our value and whether it agrees. A statement our runs cannot test says
+so (``agrees`` is None, ``our_value`` names what is missing).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .cycles import (
+    DEFAULT_TOLERANCE,
+    ELASTIC_SHAKEDOWN,
+    RATCHETTING,
+    CycleAnalysis,
+    analyse,
+    fe_cycle_windows,
+    reloading_stiffness,
+)
+from .errors import InputError
+from .force_history import preset_history
+from .material import Material, preset
+
+# Tolerances at which the critical cycles are also reported (the paper does not state its own).
+EXTRA_TOLERANCES = (1e-3, 1e-4)
+
+
+def study() -> dict[str, Any]:
+    """The run definitions and the paper's quoted numbers (data/paper-histories.toml)."""
+    text = (resources.files("geocontact") / "data" / "paper-histories.toml").read_text()
+    return tomllib.loads(text)
+
+
+@dataclass
+class PaperRun:
+    name: str
+    material_name: str
+    material: Material
+    history: str
+    forces: list[float]
+    curve: dict[str, np.ndarray]
+    summary: dict[str, Any]
+    analysis: CycleAnalysis
+    extra: dict[float, CycleAnalysis]  # the same cycles analysed at EXTRA_TOLERANCES
+
+    @property
+    def windows(self) -> list[tuple[int, int]]:
+        return fe_cycle_windows(self.curve, self.summary["cycles"])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "material_preset": self.material_name,
+            "material": self.material.to_dict(),
+            "history": self.history,
+            "forces_N": self.forces,
+            "fe": {k: self.summary.get(k) for k in (
+                "first_yield_force_N", "fully_plastic_force_N", "mesh", "steps", "wall_time_s",
+                "version", "inputs")},
+            "analysis": self.analysis.to_dict(),
+            "critical_cycles_at_other_tolerances": {
+                f"{t:g}": a.critical_cycles for t, a in self.extra.items()},
+        }
+
+
+def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
+                        steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
+                        workers: int | None = None, only: list[str] | None = None,
+                        mesh_checks: dict[str, str] | None = None,
+                        progress: bool = True) -> dict[str, PaperRun]:
+    """Run (or read from the cache) the FE runs of the study and analyse their cycles.
+
+    ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
+    returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities)."""
+    from .fem.campaign import FemJob, run_campaign
+
+    runs = study()["runs"]
+    names = [n for n in runs if only is None or n in only]
+    # the checks first: on a finer mesh they are the longest runs, so they start at once
+    plan = [(f"{n}@{m}", n, m) for n, m in (mesh_checks or {}).items()]
+    plan += [(n, n, mesh) for n in names]
+    jobs = []
+    for label, name, run_mesh in plan:
+        if name not in runs:
+            raise InputError(f"run: unknown name {name!r} (allowed: {', '.join(runs)})")
+        spec = runs[name]
+        forces = preset_history(spec["history"], float(spec["peak_force"]))
+        jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=run_mesh,
+                           steps_per_segment=steps_per_segment, label=label))
+    results = run_campaign(jobs, cache_dir=cache_dir, workers=workers, progress=progress)
+    out = {}
+    for (label, name, _), job, result in zip(plan, jobs, results, strict=True):
+        cycles = result.summary["cycles"]
+        out[label] = PaperRun(
+            name=label, material_name=runs[name]["material"], material=job.material,
+            history=runs[name]["history"], forces=list(job.forces), curve=result.curve,
+            summary=result.summary,
+            analysis=analyse(cycles, tolerance=tolerance, source=f"fe {label}"),
+            extra={t: analyse(cycles, tolerance=t, source=f"fe {label}")
+                   for t in EXTRA_TOLERANCES},
+        )
+    return out
+
+
+# --- findings ----------------------------------------------------------------------------------
+def _row(statement: str, quantity: str, our_value: Any, agrees: bool | None, *,
+         paper_value: Any = None, rule: str = "", runs: list[str] | None = None) -> dict:
+    return {"statement": statement, "quantity": quantity, "our_value": our_value,
+            "agrees": agrees, "paper_value": paper_value, "rule": rule, "runs": runs or []}
+
+
+def _missing(statement: str, quantity: str, needed: list[str], paper_value=None) -> dict:
+    return _row(statement, quantity, f"not available: needs the runs {', '.join(needed)}", None,
+                paper_value=paper_value, runs=needed)
+
+
+def _nc(run: PaperRun, which: str = "fitted") -> dict[str, Any]:
+    c = run.analysis.critical_cycles[which]
+    return {"residual": c["residual_increment"], "plastic_work": c["plastic_work"],
+            "elastic_shakedown": c["elastic_shakedown"]}
+
+
+SLOWER_RULE = ("both fitted power-law decay powers p (residual increment and plastic work "
+               "ratios) smaller for the run claimed to need more cycles: then its Nc is larger "
+               "at every tolerance small enough; Nc at a fixed loose tolerance can tie or invert "
+               "because the ratios are relative to very different first cycles")
+
+
+def _powers(run: PaperRun) -> dict[str, float | None]:
+    a = run.analysis
+    return {"residual": a.residual_fit.power if a.residual_fit else None,
+            "plastic_work": a.plastic_work_fit.power if a.plastic_work_fit else None}
+
+
+def _decays_slower(slow: PaperRun, fast: PaperRun) -> bool | None:
+    """Whether both ratios of ``slow`` decay with a smaller power than those of ``fast``."""
+    ps, pf = _powers(slow), _powers(fast)
+    if None in ps.values() or None in pf.values():
+        return None
+    return all(ps[k] < pf[k] for k in ps)
+
+
+def _secant_after(run: PaperRun) -> list[float]:
+    """Reloading secant stiffness Fmax / (max approach_N - residual approach_{N-1}), N >= 2,
+    and the first loading's Fmax / max approach_1 first."""
+    rows = run.analysis.cycles
+    k = [rows[0]["max_force_N"] / rows[0]["max_approach_m"]]
+    for prev, row in zip(rows[:-1], rows[1:], strict=True):
+        k.append(row["max_force_N"] / (row["max_approach_m"] - prev["residual_approach_m"]))
+    return k
+
+
+def paper_findings(runs: dict[str, PaperRun]) -> list[dict[str, Any]]:
+    """The paper's statements on loading history, each with our number and a verdict."""
+    paper = study()["paper"]
+    small = float(paper["small_fraction"])
+    rows: list[dict[str, Any]] = []
+    have = set(runs)
+
+    def need(*names: str) -> bool:
+        return set(names) <= have
+
+    tol = next(iter(runs.values())).analysis.tolerance if runs else DEFAULT_TOLERANCE
+
+    # 1. hysteresis weakens after the first cycle
+    names = ["repeated-10MPa", "repeated-1MPa"]
+    statement = "Hysteresis (residual approach, plastic work) weakens after the first cycle"
+    quantity = "cycle 2 and last cycle over cycle 1: residual increment, plastic work"
+    if need(*names):
+        value, ok = {}, True
+        for n in names:
+            c = runs[n].analysis.cycles
+            r2, w2 = c[1]["residual_increment_ratio"], c[1]["plastic_work_ratio"]
+            rl, wl = c[-1]["residual_increment_ratio"], c[-1]["plastic_work_ratio"]
+            value[n] = {"residual_cycle2": r2, "plastic_work_cycle2": w2,
+                        f"residual_cycle{len(c)}": rl, f"plastic_work_cycle{len(c)}": wl}
+            ok &= r2 < 1 and w2 < 1 and rl < r2 and wl < w2
+        rows.append(_row(statement, quantity, value, ok, runs=names,
+                         rule="cycle-2 ratios < 1 and the last cycle's below cycle 2's"))
+    else:
+        rows.append(_missing(statement, quantity, names))
+
+    # 2. elastic shakedown eventually
+    statement = "Repeated loading ends in elastic shakedown"
+    quantity = f"state after the run and eventual state (tolerance {tol:g})"
+    if need(*names):
+        value = {n: {"after_run": runs[n].analysis.state,
+                     "eventual": runs[n].analysis.eventual_state} for n in names}
+        ok = all(runs[n].analysis.eventual_state == ELASTIC_SHAKEDOWN for n in names)
+        rows.append(_row(statement, quantity, value, ok, runs=names,
+                         rule="eventual state (fitted power laws) is elastic shakedown"))
+    else:
+        rows.append(_missing(statement, quantity, names))
+
+    # 3. critical cycles
+    for n, key in (("repeated-10MPa", "critical_cycles_10MPa"),
+                   ("repeated-1MPa", "critical_cycles_1MPa")):
+        statement = f"Critical cycle Nc ({n}): residual approach, plastic work"
+        quantity = f"Nc fitted / measured at tolerance {tol:g} (and at " + ", ".join(
+            f"{t:g}" for t in EXTRA_TOLERANCES) + ")"
+        if need(n):
+            r = runs[n]
+            value = {"fitted": _nc(r), "measured": _nc(r, "measured"),
+                     **{f"fitted_tol_{t:g}": {
+                         "residual": a.critical_cycles["fitted"]["residual_increment"],
+                         "plastic_work": a.critical_cycles["fitted"]["plastic_work"]}
+                        for t, a in r.extra.items()}}
+            pr, pw = paper[key]
+            fr, fw = value["fitted"]["residual"], value["fitted"]["plastic_work"]
+            ok = all(v is not None and p / 2 <= v <= 2 * p for v, p in ((fr, pr), (fw, pw)))
+            rows.append(_row(statement, quantity, value, ok, paper_value=paper[key], runs=[n],
+                             rule="fitted Nc within a factor 2 of the paper's (the paper does "
+                                  "not state its tolerance)"))
+        else:
+            rows.append(_missing(statement, quantity, [n], paper[key]))
+
+    statement = "The stronger sphere (sigma_c = 10 MPa) shakes down in fewer cycles than 1 MPa"
+    quantity = ("fitted decay powers p (residual, plastic work) and Nc of elastic shakedown at "
+                "each tolerance")
+    if need(*names):
+        a, b = runs["repeated-10MPa"], runs["repeated-1MPa"]
+        value = {"10MPa": _nc(a)["elastic_shakedown"], "1MPa": _nc(b)["elastic_shakedown"],
+                 **{f"tol_{t:g}": {n: runs[n].extra[t].critical_cycles["fitted"][
+                     "elastic_shakedown"] for n in names} for t in EXTRA_TOLERANCES},
+                 "powers_10MPa": _powers(a), "powers_1MPa": _powers(b)}
+        rows.append(_row(statement, quantity, value, _decays_slower(b, a),
+                         paper_value={"10MPa": max(paper["critical_cycles_10MPa"]),
+                                      "1MPa": max(paper["critical_cycles_1MPa"])},
+                         runs=names, rule=SLOWER_RULE))
+    else:
+        rows.append(_missing(statement, quantity, names))
+
+    statement = "The weaker sphere (1 MPa) ratchets longer under repeated loading"
+    quantity = "residual increment ratio of the last cycle"
+    if need(*names):
+        value = {n: runs[n].analysis.cycles[-1]["residual_increment_ratio"] for n in names}
+        rows.append(_row(statement, quantity, value,
+                         value["repeated-1MPa"] > value["repeated-10MPa"], runs=names,
+                         rule="last-cycle residual increment ratio larger for 1 MPa"))
+    else:
+        rows.append(_missing(statement, quantity, names))
+
+    # 4. reloading stiffer after higher loads (monotonically increasing history)
+    n = "mono-increasing-10MPa"
+    statement = "Reloading curves are stiffer after higher previous loads"
+    quantity = "secant stiffness of each loading branch up to the first peak (100 N) vs prior peak"
+    if need(n):
+        r = runs[n]
+        level = r.analysis.cycles[0]["max_force_N"]
+        st = reloading_stiffness(r.curve, r.windows, level)
+        value = [{"cycle": s["cycle"], "prior_peak_N": s["prior_peak_N"],
+                  "secant_stiffness_N_per_m": s["secant_stiffness_N_per_m"]} for s in st]
+        k = [s["secant_stiffness_N_per_m"] for s in st]
+        ok = all(v is not None for v in k) and all(b > a for a, b in zip(k[:-1], k[1:],
+                                                                        strict=True))
+        rows.append(_row(statement, quantity, value, ok, runs=[n],
+                         rule="stiffness rises with every higher prior peak (cycle 1 = virgin)"))
+    else:
+        rows.append(_missing(statement, quantity, [n]))
+
+    statement = ("Subsequent curves are stiffer than the previous ones, especially when the "
+                 "yield strength is high")
+    quantity = ("reloading secant stiffness Fmax/(dmax_N - dres_{N-1}): cycle 2 over first "
+                "loading, last cycle over cycle 2")
+    if need(*names):
+        value, growth = {}, {}
+        for m in names:
+            k = _secant_after(runs[m])
+            value[m] = {"cycle2_over_first_loading": k[1] / k[0],
+                        "last_over_cycle2": k[-1] / k[1]}
+            growth[m] = k[-1] / k[1] - 1.0
+        ok = all(g > 0 for g in growth.values()) and growth["repeated-10MPa"] > growth[
+            "repeated-1MPa"]
+        rows.append(_row(statement, quantity, value, ok, runs=names,
+                         rule="reload stiffness grows from cycle 2 to the last for both, more "
+                              "for 10 MPa"))
+    else:
+        rows.append(_missing(statement, quantity, names))
+
+    # 5. monotonically decreasing: reloading negligible
+    for m, sc in (("mono-decreasing-10MPa", "10MPa"), ("mono-decreasing-1MPa", "1MPa")):
+        statement = f"Monotonically decreasing loading ({sc}): reloading plastic work and " \
+                    "residual approach are small compared with the first cycle"
+        quantity = "sum over cycles 2-7 over cycle 1: plastic work; residual approach growth"
+        pv = {"plastic_work": paper[f"decreasing_plastic_work_fraction_{sc}"],
+              "residual": paper[f"decreasing_residual_fraction_{sc}"]}
+        if need(m):
+            c = runs[m].analysis.cycles
+            wp = sum(x["plastic_work_J"] for x in c[1:]) / c[0]["plastic_work_J"]
+            res = (c[-1]["residual_approach_m"] - c[0]["residual_approach_m"]) / c[0][
+                "residual_approach_m"]
+            value = {"plastic_work": wp, "residual": res, "state": runs[m].analysis.state}
+            rows.append(_row(statement, quantity, value, abs(wp) < small and abs(res) < small,
+                             paper_value=pv, runs=[m], rule=f"both below {small:g}"))
+        else:
+            rows.append(_missing(statement, quantity, [m], pv))
+
+    m2 = ["mono-decreasing-10MPa", "mono-decreasing-1MPa"]
+    statement = "Under decreasing loading the weaker sphere (1 MPa) shakes down more easily"
+    quantity = "reloading plastic work and residual growth fractions, 1 MPa vs 10 MPa"
+    if need(*m2):
+        frac = {}
+        for m in m2:
+            c = runs[m].analysis.cycles
+            frac[m] = (sum(x["plastic_work_J"] for x in c[1:]) / c[0]["plastic_work_J"],
+                       (c[-1]["residual_approach_m"] - c[0]["residual_approach_m"])
+                       / c[0]["residual_approach_m"])
+        ok = all(a < b for a, b in zip(frac[m2[1]], frac[m2[0]], strict=True))
+        rows.append(_row(statement, quantity, {m: {"plastic_work": f[0], "residual": f[1]}
+                                               for m, f in frac.items()}, ok, runs=m2,
+                         rule="both fractions smaller for 1 MPa"))
+    else:
+        rows.append(_missing(statement, quantity, m2))
+
+    # 6. no shakedown under monotonically increasing loading
+    for m in ("mono-increasing-10MPa", "mono-increasing-1MPa"):
+        statement = f"No shakedown under monotonically increasing loading ({m})"
+        quantity = "state after the run, last-cycle residual increment ratio"
+        if need(m):
+            a = runs[m].analysis
+            value = {"state": a.state, "eventual": a.eventual_state,
+                     "last_residual_increment_ratio": a.cycles[-1]["residual_increment_ratio"]}
+            rows.append(_row(statement, quantity, value, a.state == RATCHETTING, runs=[m],
+                             rule="state is ratchetting (residual increments do not decay)"))
+        else:
+            rows.append(_missing(statement, quantity, [m]))
+
+    statement = ("Monotonically increasing loading: residual approach per cycle a little larger, "
+                 "plastic work per cycle lower than a single load to the same level")
+    rows.append(_row(statement, "per-cycle values vs single-load runs at 100 ... 3000 N",
+                     "not available: the single-load FE runs at each level are not part of "
+                     "this study", None, runs=[]))
+
+    # 7. Drucker-Prager vs von Mises
+    names = ["repeated-10MPa", "repeated-von-mises-10MPa"]
+    statement = "Drucker-Prager grains need more cycles to shake down than von Mises metals"
+    quantity = ("fitted decay powers p (residual, plastic work); Nc of elastic shakedown, "
+                f"fitted and measured (tolerance {tol:g} and smaller)")
+    if need(*names):
+        dp, vm = runs[names[0]], runs[names[1]]
+        value = {"drucker_prager": {"fitted": _nc(dp), "measured": _nc(dp, "measured")},
+                 "von_mises": {"fitted": _nc(vm), "measured": _nc(vm, "measured")},
+                 **{f"fitted_tol_{t:g}": {
+                     "drucker_prager": dp.extra[t].critical_cycles["fitted"]["elastic_shakedown"],
+                     "von_mises": vm.extra[t].critical_cycles["fitted"]["elastic_shakedown"]}
+                    for t in EXTRA_TOLERANCES}}
+        value["powers_drucker_prager"] = _powers(dp)
+        value["powers_von_mises"] = _powers(vm)
+        rows.append(_row(statement, quantity, value, _decays_slower(dp, vm),
+                         paper_value={"von_mises": paper["von_mises_shakedown_cycle"],
+                                      "drucker_prager_more_than":
+                                          paper["drucker_prager_shakedown_cycles_more_than"]},
+                         runs=names, rule=SLOWER_RULE))
+    else:
+        rows.append(_missing(statement, quantity, names))
+    return rows
+
+
+__all__ = ["PaperRun", "paper_findings", "run_paper_histories", "study"]

@@ -1,0 +1,141 @@
+"""The paper-findings table on synthetic runs whose verdicts are known (no FE)."""
+
+import numpy as np
+import pytest
+
+from geocontact import cycles as cy
+from geocontact.force_history import preset_history
+from geocontact.material import preset
+from geocontact.paper_histories import EXTRA_TOLERANCES, PaperRun, paper_findings, study
+
+
+def synthetic_run(name, history, material, increments, plastic_work, stiffening=0.0):
+    """A run whose cycles have the given residual increments and plastic work, with a curve:
+    each loading branch F = Fmax ((d - d0)/(dmax - d0))^1.5 from the previous residual
+    approach d0; the elastic range dmax - d0 shrinks by ``stiffening`` per cycle after the
+    first, and, for a given prior peak, with the prior peak (a stiffer reload)."""
+    forces = preset_history(history, 3000.0)
+    peaks = forces[1::2]
+    d, f, cycles, steps = [0.0], [0.0], [], [0]
+    residual = 0.0
+    for k, (peak, inc, wp) in enumerate(zip(peaks, increments, plastic_work, strict=True)):
+        start = residual
+        prior = max(peaks[:k], default=0.0)
+        span = 2e-5 * (peak / 3000.0) ** (2 / 3) * (1.0 - stiffening * k) / (1 + prior / 3000)
+        if k == 0:
+            span *= 3.0  # the virgin loading is the softest
+        dmax = start + span
+        t = np.linspace(0, 1, 21)[1:]
+        d += list(start + t * span)
+        f += list(peak * t**1.5)
+        residual = start + inc
+        d += list(dmax + t * (residual - dmax))
+        f += list(peak * (1 - t) ** 1.5)
+        steps.append(len(d) - 1)
+        cycles.append({"max_force_N": peak, "max_approach_m": dmax,
+                       "residual_approach_m": residual, "plastic_work_J": wp,
+                       "steps": [steps[-2], steps[-1]]})
+    curve = {"step": np.arange(len(d)), "force_N": np.array(f), "approach_m": np.array(d)}
+    return PaperRun(name=name, material_name=material, material=preset(material), history=history,
+                    forces=forces, curve=curve, summary={"cycles": cycles},
+                    analysis=cy.analyse(cycles, source=name),
+                    extra={t: cy.analyse(cycles, tolerance=t, source=name)
+                           for t in EXTRA_TOLERANCES})
+
+
+def decay(first, c, p, n):
+    return [first] + [first * c * k ** (-p) for k in range(2, n + 1)]
+
+
+@pytest.fixture
+def paper_like():
+    """Runs that behave as the paper says: 1 MPa and DP shake down later than 10 MPa and vM."""
+    return {
+        "repeated-10MPa": synthetic_run("repeated-10MPa", "repeated", "reference",
+                                        decay(1e-4, 0.3, 1.5, 10), decay(0.1, 0.3, 1.5, 10),
+                                        stiffening=0.004),
+        "repeated-1MPa": synthetic_run("repeated-1MPa", "repeated", "reference-weak",
+                                       decay(1e-3, 0.5, 1.2, 10), decay(1.0, 0.5, 1.2, 10),
+                                       stiffening=0.001),
+        "mono-decreasing-10MPa": synthetic_run("mono-decreasing-10MPa", "mono-decreasing",
+                                               "reference", [1e-4] + [1e-7] * 6,
+                                               [0.1] + [2e-4] * 6),
+        "mono-decreasing-1MPa": synthetic_run("mono-decreasing-1MPa", "mono-decreasing",
+                                              "reference-weak", [1e-3] + [1e-7] * 6,
+                                              [1.0] + [2e-4] * 6),
+        "mono-increasing-10MPa": synthetic_run("mono-increasing-10MPa", "mono-increasing",
+                                               "reference", [1e-6 * k for k in range(1, 8)],
+                                               [1e-3 * k for k in range(1, 8)]),
+        "repeated-von-mises-10MPa": synthetic_run("repeated-von-mises-10MPa", "repeated",
+                                                  "reference-von-mises",
+                                                  decay(1e-4, 0.05, 3.0, 10),
+                                                  decay(0.1, 0.05, 3.0, 10)),
+    }
+
+
+def by_statement(rows, start):
+    matches = [r for r in rows if r["statement"].startswith(start)]
+    assert len(matches) == 1, start
+    return matches[0]
+
+
+def test_findings_agree_on_paper_like_runs(paper_like):
+    rows = paper_findings(paper_like)
+    assert by_statement(rows, "Hysteresis")["agrees"] is True
+    assert by_statement(rows, "Repeated loading ends in elastic shakedown")["agrees"] is True
+    stronger = by_statement(rows, "The stronger sphere")
+    assert stronger["agrees"] is True
+    # 0.3 N^-1.5 < 0.01 from N = ceil(30^(2/3)) = 10; 0.5 N^-1.2 from ceil(50^(1/1.2) = 26.05)
+    assert stronger["our_value"]["10MPa"] == 10 and stronger["our_value"]["1MPa"] == 27
+    nc10 = by_statement(rows, "Critical cycle Nc (repeated-10MPa)")
+    assert nc10["agrees"] is True and nc10["paper_value"] == [11, 11]
+    assert by_statement(rows, "Critical cycle Nc (repeated-1MPa)")["agrees"] is True
+    assert by_statement(rows, "Reloading curves are stiffer")["agrees"] is True
+    assert by_statement(rows, "Subsequent curves are stiffer")["agrees"] is True
+    dec = by_statement(rows, "Monotonically decreasing loading (10MPa)")
+    assert dec["agrees"] is True
+    assert dec["our_value"]["plastic_work"] == pytest.approx(6 * 2e-4 / 0.1)
+    assert dec["our_value"]["residual"] == pytest.approx(6e-7 / 1e-4)
+    assert by_statement(rows, "Under decreasing loading")["agrees"] is True
+    assert by_statement(rows, "No shakedown under monotonically increasing loading "
+                              "(mono-increasing-10MPa)")["agrees"] is True
+    assert by_statement(rows, "Drucker-Prager grains need more cycles")["agrees"] is True
+
+
+def test_findings_disagree_when_the_data_say_otherwise(paper_like):
+    runs = dict(paper_like)
+    # swap: the von Mises run now shakes down later than the Drucker-Prager one
+    runs["repeated-von-mises-10MPa"] = synthetic_run(
+        "repeated-von-mises-10MPa", "repeated", "reference-von-mises",
+        decay(1e-4, 0.9, 0.5, 10), decay(0.1, 0.9, 0.5, 10))
+    # a repeated run that ratchets for ever
+    runs["repeated-1MPa"] = synthetic_run("repeated-1MPa", "repeated", "reference-weak",
+                                          [1e-3] + [5e-5] * 9, [1.0] + [0.3] * 9)
+    rows = paper_findings(runs)
+    assert by_statement(rows, "Drucker-Prager grains need more cycles")["agrees"] is False
+    assert by_statement(rows, "Repeated loading ends in elastic shakedown")["agrees"] is False
+    assert by_statement(rows, "Hysteresis")["agrees"] is False  # ratios do not keep falling
+
+
+def test_findings_without_runs_say_so(paper_like):
+    runs = {k: v for k, v in paper_like.items() if k != "repeated-von-mises-10MPa"}
+    rows = paper_findings(runs)
+    vm = by_statement(rows, "Drucker-Prager grains need more cycles")
+    assert vm["agrees"] is None and vm["our_value"].startswith("not available")
+    inc1 = by_statement(rows, "No shakedown under monotonically increasing loading "
+                              "(mono-increasing-1MPa)")
+    assert inc1["agrees"] is None
+    single = by_statement(rows, "Monotonically increasing loading: residual approach per cycle")
+    assert single["agrees"] is None
+
+
+def test_study_lists_the_paper_histories():
+    s = study()
+    assert {r["history"] for r in s["runs"].values()} == {"repeated", "mono-decreasing",
+                                                           "mono-increasing"}
+    assert {r["material"] for r in s["runs"].values()} == {"reference", "reference-weak",
+                                                            "reference-von-mises"}
+    vm = preset("reference-von-mises")
+    ref = preset("reference")
+    assert vm.friction_angle_deg == 0.0
+    assert vm.with_(friction_angle_deg=ref.friction_angle_deg) == ref  # same strength otherwise
