@@ -49,14 +49,25 @@ def test_bad_history_files(tmp_path, text, message):
 
 
 def test_demo_writes_a_complete_report(tmp_path):
+    """The whole pipeline on tiny loads (--quick): calibration with acceptance, FE, cycles,
+    sweeps, law histories, seismic, report; nothing half-written left behind."""
     from geocontact.cli import main
 
-    assert main(["demo", "--out", str(tmp_path / "demo")]) == 0
     out = tmp_path / "demo"
+    assert main(["demo", "--quick", "--out", str(out), "--cache", str(tmp_path / "cache")]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["cases"]["reference"]["yield"]["force_N"] == pytest.approx(2.757, rel=1e-3)
-    html = (out / "report.html").read_text()
-    assert html.count("data:image/png;base64") == 7
+    assert summary["calibration"]["levels"] == 3
+    assert summary["fe_reference"]["cycles"][0]["max_force_N"] == pytest.approx(100.0)
     assert summary["seismic"]["main_shock"]["record"]["pga_m_s2"] == pytest.approx(3.0)
-    assert (out / "law_cycles.csv").exists()
-    assert [p.name for p in tmp_path.iterdir()] == ["demo"]  # nothing half-written left
+    html = (out / "report.html").read_text()
+    for heading in ("Incipient yield", "Law parameters calibration/P.json",
+                    "Calibration acceptance", "Cyclic history", "FE run fe-reference",
+                    "Influence of material properties", "Seismic run", "Quick mode"):
+        assert heading in html
+    assert html.count("data:image/png;base64") >= 15
+    params = json.loads((out / "calibration" / "P.json").read_text())
+    assert params["schema"] == "geocontact.law/1"
+    assert params["provenance"]["inputs"]["levels"] == 3
+    assert (out / "fe-reference" / "fields").is_dir()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "demo"]  # no temp dirs
