@@ -34,6 +34,8 @@ from .material import Material, preset
 
 # Tolerances at which the critical cycles are also reported (the paper does not state its own).
 EXTRA_TOLERANCES = (1e-3, 1e-4)
+# "Hysteresis decreases quickly after the first cycle": every later cycle this much weaker.
+WEAKER = 0.1
 
 
 def study() -> dict[str, Any]:
@@ -176,18 +178,24 @@ def paper_findings(runs: dict[str, PaperRun]) -> list[dict[str, Any]]:
     # 1. hysteresis weakens after the first cycle
     names = ["repeated-10MPa", "repeated-1MPa"]
     statement = "Hysteresis (residual approach, plastic work) weakens after the first cycle"
-    quantity = "cycle 2 and last cycle over cycle 1: residual increment, plastic work"
+    quantity = ("cycle 2 and last cycle over cycle 1: residual increment, plastic work; largest "
+                "|ratio| of cycles 2..N")
     if need(*names):
         value, ok = {}, True
         for n in names:
             c = runs[n].analysis.cycles
             r2, w2 = c[1]["residual_increment_ratio"], c[1]["plastic_work_ratio"]
             rl, wl = c[-1]["residual_increment_ratio"], c[-1]["plastic_work_ratio"]
+            largest = max(max(abs(x["residual_increment_ratio"]), abs(x["plastic_work_ratio"]))
+                          for x in c[1:])
             value[n] = {"residual_cycle2": r2, "plastic_work_cycle2": w2,
-                        f"residual_cycle{len(c)}": rl, f"plastic_work_cycle{len(c)}": wl}
-            ok &= r2 < 1 and w2 < 1 and rl < r2 and wl < w2
+                        f"residual_cycle{len(c)}": rl, f"plastic_work_cycle{len(c)}": wl,
+                        "largest_later": largest}
+            ok &= largest < WEAKER
         rows.append(_row(statement, quantity, value, ok, runs=names,
-                         rule="cycle-2 ratios < 1 and the last cycle's below cycle 2's"))
+                         rule=f"every later cycle's ratios below {WEAKER:g} in magnitude (an "
+                              "order of magnitude weaker than the first; magnitude because a "
+                              "residual increment can change sign at the 1e-6 level)"))
     else:
         rows.append(_missing(statement, quantity, names))
 
