@@ -139,3 +139,16 @@ def test_study_lists_the_paper_histories():
     ref = preset("reference")
     assert vm.friction_angle_deg == 0.0
     assert vm.with_(friction_angle_deg=ref.friction_angle_deg) == ref  # same strength otherwise
+
+
+def test_report_shows_the_findings_table(paper_like, tmp_path):
+    from geocontact.cli import main
+    from geocontact.io import write_json_atomic
+
+    rows = paper_findings(paper_like)
+    write_json_atomic(tmp_path / "paper" / "findings.json", {"findings": rows})
+    assert main(["report", str(tmp_path / "paper")]) == 0
+    html = (tmp_path / "paper" / "report.html").read_text()
+    assert "findings on loading histories" in html
+    assert html.count("<td>agrees</td>") == sum(r["agrees"] is True for r in rows)
+    assert "Drucker-Prager grains need more cycles" in html

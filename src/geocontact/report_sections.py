@@ -364,7 +364,40 @@ def cycles_section(report: Report, directory: Path, root: Path, figures: Path) -
                       "Nc fitted", "tolerance"], rows), figure)
 
 
+def is_paper_histories(directory: Path) -> bool:
+    return (directory / "findings.json").is_file()
+
+
+def _compact(value) -> str:
+    """A finding's value (number, dict, list, text) in a short readable form."""
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if isinstance(value, dict):
+        return "; ".join(f"{k}: {_compact(v)}" for k, v in value.items())
+    if isinstance(value, list):
+        return "[" + ", ".join(_compact(v) for v in value) + "]"
+    return "-" if value is None else str(value)
+
+
+def paper_histories_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
+    """The paper's loading-history findings (scripts/paper_histories.py) against our numbers."""
+    try:
+        findings = json.loads((directory / "findings.json").read_text())["findings"]
+    except (json.JSONDecodeError, KeyError) as exc:
+        raise InputError(f"{directory / 'findings.json'}: malformed ({exc})") from None
+    rows = [[f["statement"], f["quantity"], _compact(f["our_value"]),
+             _compact(f.get("paper_value")),
+             "n/a" if f["agrees"] is None else ("agrees" if f["agrees"] else "disagrees")]
+            for f in findings]
+    report.add("The paper's findings on loading histories",
+               "<p>From <code>scripts/paper_histories.py</code> (repeated, monotonically "
+               "decreasing and increasing histories to 3000 N for σc = 10 and 1 MPa, and a von "
+               "Mises grain); the rule behind each verdict is in <code>findings.json</code>.</p>",
+               table(["paper's statement", "quantity", "ours", "paper", "verdict"], rows))
+
+
 SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
+    (is_paper_histories, paper_histories_section),
     (is_sweeps, sweeps_section),
     (is_seismic, seismic_section),
     (is_cycles, cycles_section),
