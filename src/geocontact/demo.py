@@ -4,7 +4,8 @@
 2. the FE calibration of the law (coarse mesh, a reduced set of peak loads) with its held-out
    acceptance runs -> ``calibration/P.json``;
 3. the FE reference cycle 0 -> 6000 N -> 0 on the default mesh (fields for ParaView);
-4. the paper's repeated history through the FE and the calibrated law, shakedown analysis;
+4. the paper's repeated history through the FE and the calibrated law, shakedown analysis, and
+   a subset of the paper's loading-history study with its findings table (coarse mesh);
 5. the material sweeps of E, beta, sigma_c, m at 6000 N (coarse);
 6. the paper's three load histories through the calibrated law;
 7. a seismic record (Kobe 1995) with an aftershock through the calibrated law;
@@ -45,6 +46,10 @@ class Plan:
     cyclic_peak: float = 3000.0
     cyclic_count: int = 10
     cyclic_mesh: str = "coarse"
+    # runs of data/paper-histories.toml for the findings table (sigma_c = 10 MPa and the von
+    # Mises grain; the 1 MPa runs are the longest and are left to scripts/paper_histories.py)
+    paper_runs: tuple[str, ...] = ("repeated-10MPa", "mono-decreasing-10MPa",
+                                   "mono-increasing-10MPa", "repeated-von-mises-10MPa")
     sweeps: tuple[str, ...] = ("E", "beta", "sigma_c", "m")
     sweep_force: float | None = None  # None: the sweeps file's (6000 N)
     sweep_mesh: str = "coarse"
@@ -52,7 +57,8 @@ class Plan:
 
 FULL = Plan()
 QUICK = Plan(calibration_levels=3, calibration_max_force=300.0, steps=4, reference_force=100.0,
-             reference_mesh="coarse", cyclic_peak=100.0, cyclic_count=3, sweeps=("m",),
+             reference_mesh="coarse", cyclic_peak=100.0, cyclic_count=3, paper_runs=(),
+             sweeps=("m",),
              sweep_force=60.0)
 
 
@@ -123,6 +129,10 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                                   cyc["analyses"].items()}
     done("cyclic history")
 
+    if plan.paper_runs:
+        summary["paper_findings"] = _paper_findings(work / "paper-histories", plan, cache)
+        done("paper's loading histories")
+
     run_sweeps(work / "sweeps", list(plan.sweeps), mesh=plan.sweep_mesh,
                peak_force=plan.sweep_force, cache_dir=cache, steps_per_segment=plan.steps)
     done("material sweeps")
@@ -147,6 +157,26 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                            "reference results.</b>" if plan is QUICK else "")),
                  preface=preface)
     done("report")
+
+
+def _paper_findings(directory: Path, plan: Plan, cache: Path) -> dict:
+    """A subset of the paper's loading-history study and its findings table."""
+    from .cycles import write_cycles_csv
+    from .paper_histories import paper_findings, run_paper_histories
+
+    runs = run_paper_histories(plan.cyclic_mesh, cache, steps_per_segment=plan.steps,
+                               only=list(plan.paper_runs))
+    findings = paper_findings(runs)
+    for name, run in runs.items():
+        write_json_atomic(directory / f"{name}.json", run.to_dict())
+    write_cycles_csv(directory / "cycles.csv", {n: r.analysis for n, r in runs.items()})
+    write_json_atomic(directory / "findings.json", {
+        "findings": findings, "runs": list(runs), "mesh": plan.cyclic_mesh,
+        "provenance": provenance("demo: paper histories", {"runs": list(runs),
+                                                           "mesh": plan.cyclic_mesh})})
+    agree = sum(f["agrees"] is True for f in findings)
+    judged = sum(f["agrees"] is not None for f in findings)
+    return {"runs": list(runs), "agree": agree, "judged": judged, "rows": len(findings)}
 
 
 def _law_histories(params, directory: Path, summary: dict) -> list:
