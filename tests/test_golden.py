@@ -18,9 +18,12 @@ def test_committed_golden_vectors_match_the_python_reference():
         "--out plugins/lammps/tests/golden.json")
 
 
-def test_golden_vectors_cover_every_branch_and_both_cyclic_variants():
+def test_golden_vectors_cover_every_branch_and_every_parameter_variant():
     golden = json.loads(GOLDEN.read_text())
     assert len(golden["cases"]) >= 200
     branches = {b for case in golden["cases"] for b in case["branches"]}
     assert branches == {0, 1, 2, 3, 4}  # apart, virgin, unloading, reloading, ratchet
-    assert {case["params"] for case in golden["cases"]} == {"cyclic_on", "cyclic_off"}
+    assert {case["params"] for case in golden["cases"]} == {"cyclic_on", "cyclic_off",
+                                                            "transition"}
+    # the transition variant really exercises the residual form with x0 != 1
+    assert golden["params"]["transition"]["residual_approach"]["transition_depth"] != 1.0
