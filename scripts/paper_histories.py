@@ -30,22 +30,12 @@ from geocontact.cycles import with_cyclic, write_cycles_csv
 from geocontact.errors import InputError
 from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
 from geocontact.law import load_params
+from geocontact.paper_histories import format_value as fmt
 from geocontact.paper_histories import paper_findings, run_paper_histories
 
 ROOT = Path(__file__).resolve().parents[1]
 ILLUSTRATIVE = {"reference": ROOT / "examples" / "params-illustrative.json",
                 "reference-weak": ROOT / "examples" / "params-illustrative-weak.json"}
-
-
-def _fmt(value) -> str:
-    """Compact text of a finding's value for a Markdown table."""
-    if isinstance(value, float):
-        return f"{value:.3g}"
-    if isinstance(value, dict):
-        return "; ".join(f"{k}: {_fmt(v)}" for k, v in value.items())
-    if isinstance(value, list):
-        return ", ".join(_fmt(v) for v in value)
-    return str(value)
 
 
 def markdown(runs, findings) -> str:
@@ -59,24 +49,24 @@ def markdown(runs, findings) -> str:
         a, c = run.analysis, run.analysis.cycles
         rf, wf = a.residual_fit, a.plastic_work_fit
         g = a.geometric_fits
-        geo = " / ".join(_fmt(g[k]["factor"]) if g.get(k) else "-"
+        geo = " / ".join(fmt(g[k]["factor"]) if g.get(k) else "-"
                          for k in ("residual_increment_ratio", "plastic_work_ratio"))
         fit = [f"{f.coefficient:.3g}, {f.power:.3g} ({f.rms_log10_error:.2g})" if f else "-"
                for f in (rf, wf)]
         ncf, ncm = a.critical_cycles["fitted"], a.critical_cycles["measured"]
         lines.append(
             f"| {name} | {run.summary['inputs']['mesh']} | {len(c)} | {run.summary['steps']} | "
-            f"{run.summary['wall_time_s']:.0f} | {_fmt(c[1]['residual_increment_ratio'])} / "
-            f"{_fmt(c[1]['plastic_work_ratio'])} | {_fmt(c[-1]['residual_increment_ratio'])} / "
-            f"{_fmt(c[-1]['plastic_work_ratio'])} | {fit[0]} | {fit[1]} | {geo} | "
+            f"{run.summary['wall_time_s']:.0f} | {fmt(c[1]['residual_increment_ratio'])} / "
+            f"{fmt(c[1]['plastic_work_ratio'])} | {fmt(c[-1]['residual_increment_ratio'])} / "
+            f"{fmt(c[-1]['plastic_work_ratio'])} | {fit[0]} | {fit[1]} | {geo} | "
             f"{ncf['residual_increment']}, {ncf['plastic_work']} | "
             f"{ncm['residual_increment']}, {ncm['plastic_work']} | {a.state} | "
             f"{a.eventual_state} |")
     lines += ["", "| statement | quantity | ours | paper | agrees |", "|" + " --- |" * 5]
     for f in findings:
         verdict = {True: "yes", False: "**no**", None: "n/a"}[f["agrees"]]
-        paper = "-" if f["paper_value"] is None else _fmt(f["paper_value"])
-        lines.append(f"| {f['statement']} | {f['quantity']} | {_fmt(f['our_value'])} | "
+        paper = "-" if f["paper_value"] is None else fmt(f["paper_value"])
+        lines.append(f"| {f['statement']} | {f['quantity']} | {fmt(f['our_value'])} | "
                      f"{paper} | {verdict} |")
     return "\n".join(lines) + "\n"
 

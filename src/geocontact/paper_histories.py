@@ -116,6 +116,17 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
 
 
 # --- findings ----------------------------------------------------------------------------------
+def format_value(value: Any) -> str:
+    """Compact text of a finding's value (number, dict, list, text) for tables."""
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if isinstance(value, dict):
+        return "; ".join(f"{k}: {format_value(v)}" for k, v in value.items())
+    if isinstance(value, list):
+        return ", ".join(format_value(v) for v in value)
+    return "-" if value is None else str(value)
+
+
 def _row(statement: str, quantity: str, our_value: Any, agrees: bool | None, *,
          paper_value: Any = None, rule: str = "", runs: list[str] | None = None) -> dict:
     return {"statement": statement, "quantity": quantity, "our_value": our_value,

@@ -368,19 +368,10 @@ def is_paper_histories(directory: Path) -> bool:
     return (directory / "findings.json").is_file()
 
 
-def _compact(value) -> str:
-    """A finding's value (number, dict, list, text) in a short readable form."""
-    if isinstance(value, float):
-        return f"{value:.3g}"
-    if isinstance(value, dict):
-        return "; ".join(f"{k}: {_compact(v)}" for k, v in value.items())
-    if isinstance(value, list):
-        return "[" + ", ".join(_compact(v) for v in value) + "]"
-    return "-" if value is None else str(value)
-
-
 def paper_histories_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
     """The paper's loading-history findings (scripts/paper_histories.py) against our numbers."""
+    from .paper_histories import format_value as _compact
+
     try:
         findings = json.loads((directory / "findings.json").read_text())["findings"]
     except (json.JSONDecodeError, KeyError) as exc:
