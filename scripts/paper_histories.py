@@ -24,14 +24,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-from geocontact.cycles import with_cyclic, write_cycles_csv
+from geocontact.cycles import with_cyclic
 from geocontact.errors import InputError
-from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
+from geocontact.io import provenance, write_json_atomic, write_text_atomic
 from geocontact.law import load_params
 from geocontact.paper_histories import format_value as fmt
-from geocontact.paper_histories import paper_findings, run_paper_histories
+from geocontact.paper_histories import run_paper_histories, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
 ILLUSTRATIVE = {"reference": ROOT / "examples" / "params-illustrative.json",
@@ -90,21 +88,9 @@ def main(argv: list[str] | None = None) -> int:
                                mesh_checks=({"repeated-10MPa": args.check_mesh}
                                             if args.check_mesh else None))
     out = Path(args.out)
-    files = []
-    for name, run in runs.items():
-        write_json_atomic(out / f"{name}.json", run.to_dict())
-        files.append(f"{name}.json")
-    write_cycles_csv(out / "cycles.csv", {name: run.analysis for name, run in runs.items()})
-    findings = paper_findings(runs)
-    write_json_atomic(out / "findings.json", {"findings": findings})
-    write_csv(out / "findings.csv", {
-        "statement": np.array([f["statement"] for f in findings], dtype=object),
-        "agrees": np.array(["n/a" if f["agrees"] is None else str(f["agrees"])
-                            for f in findings], dtype=object),
-        "rule": np.array([f["rule"] for f in findings], dtype=object),
-    })
+    findings, files = write_study(out, runs, provenance("scripts/paper_histories.py", vars(args)))
     write_text_atomic(out / "tables.md", markdown(runs, findings))
-    files += ["cycles.csv", "findings.json", "findings.csv", "tables.md"]
+    files.append("tables.md")
     for name, run in runs.items():
         if (run.history != "repeated" or run.material_name not in ILLUSTRATIVE
                 or "@" in name):

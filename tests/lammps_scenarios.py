@@ -43,27 +43,21 @@ def _commands(lmp, lines):
 
 
 def _packing_settings(lmp, law_diagnostics: bool = True):
-    """Everything that read_restart does not restore."""
-    if not law_diagnostics:  # a peer pair style: wall forces only
-        _commands(lmp, [
-            "comm_modify vel yes",
-            "neighbor 0.002 bin",
-            "neigh_modify every 1 delay 0 check yes",
-            "fix integrate mobile nve/sphere",
-            "compute ftop top reduce sum fz",
-            f"thermo {SAMPLE_EVERY}",
-        ])
-        return
+    """Everything that read_restart does not restore; a peer pair style (no law diagnostics)
+    gets the wall forces only."""
+    diagnostics = [
+        "compute fbottom bottom reduce sum fz",
+        "compute law all pair geocontact",
+        "variable ztop equal xcm(top,z)",
+        "thermo_style custom step v_ztop c_ftop c_fbottom c_law[1] c_law[3] c_law[4]",
+    ] if law_diagnostics else []
     _commands(lmp, [
         "comm_modify vel yes",
         "neighbor 0.002 bin",
         "neigh_modify every 1 delay 0 check yes",
         "fix integrate mobile nve/sphere",
         "compute ftop top reduce sum fz",
-        "compute fbottom bottom reduce sum fz",
-        "compute law all pair geocontact",
-        "variable ztop equal xcm(top,z)",
-        "thermo_style custom step v_ztop c_ftop c_fbottom c_law[1] c_law[3] c_law[4]",
+        *diagnostics,
         f"thermo {SAMPLE_EVERY}",
     ])
 

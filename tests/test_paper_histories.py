@@ -1,5 +1,7 @@
 """The paper-findings table on synthetic runs whose verdicts are known (no FE)."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -152,3 +154,15 @@ def test_report_shows_the_findings_table(paper_like, tmp_path):
     assert "findings on loading histories" in html
     assert html.count("<td>agrees</td>") == sum(r["agrees"] is True for r in rows)
     assert "Drucker-Prager grains need more cycles" in html
+
+
+def test_write_study_writes_every_result_file(paper_like, tmp_path):
+    from geocontact.paper_histories import write_study
+
+    findings, files = write_study(tmp_path / "study", paper_like, {"command": "test"})
+    assert sorted(files) == sorted([f"{n}.json" for n in paper_like]
+                                   + ["cycles.csv", "findings.json", "findings.csv"])
+    assert all((tmp_path / "study" / f).is_file() for f in files)
+    saved = json.loads((tmp_path / "study" / "findings.json").read_text())
+    assert saved["findings"] == json.loads(json.dumps(findings))
+    assert saved["runs"] == list(paper_like) and saved["provenance"] == {"command": "test"}

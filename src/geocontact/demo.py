@@ -161,19 +161,12 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
 
 def _paper_findings(directory: Path, plan: Plan, cache: Path) -> dict:
     """A subset of the paper's loading-history study and its findings table."""
-    from .cycles import write_cycles_csv
-    from .paper_histories import paper_findings, run_paper_histories
+    from .paper_histories import run_paper_histories, write_study
 
     runs = run_paper_histories(plan.cyclic_mesh, cache, steps_per_segment=plan.steps,
                                only=list(plan.paper_runs))
-    findings = paper_findings(runs)
-    for name, run in runs.items():
-        write_json_atomic(directory / f"{name}.json", run.to_dict())
-    write_cycles_csv(directory / "cycles.csv", {n: r.analysis for n, r in runs.items()})
-    write_json_atomic(directory / "findings.json", {
-        "findings": findings, "runs": list(runs), "mesh": plan.cyclic_mesh,
-        "provenance": provenance("demo: paper histories", {"runs": list(runs),
-                                                           "mesh": plan.cyclic_mesh})})
+    findings, _ = write_study(directory, runs, provenance(
+        "demo: paper histories", {"runs": list(runs), "mesh": plan.cyclic_mesh}))
     agree = sum(f["agrees"] is True for f in findings)
     judged = sum(f["agrees"] is not None for f in findings)
     return {"runs": list(runs), "agree": agree, "judged": judged, "rows": len(findings)}

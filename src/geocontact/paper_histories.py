@@ -387,3 +387,28 @@ def paper_findings(runs: dict[str, PaperRun]) -> list[dict[str, Any]]:
 
 
 __all__ = ["PaperRun", "paper_findings", "run_paper_histories", "study"]
+
+
+def write_study(directory: str | Path, runs: dict[str, PaperRun],
+                record: dict[str, Any]) -> tuple[list[dict[str, Any]], list[str]]:
+    """Write the study's results: one JSON per run, cycles.csv, findings.json (with
+    ``record``, the provenance) and findings.csv. Returns the findings and the file names."""
+    from .cycles import write_cycles_csv
+    from .io import write_csv, write_json_atomic
+
+    directory = Path(directory)
+    files = []
+    for name, run in runs.items():
+        write_json_atomic(directory / f"{name}.json", run.to_dict())
+        files.append(f"{name}.json")
+    write_cycles_csv(directory / "cycles.csv", {name: run.analysis for name, run in runs.items()})
+    findings = paper_findings(runs)
+    write_json_atomic(directory / "findings.json",
+                      {"findings": findings, "runs": list(runs), "provenance": record})
+    write_csv(directory / "findings.csv", {
+        "statement": np.array([f["statement"] for f in findings], dtype=object),
+        "agrees": np.array(["n/a" if f["agrees"] is None else str(f["agrees"])
+                            for f in findings], dtype=object),
+        "rule": np.array([f["rule"] for f in findings], dtype=object),
+    })
+    return findings, files + ["cycles.csv", "findings.json", "findings.csv"]
