@@ -78,6 +78,10 @@ def test_law_command_bad_approach_file(tmp_path, capsys, content, message):
         (lambda d: d["loading"].update(colour=1), "loading.colour: unknown key"),
         (lambda d: d["yield"].update(force_N=1.0), "yield.force_N"),
         (lambda d: d.pop("reloading"), "reloading: missing"),
+        (lambda d: d["cyclic"]["residual_ratio"].update(coefficient=3.0, power=1.4),
+         "cyclic.residual_ratio: the cycle-2 ratio"),
+        (lambda d: d["cyclic"]["plastic_work_ratio"].update(coefficient=-0.1),
+         "cyclic.plastic_work_ratio.coefficient"),
     ],
 )
 def test_bad_parameter_files_give_one_line_errors(tmp_path, capsys, edit, field):

@@ -413,8 +413,8 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
         if fit.power <= 0.0:
             raise InputError(f"fit-params: {name} does not decay with N (power "
                              f"{fit.power:.3g}): the history ratchets, no cyclic law to fit")
-        if fit.coefficient > 1.0:
-            raise InputError(f"fit-params: {name} coefficient {fit.coefficient:.3g} > 1 "
+        if fit(2.0) > 1.0:
+            raise InputError(f"fit-params: {name} fitted cycle-2 ratio {float(fit(2.0)):.3g} > 1 "
                              "(the law bounds cycle N's increment by cycle 1's)")
     cyclic = CyclicLaw(
         enabled=True,

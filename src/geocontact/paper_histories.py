@@ -76,16 +76,10 @@ class PaperRun:
         }
 
 
-def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
-                        steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
-                        workers: int | None = None, only: list[str] | None = None,
-                        mesh_checks: dict[str, str] | None = None,
-                        progress: bool = True) -> dict[str, PaperRun]:
-    """Run (or read from the cache) the FE runs of the study and analyse their cycles.
-
-    ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
-    returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities)."""
-    from .fem.campaign import FemJob, run_campaign
+def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
+               only: list[str] | None = None, mesh_checks: dict[str, str] | None = None):
+    """The study's FE jobs: ``(plan, jobs)``, plan = [(label, run name, mesh)] in job order."""
+    from .fem.campaign import FemJob
 
     runs = study()["runs"]
     names = [n for n in runs if only is None or n in only]
@@ -100,6 +94,35 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
         forces = preset_history(spec["history"], float(spec["peak_force"]))
         jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=run_mesh,
                            steps_per_segment=steps_per_segment, label=label))
+    return plan, jobs
+
+
+def single_load_jobs(job) -> list:
+    """For a history job: one single load 0 -> F_k -> 0 per peak F_k of the history, on the
+    history's own mesh (sized for its largest force), so the two differ only by the path."""
+    from .fem.campaign import FemJob
+
+    forces = list(job.forces)
+    peaks = [f for i, f in enumerate(forces[1:-1], 1) if f > forces[i - 1] and f > forces[i + 1]]
+    return [FemJob(job.material, (0.0, p, 0.0), mesh=job.mesh,
+                   steps_per_segment=job.steps_per_segment, mesh_force=max(forces),
+                   label=f"single load {p:.4g} N @ {job.label}") for p in peaks]
+
+
+def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
+                        steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
+                        workers: int | None = None, only: list[str] | None = None,
+                        mesh_checks: dict[str, str] | None = None,
+                        progress: bool = True) -> dict[str, PaperRun]:
+    """Run (or read from the cache) the FE runs of the study and analyse their cycles.
+
+    ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
+    returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities)."""
+    from .fem.campaign import run_campaign
+
+    runs = study()["runs"]
+    plan, jobs = study_jobs(mesh, steps_per_segment=steps_per_segment, only=only,
+                            mesh_checks=mesh_checks)
     results = run_campaign(jobs, cache_dir=cache_dir, workers=workers, progress=progress)
     out = {}
     for (label, name, _), job, result in zip(plan, jobs, results, strict=True):

@@ -81,6 +81,16 @@ int main(int argc, char **argv)
                "misspelt section");
   expect_error(replace(good, "\"enabled\": false", "\"enabled\": 0"), "cyclic.enabled",
                "cyclic flag type");
+  // c N^-p applies from cycle 2: c > 1 is allowed while c 2^-p <= 1
+  const geocontact::LawParams steep = geocontact::parse_params(
+      replace(good, "\"coefficient\": 0.3,\n      \"power\": 1.4", "\"coefficient\": 2.34,\n      \"power\": 4.5"),
+      "steep");
+  if (steep.cyclic.residual_ratio_coefficient != 2.34) {
+    std::fprintf(stderr, "FAIL: cyclic coefficient > 1 with a steep power not read\n");
+    ++failures;
+  }
+  expect_error(replace(good, "\"coefficient\": 0.3,", "\"coefficient\": 3.0,"),
+               "cyclic.residual_ratio: the cycle-2 ratio", "cycle-2 ratio above 1");
   std::printf("params: %d failures\n", failures);
   return failures == 0 ? 0 : 1;
 }

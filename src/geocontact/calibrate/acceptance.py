@@ -30,7 +30,7 @@ from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
 from ..fem.run import FemResult
 from ..law import Contact, LawParams
 from ..material import Material
-from .campaign import force_range, settings
+from .campaign import force_range, settings, shared_mesh_force
 
 
 @dataclass
@@ -114,13 +114,16 @@ def held_out_jobs(material: Material, mesh: str = "default",
                   max_force: float | None = None) -> list[tuple[dict[str, Any], FemJob]]:
     """The held-out FE runs of data/calibration.toml for this material's force range."""
     low, high = force_range(material, max_force)
+    mesh_force = shared_mesh_force([high])
     jobs = []
     for spec in settings()["acceptance"]["runs"]:
         peak = low * (high / low) ** float(spec["u"])
         forces = tuple(float(f) * peak for f in spec["forces"])
         jobs.append((spec, FemJob(material, forces, mesh=mesh,
                                   steps_per_segment=steps_per_segment,
-                                  label=f"{spec['name']} F={peak:.4g}N")))
+                                  label=f"{spec['name']} F={peak:.4g}N",
+                                  mesh_force=None if mesh_force is None
+                                  else max(mesh_force, *forces))))
     return jobs
 
 

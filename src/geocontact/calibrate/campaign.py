@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
 from ..fem.run import FemResult
+from ..force_history import preset_history
 from ..hertz import hertz_coefficient, incipient_yield
 from ..law.params import LawParams
 from ..material import Material
@@ -80,11 +81,19 @@ def _check_positive(what: str, value) -> None:
         raise InputError(f"{what}: must be a positive number of newtons, got {value!r}")
 
 
+def shared_mesh_force(peaks) -> float | None:
+    """The force every run's mesh is sized for when data/calibration.toml asks for one shared
+    mesh (``shared_mesh = true``): the highest peak; else None (each run sized for its own)."""
+    return float(max(peaks)) if settings()["campaign"].get("shared_mesh", False) else None
+
+
 def calibration_jobs(material: Material, peaks, mesh: str = "default",
                      steps_per_segment: int | None = None) -> list[FemJob]:
     shape = settings()["campaign"]["history"]
+    mesh_force = shared_mesh_force(peaks)
     return [FemJob(material, tuple(float(s) * peak for s in shape), mesh=mesh,
-                   steps_per_segment=steps_per_segment, label=f"calibration F={peak:.4g}N")
+                   steps_per_segment=steps_per_segment, label=f"calibration F={peak:.4g}N",
+                   mesh_force=mesh_force)
             for peak in peaks]
 
 
@@ -195,10 +204,49 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
     peaks = (check_peaks(material, peaks) if peaks is not None
              else peak_forces(material, levels, max_force))
     jobs = calibration_jobs(material, peaks, mesh, steps_per_segment)
-    results = run_campaign(jobs, cache_dir, scheduler=scheduler, workers=workers,
-                           progress=progress)
-    runs = [extract_run(job, result) for job, result in zip(jobs, results, strict=True)]
-    return fit_runs(material, runs), runs
+    cyclic = cyclic_job(material, max(peaks), mesh, steps_per_segment)
+    results = run_campaign(jobs + ([cyclic] if cyclic else []), cache_dir, scheduler=scheduler,
+                           workers=workers, progress=progress)
+    runs = [extract_run(job, result)
+            for job, result in zip(jobs, results[:len(jobs)], strict=True)]
+    params = fit_runs(material, runs)
+    if cyclic is not None:
+        params = fit_cyclic(params, cyclic, results[-1])
+    return params, runs
+
+
+def cyclic_job(material: Material, max_force: float, mesh: str = "default",
+               steps_per_segment: int | None = None) -> FemJob | None:
+    """The FE run the cyclic laws are fitted to (data/calibration.toml ``cyclic_history``:
+    the paper's repeated history to ``cyclic_peak_over_max`` x the highest peak); None when the
+    settings name no history."""
+    campaign = settings()["campaign"]
+    name = campaign.get("cyclic_history")
+    if not name:
+        return None
+    peak = float(campaign["cyclic_peak_over_max"]) * max_force
+    return FemJob(material, tuple(preset_history(name, peak)), mesh=mesh,
+                  steps_per_segment=steps_per_segment, label=f"cyclic {name} F={peak:.4g}N")
+
+
+def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
+    """``params`` with the cyclic power laws fitted to the FE run of ``cyclic_job`` (SPEC 6-7).
+
+    When the run does not support a decaying power law (the residual increments do not fall
+    with N: the history ratchets, or too few cycles), the cyclic extension stays disabled and
+    the provenance says why; the analysis is recorded either way."""
+    from ..cycles import analyse, with_cyclic
+
+    analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
+    info = {"history_forces_N": list(job.forces), "mesh": job.mesh, "cache_key": job.key(),
+            "state": analysis.state, "critical_cycles": analysis.critical_cycles}
+    try:
+        fitted = with_cyclic(params, analysis, provenance=info)
+    except InputError as exc:
+        return replace(params, provenance={**params.provenance, "cyclic": {
+            **info, "status": "not fitted", "reason": str(exc)}})
+    return replace(fitted, provenance={**fitted.provenance, "cyclic": {
+        **fitted.provenance["cyclic"], "status": "fitted"}})
 
 
 def virgin_curve(runs: list[CalibrationRun]) -> tuple[np.ndarray, np.ndarray, list[float]]:

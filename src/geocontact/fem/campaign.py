@@ -41,17 +41,25 @@ class FemJob:
     mesh: str = "coarse"
     steps_per_segment: int | None = None
     label: str = ""
+    mesh_force: float | None = None  # size the mesh for this force (default: the largest)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
         mesh_preset(self.mesh)
+        if self.mesh_force is not None and not (
+                isinstance(self.mesh_force, (int, float)) and self.mesh_force >= max(self.forces)):
+            raise InputError(f"mesh_force: must be >= the largest force {max(self.forces):g} N, "
+                             f"got {self.mesh_force!r}")
 
     def inputs(self) -> dict:
         from .. import __version__
 
-        return {"material": self.material.to_dict(), "forces_N": list(self.forces),
-                "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
-                "version": __version__, "fe_code": fe_code_hash()}
+        inputs = {"material": self.material.to_dict(), "forces_N": list(self.forces),
+                  "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
+                  "version": __version__, "fe_code": fe_code_hash()}
+        if self.mesh_force is not None:
+            inputs["mesh_force_N"] = float(self.mesh_force)
+        return inputs
 
     def key(self) -> str:
         """Hash of everything that decides the result (inputs and code version)."""
@@ -105,7 +113,7 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     result = run_history(job.material, list(job.forces), mesh=job.mesh, out=directory,
                          steps_per_segment=job.steps_per_segment, resume=True,
-                         write_fields=False)
+                         write_fields=False, mesh_force=job.mesh_force)
     return FemResult(curve=result.curve, summary=result.summary)
 
 

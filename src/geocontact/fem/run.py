@@ -299,10 +299,13 @@ def run_history(
     keep_states: bool = False,
     tolerance: float = 1e-8,
     volumetric: str = VOLUMETRIC_DEFAULT,
+    mesh_force: float | None = None,
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
-    ``mesh``: "coarse" | "default" | "fine". ``out``: result directory (curve.csv,
+    ``mesh``: "coarse" | "default" | "fine". ``mesh_force``: size the mesh for this force
+    instead of the history's largest (>= it), so runs of different peaks can share one mesh
+    (e.g. single loads compared with a longer history). ``out``: result directory (curve.csv,
     summary.json, fields/*.vtu), written atomically; a checkpoint ``<out>.checkpoint.npz`` is
     written after every converged step and used by ``resume=True``.
     Raises ConvergenceError (one line, naming the step and load) if a step fails after
@@ -314,7 +317,12 @@ def run_history(
     steps = int(steps_per_segment or STEPS_PER_SEGMENT[mesh])
     if steps < 1:
         raise InputError(f"steps_per_segment: must be >= 1, got {steps}")
-    signature = _signature(material, forces, f"{mesh}/{volumetric}", steps)
+    fmax = max(forces)
+    if mesh_force is not None and not (math.isfinite(mesh_force) and mesh_force >= fmax):
+        raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, got {mesh_force!r}")
+    sized_for = fmax if mesh_force is None else float(mesh_force)
+    mesh_key = f"{mesh}/{volumetric}" + ("" if mesh_force is None else f"/{sized_for!r}")
+    signature = _signature(material, forces, mesh_key, steps)
     ckpt = checkpoint_path(out) if out is not None else None
     saved = None
     if resume and ckpt is not None and ckpt.exists():
@@ -324,11 +332,10 @@ def run_history(
             else:
                 print("warning: checkpoint is for other inputs; starting afresh", file=sys.stderr)
 
-    fmax = max(forces)
     if saved is not None:
         fe_mesh = _skfem_mesh_from_arrays(saved["mesh_doflocs"], saved["mesh_t"])
     else:
-        fe_mesh = history_mesh(material, fmax, mesh)
+        fe_mesh = history_mesh(material, sized_for, mesh)
     if volumetric not in VOLUMETRIC:
         raise InputError(f"volumetric: unknown {volumetric!r} (allowed: {', '.join(VOLUMETRIC)})")
     bbar, order = VOLUMETRIC[volumetric]
@@ -415,6 +422,7 @@ def run_history(
         "version": __version__,
         "inputs": {"material": material.to_dict(), "forces_N": forces, "mesh": mesh,
                    "steps_per_segment": steps, "tolerance": tolerance,
+                   "mesh_force_N": sized_for,
                    "volumetric": volumetric},
         "conventions": "approach is ball-ball (2 x ball-wall); energies are for the pair",
     }

@@ -13,7 +13,8 @@ Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (d
 * plastic work ratio ``Wp / W_total = w_inf (1 - (1 + (x - 1)/x0w)^-e)`` (the FE's; reported
   beside the law's own loop area, which follows from the curves above);
 * cyclic extension: residual-approach increment of cycle N over the first cycle's residual
-  approach ``c N^-p``; critical cycle number where it falls below ``tolerance``.
+  approach ``c N^-p`` (N >= 2, so c may exceed 1 as long as the cycle-2 ratio ``c 2^-p <= 1``);
+  critical cycle number where it falls below ``tolerance``.
 """
 
 from __future__ import annotations
@@ -142,14 +143,23 @@ class CyclicLaw:
                          {"coefficient", "power"})
         pw = _check_keys(f"{w}.plastic_work_ratio", data.get("plastic_work_ratio", {}),
                          {"coefficient", "power"})
+        values = {}
+        for key, table in (("residual_ratio", rr), ("plastic_work_ratio", pw)):
+            where = f"{w}.{key}"
+            coefficient = _number(where, table, "coefficient", 0, None)
+            power = _number(where, table, "power", 0, None, lo_open=True)
+            # The ratio applies from cycle 2 on: c N^-p may exceed 1 only before cycle 2.
+            second = coefficient * 2.0 ** (-power)
+            if second > 1.0:
+                raise InputError(f"{where}: the cycle-2 ratio coefficient * 2^-power must be in "
+                                 f"[0, 1], got {second:g}")
+            values[key] = (coefficient, power)
         return cls(
             enabled=enabled,
-            residual_ratio_coefficient=_number(f"{w}.residual_ratio", rr, "coefficient", 0, 1),
-            residual_ratio_power=_number(f"{w}.residual_ratio", rr, "power", 0, None, lo_open=True),
-            plastic_work_ratio_coefficient=_number(f"{w}.plastic_work_ratio", pw, "coefficient",
-                                                   0, 1),
-            plastic_work_ratio_power=_number(f"{w}.plastic_work_ratio", pw, "power", 0, None,
-                                             lo_open=True),
+            residual_ratio_coefficient=values["residual_ratio"][0],
+            residual_ratio_power=values["residual_ratio"][1],
+            plastic_work_ratio_coefficient=values["plastic_work_ratio"][0],
+            plastic_work_ratio_power=values["plastic_work_ratio"][1],
             tolerance=_number(w, data, "tolerance", 0, 1, lo_open=True),
         )
 

@@ -73,6 +73,15 @@ inline double number(const json::Value &obj, const std::string &where, const std
   return x;
 }
 
+// A cyclic ratio c N^-p applies from cycle 2 on, so its cycle-2 value must be in [0, 1].
+inline void check_second_cycle(double coefficient, double power, const std::string &where)
+{
+  const double second = coefficient * std::pow(2.0, -power);
+  if (second > 1.0)
+    throw InputError(where + ": the cycle-2 ratio coefficient * 2^-power must be in [0, 1], got " +
+                     format_g(second));
+}
+
 inline Material parse_material(const json::Value &m)
 {
   check_keys(m, "material",
@@ -111,12 +120,17 @@ inline CyclicLaw parse_cyclic(const json::Value *c)
   if (!pw) pw = &empty;
   check_keys(*rr, "cyclic.residual_ratio", {"coefficient", "power"});
   check_keys(*pw, "cyclic.plastic_work_ratio", {"coefficient", "power"});
-  cyc.residual_ratio_coefficient = number(*rr, "cyclic.residual_ratio", "coefficient", 0.0, 1.0);
+  cyc.residual_ratio_coefficient = number(*rr, "cyclic.residual_ratio", "coefficient", 0.0, NAN);
   cyc.residual_ratio_power = number(*rr, "cyclic.residual_ratio", "power", 0.0, NAN, true);
   cyc.plastic_work_ratio_coefficient =
-      number(*pw, "cyclic.plastic_work_ratio", "coefficient", 0.0, 1.0);
+      number(*pw, "cyclic.plastic_work_ratio", "coefficient", 0.0, NAN);
   cyc.plastic_work_ratio_power =
       number(*pw, "cyclic.plastic_work_ratio", "power", 0.0, NAN, true);
+  // The ratio applies from cycle 2 on: c N^-p may exceed 1 only before cycle 2.
+  check_second_cycle(cyc.residual_ratio_coefficient, cyc.residual_ratio_power,
+                     "cyclic.residual_ratio");
+  check_second_cycle(cyc.plastic_work_ratio_coefficient, cyc.plastic_work_ratio_power,
+                     "cyclic.plastic_work_ratio");
   cyc.tolerance = number(*c, "cyclic", "tolerance", 0.0, 1.0, true);
   return cyc;
 }
