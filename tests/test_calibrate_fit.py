@@ -64,3 +64,30 @@ def test_fit_is_stable_under_noise():
         peaks.append(c.update(dmax)[0])
     assert peaks[1] == pytest.approx(peaks[0], rel=0.03)
     assert fitted.fit_errors["unloading_curve_rms_of_peak"] < 0.02
+
+
+def test_fit_recovers_a_third_loading_regime_and_a_stretched_residual_form():
+    """Five decades of depth (a weak sphere): the log-slope falls in three steps and the
+    residual ratio follows the stretched form; the fitter finds both."""
+    truth = make_params(elastic_plastic_exponent=1.42, fully_plastic_approach_ratio=80.0,
+                        fully_plastic_exponent=1.2, deep_plastic_approach_ratio=5000.0,
+                        deep_plastic_exponent=0.95, residual_limit=0.95, residual_power=0.08,
+                        residual_transition=2.0, residual_log_power=1.7, plastic_work_limit=0.0)
+    depths = [2, 8, 40, 240, 1500, 1.2e4, 1.2e5]
+    d, f, levels = cycles_of(truth, depths)
+    fitted = fit_law(truth.material, truth.yield_approach, d, f, levels)
+    assert fitted.deep_plastic_approach_ratio == pytest.approx(5000.0, rel=0.15)
+    assert fitted.deep_plastic_exponent == pytest.approx(0.95, rel=0.01)
+    assert fitted.fully_plastic_exponent == pytest.approx(1.2, rel=0.01)
+    assert fitted.fit_errors["loading_rms_relative"] < 0.01
+    x = np.array(depths, dtype=float)
+    assert fitted.residual_ratio(x) == pytest.approx(truth.residual_ratio(x), rel=1e-3)
+    assert fitted.fit_errors["residual_ratio_max_relative"] < 1e-3
+
+
+def test_two_regime_curves_get_no_third_regime():
+    truth = make_params(elastic_plastic_exponent=1.3, fully_plastic_approach_ratio=30.0,
+                        fully_plastic_exponent=1.12)
+    d, f, levels = cycles_of(truth, [2, 5, 12, 30, 70, 150, 300, 3000])
+    fitted = fit_law(truth.material, truth.yield_approach, d, f, levels)
+    assert np.isinf(fitted.deep_plastic_approach_ratio)

@@ -24,6 +24,11 @@ def test_golden_vectors_cover_every_branch_and_every_parameter_variant():
     branches = {b for case in golden["cases"] for b in case["branches"]}
     assert branches == {0, 1, 2, 3, 4}  # apart, virgin, unloading, reloading, ratchet
     assert {case["params"] for case in golden["cases"]} == {"cyclic_on", "cyclic_off",
-                                                            "transition"}
+                                                            "transition", "deep"}
     # the transition variant really exercises the residual form with x0 != 1
     assert golden["params"]["transition"]["residual_approach"]["transition_depth"] != 1.0
+    # the deep variant: a third loading regime that the histories reach, and log power b != 1
+    deep = golden["params"]["deep"]
+    assert deep["residual_approach"]["log_power"] != 1.0
+    dq = deep["loading"]["deep_plastic_approach_ratio"] * deep["yield"]["approach_m"]
+    assert any(max(c["approaches"]) > dq for c in golden["cases"] if c["params"] == "deep")

@@ -22,6 +22,12 @@ histories = st.lists(depths, min_size=1, max_size=25).map(
 PARAMS = make_params()
 CYCLIC = make_params(cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=0.3,
                                       residual_ratio_power=1.2, tolerance=0.01))
+# the optional forms of weak-sphere calibrations: a third loading regime from 60 dy (inside the
+# histories' range) and a stretched residual form (log power b != 1, transition depth x0)
+DEEP = make_params(deep_plastic_approach_ratio=60.0, deep_plastic_exponent=0.95,
+                   residual_log_power=1.7, residual_transition=3.0, residual_power=0.1,
+                   cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=2.3,
+                                    residual_ratio_power=4.0, tolerance=0.01))
 
 
 def refine(path, per_step=7):
@@ -80,11 +86,11 @@ def test_force_continuous_in_approach(path, direction):
 
 
 @settings(max_examples=200, deadline=None)
-@given(histories, st.booleans())
-def test_no_energy_created_on_any_path(path, cyclic):
+@given(histories, st.sampled_from(["plain", "cyclic", "deep"]))
+def test_no_energy_created_on_any_path(path, which):
     """Dissipation never decreases step by step, and a path from apart to apart does
     non-negative work: the law's exact work against an independent trapezoid integration."""
-    params = CYCLIC if cyclic else PARAMS
+    params = {"plain": PARAMS, "cyclic": CYCLIC, "deep": DEEP}[which]
     contact = Contact(params)
     dense = refine(path, per_step=200)
     forces = []
@@ -207,7 +213,7 @@ def test_scalar_and_vectorised_paths_agree():
     increments = rng.normal(0.0, 3.0, size=(steps, n)) * DY
     paths = np.cumsum(increments, axis=0)
     paths[-10:] = -DY
-    for params in (PARAMS, CYCLIC):
+    for params in (PARAMS, CYCLIC, DEEP):
         arrays = ContactArrays(params, n)
         forces = np.empty((steps, n))
         stiff = np.empty((steps, n))
@@ -285,3 +291,49 @@ def test_parameter_sets_that_would_create_energy_are_rejected(change, field):
         return
     with pytest.raises(InputError, match=field):
         make_params(**change)
+
+
+def test_third_loading_regime_is_continuous_and_its_work_exact():
+    """F continuous at delta_q with slope n3 beyond; the closed-form virgin work equals a
+    numerical integral of the force across all four regimes."""
+    from scipy.integrate import quad
+
+    dq = DEEP.deep_plastic_approach
+    assert dq == pytest.approx(60.0 * DY)
+    below, above = DEEP.virgin_force([dq * (1 - 1e-12), dq * (1 + 1e-12)])
+    assert above == pytest.approx(below, rel=1e-9)
+    assert DEEP.virgin_force(2 * dq) / DEEP.virgin_force(dq) == pytest.approx(2**0.95, rel=1e-12)
+    d = 5.0 * dq
+    breaks = [DY, DEEP.fully_plastic_approach, dq]
+    numeric = quad(lambda t: float(DEEP.virgin_force(t)), 0.0, d, points=breaks, limit=200)[0]
+    assert float(DEEP.virgin_work(d)) == pytest.approx(numeric, rel=1e-9)
+    # without a third regime the file reads and writes as before
+    assert "deep_plastic_approach_ratio" not in PARAMS.to_dict()["loading"]
+    again = LawParams.from_dict(DEEP.to_dict())
+    assert again.deep_plastic_approach == pytest.approx(dq, rel=1e-15)
+    assert again.residual_log_power == 1.7
+
+
+def test_stretched_residual_form_reduces_to_the_original_with_b_1():
+    from geocontact.law.params import saturating_ratio
+
+    x = np.geomspace(1.0, 1e6, 50)
+    assert saturating_ratio(x, 0.9, 0.35, 1.0, 1.0) == pytest.approx(0.9 * (1 - x**-0.35),
+                                                                     abs=1e-15)
+    stretched = saturating_ratio(x, 0.9, 0.1, 3.0, 1.7)
+    assert stretched[0] == 0.0 and np.all(np.diff(stretched) > 0) and stretched[-1] < 0.9
+    assert stretched == pytest.approx(0.9 * (1 - np.exp(-0.1 * np.log1p((x - 1) / 3) ** 1.7)),
+                                      rel=1e-12, abs=1e-300)
+
+
+@pytest.mark.parametrize("edit, field", [
+    ({"deep_plastic_approach_ratio": 10.0, "deep_plastic_exponent": 1.0},
+     "loading.deep_plastic_approach_ratio"),
+    ({"deep_plastic_approach_ratio": 100.0, "deep_plastic_exponent": 0.0},
+     "loading.deep_plastic_exponent"),
+])
+def test_third_regime_out_of_range_is_a_one_line_error(edit, field):
+    doc = PARAMS.to_dict()
+    doc["loading"].update(edit)
+    with pytest.raises(InputError, match=field):
+        LawParams.from_dict(doc)

@@ -127,8 +127,43 @@ def test_findings_without_runs_say_so(paper_like):
     inc1 = by_statement(rows, "No shakedown under monotonically increasing loading "
                               "(mono-increasing-1MPa)")
     assert inc1["agrees"] is None
-    single = by_statement(rows, "Monotonically increasing loading: residual approach per cycle")
-    assert single["agrees"] is None
+    single = by_statement(rows, "Monotonically increasing loading (mono-increasing-10MPa): "
+                                "residual approach per cycle")
+    assert single["agrees"] is None and "single loads" in single["our_value"]
+
+
+def with_single_loads(run, residual_factor, work_factor):
+    """``run`` with single loads to each of its peaks: cycle k of the history has
+    ``residual_factor`` x the single load's residual approach and ``work_factor`` x its plastic
+    work (cycle 1 is the single load itself)."""
+    rows = []
+    for k, c in enumerate(run.analysis.cycles):
+        rf, wf = (1.0, 1.0) if k == 0 else (residual_factor, work_factor)
+        rows.append({"peak_force_N": c["max_force_N"] * (1 + 1e-6),
+                     "residual_approach_m": c["residual_approach_m"] / rf,
+                     "plastic_work_J": c["plastic_work_J"] / wf})
+    run.single_loads = rows
+    return run
+
+
+@pytest.mark.parametrize("residual_factor, work_factor, agrees", [
+    (1.03, 0.4, True),    # the paper: residual a little larger, plastic work lower
+    (0.97, 0.4, False),   # residual smaller than a single load's
+    (1.5, 0.4, False),    # residual much larger: not "a little"
+    (1.03, 1.2, False),   # plastic work per cycle above the single load's
+])
+def test_increasing_history_against_single_loads(paper_like, residual_factor, work_factor,
+                                                 agrees):
+    name = "mono-increasing-10MPa"
+    runs = dict(paper_like)
+    runs[name] = with_single_loads(paper_like[name], residual_factor, work_factor)
+    row = by_statement(paper_findings(runs), f"Monotonically increasing loading ({name}): "
+                                             "residual approach per cycle")
+    assert row["agrees"] is agrees
+    value = row["our_value"]
+    assert value["residual_ratio_by_cycle"][0] == pytest.approx(1.0)
+    assert value["residual_ratio_by_cycle"][1:] == pytest.approx([residual_factor] * 6)
+    assert value["plastic_work_ratio_by_cycle"][1:] == pytest.approx([work_factor] * 6)
 
 
 def test_study_lists_the_paper_histories():

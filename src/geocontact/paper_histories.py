@@ -12,7 +12,7 @@ so (``agrees`` is None, ``our_value`` names what is missing).
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -55,6 +55,8 @@ class PaperRun:
     summary: dict[str, Any]
     analysis: CycleAnalysis
     extra: dict[float, CycleAnalysis]  # the same cycles analysed at EXTRA_TOLERANCES
+    # monotonically increasing histories: a single load 0 -> F_k -> 0 per peak, same mesh
+    single_loads: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def windows(self) -> list[tuple[int, int]]:
@@ -73,6 +75,7 @@ class PaperRun:
             "analysis": self.analysis.to_dict(),
             "critical_cycles_at_other_tolerances": {
                 f"{t:g}": a.critical_cycles for t, a in self.extra.items()},
+            "single_loads": self.single_loads,
         }
 
 
@@ -112,20 +115,30 @@ def single_load_jobs(job) -> list:
 def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
                         steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                         workers: int | None = None, only: list[str] | None = None,
-                        mesh_checks: dict[str, str] | None = None,
+                        mesh_checks: dict[str, str] | None = None, single_loads: bool = True,
                         progress: bool = True) -> dict[str, PaperRun]:
     """Run (or read from the cache) the FE runs of the study and analyse their cycles.
 
     ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
-    returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities)."""
+    returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities).
+    ``single_loads``: also run, for every monotonically increasing history, a single load to
+    each of its peaks on its mesh (the paper compares the two)."""
     from .fem.campaign import run_campaign
 
     runs = study()["runs"]
     plan, jobs = study_jobs(mesh, steps_per_segment=steps_per_segment, only=only,
                             mesh_checks=mesh_checks)
-    results = run_campaign(jobs, cache_dir=cache_dir, workers=workers, progress=progress)
+    singles = {label: single_load_jobs(job)
+               for (label, name, _), job in zip(plan, jobs, strict=True)
+               if single_loads and runs[name]["history"] == "mono-increasing"}
+    extra_jobs = [j for js in singles.values() for j in js]
+    results = run_campaign(jobs + extra_jobs, cache_dir=cache_dir, workers=workers,
+                           progress=progress)
+    single_results = iter(results[len(jobs):])
+    single_rows = {label: [_single_row(j, next(single_results)) for j in js]
+                   for label, js in singles.items()}
     out = {}
-    for (label, name, _), job, result in zip(plan, jobs, results, strict=True):
+    for (label, name, _), job, result in zip(plan, jobs, results[:len(jobs)], strict=True):
         cycles = result.summary["cycles"]
         out[label] = PaperRun(
             name=label, material_name=runs[name]["material"], material=job.material,
@@ -134,8 +147,16 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
             analysis=analyse(cycles, tolerance=tolerance, source=f"fe {label}"),
             extra={t: analyse(cycles, tolerance=t, source=f"fe {label}")
                    for t in EXTRA_TOLERANCES},
+            single_loads=single_rows.get(label, []),
         )
     return out
+
+
+def _single_row(job, result) -> dict[str, Any]:
+    cycle = result.summary["cycles"][0]
+    return {"peak_force_N": max(job.forces), "residual_approach_m": cycle["residual_approach_m"],
+            "plastic_work_J": cycle["plastic_work_J"], "max_approach_m": cycle["max_approach_m"],
+            "mesh_force_N": job.mesh_force, "cache_key": job.key()}
 
 
 # --- findings ----------------------------------------------------------------------------------
@@ -378,11 +399,16 @@ def paper_findings(runs: dict[str, PaperRun]) -> list[dict[str, Any]]:
         else:
             rows.append(_missing(statement, quantity, [m]))
 
-    statement = ("Monotonically increasing loading: residual approach per cycle a little larger, "
-                 "plastic work per cycle lower than a single load to the same level")
-    rows.append(_row(statement, "per-cycle values vs single-load runs at 100 ... 3000 N",
-                     "not available: the single-load FE runs at each level are not part of "
-                     "this study", None, runs=[]))
+    for m in ("mono-increasing-10MPa", "mono-increasing-1MPa"):
+        statement = (f"Monotonically increasing loading ({m}): residual approach per cycle a "
+                     "little larger, plastic work per cycle lower than a single load to the "
+                     "same level")
+        quantity = ("cycle k of the history over a single load 0 -> F_k -> 0 on the same mesh, "
+                    "k >= 2: residual approach ratio; plastic work ratio")
+        if need(m) and runs[m].single_loads:
+            rows.append(_versus_single_loads(statement, quantity, runs[m], m))
+        else:
+            rows.append(_missing(statement, quantity, [m, f"single loads of {m}"]))
 
     # 7. Drucker-Prager vs von Mises
     names = ["repeated-10MPa", "repeated-von-mises-10MPa"]
@@ -409,7 +435,32 @@ def paper_findings(runs: dict[str, PaperRun]) -> list[dict[str, Any]]:
     return rows
 
 
-__all__ = ["PaperRun", "paper_findings", "run_paper_histories", "study"]
+# "A little larger": the residual approach of the history at most this much above a single load's.
+A_LITTLE = 0.10
+
+
+def _versus_single_loads(statement: str, quantity: str, run: PaperRun, name: str) -> dict:
+    cycles = run.analysis.cycles
+    residual, work = [], []
+    for c in cycles:
+        single = next((s for s in run.single_loads
+                       if abs(s["peak_force_N"] - c["max_force_N"]) <= 1e-3 * c["max_force_N"]),
+                      None)
+        if single is None:  # no single load to this cycle's peak
+            continue
+        residual.append(c["residual_approach_m"] / single["residual_approach_m"])
+        work.append(c["plastic_work_J"] / single["plastic_work_J"])
+    later_r, later_w = residual[1:], work[1:]
+    ok = (len(later_r) > 0 and all(1.0 < r <= 1.0 + A_LITTLE for r in later_r)
+          and all(w < 1.0 for w in later_w))
+    value = {"residual_ratio_by_cycle": residual, "plastic_work_ratio_by_cycle": work}
+    return _row(statement, quantity, value, ok, runs=[name],
+                rule=f"cycles 2+: residual ratio in (1, {1 + A_LITTLE:g}] and plastic work "
+                     "ratio < 1 (cycle 1 is the single load itself, ratio 1)")
+
+
+__all__ = ["PaperRun", "paper_findings", "run_paper_histories", "single_load_jobs", "study",
+           "study_jobs"]
 
 
 def write_study(directory: str | Path, runs: dict[str, PaperRun],

@@ -52,11 +52,19 @@ def _power_exponent(approach, force, base, peak_approach, peak_force, keep=(0.02
     return n, rms
 
 
-def fit_loading(approach, force, yield_approach, hertz_coefficient):
-    """n1, delta_p/delta_y, n2 of the three-regime virgin curve (continuous at dy and dp).
+# A third loading regime is fitted when it lowers the loading error by this factor, over a
+# tail of at least MIN_TAIL_DECADES of depth (a weak sphere's log-slope keeps falling over five
+# decades; two power laws then miss the middle by 10 %, docs/calibration.md).
+THIRD_REGIME_GAIN = 0.75
+MIN_TAIL_DECADES = 0.5
 
-    For each candidate delta_p on a log grid, n1 and n2 are linear least-squares problems in
-    log space (anchored at the yield point and at delta_p); the best delta_p wins. Points are
+
+def fit_loading(approach, force, yield_approach, hertz_coefficient):
+    """n1, delta_p/delta_y, n2 (and, where it pays, delta_q/delta_y, n3) of the virgin curve:
+    power laws continuous at dy, dp (and dq).
+
+    For each candidate break (pair) on a log grid, the exponents are a linear least-squares
+    problem in log space (anchored at the yield point); the best breaks win. Points are
     weighted by their share of log(delta) (trapezoid), so every decade of depth counts the same
     however the FE placed its load steps (they crowd near yield)."""
     d = np.asarray(approach, dtype=float)
@@ -69,23 +77,39 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient):
     order = np.argsort(d[use])
     x, y = np.log(d[use][order] / dy), np.log(f[use][order] / fy)
     w = _trapezoid_weights(x)
-    best = None
-    for ratio in np.geomspace(1.5, max(2.0, 0.95 * np.exp(x.max())), 240):
-        lp = np.log(ratio)
-        a, b = x <= lp, x > lp
-        wa, wb = w[a], w[b]
-        n1 = (float(np.dot(wa * x[a], y[a]) / np.dot(wa * x[a], x[a])) if a.sum() >= 2
-              else 1.5)
-        yp = n1 * lp
-        n2 = (float(np.dot(wb * (x[b] - lp), y[b] - yp) / np.dot(wb * (x[b] - lp), x[b] - lp))
-              if b.sum() >= 2 else n1)
-        model = np.where(a, n1 * x, yp + n2 * (x - lp))
-        err = float(np.sqrt(np.sum(w * np.expm1(model - y) ** 2) / np.sum(w)))
-        if best is None or err < best[0]:
-            best = (err, n1, ratio, n2)
-    err, n1, ratio, n2 = best
-    return {"elastic_plastic_exponent": n1, "fully_plastic_approach_ratio": float(ratio),
-            "fully_plastic_exponent": n2, "rms_relative_error": err}
+    top = max(np.log(2.0), np.log(0.95) + x.max())
+    grid = np.log(np.geomspace(1.5, np.exp(top), 240))
+    two = min((_broken_power_fit(x, y, w, (lp,)) for lp in grid), key=lambda r: r[0])
+    err, slopes, breaks = two
+    tail = MIN_TAIL_DECADES * np.log(10.0)
+    coarse = grid[::4]
+    pairs = [(a, b) for a in coarse for b in coarse if b - a >= tail and x.max() - b >= tail]
+    if pairs:
+        three = min((_broken_power_fit(x, y, w, pq) for pq in pairs), key=lambda r: r[0])
+        if three[0] < THIRD_REGIME_GAIN * err:
+            err, slopes, breaks = three
+    out = {"elastic_plastic_exponent": slopes[0],
+           "fully_plastic_approach_ratio": float(np.exp(breaks[0])),
+           "fully_plastic_exponent": slopes[1], "rms_relative_error": err}
+    if len(breaks) == 2:
+        out["deep_plastic_approach_ratio"] = float(np.exp(breaks[1]))
+        out["deep_plastic_exponent"] = slopes[2]
+    return out
+
+
+def _broken_power_fit(x, y, w, breaks):
+    """Continuous piecewise-linear y(x) through the origin with the given breaks: weighted
+    least squares for the slopes. Returns (weighted RMS relative force error, slopes, breaks);
+    slopes outside (0, 3] (the parameter file's range) make the candidate infinitely bad."""
+    basis = np.column_stack([x] + [np.maximum(x - b, 0.0) for b in breaks])
+    sw = np.sqrt(w)
+    coef, *_ = np.linalg.lstsq(basis * sw[:, None], y * sw, rcond=None)
+    slopes = np.cumsum(coef)
+    if np.any(slopes <= 0.0) or np.any(slopes > 3.0) or np.sum(x <= breaks[0]) < 2:
+        return np.inf, [float(v) for v in slopes], tuple(breaks)
+    model = basis @ coef
+    err = float(np.sqrt(np.sum(w * np.expm1(model - y) ** 2) / np.sum(w)))
+    return err, [float(v) for v in slopes], tuple(float(b) for b in breaks)
 
 
 def _trapezoid_weights(x: np.ndarray) -> np.ndarray:
@@ -107,41 +131,57 @@ def _power_of_depth(depth, exponents):
 
 
 def _saturating(depth, values, what):
-    """limit, power, transition of values = limit (1 - (1 + (x - 1)/transition)^-power).
+    """limit, power, transition, log_power of values = limit (1 - exp(-power L^b)),
+    L = log(1 + (x - 1)/transition) (``law.params.saturating_ratio``).
 
-    Least squares on log(1 - values): the relative error of the complement (for the residual
-    approach, the elastic recovery dmax - dres, which sets where the unloading curve lies in a
-    DEM contact driven by approach; at depth the recovery is a few % of dmax and an absolute fit
-    of the ratio would misplace it by tens of %). Started from a grid over the transition depth;
-    with fewer than 4 levels the transition is fixed at 1 (the original two-parameter form)."""
+    Least squares on two relative errors at once: of the ratio itself (for the residual
+    approach, the quantity a DEM user reads, and what decides where a shallow unloading curve
+    lands) and of its complement 1 - ratio (the elastic recovery dmax - dres, which sets where
+    the unloading curve lies at depth, where the recovery is a few % of dmax and an absolute fit
+    of the ratio would misplace it by tens of %). Started from a grid over the transition
+    depth. With fewer than 4 levels the transition is fixed at 1 (the original two-parameter
+    form); with fewer than 5 the log power is fixed at 1."""
     depth = np.asarray(depth, dtype=float)
     values = np.asarray(values, dtype=float)
     if np.any(values >= 1.0) or np.any(values < 0.0):
         raise InputError(f"calibration: {what} ratios must lie in [0, 1)")
-    target = np.log1p(-values)
+    complement = np.log1p(-values)
+    ratio = np.log(np.maximum(values, 1e-12))
+
+    def model_of(theta):
+        limit, power, log_transition, log_power = theta
+        return saturating_ratio(depth, limit, power, float(np.exp(log_transition)),
+                                float(log_power))
 
     def residual(theta):
-        limit, power, log_transition = theta
-        model = saturating_ratio(depth, limit, power, float(np.exp(log_transition)))
-        return np.log1p(-np.minimum(model, 1.0 - 1e-15)) - target
+        model = np.clip(model_of(theta), 1e-12, 1.0 - 1e-15)
+        return np.concatenate([np.log1p(-model) - complement, np.log(model) - ratio])
 
     free_transition = depth.size >= 4
+    free_log_power = depth.size >= 5
     best = None
     for log_transition in (np.log(np.geomspace(1.0, 1e3, 10)) if free_transition else [0.0]):
-        lo = [0.0, 1e-3, log_transition - 1e-9 if not free_transition else -1e-9]
-        hi = [MAX_LIMIT, 10.0, log_transition + 1e-9 if not free_transition else np.log(1e6)]
-        start = np.clip([min(values.max() * 1.2, 0.99), 0.3, log_transition], lo, hi)
-        fit = least_squares(residual, start, bounds=(lo, hi), x_scale=[0.1, 0.1, 1.0])
-        if best is None or fit.cost < best.cost:
-            best = fit
+        for log_power in ((1.0, 1.5, 2.0) if free_log_power else (1.0,)):
+            lo = [0.0, 1e-4, log_transition - 1e-9 if not free_transition else -1e-9,
+                  0.2 if free_log_power else 1.0 - 1e-9]
+            hi = [MAX_LIMIT, 10.0,
+                  log_transition + 1e-9 if not free_transition else np.log(1e6),
+                  5.0 if free_log_power else 1.0 + 1e-9]
+            start = np.clip([min(values.max() * 1.2, 0.99), 0.3, log_transition, log_power],
+                            lo, hi)
+            fit = least_squares(residual, start, bounds=(lo, hi),
+                                x_scale=[0.1, 0.1, 1.0, 0.3])
+            if best is None or fit.cost < best.cost:
+                best = fit
     if best is None or not best.success:
         raise InputError(f"calibration: the {what} fit did not converge")
-    limit, power, log_transition = (float(v) for v in best.x)
+    limit, power, log_transition, log_power = (float(v) for v in best.x)
     transition = float(np.exp(log_transition)) if free_transition else 1.0
-    model = saturating_ratio(depth, limit, power, transition)
+    log_power = log_power if free_log_power else 1.0
+    model = saturating_ratio(depth, limit, power, transition, log_power)
     rms = float(np.sqrt(np.mean((model - values) ** 2)))
-    complement = float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))
-    return limit, power, transition, rms, complement
+    recovery = float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))
+    return limit, power, transition, log_power, rms, recovery
 
 
 def fit_law(material: Material, yield_approach: float, loading_approach, loading_force,
@@ -167,9 +207,9 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     p_u, rms_nu = _power_of_depth(depth, np.array(n_u))
     p_r, rms_nr = _power_of_depth(depth, np.array(n_r))
     residual = np.array([lv.residual_approach / lv.max_approach for lv in levels])
-    rho, s, x0, rms_res, rms_recovery = _saturating(depth, residual, "residual approach")
+    rho, s, x0, b, rms_res, rms_recovery = _saturating(depth, residual, "residual approach")
     work = np.array([lv.plastic_work / lv.total_work for lv in levels])
-    w_lim, w_pow, w_x0, rms_w, _ = _saturating(depth, work, "plastic work")
+    w_lim, w_pow, w_x0, w_b, rms_w, _ = _saturating(depth, work, "plastic work")
     fit_errors = {
         "loading_rms_relative": loading.pop("rms_relative_error"),
         "unloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_u)))),
@@ -177,6 +217,8 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         "unloading_exponent_rms": rms_nu,
         "reloading_exponent_rms": rms_nr,
         "residual_ratio_rms": rms_res,
+        "residual_ratio_max_relative": float(np.max(np.abs(
+            saturating_ratio(depth, rho, s, x0, b) / residual - 1.0))),
         "elastic_recovery_rms_relative": rms_recovery,
         "plastic_work_ratio_rms": rms_w,
         "per_level": [{"depth": float(x), "unloading_exponent": a, "reloading_exponent": b,
@@ -191,9 +233,11 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         residual_limit=rho,
         residual_power=s,
         residual_transition=x0,
+        residual_log_power=b,
         plastic_work_limit=w_lim,
         plastic_work_power=w_pow,
         plastic_work_transition=w_x0,
+        plastic_work_log_power=w_b,
         fit_errors=fit_errors,
         provenance=dict(provenance or {}),
         label="calibrated",

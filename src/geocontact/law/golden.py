@@ -114,7 +114,14 @@ def _variants(params: LawParams) -> dict[str, dict]:
     # the residual form with a transition depth (the FE calibrations use one)
     transition = copy.deepcopy(off)
     transition["residual_approach"]["transition_depth"] = 7.5
-    return {"cyclic_on": on, "cyclic_off": off, "transition": transition}
+    # a third loading regime and a stretched residual form (the weak-sphere calibrations)
+    deep = copy.deepcopy(transition)
+    deep["loading"]["deep_plastic_approach_ratio"] = (
+        3.0 * deep["loading"]["fully_plastic_approach_ratio"])
+    deep["loading"]["deep_plastic_exponent"] = 1.0
+    deep["residual_approach"]["log_power"] = 1.6
+    deep["cyclic"]["enabled"] = True
+    return {"cyclic_on": on, "cyclic_off": off, "transition": transition, "deep": deep}
 
 
 def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dict:

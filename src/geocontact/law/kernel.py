@@ -20,8 +20,8 @@ from .reference import APART, RATCHET, RELOADING, UNLOADING, VIRGIN
 
 # Layout of the packed parameter vector handed to the kernel.
 (P_KH, P_DY, P_DP, P_FY, P_FP, P_N1, P_N2, P_PU, P_PR, P_RHO, P_RS, P_CYC_ON, P_CYC_C,
- P_CYC_P, P_CYC_TOL, P_HERTZ_ONLY, P_RX0) = range(17)
-N_PARAMS = 17
+ P_CYC_P, P_CYC_TOL, P_HERTZ_ONLY, P_RX0, P_RB, P_DQ, P_FQ, P_N3) = range(21)
+N_PARAMS = 21
 # Inputs are checked finite before the kernel runs, so the no-NaN/no-inf assumptions hold;
 # contraction and approximate functions change results only at rounding level.
 _FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "afn"}
@@ -45,6 +45,12 @@ def pack_params(params: LawParams) -> np.ndarray:
     p[P_RHO] = params.residual_limit
     p[P_RS] = params.residual_power
     p[P_RX0] = params.residual_transition
+    p[P_RB] = params.residual_log_power
+    # no third loading regime: delta_q beyond any approach (finite, for the fast-math kernel)
+    deep = math.isfinite(params.deep_plastic_approach_ratio)
+    p[P_DQ] = params.deep_plastic_approach if deep else np.finfo(float).max
+    p[P_FQ] = params.deep_plastic_force if deep else np.finfo(float).max
+    p[P_N3] = params.deep_plastic_exponent
     p[P_CYC_ON] = 1.0 if params.cyclic.enabled else 0.0
     p[P_CYC_C] = params.cyclic.residual_ratio_coefficient
     p[P_CYC_P] = params.cyclic.residual_ratio_power
@@ -60,7 +66,9 @@ def _virgin_force(p, d):
         return p[P_KH] * d**HERTZ_EXPONENT
     if d <= p[P_DP]:
         return p[P_FY] * (d / p[P_DY]) ** p[P_N1]
-    return p[P_FP] * (d / p[P_DP]) ** p[P_N2]
+    if d <= p[P_DQ]:
+        return p[P_FP] * (d / p[P_DP]) ** p[P_N2]
+    return p[P_FQ] * (d / p[P_DQ]) ** p[P_N3]
 
 
 @njit(cache=True, inline="always", fastmath=_FAST)
@@ -74,7 +82,10 @@ def _virgin_work_from_force(p, d, f):
     if d <= dp:
         return w_y + (f * d - fy * dy) / (p[P_N1] + 1.0)
     w_p = w_y + (p[P_FP] * dp - fy * dy) / (p[P_N1] + 1.0)
-    return w_p + (f * d - p[P_FP] * dp) / (p[P_N2] + 1.0)
+    if d <= p[P_DQ]:
+        return w_p + (f * d - p[P_FP] * dp) / (p[P_N2] + 1.0)
+    w_q = w_p + (p[P_FQ] * p[P_DQ] - p[P_FP] * dp) / (p[P_N2] + 1.0)
+    return w_q + (f * d - p[P_FQ] * p[P_DQ]) / (p[P_N3] + 1.0)
 
 
 @njit(cache=True, inline="always", fastmath=_FAST)
@@ -83,7 +94,9 @@ def _virgin_exponent(p, d):
         return HERTZ_EXPONENT
     if d <= p[P_DP]:
         return p[P_N1]
-    return p[P_N2]
+    if d <= p[P_DQ]:
+        return p[P_N2]
+    return p[P_N3]
 
 
 @njit(cache=True, fastmath=_FAST)
@@ -180,6 +193,8 @@ def _step(p, target_in, branch, st, force_out, stiffness_out):
                 # residual form with transition depth x0 (params.saturating_ratio); x0 = 1: lx
                 lr = lx if p[P_RX0] == 1.0 else math.log1p((max(target / dy, 1.0) - 1.0)
                                                            / p[P_RX0])
+                if p[P_RB] != 1.0:
+                    lr = lr ** p[P_RB]
                 dres = -p[P_RHO] * math.expm1(-p[P_RS] * lr) * target
                 nu = HERTZ_EXPONENT * math.exp(p[P_PU] * lx)
                 nr = min(HERTZ_EXPONENT * math.exp(p[P_PR] * lx), nu)

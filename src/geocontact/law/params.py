@@ -38,13 +38,19 @@ HERTZ_EXPONENT = 1.5
 _CHECK_DEPTHS = np.geomspace(1.0, 1.0e7, 3001)
 
 
-def saturating_ratio(depth, limit: float, power: float, transition: float = 1.0):
-    """``limit (1 - (1 + (x - 1)/transition)^-power)``: zero at x = 1, rising to ``limit``.
+def saturating_ratio(depth, limit: float, power: float, transition: float = 1.0,
+                     log_power: float = 1.0):
+    """``limit (1 - exp(-power L^b))`` with ``L = log(1 + (x - 1)/transition)`` and
+    ``b = log_power``: zero at x = 1, rising to ``limit``.
 
-    Written with expm1/log1p so it is accurate just above yield, where it is tiny; with
-    transition = 1 it is exactly the original ``limit (1 - x^-power)`` (log x, as before)."""
+    With b = 1 it is ``limit (1 - (1 + (x - 1)/transition)^-power)``, and with transition = 1
+    too exactly the original ``limit (1 - x^-power)`` (log x, as before). b > 1 stretches the
+    rise over more decades of depth (the recovery of a weak sphere keeps shrinking from x ~ 10
+    to 10^5). Written with expm1/log1p so it is accurate just above yield, where it is tiny."""
     x = np.maximum(depth, 1.0)
     lx = np.log(x) if transition == 1.0 else np.log1p((x - 1.0) / transition)
+    if log_power != 1.0:
+        lx = lx**log_power
     return -limit * np.expm1(-power * lx)
 
 
@@ -181,6 +187,11 @@ class LawParams:
     plastic_work_power: float = 1.0
     residual_transition: float = 1.0
     plastic_work_transition: float = 1.0
+    residual_log_power: float = 1.0
+    plastic_work_log_power: float = 1.0
+    # optional third loading regime beyond delta_q = deep_ratio delta_y: F = Fq (d/dq)^n3
+    deep_plastic_approach_ratio: float = math.inf
+    deep_plastic_exponent: float = 1.0
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
@@ -221,44 +232,72 @@ class LawParams:
 
     def residual_ratio(self, depth):
         return saturating_ratio(depth, self.residual_limit, self.residual_power,
-                                self.residual_transition)
+                                self.residual_transition, self.residual_log_power)
 
     def plastic_work_ratio(self, depth):
         """The FE's Wp/W_total fitted as a function of depth (diagnostic, SPEC 6)."""
         return saturating_ratio(depth, self.plastic_work_limit, self.plastic_work_power,
-                                self.plastic_work_transition)
+                                self.plastic_work_transition, self.plastic_work_log_power)
+
+    @property
+    def deep_plastic_approach(self) -> float:
+        """delta_q, start of the optional third loading regime (inf without one)."""
+        return self.deep_plastic_approach_ratio * self.yield_approach
+
+    @property
+    def deep_plastic_force(self) -> float:
+        """F at delta_q (inf without a third regime)."""
+        if math.isinf(self.deep_plastic_approach_ratio):
+            return math.inf
+        return self.fully_plastic_force * (
+            self.deep_plastic_approach_ratio / self.fully_plastic_approach_ratio
+        ) ** self.fully_plastic_exponent
 
     def virgin_force(self, approach):
-        """Virgin loading curve F(delta), three regimes, continuous at delta_y and delta_p."""
+        """Virgin loading curve F(delta): Hertz, then power laws continuous at delta_y, delta_p
+        (and delta_q when the optional third regime is set)."""
         d = np.maximum(np.asarray(approach, dtype=float), 0.0)
-        dy, dp = self.yield_approach, self.fully_plastic_approach
-        return np.where(
-            d <= dy,
-            self.hertz_coefficient * d**HERTZ_EXPONENT,
-            np.where(
-                d <= dp,
-                self.yield_force * (d / dy) ** self.elastic_plastic_exponent,
-                self.fully_plastic_force * (d / dp) ** self.fully_plastic_exponent,
-            ),
-        )
+        dy, dp, dq = self.yield_approach, self.fully_plastic_approach, self.deep_plastic_approach
+        with np.errstate(invalid="ignore", over="ignore"):
+            deep = (self.deep_plastic_force * (d / dq) ** self.deep_plastic_exponent
+                    if math.isfinite(dq) else 0.0)
+            return np.where(
+                d <= dy,
+                self.hertz_coefficient * d**HERTZ_EXPONENT,
+                np.where(
+                    d <= dp,
+                    self.yield_force * (d / dy) ** self.elastic_plastic_exponent,
+                    np.where(d <= dq,
+                             self.fully_plastic_force * (d / dp) ** self.fully_plastic_exponent,
+                             deep),
+                ),
+            )
 
     def virgin_work(self, approach):
         """Work of the force along the virgin curve from 0 to delta (exact integral)."""
         d = np.maximum(np.asarray(approach, dtype=float), 0.0)
-        dy, dp = self.yield_approach, self.fully_plastic_approach
+        dy, dp, dq = self.yield_approach, self.fully_plastic_approach, self.deep_plastic_approach
         fy, fp = self.yield_force, self.fully_plastic_force
         n1, n2 = self.elastic_plastic_exponent, self.fully_plastic_exponent
         w_y = fy * dy / (HERTZ_EXPONENT + 1.0)
         w_p = w_y + fy * dy / (n1 + 1.0) * (self.fully_plastic_approach_ratio ** (n1 + 1.0) - 1.0)
-        return np.where(
-            d <= dy,
-            self.hertz_coefficient * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0),
-            np.where(
-                d <= dp,
-                w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0),
-                w_p + fp * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0),
-            ),
-        )
+        with np.errstate(invalid="ignore", over="ignore"):
+            if math.isfinite(dq):
+                fq, n3 = self.deep_plastic_force, self.deep_plastic_exponent
+                w_q = w_p + (fq * dq - fp * dp) / (n2 + 1.0)
+                deep = w_q + fq * dq / (n3 + 1.0) * ((d / dq) ** (n3 + 1.0) - 1.0)
+            else:
+                deep = 0.0
+            return np.where(
+                d <= dy,
+                self.hertz_coefficient * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0),
+                np.where(
+                    d <= dp,
+                    w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0),
+                    np.where(d <= dq, w_p + fp * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0),
+                             deep),
+                ),
+            )
 
     def envelope_plastic_work(self, max_approach):
         """Plastic work of a full load-unload cycle to delta_max, as the law computes it:
@@ -303,13 +342,20 @@ class LawParams:
                 "fully_plastic_exponent": self.fully_plastic_exponent,
                 "fully_plastic_approach_m": self.fully_plastic_approach,
                 "fully_plastic_force_N": self.fully_plastic_force,
+                **({} if math.isinf(self.deep_plastic_approach_ratio) else {
+                    "deep_plastic_approach_ratio": self.deep_plastic_approach_ratio,
+                    "deep_plastic_exponent": self.deep_plastic_exponent,
+                    "deep_plastic_approach_m": self.deep_plastic_approach,
+                    "deep_plastic_force_N": self.deep_plastic_force}),
             },
             "unloading": {"exponent_power": self.unloading_power},
             "reloading": {"exponent_power": self.reloading_power},
             "residual_approach": _saturating_dict(self.residual_limit, self.residual_power,
-                                                  self.residual_transition),
+                                                  self.residual_transition,
+                                                  self.residual_log_power),
             "plastic_work": _saturating_dict(self.plastic_work_limit, self.plastic_work_power,
-                                             self.plastic_work_transition),
+                                             self.plastic_work_transition,
+                                             self.plastic_work_log_power),
             "cyclic": {**self.cyclic.to_dict(), "critical_cycle": self.cyclic.critical_cycle()},
             "provenance": {"geocontact_version": __version__, **self.provenance},
             "fit_errors": self.fit_errors,
@@ -338,20 +384,29 @@ class LawParams:
         yield_approach = _number("yield", yd, "approach_m", 0, None, lo_open=True)
         ld = _check_keys("loading", data["loading"], {
             "elastic_plastic_exponent", "fully_plastic_approach_ratio", "fully_plastic_exponent",
-            "fully_plastic_approach_m", "fully_plastic_force_N"})
+            "fully_plastic_approach_m", "fully_plastic_force_N", "deep_plastic_approach_ratio",
+            "deep_plastic_exponent", "deep_plastic_approach_m", "deep_plastic_force_N"})
         ud = _check_keys("unloading", data["unloading"], {"exponent_power"})
         rd = _check_keys("reloading", data["reloading"], {"exponent_power"})
         sd = _check_keys("residual_approach", data["residual_approach"],
-                         {"limit", "power", "transition_depth"})
+                         {"limit", "power", "transition_depth", "log_power"})
         pw = _check_keys("plastic_work", data.get("plastic_work", {"limit": 0.0, "power": 1.0}),
-                         {"limit", "power", "transition_depth"})
+                         {"limit", "power", "transition_depth", "log_power"})
+        ratio_p = _number("loading", ld, "fully_plastic_approach_ratio", 1, None)
+        deep = {}
+        if "deep_plastic_approach_ratio" in ld or "deep_plastic_exponent" in ld:
+            deep = {"deep_plastic_approach_ratio": _number(
+                        "loading", ld, "deep_plastic_approach_ratio", ratio_p, None,
+                        lo_open=True),
+                    "deep_plastic_exponent": _number("loading", ld, "deep_plastic_exponent", 0,
+                                                     3, lo_open=True)}
         params = cls(
             material=material,
             yield_approach=yield_approach,
             elastic_plastic_exponent=_number("loading", ld, "elastic_plastic_exponent", 0, 3,
                                              lo_open=True),
-            fully_plastic_approach_ratio=_number("loading", ld, "fully_plastic_approach_ratio", 1,
-                                                 None),
+            fully_plastic_approach_ratio=ratio_p,
+            **deep,
             fully_plastic_exponent=_number("loading", ld, "fully_plastic_exponent", 0, 3,
                                            lo_open=True),
             unloading_power=_number("unloading", ud, "exponent_power", -1, 1),
@@ -362,6 +417,8 @@ class LawParams:
             plastic_work_power=_number("plastic_work", pw, "power", 0, 10, lo_open=True),
             residual_transition=_transition("residual_approach", sd),
             plastic_work_transition=_transition("plastic_work", pw),
+            residual_log_power=_log_power("residual_approach", sd),
+            plastic_work_log_power=_log_power("plastic_work", pw),
             cyclic=CyclicLaw.from_dict(data.get("cyclic", {"tolerance": 0.01})),
             yield_extra={k: v for k, v in yd.items() if k not in ("approach_m", "force_N")},
             provenance=dict(data.get("provenance", {})),
@@ -378,12 +435,22 @@ class LawParams:
         return params
 
 
-def _saturating_dict(limit: float, power: float, transition: float) -> dict[str, float]:
-    # transition_depth = 1 (the original form) is left out: such files read as before
+def _saturating_dict(limit: float, power: float, transition: float,
+                     log_power: float = 1.0) -> dict[str, float]:
+    # transition_depth = 1 and log_power = 1 (the original form) are left out: such files
+    # read as before
     out = {"limit": limit, "power": power}
     if transition != 1.0:
         out["transition_depth"] = transition
+    if log_power != 1.0:
+        out["log_power"] = log_power
     return out
+
+
+def _log_power(where: str, data: dict[str, Any]) -> float:
+    if "log_power" not in data:
+        return 1.0
+    return _number(where, data, "log_power", 0.2, 5)
 
 
 def _transition(where: str, data: dict[str, Any]) -> float:

@@ -103,7 +103,8 @@ class Contact:
             return 0.0
         if s.branch == VIRGIN:
             n = (p.elastic_plastic_exponent if d <= p.fully_plastic_approach
-                 else p.fully_plastic_exponent)
+                 else p.fully_plastic_exponent if d <= p.deep_plastic_approach
+                 else p.deep_plastic_exponent)
             return n * force / d
         return self._branch_exponent() * force / (d - s.residual_approach)
 

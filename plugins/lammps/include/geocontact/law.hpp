@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace geocontact {
@@ -87,9 +88,14 @@ struct LawParams {
   double residual_limit = 0.0;                // rho_inf
   double residual_power = 1.0;                // s
   double residual_transition = 1.0;           // x0 (1: the original rho_inf (1 - x^-s))
+  double residual_log_power = 1.0;            // b of rho_inf (1 - exp(-s L^b)) (1: as above)
   double plastic_work_limit = 0.0;
   double plastic_work_power = 1.0;
   double plastic_work_transition = 1.0;
+  double plastic_work_log_power = 1.0;
+  // optional third loading regime beyond delta_q = r_q delta_y (infinite: none)
+  double deep_plastic_approach_ratio = std::numeric_limits<double>::infinity();
+  double deep_plastic_exponent = 1.0;  // n3
   CyclicLaw cyclic;
   std::string label;
 
@@ -98,6 +104,8 @@ struct LawParams {
   double yield_force = 0.0;             // Fy = Kh delta_y^1.5
   double fully_plastic_approach = 0.0;  // delta_p = r_p delta_y
   double fully_plastic_force = 0.0;     // Fp = Fy r_p^n1
+  double deep_plastic_approach = 0.0;   // delta_q = r_q delta_y (max double without one)
+  double deep_plastic_force = 0.0;      // Fq = Fp (r_q / r_p)^n2 (max double without one)
 
   void derive()
   {
@@ -107,6 +115,15 @@ struct LawParams {
     fully_plastic_approach = fully_plastic_approach_ratio * yield_approach;
     fully_plastic_force =
         yield_force * std::pow(fully_plastic_approach_ratio, elastic_plastic_exponent);
+    if (std::isfinite(deep_plastic_approach_ratio)) {
+      deep_plastic_approach = deep_plastic_approach_ratio * yield_approach;
+      deep_plastic_force = fully_plastic_force * std::pow(deep_plastic_approach_ratio /
+                                                              fully_plastic_approach_ratio,
+                                                          fully_plastic_exponent);
+    } else {
+      deep_plastic_approach = std::numeric_limits<double>::max();
+      deep_plastic_force = std::numeric_limits<double>::max();
+    }
   }
 
   // --- the fitted functions of the plastic depth x = delta_max / delta_y --------------------
@@ -119,11 +136,14 @@ struct LawParams {
     const double x = std::max(depth, 1.0);
     return std::min(kHertzExponent * std::pow(x, reloading_power), unloading_exponent(x));
   }
-  // log of (1 + (x - 1)/x0), the residual form's depth variable; exactly log x when x0 = 1
+  // L^b with L = log(1 + (x - 1)/x0), the residual form's depth variable; exactly log x when
+  // x0 = 1 and b = 1
   double residual_log_depth(double depth) const
   {
     const double x = std::max(depth, 1.0);
-    return residual_transition == 1.0 ? std::log(x) : std::log1p((x - 1.0) / residual_transition);
+    const double l =
+        residual_transition == 1.0 ? std::log(x) : std::log1p((x - 1.0) / residual_transition);
+    return residual_log_power == 1.0 ? l : std::pow(l, residual_log_power);
   }
   // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield
   double residual_ratio(double depth) const
@@ -138,7 +158,9 @@ struct LawParams {
     if (d <= yield_approach) return hertz_coefficient * std::pow(d, kHertzExponent);
     if (d <= fully_plastic_approach)
       return yield_force * std::pow(d / yield_approach, elastic_plastic_exponent);
-    return fully_plastic_force * std::pow(d / fully_plastic_approach, fully_plastic_exponent);
+    if (d <= deep_plastic_approach)
+      return fully_plastic_force * std::pow(d / fully_plastic_approach, fully_plastic_exponent);
+    return deep_plastic_force * std::pow(d / deep_plastic_approach, deep_plastic_exponent);
   }
 
   // Exact work of the force along the virgin curve from 0 to d.
@@ -152,7 +174,11 @@ struct LawParams {
     const double w_y = fy * dy / (kHertzExponent + 1.0);
     if (d <= dp) return w_y + fy * dy / (n1 + 1.0) * (std::pow(d / dy, n1 + 1.0) - 1.0);
     const double w_p = w_y + fy * dy / (n1 + 1.0) * (std::pow(dp / dy, n1 + 1.0) - 1.0);
-    return w_p + fully_plastic_force * dp / (n2 + 1.0) * (std::pow(d / dp, n2 + 1.0) - 1.0);
+    if (d <= deep_plastic_approach)
+      return w_p + fully_plastic_force * dp / (n2 + 1.0) * (std::pow(d / dp, n2 + 1.0) - 1.0);
+    const double dq = deep_plastic_approach, fq = deep_plastic_force, n3 = deep_plastic_exponent;
+    const double w_q = w_p + (fq * dq - fully_plastic_force * dp) / (n2 + 1.0);
+    return w_q + fq * dq / (n3 + 1.0) * (std::pow(d / dq, n3 + 1.0) - 1.0);
   }
 
   // The same work given the virgin force f at d: each regime is a power law, so
@@ -164,14 +190,19 @@ struct LawParams {
     if (d <= dy) return f * d / (kHertzExponent + 1.0);
     if (d <= dp) return w_y + (f * d - fy * dy) / (elastic_plastic_exponent + 1.0);
     const double w_p = w_y + (fully_plastic_force * dp - fy * dy) / (elastic_plastic_exponent + 1.0);
-    return w_p + (f * d - fully_plastic_force * dp) / (fully_plastic_exponent + 1.0);
+    if (d <= deep_plastic_approach)
+      return w_p + (f * d - fully_plastic_force * dp) / (fully_plastic_exponent + 1.0);
+    const double w_q = w_p + (deep_plastic_force * deep_plastic_approach - fully_plastic_force * dp) /
+                                 (fully_plastic_exponent + 1.0);
+    return w_q + (f * d - deep_plastic_force * deep_plastic_approach) / (deep_plastic_exponent + 1.0);
   }
 
   double virgin_exponent(double d) const
   {
     if (d <= yield_approach) return kHertzExponent;
     if (d <= fully_plastic_approach) return elastic_plastic_exponent;
-    return fully_plastic_exponent;
+    if (d <= deep_plastic_approach) return fully_plastic_exponent;
+    return deep_plastic_exponent;
   }
 
   // Plastic work of a full load-unload cycle to dmax, as the law computes it (docs/law.md).
@@ -294,7 +325,9 @@ inline StepResult step(const LawParams &p, ContactState &s, double approach_new)
       dmax = target;
       force = fmax;
       const double lx = std::log(std::max(target / dy, 1.0));
-      const double lr = p.residual_transition == 1.0 ? lx : p.residual_log_depth(target / dy);
+      const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
+                            ? lx
+                            : p.residual_log_depth(target / dy);
       dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * target;
       nu = kHertzExponent * std::exp(p.unloading_power * lx);
       nr = std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);

@@ -189,10 +189,17 @@ inline LawParams params_from_json(const json::Value &doc)
   detail::check_keys(ld, "loading",
                      {"elastic_plastic_exponent", "fully_plastic_approach_ratio",
                       "fully_plastic_exponent", "fully_plastic_approach_m",
-                      "fully_plastic_force_N"});
+                      "fully_plastic_force_N", "deep_plastic_approach_ratio",
+                      "deep_plastic_exponent", "deep_plastic_approach_m",
+                      "deep_plastic_force_N"});
   p.elastic_plastic_exponent = number(ld, "loading", "elastic_plastic_exponent", 0.0, 3.0, true);
   p.fully_plastic_approach_ratio = number(ld, "loading", "fully_plastic_approach_ratio", 1.0);
   p.fully_plastic_exponent = number(ld, "loading", "fully_plastic_exponent", 0.0, 3.0, true);
+  if (ld.find("deep_plastic_approach_ratio") || ld.find("deep_plastic_exponent")) {
+    p.deep_plastic_approach_ratio = number(ld, "loading", "deep_plastic_approach_ratio",
+                                           p.fully_plastic_approach_ratio, NAN, true);
+    p.deep_plastic_exponent = number(ld, "loading", "deep_plastic_exponent", 0.0, 3.0, true);
+  }
   const json::Value &ud = detail::object_at(doc, "unloading", "unloading");
   detail::check_keys(ud, "unloading", {"exponent_power"});
   p.unloading_power = number(ud, "unloading", "exponent_power", -1.0, 1.0);
@@ -200,18 +207,23 @@ inline LawParams params_from_json(const json::Value &doc)
   detail::check_keys(rd, "reloading", {"exponent_power"});
   p.reloading_power = number(rd, "reloading", "exponent_power", -1.0, 1.0);
   const json::Value &sd = detail::object_at(doc, "residual_approach", "residual_approach");
-  detail::check_keys(sd, "residual_approach", {"limit", "power", "transition_depth"});
+  detail::check_keys(sd, "residual_approach",
+                     {"limit", "power", "transition_depth", "log_power"});
   p.residual_limit = number(sd, "residual_approach", "limit", 0.0, 1.0, false, true);
   p.residual_power = number(sd, "residual_approach", "power", 0.0, 10.0, true);
   if (sd.find("transition_depth"))
     p.residual_transition = number(sd, "residual_approach", "transition_depth", 0.0, 1e6, true);
+  if (sd.find("log_power"))
+    p.residual_log_power = number(sd, "residual_approach", "log_power", 0.2, 5.0);
   if (const json::Value *pw = doc.find("plastic_work")) {
-    detail::check_keys(*pw, "plastic_work", {"limit", "power", "transition_depth"});
+    detail::check_keys(*pw, "plastic_work", {"limit", "power", "transition_depth", "log_power"});
     p.plastic_work_limit = number(*pw, "plastic_work", "limit", 0.0, 1.0);
     p.plastic_work_power = number(*pw, "plastic_work", "power", 0.0, 10.0, true);
     if (pw->find("transition_depth"))
       p.plastic_work_transition =
           number(*pw, "plastic_work", "transition_depth", 0.0, 1e6, true);
+    if (pw->find("log_power"))
+      p.plastic_work_log_power = number(*pw, "plastic_work", "log_power", 0.2, 5.0);
   }
   p.cyclic = detail::parse_cyclic(doc.find("cyclic"));
   if (const json::Value *label = doc.find("label"))
