@@ -11,7 +11,8 @@ with ``geocontact.cycles``; writes to ``out/paper-histories/``:
 * ``findings.json`` / ``findings.csv`` - the paper's statements with our numbers;
   ``tables.md`` - both as the Markdown tables of docs/cycles.md;
 * ``params-cyclic-<run>.json`` - the law parameters given with ``--params`` (default: the shipped
-  illustrative ones for the material) with ``cyclic`` fitted to the repeated runs;
+  calibrated ones for the material, examples/params-reference*.json) with ``cyclic`` fitted to
+  the repeated runs;
 * ``index.json`` - settings, wall time, file list.
 
     PYTHONPATH=src python scripts/paper_histories.py [--mesh coarse] [--steps N] [--workers 2]
@@ -32,8 +33,8 @@ from geocontact.paper_histories import format_value as fmt
 from geocontact.paper_histories import run_paper_histories, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
-ILLUSTRATIVE = {"reference": ROOT / "examples" / "params-illustrative.json",
-                "reference-weak": ROOT / "examples" / "params-illustrative-weak.json"}
+CALIBRATED = {"reference": ROOT / "examples" / "params-reference.json",
+                "reference-weak": ROOT / "examples" / "params-reference-weak.json"}
 
 
 def markdown(runs, findings) -> str:
@@ -92,14 +93,14 @@ def main(argv: list[str] | None = None) -> int:
     write_text_atomic(out / "tables.md", markdown(runs, findings))
     files.append("tables.md")
     for name, run in runs.items():
-        if (run.history != "repeated" or run.material_name not in ILLUSTRATIVE
+        if (run.history != "repeated" or run.material_name not in CALIBRATED
                 or "@" in name):
             continue
-        params = load_params(ILLUSTRATIVE[run.material_name])
+        params = load_params(CALIBRATED[run.material_name])
         try:
             fitted = with_cyclic(params, run.analysis, provenance={
                 "fe_run": name, "fe_inputs": run.summary.get("inputs"),
-                "base_params": str(ILLUSTRATIVE[run.material_name].relative_to(ROOT)),
+                "base_params": str(CALIBRATED[run.material_name].relative_to(ROOT)),
                 "command": "scripts/paper_histories.py"})
         except InputError as exc:  # a ratchetting run has no cyclic law: say so, keep going
             print(f"{name}: no cyclic law fitted ({exc})", file=sys.stderr)

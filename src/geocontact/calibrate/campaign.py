@@ -240,6 +240,14 @@ def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
     analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
     info = {"history_forces_N": list(job.forces), "mesh": job.mesh, "cache_key": job.key(),
             "state": analysis.state, "critical_cycles": analysis.critical_cycles}
+    second = analysis.cycles[1]["residual_increment_ratio"] if len(analysis.cycles) > 1 else None
+    if second is not None and abs(second) < analysis.tolerance * 1e-2 and \
+            analysis.critical_cycles["measured"]["elastic_shakedown"] == 2:
+        return replace(params, provenance={**params.provenance, "cyclic": {
+            **info, "status": "not needed",
+            "reason": f"elastic shakedown from cycle 2 (cycle-2 residual increment {second:.2g} "
+                      "of cycle 1's residual approach): the law without the extension already "
+                      "repeats the first unloading-reloading curve"}})
     try:
         fitted = with_cyclic(params, analysis, provenance=info)
     except InputError as exc:

@@ -19,6 +19,8 @@ from ..material import Material
 
 # Upper bound of a saturating ratio's limit (the JSON allows [0, 1)).
 MAX_LIMIT = 1.0 - 1e-9
+# Ratios (residual approach / max approach) below about this are near the FE's resolution.
+RATIO_FLOOR = 0.05
 
 
 @dataclass
@@ -134,19 +136,25 @@ def _saturating(depth, values, what):
     """limit, power, transition, log_power of values = limit (1 - exp(-power L^b)),
     L = log(1 + (x - 1)/transition) (``law.params.saturating_ratio``).
 
-    Least squares on two relative errors at once: of the ratio itself (for the residual
-    approach, the quantity a DEM user reads, and what decides where a shallow unloading curve
-    lands) and of its complement 1 - ratio (the elastic recovery dmax - dres, which sets where
-    the unloading curve lies at depth, where the recovery is a few % of dmax and an absolute fit
-    of the ratio would misplace it by tens of %). Started from a grid over the transition
-    depth. With fewer than 4 levels the transition is fixed at 1 (the original two-parameter
-    form); with fewer than 5 the log power is fixed at 1."""
+    Least squares on the relative error of the complement 1 - ratio (the elastic recovery
+    dmax - dres, which sets where the unloading curve lies at depth, where the recovery is a few
+    % of dmax and an absolute fit of the ratio would misplace it by tens of %) and, with five
+    or more levels (log power free), also of the ratio itself (the residual approach a DEM user
+    reads; over five decades of depth one form must serve both ends). Started from a grid over
+    the transition depth. With fewer than 4 levels the transition is fixed at 1 (the original
+    two-parameter form); with fewer than 5 the log power is fixed at 1."""
     depth = np.asarray(depth, dtype=float)
     values = np.asarray(values, dtype=float)
     if np.any(values >= 1.0) or np.any(values < 0.0):
         raise InputError(f"calibration: {what} ratios must lie in [0, 1)")
     complement = np.log1p(-values)
     ratio = np.log(np.maximum(values, 1e-12))
+    free_transition = depth.size >= 4
+    free_log_power = depth.size >= 5
+    # The ratio's own relative error enters only with the log power free (enough levels for
+    # the form to follow both ends); a ratio of a few % (a level just past yield) is at the
+    # FE's resolution, so its relative error weighs less (weight 1/2 at RATIO_FLOOR).
+    weight = values / (values + RATIO_FLOOR) if free_log_power else np.zeros_like(values)
 
     def model_of(theta):
         limit, power, log_transition, log_power = theta
@@ -155,10 +163,9 @@ def _saturating(depth, values, what):
 
     def residual(theta):
         model = np.clip(model_of(theta), 1e-12, 1.0 - 1e-15)
-        return np.concatenate([np.log1p(-model) - complement, np.log(model) - ratio])
+        return np.concatenate([np.log1p(-model) - complement,
+                               weight * (np.log(model) - ratio)])
 
-    free_transition = depth.size >= 4
-    free_log_power = depth.size >= 5
     best = None
     for log_transition in (np.log(np.geomspace(1.0, 1e3, 10)) if free_transition else [0.0]):
         for log_power in ((1.0, 1.5, 2.0) if free_log_power else (1.0,)):
