@@ -201,3 +201,18 @@ def test_write_study_writes_every_result_file(paper_like, tmp_path):
     saved = json.loads((tmp_path / "study" / "findings.json").read_text())
     assert saved["findings"] == json.loads(json.dumps(findings))
     assert saved["runs"] == list(paper_like) and saved["provenance"] == {"command": "test"}
+
+
+def test_increments_at_the_fe_resolution_mean_immediate_shakedown(paper_like):
+    """A 1 MPa run whose residual increments after cycle 1 are round-off (signs flipping at
+    1e-6 of cycle 1, as in the default-mesh FE run) shakes down at once: it neither decays
+    slower nor ratchets longer than the 10 MPa run, whatever power a fit to the noise gives."""
+    runs = dict(paper_like)
+    noise = [1e-3] + [3e-9 * (-1) ** k for k in range(9)]
+    runs["repeated-1MPa"] = synthetic_run("repeated-1MPa", "repeated", "reference-weak", noise,
+                                          decay(1.0, 0.001, 1.4, 10))
+    rows = paper_findings(runs)
+    assert by_statement(rows, "The stronger sphere")["agrees"] is False
+    longer = by_statement(rows, "The weaker sphere (1 MPa) ratchets longer")
+    assert longer["agrees"] is False
+    assert longer["our_value"]["ratchetting_cycles"] == {"repeated-10MPa": 9, "repeated-1MPa": 0}
