@@ -63,8 +63,8 @@ CALIBRATE_MESH ?= default
 calibrate-examples: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference --mesh $(CALIBRATE_MESH) --acceptance \
 	  --out examples/params-reference.json
-	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh $(CALIBRATE_MESH) --acceptance \
-	  --out examples/params-reference-weak.json
+	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh $(CALIBRATE_MESH) --levels 13 \
+	  --acceptance --out examples/params-reference-weak.json
 
 clean:
 	rm -rf $(VENV) build out .pytest_cache .ruff_cache
