@@ -60,6 +60,9 @@ ROUND_OFF = 1e-10
 # Cycle 1 counts as elastic when its residual approach and plastic work are below this fraction
 # of its max approach and of Fmax x max approach (the FE leaves < 1e-6 after elastic unloading).
 ELASTIC_FLOOR = 1e-6
+# A residual increment below this fraction of cycle 1's residual approach is at the FE's
+# resolution (its sign flips between cycles): no ratchetting in that cycle.
+RESOLUTION = 1e-5
 
 
 def shakedown_rule(residual_growth: float, residual_reference: float, dissipation: float,
@@ -269,6 +272,12 @@ RULES = {
                       "fitted critical cycle); a ratio below tol in the measured last cycle "
                       "stays below",
 }
+
+
+def ratchetting_cycles(analysis: CycleAnalysis) -> int:
+    """Cycles after the first whose residual increment is above the FE's resolution
+    (``RESOLUTION`` of cycle 1's residual approach); 0: shakedown at once."""
+    return sum(abs(c["residual_increment_ratio"]) > RESOLUTION for c in analysis.cycles[1:])
 
 
 def analyse(cycles: list[dict[str, Any]], *, tolerance: float = DEFAULT_TOLERANCE,
@@ -598,8 +607,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 __all__ = [
     "DEFAULT_TOLERANCE", "ELASTIC", "ELASTIC_SHAKEDOWN", "PLASTIC_SHAKEDOWN", "RATCHETTING",
-    "UNDETERMINED", "CycleAnalysis", "GeometricLaw", "PowerLaw", "analyse", "cycle_table",
-    "fe_cycle_windows", "fit_geometric", "fit_power_law", "law_cycles_along_path",
-    "law_cycles_by_force", "reloading_stiffness", "run_cycles", "shakedown_rule", "with_cyclic",
-    "write_cycles_csv",
+    "RESOLUTION", "UNDETERMINED", "CycleAnalysis", "GeometricLaw", "PowerLaw", "analyse",
+    "cycle_table", "fe_cycle_windows", "fit_geometric", "fit_power_law", "law_cycles_along_path",
+    "law_cycles_by_force", "ratchetting_cycles", "reloading_stiffness", "run_cycles",
+    "shakedown_rule", "with_cyclic", "write_cycles_csv",
 ]

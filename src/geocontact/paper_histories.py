@@ -23,9 +23,11 @@ from .cycles import (
     DEFAULT_TOLERANCE,
     ELASTIC_SHAKEDOWN,
     RATCHETTING,
+    RESOLUTION,
     CycleAnalysis,
     analyse,
     fe_cycle_windows,
+    ratchetting_cycles,
     reloading_stiffness,
 )
 from .errors import InputError
@@ -202,14 +204,8 @@ def _powers(run: PaperRun) -> dict[str, float | None]:
             "plastic_work": a.plastic_work_fit.power if a.plastic_work_fit else None}
 
 
-# A residual increment below this fraction of cycle 1's residual approach is at the FE's
-# resolution (its sign flips between cycles): no ratchetting in that cycle.
-RESOLUTION = 1e-5
-
-
 def _ratchetting_cycles(run: PaperRun) -> int:
-    """Cycles after the first whose residual increment is above the FE's resolution."""
-    return sum(abs(c["residual_increment_ratio"]) > RESOLUTION for c in run.analysis.cycles[1:])
+    return ratchetting_cycles(run.analysis)
 
 
 def _decays_slower(slow: PaperRun, fast: PaperRun) -> bool | None:
@@ -218,10 +214,9 @@ def _decays_slower(slow: PaperRun, fast: PaperRun) -> bool | None:
     A run whose residual increments are at the FE's resolution from cycle 2 on shakes down at
     once: it does not decay slower than one with resolvable increments (a power fitted to
     round-off says nothing)."""
-    if _ratchetting_cycles(slow) == 0 or _ratchetting_cycles(fast) == 0:
-        if _ratchetting_cycles(slow) == _ratchetting_cycles(fast):
-            return None
-        return _ratchetting_cycles(slow) > _ratchetting_cycles(fast)
+    n_slow, n_fast = _ratchetting_cycles(slow), _ratchetting_cycles(fast)
+    if n_slow == 0 or n_fast == 0:
+        return None if n_slow == n_fast else n_slow > n_fast
     ps, pf = _powers(slow), _powers(fast)
     if None in ps.values() or None in pf.values():
         return None

@@ -235,14 +235,13 @@ def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
     When the run does not support a decaying power law (the residual increments do not fall
     with N: the history ratchets, or too few cycles), the cyclic extension stays disabled and
     the provenance says why; the analysis is recorded either way."""
-    from ..cycles import analyse, with_cyclic
+    from ..cycles import analyse, ratchetting_cycles, with_cyclic
 
     analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
     info = {"history_forces_N": list(job.forces), "mesh": job.mesh, "cache_key": job.key(),
             "state": analysis.state, "critical_cycles": analysis.critical_cycles}
-    second = analysis.cycles[1]["residual_increment_ratio"] if len(analysis.cycles) > 1 else None
-    if second is not None and abs(second) < analysis.tolerance * 1e-2 and \
-            analysis.critical_cycles["measured"]["elastic_shakedown"] == 2:
+    if len(analysis.cycles) > 1 and ratchetting_cycles(analysis) == 0:
+        second = analysis.cycles[1]["residual_increment_ratio"]
         return replace(params, provenance={**params.provenance, "cyclic": {
             **info, "status": "not needed",
             "reason": f"elastic shakedown from cycle 2 (cycle-2 residual increment {second:.2g} "

@@ -186,9 +186,10 @@ def _saturating(depth, values, what):
     transition = float(np.exp(log_transition)) if free_transition else 1.0
     log_power = log_power if free_log_power else 1.0
     model = saturating_ratio(depth, limit, power, transition, log_power)
-    rms = float(np.sqrt(np.mean((model - values) ** 2)))
-    recovery = float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))
-    return limit, power, transition, log_power, rms, recovery
+    errors = {"rms": float(np.sqrt(np.mean((model - values) ** 2))),
+              "max_relative": float(np.max(np.abs(model / values - 1.0))),
+              "recovery": float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))}
+    return limit, power, transition, log_power, errors
 
 
 def fit_law(material: Material, yield_approach: float, loading_approach, loading_force,
@@ -214,23 +215,22 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     p_u, rms_nu = _power_of_depth(depth, np.array(n_u))
     p_r, rms_nr = _power_of_depth(depth, np.array(n_r))
     residual = np.array([lv.residual_approach / lv.max_approach for lv in levels])
-    rho, s, x0, b, rms_res, rms_recovery = _saturating(depth, residual, "residual approach")
+    rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach")
     work = np.array([lv.plastic_work / lv.total_work for lv in levels])
-    w_lim, w_pow, w_x0, w_b, rms_w, _ = _saturating(depth, work, "plastic work")
+    w_lim, w_pow, w_x0, w_b, work_err = _saturating(depth, work, "plastic work")
     fit_errors = {
         "loading_rms_relative": loading.pop("rms_relative_error"),
         "unloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_u)))),
         "reloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_r)))),
         "unloading_exponent_rms": rms_nu,
         "reloading_exponent_rms": rms_nr,
-        "residual_ratio_rms": rms_res,
-        "residual_ratio_max_relative": float(np.max(np.abs(
-            saturating_ratio(depth, rho, s, x0, b) / residual - 1.0))),
-        "elastic_recovery_rms_relative": rms_recovery,
-        "plastic_work_ratio_rms": rms_w,
-        "per_level": [{"depth": float(x), "unloading_exponent": a, "reloading_exponent": b,
+        "residual_ratio_rms": res_err["rms"],
+        "residual_ratio_max_relative": res_err["max_relative"],
+        "elastic_recovery_rms_relative": res_err["recovery"],
+        "plastic_work_ratio_rms": work_err["rms"],
+        "per_level": [{"depth": float(x), "unloading_exponent": nu, "reloading_exponent": nr,
                        "residual_ratio": float(r), "plastic_work_ratio": float(w)}
-                      for x, a, b, r, w in zip(depth, n_u, n_r, residual, work, strict=True)],
+                      for x, nu, nr, r, w in zip(depth, n_u, n_r, residual, work, strict=True)],
     }
     return LawParams(
         material=material,
