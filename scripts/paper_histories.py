@@ -27,7 +27,13 @@ from pathlib import Path
 
 from geocontact.cycles import with_cyclic
 from geocontact.errors import InputError
-from geocontact.io import provenance, write_json_atomic, write_text_atomic
+from geocontact.io import (
+    atomic_directory,
+    check_replaceable,
+    provenance,
+    write_json_atomic,
+    write_text_atomic,
+)
 from geocontact.law import load_params
 from geocontact.paper_histories import format_value as fmt
 from geocontact.paper_histories import run_paper_histories, write_study
@@ -82,51 +88,58 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--check-mesh", default=None, choices=["coarse", "default", "fine"],
                     help="also run repeated-10MPa on this mesh (mesh sensitivity of the "
                          "cyclic quantities)")
+    ap.add_argument("--force", action="store_true",
+                    help="replace --out even if it holds files geocontact did not write")
     args = ap.parse_args(argv)
+    out = Path(args.out)
+    check_replaceable(out, "paper-histories", overwrite=args.force)  # before the FE runs
     started = time.perf_counter()
     runs = run_paper_histories(args.mesh, args.cache, steps_per_segment=args.steps,
                                tolerance=args.tolerance, workers=args.workers, only=args.only,
                                mesh_checks=({"repeated-10MPa": args.check_mesh}
                                             if args.check_mesh else None))
-    out = Path(args.out)
-    findings, files = write_study(out, runs, provenance("scripts/paper_histories.py", vars(args)))
-    write_text_atomic(out / "tables.md", markdown(runs, findings))
-    files.append("tables.md")
-    for name, run in runs.items():
-        if (run.history != "repeated" or run.material_name not in CALIBRATED
-                or "@" in name):
-            continue
-        params = load_params(CALIBRATED[run.material_name])
-        try:
-            fitted = with_cyclic(params, run.analysis, provenance={
-                "fe_run": name, "fe_inputs": run.summary.get("inputs"),
-                "base_params": str(CALIBRATED[run.material_name].relative_to(ROOT)),
-                "command": "scripts/paper_histories.py"})
-        except InputError as exc:  # a ratchetting run has no cyclic law: say so, keep going
-            print(f"{name}: no cyclic law fitted ({exc})", file=sys.stderr)
-            continue
-        fitted.save(out / f"params-cyclic-{name}.json")
-        files.append(f"params-cyclic-{name}.json")
-    mesh_check = {}
-    for name in (n for n in runs if "@" in n):
-        base = runs[name.split("@")[0]]
-        mesh_check[name] = {
-            run.name: {"mesh": run.summary["inputs"]["mesh"],
-                       "elements": run.summary["mesh"]["elements"],
-                       "residual_increment_ratio": [c["residual_increment_ratio"]
-                                                    for c in run.analysis.cycles],
-                       "plastic_work_ratio": [c["plastic_work_ratio"]
-                                              for c in run.analysis.cycles],
-                       "critical_cycles": run.analysis.critical_cycles,
-                       "state": run.analysis.state}
-            for run in (base, runs[name])}
-    wall = time.perf_counter() - started
-    write_json_atomic(out / "index.json", {
-        "wall_time_s": wall, "mesh": args.mesh, "steps_per_segment": args.steps,
-        "tolerance": args.tolerance, "files": files, "mesh_check": mesh_check,
-        "fe_wall_time_s": {n: r.summary.get("wall_time_s") for n, r in runs.items()},
-        "provenance": provenance("scripts/paper_histories.py", vars(args)),
-    })
+    # the whole study lands as one folder: an interrupted rerun never mixes old and new files
+    with atomic_directory(out, "paper-histories", overwrite=args.force,
+                          inputs=vars(args)) as tmp:
+        record = provenance("scripts/paper_histories.py", vars(args))
+        findings, files = write_study(tmp, runs, record)
+        write_text_atomic(tmp / "tables.md", markdown(runs, findings))
+        files.append("tables.md")
+        for name, run in runs.items():
+            if (run.history != "repeated" or run.material_name not in CALIBRATED
+                    or "@" in name):
+                continue
+            params = load_params(CALIBRATED[run.material_name])
+            try:
+                fitted = with_cyclic(params, run.analysis, provenance={
+                    "fe_run": name, "fe_inputs": run.summary.get("inputs"),
+                    "base_params": str(CALIBRATED[run.material_name].relative_to(ROOT)),
+                    "command": "scripts/paper_histories.py"})
+            except InputError as exc:  # a ratchetting run has no cyclic law: say so, keep going
+                print(f"{name}: no cyclic law fitted ({exc})", file=sys.stderr)
+                continue
+            fitted.save(tmp / f"params-cyclic-{name}.json")
+            files.append(f"params-cyclic-{name}.json")
+        mesh_check = {}
+        for name in (n for n in runs if "@" in n):
+            base = runs[name.split("@")[0]]
+            mesh_check[name] = {
+                run.name: {"mesh": run.summary["inputs"]["mesh"],
+                           "elements": run.summary["mesh"]["elements"],
+                           "residual_increment_ratio": [c["residual_increment_ratio"]
+                                                        for c in run.analysis.cycles],
+                           "plastic_work_ratio": [c["plastic_work_ratio"]
+                                                  for c in run.analysis.cycles],
+                           "critical_cycles": run.analysis.critical_cycles,
+                           "state": run.analysis.state}
+                for run in (base, runs[name])}
+        wall = time.perf_counter() - started
+        write_json_atomic(tmp / "index.json", {
+            "wall_time_s": wall, "mesh": args.mesh, "steps_per_segment": args.steps,
+            "tolerance": args.tolerance, "files": files, "mesh_check": mesh_check,
+            "fe_wall_time_s": {n: r.summary.get("wall_time_s") for n, r in runs.items()},
+            "provenance": record,
+        })
     for f in findings:
         verdict = {True: "agrees", False: "DISAGREES", None: "n/a"}[f["agrees"]]
         print(f"[{verdict}] {f['statement']}")

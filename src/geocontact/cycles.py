@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import copy
 import math
+import shutil
 import sys
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -41,7 +42,7 @@ import numpy as np
 
 from ._version import __version__
 from .errors import InputError
-from .io import provenance, write_csv, write_json_atomic
+from .io import atomic_directory, provenance, write_csv, write_json_atomic
 from .law.params import power_law_critical_cycle
 
 ELASTIC = "elastic"
@@ -531,18 +532,26 @@ def _finished_fe(directory, material, forces, mesh, steps):
     return result if same else None
 
 
+def checkpoint_of(out: str | Path) -> Path:
+    """The FE checkpoint of ``run_cycles(out=...)``: beside ``out`` (the folder itself is
+    replaced whole when the analysis lands), removed once it has."""
+    out = Path(out)
+    return out.parent / f"{out.name}.fe.checkpoint.npz"
+
+
 def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                resume: bool = False, fit_params=None, progress: bool = False,
-               inputs: dict[str, Any] | None = None) -> dict[str, Any]:
+               inputs: dict[str, Any] | None = None, overwrite: bool = False) -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With
     ``fit_params`` (a path) also ``params`` with its cyclic extension fitted to the FE.
 
-    Every file is written atomically; ``summary.json`` is written last. Returns its content."""
-    from .fem.run import run_history  # the FE is an optional extra: imported when used
-
+    ``out`` is written as one unit (``io.atomic_directory``): an interrupted rerun never leaves
+    new files beside old ones, and an existing ``out`` is replaced only if it is a cycles
+    result of ours (unless ``overwrite``). The FE checkpoint (``checkpoint_of(out)``) lives
+    beside ``out`` until the analysis has landed. Returns the summary."""
     forces = [float(f) for f in forces]
     check_cyclic_history(forces)
     if not (isinstance(tolerance, (int, float)) and 0.0 < tolerance < 1.0):
@@ -553,14 +562,33 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
         raise InputError(f"params.material.{key}: {theirs[key]:g} differs from the material's "
                          f"{ours[key]:g} (the law must describe the FE's material)")
     out = Path(out)
+    checkpoint = checkpoint_of(out)
+    with atomic_directory(out, "cycles", overwrite=overwrite) as work:
+        summary = _write_cycles(work, material, forces, params=params, mesh=mesh,
+                                steps_per_segment=steps_per_segment, tolerance=tolerance,
+                                resume=resume, fit_params=fit_params, progress=progress,
+                                inputs=inputs, previous_fe=out / "fe", checkpoint=checkpoint)
+    checkpoint.unlink(missing_ok=True)
+    return summary
+
+
+def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segment, tolerance,
+                  resume, fit_params, progress, inputs, previous_fe: Path, checkpoint: Path
+                  ) -> dict[str, Any]:
+    """The body of ``run_cycles``, writing into the (temporary) folder ``out``."""
+    from .fem.run import run_history  # the FE is an optional extra: imported when used
+
     fe_dir = out / "fe"
-    result = _finished_fe(fe_dir, material, forces, mesh, steps_per_segment) if resume else None
+    result = (_finished_fe(previous_fe, material, forces, mesh, steps_per_segment)
+              if resume else None)
     if result is None:
         result = run_history(material, forces, mesh=mesh, out=fe_dir,
                              steps_per_segment=steps_per_segment, resume=resume,
-                             progress=progress, write_fields=True)
-    elif progress:
-        print(f"cycles: reusing the finished FE run in {fe_dir}", file=sys.stderr)
+                             progress=progress, write_fields=True, checkpoint=checkpoint)
+    else:
+        shutil.copytree(previous_fe, fe_dir)
+        if progress:
+            print(f"cycles: reusing the finished FE run in {previous_fe}", file=sys.stderr)
     fe_cycles = result.summary["cycles"]
     analyses = {"fe": analyse(fe_cycles, tolerance=tolerance, source="fe")}
     if params is not None:

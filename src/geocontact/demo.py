@@ -63,11 +63,13 @@ QUICK = Plan(calibration_levels=3, calibration_max_force=300.0, steps=4, referen
 
 
 def run_demo(out: str | Path, progress=print, *, quick: bool = False,
-             cache_dir: str | Path = DEFAULT_CACHE) -> Path:
-    """Write the demo's run directory atomically; returns the report's path."""
+             cache_dir: str | Path = DEFAULT_CACHE, overwrite: bool = False) -> Path:
+    """Write the demo's run directory atomically (an existing ``out`` only if it is a demo
+    result of ours, unless ``overwrite``); returns the report's path."""
     out = Path(out)
     plan = QUICK if quick else FULL
-    with atomic_directory(out) as work:
+    with atomic_directory(out, "demo", overwrite=overwrite,
+                          inputs={"quick": quick, "cache": str(cache_dir)}) as work:
         _write_demo(work, out, plan, Path(cache_dir), progress)
     return out / "report.html"
 

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import csv
+import ctypes
+import hashlib
 import json
 import math
 import os
 import platform
+import re
 import shutil
+import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -33,6 +37,63 @@ def provenance(command: str, inputs: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+# --- result folders and temporaries ------------------------------------------------------------
+# Every folder geocontact writes as a result carries this manifest, written last: the command
+# that wrote it, the version and every file it holds. A folder without one (or holding files the
+# manifest does not list) is the user's and is never replaced without ``overwrite``.
+RESULT_MANIFEST = ".geocontact-result.json"
+RESULT_SCHEMA = "geocontact.result/1"
+# Hidden temporaries beside a target: ``.NAME.tmp-PID-XXXX[.suffix]`` (a file or folder being
+# written) and ``.NAME.old-PID-XXXX`` (a replaced result about to be removed). The PID says
+# whether the writer still runs; those of dead writers (SIGKILL, a power cut) are swept.
+_TEMP = re.compile(r"^\.(?P<name>.+)\.(?P<kind>tmp|old)-(?P<pid>\d+)-[A-Za-z0-9_]+(\.[^.]*)?$")
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, someone else's
+        return True
+    return True
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)
+
+
+def sweep_temporaries(path: str | Path) -> list[Path]:
+    """Remove the hidden temporaries that dead writers left beside ``path``; a replaced result
+    stranded by an interrupt between the two renames of a swap (``path`` itself missing) is put
+    back in place. Returns what was removed or recovered."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        return []
+    touched = []
+    for entry in sorted(path.parent.iterdir()):
+        match = _TEMP.match(entry.name)
+        if not match or match["name"] != path.name or _pid_alive(int(match["pid"])):
+            continue
+        if match["kind"] == "old" and not os.path.lexists(path):
+            os.replace(entry, path)
+            print(f"recovered {path} (a replaced result left by an interrupted run)",
+                  file=sys.stderr)
+        else:
+            _remove(entry)
+        touched.append(entry)
+    return touched
+
+
+def _temp_prefix(path: Path, kind: str) -> str:
+    return f".{path.name}.{kind}-{os.getpid()}-"
+
+
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path`` (same suffix, so writers infer the format) that is
@@ -40,7 +101,11 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     sees a half-written file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, expected a file path to write")
+    sweep_temporaries(path)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(path, "tmp"), suffix=path.suffix,
+                               dir=path.parent)
     os.close(fd)
     try:
         yield Path(tmp)
@@ -52,25 +117,174 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         Path(tmp).unlink(missing_ok=True)
 
 
-@contextmanager
-def atomic_directory(path: str | Path) -> Iterator[Path]:
-    """A temporary folder beside ``path``, swapped into place when the block succeeds (an older
-    ``path`` is replaced) and removed when it fails: a result directory is never half-written."""
+def read_manifest(directory: str | Path) -> dict[str, Any] | None:
+    """The result manifest of ``directory``, or None if it has none (or an unreadable one)."""
+    try:
+        document = json.loads((Path(directory) / RESULT_MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(document, dict) or document.get("schema") != RESULT_SCHEMA:
+        return None
+    return document
+
+
+def _foreign_files(directory: Path) -> list[Path]:
+    """Files under ``directory`` that no manifest of ours lists (each file is judged by the
+    nearest manifest above it, so nested results count as ours): what the user put there.
+    Hidden temporaries of our own writers are not foreign."""
+    foreign: list[Path] = []
+
+    def walk(folder: Path, base: Path, listed: set[str]) -> None:
+        manifest = read_manifest(folder)
+        if manifest is not None:
+            base, listed = folder, set(manifest.get("files", {}))
+        for entry in sorted(folder.iterdir()):
+            if entry.name == RESULT_MANIFEST or _TEMP.match(entry.name):
+                continue
+            if entry.is_dir() and not entry.is_symlink():
+                walk(entry, base, listed)
+            elif entry.relative_to(base).as_posix() not in listed:
+                foreign.append(entry)
+
+    walk(directory, directory, set())
+    return foreign
+
+
+_KEEP_HINT = "choose another folder, move your files out, or pass --force (overwrite=True)"
+
+
+def check_replaceable(path: str | Path, command: str, *, overwrite: bool = False,
+                      field: str = "out") -> None:
+    """Refuse (one-line InputError) to replace ``path`` unless it is missing, an empty folder,
+    or a result of ``command`` holding only files geocontact wrote; ``overwrite`` lifts the check
+    on a folder (never on a file)."""
     path = Path(path)
+    sweep_temporaries(path)
+    if not os.path.lexists(path):
+        return
+    if not path.is_dir() or path.is_symlink():
+        raise InputError(f"{field}: {path} exists and is not a folder; give a folder path")
+    if overwrite or not any(path.iterdir()):
+        return
+    manifest = read_manifest(path)
+    if manifest is None:
+        raise InputError(f"{field}: {path} exists and is not a geocontact result (no "
+                         f"{RESULT_MANIFEST}); refusing to replace it: {_KEEP_HINT}")
+    if manifest.get("command") != command:
+        raise InputError(f"{field}: {path} holds a geocontact {manifest.get('command')!r} "
+                         f"result, not a {command!r} one; refusing to replace it: {_KEEP_HINT}")
+    foreign = _foreign_files(path)
+    if foreign:
+        extra = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise InputError(f"{field}: {foreign[0]}{extra} in {path} was not written by geocontact "
+                         f"{command}; refusing to replace the folder: {_KEEP_HINT}")
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def write_manifest(directory: str | Path, command: str,
+                   inputs: dict[str, Any] | None = None) -> dict[str, Any]:
+    """List every file under ``directory`` (size and SHA-256) in its manifest, written last."""
+    from . import __version__
+
+    directory = Path(directory)
+    files = {}
+    for entry in sorted(directory.rglob("*")):
+        if entry.is_file() and entry.name != RESULT_MANIFEST:
+            files[entry.relative_to(directory).as_posix()] = {
+                "bytes": entry.stat().st_size, "sha256": _sha256(entry)}
+    document = {"schema": RESULT_SCHEMA, "command": command, "geocontact_version": __version__,
+                "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+                "inputs": json_safe(inputs or {}), "files": files}
+    write_text_atomic(directory / RESULT_MANIFEST, json.dumps(document, indent=2) + "\n")
+    return document
+
+
+def add_to_manifest(directory: str | Path, names: list[str]) -> None:
+    """Add files written later into a result of ours (a report) to its manifest; nothing if
+    ``directory`` is not one."""
+    directory = Path(directory)
+    manifest = read_manifest(directory)
+    if manifest is None:
+        return
+    for name in names:
+        path = directory / name
+        manifest["files"][name] = {"bytes": path.stat().st_size, "sha256": _sha256(path)}
+    write_text_atomic(directory / RESULT_MANIFEST, json.dumps(manifest, indent=2) + "\n")
+
+
+def verify_manifest(directory: str | Path) -> list[str]:
+    """What is wrong with a result folder against its manifest (missing manifest, missing or
+    changed files); empty when the folder is complete and as written."""
+    directory = Path(directory)
+    manifest = read_manifest(directory)
+    if manifest is None:
+        return [f"{directory}: no {RESULT_MANIFEST} (not a complete geocontact result)"]
+    problems = []
+    for name, entry in manifest.get("files", {}).items():
+        path = directory / name
+        if not path.is_file():
+            problems.append(f"{path}: missing")
+        elif path.stat().st_size != entry.get("bytes") or _sha256(path) != entry.get("sha256"):
+            problems.append(f"{path}: changed since it was written")
+    return problems
+
+
+_RENAME_EXCHANGE = 2
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one atomic rename (Linux renameat2 RENAME_EXCHANGE); False where the
+    system or the file system cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd = -100
+    if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    return False
+
+
+@contextmanager
+def atomic_directory(path: str | Path, command: str, *, overwrite: bool = False,
+                     inputs: dict[str, Any] | None = None) -> Iterator[Path]:
+    """A temporary folder beside ``path``, swapped into place when the block succeeds and
+    removed when it fails: a result directory is never half-written, and its manifest
+    (``RESULT_MANIFEST``, written last) says which command wrote which files.
+
+    An existing ``path`` is replaced only if it is a result of the same ``command`` holding
+    nothing but what geocontact wrote (``check_replaceable``; ``overwrite`` lifts this). The swap is
+    one atomic rename where the system has one (Linux); elsewhere an interrupt between the two
+    renames leaves the old result under a dot-name, put back by the next run."""
+    path = Path(path)
+    check_replaceable(path, command, overwrite=overwrite)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.tmp-"))
+    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=_temp_prefix(path, "tmp")))
     tmp.chmod(0o755)
     try:
         yield tmp
+        write_manifest(tmp, command, inputs)
+        if os.path.lexists(path) and _exchange(tmp, path):
+            return  # ``tmp`` now holds the old result: removed below
         old = None
-        if path.exists():
-            old = path.parent / f".{path.name}.old-{os.getpid()}"
+        if os.path.lexists(path):
+            old = Path(tempfile.mkdtemp(dir=path.parent, prefix=_temp_prefix(path, "old")))
             os.replace(path, old)
         os.replace(tmp, path)
         if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+            _remove(old)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        _remove(tmp)
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

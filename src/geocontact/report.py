@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .io import atomic_path, write_csv, write_text_atomic  # noqa: E402
+from .io import atomic_path, write_csv  # noqa: E402
 
 
 @dataclass
@@ -47,9 +47,33 @@ def save_figure(fig, directory: Path, figure: Figure) -> None:
         write_csv(directory / f"{figure.name}.csv", figure.data)
 
 
-def write_html(report: Report, directory: Path, filename: str = "report.html") -> Path:
+GENERATOR = "geocontact"  # the <meta name="generator"> of every report we write
+
+
+def is_our_report(path: str | Path) -> bool:
+    """Whether ``path`` is an HTML report geocontact wrote (its generator tag)."""
+    try:
+        head = Path(path).read_text(errors="replace")[:2000]
+    except OSError:
+        return False
+    return f"<meta name='generator' content='{GENERATOR}" in head
+
+
+def render_html(report: Report, directory: Path, figures: Path | None = None) -> str:
+    """The report as one self-contained HTML page. Images are read from ``directory`` (paths
+    relative to it); those under ``figures/`` from ``figures`` when given (the figures folder
+    being written beside it)."""
+    from . import __version__
+
+    def image(rel: str) -> Path:
+        head, _, rest = rel.partition("/")
+        if figures is not None and head == "figures" and rest:
+            return figures / rest
+        return directory / rel
+
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'>",
+        f"<meta name='generator' content='{GENERATOR} {__version__}'>",
         f"<title>{html.escape(report.title)}</title>",
         "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
         "img{max-width:100%}table{border-collapse:collapse}td,th{border:1px solid #bbb;"
@@ -60,7 +84,7 @@ def write_html(report: Report, directory: Path, filename: str = "report.html") -
         parts.append(f"<h2>{html.escape(heading)}</h2>")
         for item in items:
             if isinstance(item, Figure):
-                png = (directory / (item.image or f"{item.name}.png")).read_bytes()
+                png = image(item.image or f"{item.name}.png").read_bytes()
                 data = base64.b64encode(png).decode()
                 csv_name = item.data_file or (f"{item.name}.csv" if item.data else "")
                 csv_note = f" Data: <code>{csv_name}</code>." if csv_name else ""
@@ -73,9 +97,7 @@ def write_html(report: Report, directory: Path, filename: str = "report.html") -
     parts.append("<h2>Provenance</h2><pre>" + html.escape(json.dumps(report.provenance,
                                                                         indent=2)) + "</pre>")
     parts.append("</body></html>")
-    path = directory / filename
-    write_text_atomic(path, "\n".join(parts))
-    return path
+    return "\n".join(parts)
 
 
 def table(headers: list[str], rows: list[list]) -> str:

@@ -27,10 +27,17 @@ from matplotlib.ticker import NullFormatter, ScalarFormatter
 
 from .cycles import ROUND_OFF
 from .errors import InputError
-from .io import provenance, read_csv_column
-from .report import Figure, Report, save_figure, table, write_html
+from .io import (
+    add_to_manifest,
+    atomic_directory,
+    provenance,
+    read_csv_column,
+    write_text_atomic,
+)
+from .report import Figure, Report, is_our_report, render_html, save_figure, table
 
 FIGURES = "figures"
+REPORT_HTML = "report.html"
 
 
 def _summary(directory: Path) -> dict | None:
@@ -237,6 +244,14 @@ def acceptance_section(report: Report, path: Path, root: Path) -> None:
                                 f"{', '.join(f'{f:.4g}' for f in r['forces_N'])} N.",
                                 image=f"{rel}/{r['name']}.png",
                                 data_file=f"{rel}/{r['name']}.csv"))
+    if "params_sha256" in t:  # written with hash links (older tables have none)
+        from .calibrate.workflow import check_acceptance
+
+        problems = check_acceptance(path.parent / t.get("params", ""))
+        if problems:
+            items.insert(0, "<p><b>Warning: this table and the parameter file were not written "
+                            "together</b> (" + html_escape("; ".join(problems)) + "): rerun the "
+                            "calibration.</p>")
     report.add(f"Calibration acceptance ({t.get('params', path.name)})", *items)
 
 
@@ -397,28 +412,43 @@ SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
 
 
 def build_report(directory: str | Path, title: str | None = None, intro: str = "",
-                 preface: list[tuple[str, list]] | None = None) -> Path:
+                 preface: list[tuple[str, list]] | None = None, *,
+                 overwrite: bool = False) -> Path:
     """Write DIR/report.html (and DIR/figures/) from every result found in DIR; ``preface``:
-    (heading, items) sections placed first (the demo's own tables and figures)."""
+    (heading, items) sections placed first (the demo's own tables and figures).
+
+    ``figures/`` is written as one unit (no stale figure of an earlier report survives) and
+    then ``report.html``; either is replaced only if an earlier report wrote it (unless
+    ``overwrite``), and both join DIR's result manifest when DIR is a result of ours."""
     root = Path(directory)
     if not root.is_dir():
         raise InputError(f"report: not a directory: {directory}")
-    figures = root / FIGURES
+    html_path = root / REPORT_HTML
+    if html_path.exists() and not overwrite and not is_our_report(html_path):
+        raise InputError(f"report: {html_path} exists and was not written by geocontact; "
+                         "refusing to replace it: move it or pass --force (overwrite=True)")
     report = Report(title=title or f"geocontact — {root.name}", intro=intro,
                     provenance=provenance("report", {"directory": str(root)}))
     for heading, items in preface or []:
         report.add(heading, *items)
     found = len(preface or [])
-    for sub in [root] + sorted(p for p in root.iterdir() if p.is_dir() and p.name != FIGURES):
-        for path in law_files(sub):
-            law_section(report, path, root, figures)
-            found += 1
-        for test, section in SECTIONS:
-            if test(sub):
-                section(report, sub, root, figures)
+    with atomic_directory(root / FIGURES, "report", overwrite=overwrite) as figures:
+        subs = sorted(p for p in root.iterdir()
+                      if p.is_dir() and p.name != FIGURES and not p.name.startswith("."))
+        for sub in [root] + subs:
+            for path in law_files(sub):
+                law_section(report, path, root, figures)
                 found += 1
-                break
-    if not found:
-        raise InputError(f"report: no geocontact results found in {directory} (looked for FE "
-                         "runs, law parameter files, sweeps, seismic runs, cyclic histories)")
-    return write_html(report, root)
+            for test, section in SECTIONS:
+                if test(sub):
+                    section(report, sub, root, figures)
+                    found += 1
+                    break
+        if not found:
+            raise InputError(f"report: no geocontact results found in {directory} (looked for "
+                             "FE runs, law parameter files, sweeps, seismic runs, cyclic "
+                             "histories)")
+        text = render_html(report, root, figures)
+    write_text_atomic(html_path, text)
+    add_to_manifest(root, [REPORT_HTML])
+    return html_path

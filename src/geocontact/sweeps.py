@@ -30,7 +30,7 @@ from .errors import InputError
 from .fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
 from .fem.run import FemResult
 from .hertz import incipient_yield
-from .io import atomic_directory, provenance, write_csv, write_json_atomic
+from .io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
 from .material import Material, preset
 
 SCHEMA = "geocontact.sweeps/1"
@@ -129,9 +129,12 @@ def run_sweeps(out: str | Path, names: list[str] | None = None, *, mesh: str = "
                peak_force: float | None = None, steps_per_segment: int | None = None,
                cache_dir: str | Path = DEFAULT_CACHE,
                scheduler: str | None = None, workers: int | None = None,
-               progress: bool = True) -> dict[str, Any]:
+               progress: bool = True, overwrite: bool = False) -> dict[str, Any]:
     """Run the sweeps (all by default) and write ``out``: summary.json (every point's numbers
-    and every statement's verdict), points.csv and curves_<sweep>.csv. Returns the summary."""
+    and every statement's verdict), points.csv and curves_<sweep>.csv. Returns the summary.
+    ``out`` is replaced only if it is a sweep result of ours (``io.check_replaceable``, checked
+    before the FE campaign; ``overwrite`` lifts it)."""
+    check_replaceable(out, "sweep", overwrite=overwrite)
     definition = load_sweeps()
     names = list(names or definition["sweep"])
     fmax = float(peak_force if peak_force is not None else definition["peak_force"])
@@ -172,7 +175,7 @@ def run_sweeps(out: str | Path, names: list[str] | None = None, *, mesh: str = "
         entry["statements"] = [
             check_statement(st, [p[st["quantity"]] for p in entry["points"]], tolerance)
             for st in definition["sweep"][name].get("statements", [])]
-    with atomic_directory(out) as tmp:
+    with atomic_directory(out, "sweep", overwrite=overwrite) as tmp:
         write_csv(tmp / "points.csv", {k: np.asarray(v) for k, v in table.items()})
         for name in names:
             write_csv(tmp / f"curves_{name}.csv", curves[name])

@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from .common import print_json
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -39,6 +39,7 @@ def register(sub) -> None:
                    help="local Dask workers (default: one per core)")
     p.add_argument("--cache", default=None, metavar="DIR",
                    help="FE result cache (default out/cache/fem)")
+    add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print the parameter file on stdout")
     p.set_defaults(run=run)
 
@@ -74,7 +75,7 @@ def run(args) -> int:
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
         acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
         cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
-        progress=not args.json)
+        progress=not args.json, overwrite=args.force)
     acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import print_json
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -28,12 +28,13 @@ def register(sub) -> None:
                    help="FE load steps per monotonic segment (default: by mesh preset)")
     p.add_argument("--tolerance", type=float, default=0.01,
                    help="ratio to cycle 1 below which an increment counts as zero (default 0.01)")
-    p.add_argument("--out", required=True, help="result directory")
+    p.add_argument("--out", required=True, help="result directory (written as one unit)")
+    add_force_flag(p)
     p.add_argument("--fit-params", default=None, metavar="OUT.json",
                    help="write --params with its cyclic extension fitted to this FE run")
     p.add_argument("--resume", action="store_true",
                    help="reuse a finished FE run in DIR/fe with the same inputs, or continue "
-                        "from DIR/fe.checkpoint.npz")
+                        "from DIR.fe.checkpoint.npz beside DIR")
     p.add_argument("--json", action="store_true", help="print summary.json on stdout")
     p.set_defaults(run=run)
 
@@ -58,6 +59,7 @@ def run(args) -> int:
         progress=sys.stderr.isatty() or not args.json,
         inputs={"material": str(args.material), "history": str(args.history),
                 "params": args.params},
+        overwrite=args.force,
     )
     if args.json:
         print_json(summary)

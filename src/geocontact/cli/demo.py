@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..demo import run_demo
+from .common import add_force_flag
 
 
 def register(sub) -> None:
@@ -14,11 +15,12 @@ def register(sub) -> None:
                    help="tiny loads and few FE steps: checks the pipeline in about a minute, "
                    "not the reference results")
     p.add_argument("--cache", default="out/cache/fem", help="FE result cache directory")
+    add_force_flag(p)
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     path = run_demo(args.out, progress=lambda m: print(m, file=sys.stderr), quick=args.quick,
-                    cache_dir=args.cache)
+                    cache_dir=args.cache, overwrite=args.force)
     print(f"report: {path}")
     return 0

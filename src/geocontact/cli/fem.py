@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import print_json
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -19,6 +19,7 @@ def register(sub) -> None:
                    help="history TOML: [history] forces = [...] or preset = ... + peak_force")
     p.add_argument("--mesh", default="default", choices=["coarse", "default", "fine"])
     p.add_argument("--out", required=True, help="result directory (written atomically)")
+    add_force_flag(p)
     p.add_argument("--resume", action="store_true",
                    help="continue from DIR.checkpoint.npz if it matches the inputs")
     p.add_argument("--steps", type=int, default=None,
@@ -37,7 +38,7 @@ def run(args) -> int:
     if args.steps is not None and args.steps < 1:
         raise InputError(f"--steps: must be >= 1, got {args.steps}")
     result = run_history(material, forces, mesh=args.mesh, out=args.out,
-                         steps_per_segment=args.steps, resume=args.resume,
+                         steps_per_segment=args.steps, resume=args.resume, overwrite=args.force,
                          progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from .common import add_force_flag
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -13,12 +15,13 @@ def register(sub) -> None:
     )
     p.add_argument("directory", metavar="DIR", help="a run directory")
     p.add_argument("--title", default=None, help="report title")
+    add_force_flag(p)
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     from ..report_sections import build_report
 
-    path = build_report(args.directory, title=args.title)
+    path = build_report(args.directory, title=args.title, overwrite=args.force)
     print(f"report: {path}")
     return 0

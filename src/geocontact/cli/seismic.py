@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from .common import print_json
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -33,7 +33,8 @@ def register(sub) -> None:
                         "@PGA (m/s^2) scales one, else --aftershock-pga")
     p.add_argument("--aftershock-pga", type=float, default=None,
                    help="PGA of aftershocks without @PGA, m/s^2 (default: --pga)")
-    p.add_argument("--out", help="output directory")
+    p.add_argument("--out", help="output directory (written as one unit)")
+    add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.add_argument("--unit", default=None, help="record unit if the header lacks it: g, m/s2, "
                    "cm/s2 (overrides the header)")
@@ -79,8 +80,11 @@ def run(args) -> int:
     if args.out is None:
         raise InputError("--out: missing (output directory)")
 
+    from ..io import check_replaceable
     from ..law import load_params
     from ..seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
+
+    check_replaceable(args.out, "seismic", overwrite=args.force)  # before the run, not after
 
     if args.pga is not None and not args.pga > 0:
         raise InputError(f"--pga: must be > 0 m/s^2, got {args.pga:g}")
@@ -100,7 +104,7 @@ def run(args) -> int:
     aftershocks = [EventSpec.parse(text, aftershock_pga) for text in args.aftershock]
     result = run_seismic(params, main, aftershocks, settings, params_source=str(args.params),
                          progress=_progress)
-    summary = write_outputs(result, args.out, figures=not args.no_figures)
+    summary = write_outputs(result, args.out, figures=not args.no_figures, overwrite=args.force)
     if args.json:
         print_json(summary)
     else:

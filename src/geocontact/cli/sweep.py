@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .common import print_json
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -21,6 +21,7 @@ def register(sub) -> None:
     p.add_argument("--workers", type=int, default=None, help="local Dask worker processes")
     p.add_argument("--cache", default="out/cache/fem", help="FE result cache directory")
     p.add_argument("--out", required=True, help="result directory (written atomically)")
+    add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print summary.json on stdout")
     p.set_defaults(run=run)
 
@@ -33,7 +34,8 @@ def run(args) -> int:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
     names = [n.strip() for n in args.sweeps.split(",")] if args.sweeps else None
     summary = run_sweeps(args.out, names, mesh=args.mesh, peak_force=args.peak_force,
-                         cache_dir=args.cache, scheduler=args.scheduler, workers=args.workers)
+                         cache_dir=args.cache, scheduler=args.scheduler, workers=args.workers,
+                         overwrite=args.force)
     if args.json:
         print_json(summary)
         return 0

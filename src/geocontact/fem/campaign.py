@@ -113,7 +113,8 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     result = run_history(job.material, list(job.forces), mesh=job.mesh, out=directory,
                          steps_per_segment=job.steps_per_segment, resume=True,
-                         write_fields=False, mesh_force=job.mesh_force)
+                         write_fields=False, mesh_force=job.mesh_force,
+                         overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 
 
@@ -162,7 +163,7 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
 def _finish(cache: Path, job: FemJob, result: FemResult) -> FemResult:
     path = _cached(cache, job)
     if not (path / "summary.json").exists():  # a remote worker wrote on its own disk
-        write_result(result, path, None, {})
+        write_result(result, path, None, {}, overwrite=True)
     return result
 
 

@@ -32,7 +32,7 @@ from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
     validate_forces,
 )
 from ..hertz import incipient_yield
-from ..io import atomic_directory, atomic_path, write_json_atomic
+from ..io import atomic_directory, atomic_path, check_replaceable, write_json_atomic
 from ..material import Material
 from .mesh import PRESETS, build_mesh, mesh_preset
 from .plasticity import APEX, ELASTIC
@@ -300,14 +300,19 @@ def run_history(
     tolerance: float = 1e-8,
     volumetric: str = VOLUMETRIC_DEFAULT,
     mesh_force: float | None = None,
+    overwrite: bool = False,
+    checkpoint: str | Path | None = None,
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
     ``mesh``: "coarse" | "default" | "fine". ``mesh_force``: size the mesh for this force
     instead of the history's largest (>= it), so runs of different peaks can share one mesh
     (e.g. single loads compared with a longer history). ``out``: result directory (curve.csv,
-    summary.json, fields/*.vtu), written atomically; a checkpoint ``<out>.checkpoint.npz`` is
-    written after every converged step and used by ``resume=True``.
+    summary.json, fields/*.vtu), written atomically; an existing ``out`` is replaced only if it
+    is an FE result of ours (``io.check_replaceable``, checked before any work; ``overwrite`` lifts
+    it). A checkpoint ``<out>.checkpoint.npz`` (or ``checkpoint``) is written after every
+    converged step and used by ``resume=True``; the default one is removed when the result has
+    landed, an explicit ``checkpoint`` is left to the caller (who lands the result later).
     Raises ConvergenceError (one line, naming the step and load) if a step fails after
     ``MAX_CUTBACKS`` halvings; the checkpoint then holds the last converged state.
     """
@@ -323,7 +328,10 @@ def run_history(
     sized_for = fmax if mesh_force is None else float(mesh_force)
     mesh_key = f"{mesh}/{volumetric}" + ("" if mesh_force is None else f"/{sized_for!r}")
     signature = _signature(material, forces, mesh_key, steps)
-    ckpt = checkpoint_path(out) if out is not None else None
+    if out is not None:
+        check_replaceable(out, "fem", overwrite=overwrite)
+    ckpt = Path(checkpoint) if checkpoint is not None else (
+        checkpoint_path(out) if out is not None else None)
     saved = None
     if resume and ckpt is not None and ckpt.exists():
         with np.load(ckpt, allow_pickle=False) as data:
@@ -428,8 +436,8 @@ def run_history(
     }
     result = FemResult(curve=curve, summary=summary, states=states, solver=solver)
     if out is not None:
-        write_result(result, Path(out), solver, fields)
-        if ckpt is not None and ckpt.exists():
+        write_result(result, Path(out), solver, fields, overwrite=overwrite)
+        if checkpoint is None and ckpt is not None and ckpt.exists():
             ckpt.unlink()
     return result
 
@@ -470,9 +478,10 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int) -> S
 
 # --- output files ------------------------------------------------------------------------------
 def write_result(result: FemResult, out: Path, solver: ContactSolver,
-                 fields: dict[int, State]) -> None:
+                 fields: dict[int, State], *, overwrite: bool = False) -> None:
     """Write the run directory atomically (io.atomic_directory)."""
-    with atomic_directory(out) as tmp:
+    inputs = result.summary.get("inputs")
+    with atomic_directory(out, "fem", overwrite=overwrite, inputs=inputs) as tmp:
         with open(tmp / "curve.csv", "w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(CURVE_COLUMNS)

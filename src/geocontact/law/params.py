@@ -361,9 +361,13 @@ class LawParams:
             "fit_errors": self.fit_errors,
         }
 
+    def to_json(self) -> str:
+        """The parameter file's text (what ``save`` writes)."""
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
     def save(self, path: str | Path) -> None:
         """Write atomically (temporary file, then rename)."""
-        write_text_atomic(path, json.dumps(self.to_dict(), indent=2) + "\n")
+        write_text_atomic(path, self.to_json())
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], *, source: str = "parameters") -> LawParams:

@@ -342,13 +342,20 @@ def _csv_text(columns: dict[str, np.ndarray]) -> str:
     return buffer.getvalue()
 
 
-def write_outputs(result: SeismicResult, out_dir: str | Path, *, figures: bool = True
-                  ) -> dict[str, Any]:
-    """Write the run directory; returns the summary (also in summary.json)."""
+def write_outputs(result: SeismicResult, out_dir: str | Path, *, figures: bool = True,
+                  overwrite: bool = False) -> dict[str, Any]:
+    """Write the run directory as one unit (``io.atomic_directory``: an existing folder only
+    if it is a seismic result of ours, unless ``overwrite``); returns the summary (also in
+    summary.json)."""
+    from ..io import atomic_directory
+
+    with atomic_directory(out_dir, "seismic", overwrite=overwrite) as tmp:
+        return _write_outputs(result, tmp, figures)
+
+
+def _write_outputs(result: SeismicResult, out: Path, figures: bool) -> dict[str, Any]:
     from ..io import write_json_atomic, write_text_atomic
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     h = result.history
     n = result.column.model.spheres
     columns: dict[str, np.ndarray] = {
