@@ -62,6 +62,21 @@ def element_size(d: np.ndarray | float, radius: float, a_min: float, a_max: floa
     return np.maximum(h_tip, np.minimum(graded, cap))
 
 
+def _restore_signal_handlers() -> None:
+    """gmsh's initialisation installs C-level handlers for SIGTERM and others that end the
+    process at once; put Python's back so that a SIGTERM ends a run as cleanly as Ctrl-C
+    (checkpoint kept, temporaries removed, exit code 143 from the CLI)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for number in (signal.SIGTERM, signal.SIGINT):
+        handler = signal.getsignal(number)
+        if handler is not None:
+            signal.signal(number, handler)
+
+
 def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPreset = "default"):
     """gmsh mesh of the hemisphere, returned as an isoparametric ``skfem.MeshTri2``.
 
@@ -79,6 +94,7 @@ def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPres
     owns = not gmsh.isInitialized()
     if owns:
         gmsh.initialize(interruptible=False)
+        _restore_signal_handlers()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.NumThreads", 1)
