@@ -261,3 +261,31 @@ def test_fit_cyclic_accepts_a_steep_decay_with_coefficient_above_one():
     kept = fit_cyclic(params, job, _cycles_result(flat, np.where(n == 1, 1.0, 1e-9)))
     assert not kept.cyclic.enabled
     assert kept.provenance["cyclic"]["status"] == "not needed"
+
+
+def test_params_and_acceptance_reference_each_other_and_stale_ones_go(calibrated, tmp_path):
+    """P.json, P.acceptance.json and P.acceptance/ are one result: each names the other by
+    hash; a rerun without --acceptance removes the acceptance that no longer describes P."""
+    import shutil
+
+    from geocontact.calibrate.workflow import check_acceptance
+    from geocontact.io import read_manifest
+
+    root, out, _ = calibrated
+    work = tmp_path / "copy"
+    shutil.copytree(root, work, ignore=shutil.ignore_patterns("cache"))
+    params = work / out.name
+    assert check_acceptance(params) == []
+    doc = json.loads(params.read_text())
+    assert doc["provenance"]["acceptance"]["file"] == "P.acceptance.json"
+    assert read_manifest(work / "P.acceptance")["command"] == "calibrate"
+    # a P.json edited (or rewritten alone) after the acceptance no longer matches it
+    params.write_text(params.read_text().replace('"label"', '"label" ', 1))
+    problems = check_acceptance(params)
+    assert problems and "hash differs" in problems[0]
+    # recalibrating without --acceptance (from the cache) removes the stale table and figures
+    stale = work / "P.acceptance" / "fitted-1.png"
+    assert stale.exists()
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(params)]) == 0
+    assert not stale.exists() and not (work / "P.acceptance.json").exists()
+    assert not (work / "P.acceptance").exists()
