@@ -3,6 +3,8 @@
     mpiexec -n 2 python tests/lammps_scenarios.py packing --out loop.json [--restart-out R]
     mpiexec -n 2 python tests/lammps_scenarios.py packing --resume R --out loop.json
     mpiexec -n 2 python tests/lammps_scenarios.py migration --out state.json
+    mpiexec -n 2 python tests/lammps_scenarios.py cycled --out forces.json [--restart-out R]
+    python tests/lammps_scenarios.py cycled --resume R --out forces.json
 
 Rank 0 writes the JSON result. The packing is an fcc block of identical grains (periodic in x
 and y) between two walls made of its own bottom and top layers of grains: the bottom layer held,
@@ -12,6 +14,7 @@ the top layer moved down and up in legs (cyclic compression), the force on the w
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import sys
@@ -208,6 +211,129 @@ def migration(args) -> dict:
     return result
 
 
+# Cycled pairs: four pairs of grains of three types with three parameter files, each pair loaded
+# past yield, unloaded to separation and reloaded, over and over (with the cyclic extension of
+# params-reference.json every reload after a separation ends in a ratchet creep), while its
+# upper grain slides sideways. Positions are prescribed (no integrator), so a run is the same
+# arithmetic on any number of ranks. Two ranks split the box at x = 0.
+CYCLED_FILES = {1: ROOT / "examples" / "params-reference.json",
+                2: PARAMS_FILE,
+                3: ROOT / "examples" / "params-reference-weak.json"}
+CYCLED_COEFFS = (  # (types, file, friction): 1-3 contacts get the file of neither type
+    ("* *", CYCLED_FILES[1], 0.5), ("2 2", CYCLED_FILES[2], 0.3), ("3 3", CYCLED_FILES[3], 0.4),
+    ("1 3", CYCLED_FILES[2], 0.2))
+# per pair: types of its two grains, the file of their contact, y, z, and how its centre moves
+# along x (shuttle +1: -0.4 -> 0 at the restart -> 0.4 -> -0.1; -1: the mirror image; 0: stays
+# at x = 0, across the rank boundary; None: stays at x = -0.5)
+CYCLED_PAIRS = (
+    {"types": (1, 1), "file": CYCLED_FILES[1], "y": 0.0, "z": 0.0, "shuttle": 1.0},
+    {"types": (2, 2), "file": CYCLED_FILES[2], "y": 0.3, "z": 0.0, "shuttle": 0.0},
+    {"types": (3, 3), "file": CYCLED_FILES[3], "y": -0.3, "z": 0.0, "shuttle": -1.0},
+    {"types": (1, 3), "file": CYCLED_FILES[2], "y": 0.0, "z": 0.3, "shuttle": None},
+)
+# approach legs (end in yield approaches of the pair's file, steps); -1 is a separation
+CYCLE_LEGS = ((30, 10), (-1, 10), (30.3, 10), (33, 5), (10, 5), (36, 8), (-1, 6), (38, 8))
+# steps before the restart: pair 1 is on its ratchet creep (branch 4), across x = 0
+CYCLE_RESTART_AFTER = 30
+SHUTTLE_KNOTS = ((0, -0.4), (CYCLE_RESTART_AFTER - 1, 0.0), (45, 0.4), (61, -0.1))
+SLIP_SPEED = 2e-4  # m/s, the upper grain of each pair, sideways (y)
+
+
+def cycle_path() -> list[float]:
+    """Approach of every pair at each step, in yield approaches of its file."""
+    path, start = [], -0.5
+    for end, steps in CYCLE_LEGS:
+        path += [start + (end - start) * (k + 1) / steps for k in range(steps)]
+        start = end
+    return path
+
+
+def _shuttle(step: int) -> float:
+    for (k0, x0), (k1, x1) in zip(SHUTTLE_KNOTS, SHUTTLE_KNOTS[1:], strict=False):
+        if step <= k1:
+            return x0 + (x1 - x0) * (step - k0) / (k1 - k0)
+    return SHUTTLE_KNOTS[-1][1]
+
+
+@functools.cache
+def _yield_approach(path: Path) -> float:
+    return json.loads(path.read_text())["yield"]["approach_m"]
+
+
+def cycled_positions(step: int) -> list[tuple[float, float, float]]:
+    """x, y, z of atoms 1..8 (pair p: atoms 2p-1, 2p) at a step."""
+    positions = []
+    depth = cycle_path()[step]
+    for pair in CYCLED_PAIRS:
+        approach = depth * _yield_approach(pair["file"])
+        shuttle = pair["shuttle"]
+        centre = -0.5 if shuttle is None else shuttle * _shuttle(step)
+        half = 0.5 * (2 * RADIUS - approach)
+        positions += [(centre - half, pair["y"], pair["z"]), (centre + half, pair["y"], pair["z"])]
+    return positions
+
+
+def _cycled_settings(lmp):
+    """Everything that read_restart does not restore."""
+    _commands(lmp, [
+        "comm_modify vel yes",
+        "neighbor 0.01 bin",
+        "neigh_modify every 1 delay 0 check yes",
+        "compute pl ratchet pair/local p4 p5 p6 p7",
+        *[f"compute m{k} all reduce max c_pl[{k}] inputs local" for k in range(1, 5)],
+    ])
+
+
+def cycled(args) -> dict:
+    lmp = open_lammps()
+    lmp.command("processors * 1 1")
+    first = 0
+    if args.resume:
+        lmp.command(f"read_restart {args.resume}")
+        first = CYCLE_RESTART_AFTER
+    else:
+        start = cycled_positions(0)
+        _commands(lmp, [
+            "units si",
+            "atom_style sphere",
+            "atom_modify map array",
+            "boundary p f f",
+            "region box block -1 1 -0.5 0.5 -0.5 0.5",
+            "create_box 3 box",
+            *[f"create_atoms {t} single {x!r} {y!r} {z!r}"
+              for (t, (x, y, z)) in zip([t for p in CYCLED_PAIRS for t in p["types"]], start,
+                                        strict=True)],
+            f"set group all diameter {2 * RADIUS}",
+            f"set group all density {DENSITY}",
+            "pair_style geocontact",
+            *[f"pair_coeff {types} {path} friction {mu}" for types, path, mu in CYCLED_COEFFS],
+            "group ratchet id 1 2",
+            *[f"set atom {2 * p + 2} vy {SLIP_SPEED!r}" for p in range(len(CYCLED_PAIRS))],
+            "timestep 1e-4",
+        ])
+    _cycled_settings(lmp)
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
+
+    steps = []
+    for step in range(first, len(cycle_path())):
+        for tag, (x, _, _) in enumerate(cycled_positions(step), start=1):
+            lmp.command(f"set atom {tag} x {x!r}")
+        lmp.command(f"run 1 pre {'yes' if step == first else 'no'} post no")
+        forces = list(lmp.gather_atoms("f", 1, 3))  # collective, ordered by atom ID
+        ratchet = [lmp.extract_compute(f"m{k}", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+                   for k in range(1, 5)]
+        steps.append({"step": step, "forces": [forces[3 * i:3 * i + 3]
+                                               for i in range(len(forces) // 3)],
+                      # pair 1: delta_max, delta_res (shifted by the ratchet), branch, cycles
+                      "ratchet_pair": ratchet})
+        if args.restart_out and step == CYCLE_RESTART_AFTER - 1:
+            lmp.command(f"write_restart {args.restart_out}")
+    result = {"ranks": lmp.extract_setting("world_size"), "first": first, "steps": steps,
+              "rank": lmp.extract_setting("world_rank")}
+    lmp.close()
+    return result
+
+
 def _contact_summary(lmp) -> dict:
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
 
@@ -217,7 +343,7 @@ def _contact_summary(lmp) -> dict:
     return values
 
 
-SCENARIOS = {"packing": packing, "migration": migration}
+SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled}
 
 
 def main(argv=None) -> int:

@@ -6,9 +6,12 @@ plugin must have been built: `make test` builds it first, and a missing plugin f
 
 from __future__ import annotations
 
+import copy
 import math
+import struct
 from pathlib import Path
 
+import lammps_scenarios as scenarios
 import numpy as np
 import pytest
 
@@ -491,6 +494,180 @@ def test_packing_resumes_from_a_restart_on_a_different_number_of_ranks(packing_r
     assert resumed["samples"][0]["plastic_contacts"] == tail[0]["plastic_contacts"]
     assert resumed["samples"][-1]["dissipated_J"] == pytest.approx(tail[-1]["dissipated_J"],
                                                                    rel=5e-3)
+
+
+# --- restarts across rank counts, with the ratchet and several parameter files -------------------
+
+@pytest.fixture(scope="module")
+def cycled_runs(tmp_path_factory):
+    """The cycled pairs (lammps_scenarios.cycled): uninterrupted on 1 rank; on 2 ranks writing a
+    restart mid-history and going on; from that restart continued on 1 and on 2 ranks. Each run:
+    forces (step, atom, xyz) and the state of pair 1 (step, [δmax, δres, branch, cycles])."""
+    restart = tmp_path_factory.mktemp("cycled") / "cycled.restart"
+    runs = {"serial": run_scenario(1, "cycled"),
+            "parallel": run_scenario(2, "cycled", "--restart-out", str(restart)),
+            "resumed": run_scenario(1, "cycled", "--resume", str(restart)),
+            "resumed_parallel": run_scenario(2, "cycled", "--resume", str(restart))}
+    return {name: {"ranks": run["ranks"],
+                   "forces": np.array([s["forces"] for s in run["steps"]]),
+                   "ratchet": np.array([s["ratchet_pair"] for s in run["steps"]])}
+            for name, run in runs.items()}
+
+
+RESTART_STEP = scenarios.CYCLE_RESTART_AFTER
+
+
+def cycled_approaches() -> np.ndarray:
+    """(step, pair) approaches as LAMMPS computes them from the prescribed positions: sum of the
+    radii minus the distance (the pairs lie along x)."""
+    rows = []
+    for step in range(len(scenarios.cycle_path())):
+        x = [p[0] for p in scenarios.cycled_positions(step)]
+        rows.append([(RADIUS + RADIUS) - (x[2 * p + 1] - x[2 * p])
+                     for p in range(len(scenarios.CYCLED_PAIRS))])
+    return np.array(rows)
+
+
+def python_normal_forces(pair: int, approaches) -> np.ndarray:
+    contact = Contact(load_params(scenarios.CYCLED_PAIRS[pair]["file"]))
+    return np.array([contact.update(a)[0] for a in approaches])
+
+
+def per_pair_peak(forces: np.ndarray) -> np.ndarray:
+    """Largest |force| of each pair over a run, repeated for both of its atoms."""
+    peak = np.abs(forces).max(axis=(0, 2)).reshape(-1, 2).max(axis=1)
+    return np.repeat(peak, 2)
+
+
+def test_restart_written_on_2_ranks_continues_on_1_rank_with_the_uninterrupted_forces(
+        cycled_runs):
+    serial, parallel = cycled_runs["serial"], cycled_runs["parallel"]
+    resumed = cycled_runs["resumed"]
+    assert (serial["ranks"], parallel["ranks"], resumed["ranks"]) == (1, 2, 1)
+    # when the file is written, pairs 1-3 straddle the rank boundary x = 0 (each rank holds its
+    # grain's copy of the history) and every pair has a tangential force to carry over
+    x = [p[0] for p in scenarios.cycled_positions(RESTART_STEP - 1)]
+    assert all(x[2 * p] < 0.0 < x[2 * p + 1] for p in range(3))
+    assert np.all(np.abs(parallel["forces"][RESTART_STEP - 1, 1::2, 1]) > 0.0)
+    peak = per_pair_peak(serial["forces"])[None, :, None]
+    # same arithmetic from the same stored state: measured difference 0
+    assert np.all(np.abs(parallel["forces"] - serial["forces"]) <= 1e-12 * peak)
+    assert np.all(np.abs(resumed["forces"] - serial["forces"][RESTART_STEP:]) <= 1e-12 * peak)
+    assert np.array_equal(resumed["ratchet"], serial["ratchet"][RESTART_STEP:])
+
+
+def test_ratchet_state_survives_restart_and_migration_between_ranks(cycled_runs):
+    """Pair 1 (params-reference.json, cyclic extension on) is written to the restart in the
+    middle of its ratchet creep; continued on 1 rank, and on 2 ranks while it is carried across
+    the rank boundary, it follows the uninterrupted run and the Python law with the ratchet."""
+    assert load_params(scenarios.CYCLED_FILES[1]).cyclic.enabled
+    serial, parallel = cycled_runs["serial"], cycled_runs["parallel"]
+    branch, cycles = parallel["ratchet"][RESTART_STEP - 1, 2:]
+    assert (branch, cycles) == (4, 2)  # creeping at F_max on its second cycle
+    centre = [0.5 * (p[0][0] + p[1][0]) for k in range(RESTART_STEP, len(serial["forces"]))
+              for p in [scenarios.cycled_positions(k)[:2]]]
+    assert max(centre) > 0.3 and min(centre) < -0.05  # crossed x = 0 and came back
+    normal = python_normal_forces(0, cycled_approaches()[:, 0])
+    peak = normal.max()
+    for name in ("resumed", "resumed_parallel"):
+        run = cycled_runs[name]
+        assert np.array_equal(run["ratchet"], serial["ratchet"][RESTART_STEP:])
+        assert np.abs(run["forces"] - serial["forces"][RESTART_STEP:])[:, :2].max() <= 1e-12 * peak
+        # the force on grain 2 along the pair's axis is the law's normal force
+        assert np.abs(run["forces"][:, 1, 0] - normal[RESTART_STEP:]).max() <= 1e-9 * peak
+    # The law's own history: the creep under way at the restart completes after it, and two
+    # more reloads after separations ratchet again. A restart that lost the pending ratchet
+    # would be far outside the tolerances above.
+    contact = Contact(load_params(scenarios.CYCLED_FILES[1]))
+    approaches = cycled_approaches()[:, 0]
+    for a in approaches[:RESTART_STEP]:
+        contact.update(a)
+    forgetful = copy.deepcopy(contact)
+    forgetful.state.pending_ratchet = 0.0
+    lost = np.array([forgetful.update(a)[0] for a in approaches[RESTART_STEP:]])
+    assert np.abs(lost - normal[RESTART_STEP:]).max() > 1e-3 * peak
+    shifts = [contact.state.ratchet_shift]
+    for a in approaches[RESTART_STEP:]:
+        contact.update(a)
+        shifts.append(contact.state.ratchet_shift)
+    assert shifts[0] == 0.0 and len(set(shifts)) == 4  # three ratchets after the restart
+
+
+def test_one_restart_carries_several_parameter_files(cycled_runs):
+    """Three atom types with three files, and a fourth file given to the 1-3 contacts by
+    pair_coeff 1 3: the run resumed from the restart names no file, yet each pair follows its
+    own file's law (the documents and the type-pair table came from the restart)."""
+    forces = np.concatenate([cycled_runs["parallel"]["forces"][:RESTART_STEP],
+                             cycled_runs["resumed"]["forces"]])
+    approaches = cycled_approaches()
+    peaks = []
+    for pair in range(len(scenarios.CYCLED_PAIRS)):
+        normal = python_normal_forces(pair, approaches[:, pair])
+        peaks.append(normal.max())
+        assert np.abs(forces[:, 2 * pair + 1, 0] - normal).max() <= 1e-9 * peaks[-1]
+    # the files differ, visibly: 1 (reference), 2 (illustrative), 3 (weak); 4 is illustrative
+    assert peaks[0] > 1.2 * peaks[1] and peaks[1] > 100 * peaks[2]
+    assert peaks[3] == pytest.approx(peaks[1], rel=1e-12)
+
+
+# The layout tags as the plugin writes them (pair_geocontact.cpp, fix_geocontact_history.h).
+# The pair section of a restart starts with two 32-bit ints, "GCPS" and the layout version; each
+# atom's contact history starts, after its length, with a 64-bit word holding "GCHS" in its high
+# and the layout version in its low half. The edits below find these bytes (they must occur
+# exactly once, once per atom) instead of trusting offsets into the LAMMPS file format, and
+# keep the file's length except for one: the pair section has no length prefix in the restart
+# format, so removing its 8 tag bytes leaves exactly an older plugin's pair section, which
+# began with the number of parameter documents.
+PAIR_TAG = b"GCPS" + struct.pack("<i", 1)
+HISTORY_TAG = struct.pack("<q", (int.from_bytes(b"GCHS", "little") << 32) | 1)
+
+
+def _replace(old: bytes, new: bytes, expected: int):
+    def edit(data: bytes) -> bytes:
+        assert data.count(old) == expected
+        return data.replace(old, new)
+    return edit
+
+
+@pytest.mark.parametrize("edit, message", [
+    (None, None),
+    (_replace(PAIR_TAG, b"", 1), "pair section has no geocontact layout tag \\(0x00000001 "
+                                 "where the tag 0x53504347 belongs"),
+    (_replace(PAIR_TAG, b"GCPS" + struct.pack("<i", 2), 1),
+     "pair section has layout version 2; this plugin reads pair layout version 1 only"),
+    (_replace(HISTORY_TAG, HISTORY_TAG[:4].replace(b"\x01", b"\x02") + HISTORY_TAG[4:], 2),
+     "per-atom contact history has contact-history layout version 2; this plugin reads "
+     "contact-history layout version 1 only"),
+    (_replace(HISTORY_TAG, struct.pack("<d", 1.0), 2),
+     "per-atom contact history has no geocontact layout tag \\(0x3ff0000000000000"),
+], ids=["intact", "pair-older-layout", "pair-other-version", "history-other-version",
+        "history-foreign"])
+def test_restart_of_another_layout_is_refused_with_a_clear_error(tmp_path, edit, message):
+    lmp = slipping_pair()
+    drive_slipping_pair(lmp, approach_path(PARAMS.yield_approach)[:30])  # plastic, sliding
+    restart = tmp_path / "pair.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+    if edit is not None:
+        restart.write_bytes(edit(restart.read_bytes()))
+
+    lmp = open_lammps()
+    try:
+        if message is None:  # the file as written reads, and its contact carries on
+            lmp.command(f"read_restart {restart}")
+            lmp.command("comm_modify vel yes")
+            lmp.command("run 1")
+            assert force_on(lmp, 2)[0] > PARAMS.yield_force
+        elif "pair section" in message:  # refused while the file is read
+            with pytest.raises(Exception, match=message):
+                lmp.command(f"read_restart {restart}")
+        else:  # the history is unpacked when the pair creates its fix, at the next run
+            lmp.command(f"read_restart {restart}")
+            lmp.command("comm_modify vel yes")
+            with pytest.raises(Exception, match=message):
+                lmp.command("run 0")
+    finally:
+        lmp.close()
 
 
 # --- bad input: LAMMPS errors with clear messages, never a crash -----------------------------

@@ -2,9 +2,11 @@
 #include "fix_geocontact_history.h"
 
 #include "atom.h"
+#include "comm.h"
 #include "error.h"
 
 #include <algorithm>
+#include <string>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
@@ -145,28 +147,68 @@ int FixGeocontactHistory::unpack_exchange(int nlocal, double *buf)
   return unpack_table(tables[nlocal], buf);
 }
 
-// Restart: buf[0] is the length of this fix's data for the atom, including buf[0] itself.
+// Restart: [length, layout tag, count, records]; buf[0] is the length of this fix's data for
+// the atom, including buf[0] itself.
 int FixGeocontactHistory::pack_restart(int i, double *buf)
 {
   sync();
-  const int m = 1 + pack_table(tables[i], buf + 1);
+  buf[1] = ubuf(kRestartTag).d;
+  const int m = 2 + pack_table(tables[i], buf + 2);
   buf[0] = m;
   return m;
 }
 
+// A record of another layout (an older plugin's file has the count where the tag is now) is
+// never unpacked: the atom is left without history, and init() refuses the run on every rank.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
   int m = 0;
   for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
   grow_arrays(nlocal + 1);
-  unpack_table(tables[nlocal], &extra[nlocal][m + 1]);
+  const double *record = &extra[nlocal][m];
+  const int64_t tag = ubuf(record[1]).i;
+  const int length = static_cast<int>(record[0]);
+  const int count = tag == kRestartTag ? static_cast<int>(record[2]) : -1;
+  if (count < 0 || length != kRestartHeader + count * kRecordSize) {
+    if (!unreadable_restart_) unreadable_tag_ = tag;
+    unreadable_restart_ = true;
+    tables[nlocal].clear();
+    return;
+  }
+  unpack_table(tables[nlocal], record + 2);
+}
+
+// What a restart record's tag says, for the error message.
+static std::string describe_tag(int64_t tag)
+{
+  if (tag == FixGeocontactHistory::kRestartTag)
+    return "the right layout tag but a record length that does not match its contact count";
+  if ((tag & ~int64_t(0xffffffff)) == FixGeocontactHistory::kRestartTagBase)
+    return fmt::format("contact-history layout version {}", tag & 0xffffffff);
+  return fmt::format("no geocontact layout tag (0x{:016x} where the tag belongs: an older "
+                     "plugin's or a foreign layout)", static_cast<uint64_t>(tag));
+}
+
+void FixGeocontactHistory::init()
+{
+  // Collective: the lowest rank that met an unreadable record names it.
+  const int mine = unreadable_restart_ ? comm->me : comm->nprocs;
+  int first = comm->nprocs;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, world);
+  if (first == comm->nprocs) return;
+  int64_t tag = unreadable_tag_;
+  MPI_Bcast(&tag, 1, MPI_INT64_T, first, world);
+  error->all(FLERR, "Fix geocontact/history: the restart file's per-atom contact history has {}; "
+                    "this plugin reads contact-history layout version {} only (re-create the "
+                    "restart with this plugin)",
+             describe_tag(tag), kRestartLayoutVersion);
 }
 
 int FixGeocontactHistory::size_restart(int i)
 {
   sync();
-  return 2 + static_cast<int>(tables[i].size()) * kRecordSize;
+  return kRestartHeader + static_cast<int>(tables[i].size()) * kRecordSize;
 }
 
 int FixGeocontactHistory::maxsize_restart()
@@ -174,7 +216,7 @@ int FixGeocontactHistory::maxsize_restart()
   sync();
   size_t most = 0;
   for (int i = 0; i < atom->nlocal; ++i) most = std::max(most, tables[i].size());
-  return 2 + static_cast<int>(most) * kRecordSize;
+  return kRestartHeader + static_cast<int>(most) * kRecordSize;
 }
 
 double FixGeocontactHistory::memory_usage()

@@ -7,6 +7,10 @@
 // The tables travel with atoms that migrate between ranks (pack/unpack_exchange), follow atom
 // sorting and deletion (copy_arrays) and are written to and read from restart files
 // (pack/unpack_restart). The pair style creates this fix; users do not.
+//
+// Restart layout of one atom: [length, layout tag, count, record x count]. The tag (the bytes
+// "GCHS" and a layout version) lets a file of another layout be refused instead of misread; the
+// fix writes no global restart data (everything it keeps is per atom).
 #ifdef FIX_CLASS
 // clang-format off
 FixStyle(geocontact/history,FixGeocontactHistory);
@@ -19,6 +23,7 @@ FixStyle(geocontact/history,FixGeocontactHistory);
 #include "fix.h"
 #include "geocontact/law.hpp"
 
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -34,6 +39,15 @@ class FixGeocontactHistory : public Fix {
  public:
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components
   static constexpr int kRecordSize = 17;
+  // Per-atom restart layout: bumped whenever the packed record changes.
+  static constexpr int kRestartLayoutVersion = 1;
+  // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
+  // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
+  // it travels as the bit pattern of a (normal, finite) double.
+  static constexpr int64_t kRestartTagBase = static_cast<int64_t>(0x53484347) << 32;
+  static constexpr int64_t kRestartTag = kRestartTagBase | kRestartLayoutVersion;
+  // Doubles per atom in a restart file besides the records: length, layout tag, count.
+  static constexpr int kRestartHeader = 3;
 
   FixGeocontactHistory(class LAMMPS *, int, char **);
   ~FixGeocontactHistory() override;
@@ -45,6 +59,7 @@ class FixGeocontactHistory : public Fix {
   void post_neighbor() override;
   void min_post_neighbor() override;
   void post_run() override;
+  void init() override;
 
   void grow_arrays(int) override;
   void copy_arrays(int, int, int) override;
@@ -90,6 +105,11 @@ class FixGeocontactHistory : public Fix {
   }
 
  private:
+  // The first per-atom restart record this rank could not read (another layout tag, or a
+  // record length that does not match its count): unpack_restart leaves such an atom without
+  // history and init() stops the run.
+  bool unreadable_restart_ = false;
+  int64_t unreadable_tag_ = 0;
   void update_maxexchange();
   static int pack_table(const std::vector<ContactRecord> &table, double *buf);
   static int unpack_table(std::vector<ContactRecord> &table, const double *buf);

@@ -27,6 +27,11 @@ constexpr const char *kHistoryFixId = "GEOCONTACT_HISTORY";
 // is calibrated for two identical spheres of that radius.
 constexpr double kRadiusTolerance = 1e-6;
 constexpr double kDefaultFriction = 0.5;
+// Restart layout of the pair: the tag (the bytes "GCPS" in the file, little-endian) and a layout
+// version come first, so a file of another layout is refused instead of misread. Bump the
+// version whenever write_restart changes.
+constexpr int kRestartTag = 0x53504347;
+constexpr int kRestartLayoutVersion = 1;
 
 inline double dot3(const double *a, const double *b)
 {
@@ -553,11 +558,13 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
   return geocontact::elastic_energy(law, st);
 }
 
-// Restart: the parameter documents themselves (not their paths), so a restart is
-// self-contained, then per type pair the law index, friction and damping.
+// Restart: the layout tag and version, the parameter documents themselves (not their paths), so
+// a restart is self-contained, then per type pair the law index, friction and damping.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
+  fwrite(&kRestartTag, sizeof(int), 1, fp);
+  fwrite(&kRestartLayoutVersion, sizeof(int), 1, fp);
   const int nlaws = static_cast<int>(law_texts_.size());
   fwrite(&nlaws, sizeof(int), 1, fp);
   for (const std::string &text : law_texts_) {
@@ -580,6 +587,22 @@ void PairGeocontact::read_restart(FILE *fp)
 {
   allocate();
   const int me = comm->me;
+  // An older plugin's file starts with the number of parameter documents where the tag is now.
+  int layout[2] = {0, 0};
+  if (me == 0) utils::sfread(FLERR, layout, sizeof(int), 2, fp, nullptr, error);
+  MPI_Bcast(layout, 2, MPI_INT, 0, world);
+  if (layout[0] != kRestartTag)
+    error->all(FLERR, "Pair geocontact: the restart file's pair section has no geocontact layout "
+                      "tag (0x{:08x} where the tag 0x{:08x} belongs: an older plugin's or a "
+                      "foreign layout); this plugin reads pair layout version {} only (re-create "
+                      "the restart with this plugin)",
+               static_cast<unsigned>(layout[0]), static_cast<unsigned>(kRestartTag),
+               kRestartLayoutVersion);
+  if (layout[1] != kRestartLayoutVersion)
+    error->all(FLERR, "Pair geocontact: the restart file's pair section has layout version {}; "
+                      "this plugin reads pair layout version {} only (re-create the restart with "
+                      "this plugin)",
+               layout[1], kRestartLayoutVersion);
   int nlaws = 0;
   if (me == 0) utils::sfread(FLERR, &nlaws, sizeof(int), 1, fp, nullptr, error);
   MPI_Bcast(&nlaws, 1, MPI_INT, 0, world);
