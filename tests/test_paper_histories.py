@@ -216,3 +216,21 @@ def test_increments_at_the_fe_resolution_mean_immediate_shakedown(paper_like):
     longer = by_statement(rows, "The weaker sphere (1 MPa) ratchets longer")
     assert longer["agrees"] is False
     assert longer["our_value"]["ratchetting_cycles"] == {"repeated-10MPa": 9, "repeated-1MPa": 0}
+
+
+def test_report_leaves_out_statements_whose_runs_are_missing(paper_like, tmp_path):
+    """A study of some of the runs (as the demo's): the report's table holds only what those
+    runs decide, and one line names the runs (and the command) the other statements need."""
+    from geocontact.io import provenance
+    from geocontact.paper_histories import write_study
+    from geocontact.report_sections import build_report
+
+    runs = {k: v for k, v in paper_like.items() if k.endswith("10MPa")}
+    write_study(tmp_path, runs, provenance("test", {}))
+    findings = json.loads((tmp_path / "findings.json").read_text())["findings"]
+    missing = [f for f in findings if f.get("missing_runs")]
+    assert missing and all(set(f["missing_runs"]) - set(runs) for f in missing)
+    text = build_report(tmp_path).read_text()
+    assert "not available" not in text and "n/a" not in text
+    assert f"{len(missing)} more of the paper's statements need runs" in text
+    assert "repeated-1MPa" in text and "scripts/paper_histories.py" in text
