@@ -357,6 +357,141 @@ void PairGeocontact::sync_mirrors()
   }
 }
 
+// --- one contact, in the manner of LAMMPS's granular sub-models: geometry, normal force,
+// damping, tangential force, energy tallies, forces on the grains ---------------------------
+
+namespace {
+
+// Where the two grains touch and how the contact point moves: unit normal from j to i, normal
+// relative speed (positive when separating) and tangential relative velocity of the contact
+// point of i with respect to that of j.
+struct ContactFrame {
+  double n[3];
+  double vn;
+  double vt[3];
+};
+
+ContactFrame contact_frame(const double *del, double r, const double *vi, const double *vj,
+                           const double *wi, const double *wj, double radi, double radj)
+{
+  ContactFrame c;
+  const double rinv = 1.0 / r;
+  for (int k = 0; k < 3; ++k) c.n[k] = del[k] * rinv;
+  const double vr[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
+  c.vn = dot3(vr, c.n);
+  const double wr[3] = {radi * wi[0] + radj * wj[0], radi * wi[1] + radj * wj[1],
+                        radi * wi[2] + radj * wj[2]};
+  c.vt[0] = vr[0] - c.vn * c.n[0] - (wr[1] * c.n[2] - wr[2] * c.n[1]);
+  c.vt[1] = vr[1] - c.vn * c.n[1] - (wr[2] * c.n[0] - wr[0] * c.n[2]);
+  c.vt[2] = vr[2] - c.vn * c.n[2] - (wr[0] * c.n[1] - wr[1] * c.n[0]);
+  return c;
+}
+
+// Stiffnesses of the contact for damping and friction: the unloading stiffness S = 2 E* a of
+// the law's current branch gives the contact radius a, and Mindlin's k_t = 8 G* a.
+struct ContactStiffness {
+  double normal;      // S, N/m
+  double tangential;  // k_t, N/m
+};
+
+ContactStiffness contact_stiffness(const geocontact::LawParams &law,
+                                   const geocontact::ContactState &state)
+{
+  const double normal = geocontact::unloading_stiffness(law, state);
+  const double a = normal / (2.0 * law.material.effective_modulus());
+  return {normal, 8.0 * law.material.effective_shear_modulus() * a};
+}
+
+// Viscous damping at a fraction beta of critical, 2 beta sqrt(m_eff k), per direction.
+struct Damping {
+  double normal;
+  double tangential;
+};
+
+Damping damping_coefficients(double beta, double mi, double mj, const ContactStiffness &k)
+{
+  if (beta <= 0.0) return {0.0, 0.0};
+  const double meff = mi * mj / (mi + mj);
+  return {2.0 * beta * std::sqrt(meff * k.normal), 2.0 * beta * std::sqrt(meff * k.tangential)};
+}
+
+// The normal force: the law's force less the damping force against the approach rate (-vn);
+// never tensile.
+double damped_normal_force(double law_force, double damping, double vn)
+{
+  const double fn = law_force - damping * vn;
+  return fn > 0.0 ? fn : 0.0;
+}
+
+// Incremental Mindlin-Coulomb tangential force. The stored force fs (not a displacement, so a
+// changing contact radius never makes the force jump) is first rotated into the current
+// tangent plane keeping its magnitude, then incremented by -k_t v_t dt; the force on the
+// grain adds the tangential damping and is capped by mu fn, where sliding makes the stored
+// force the Coulomb force.
+void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt, double damping,
+                      double friction, double fn, double dt)
+{
+  const double before = std::sqrt(dot3(fs, fs));
+  const double fsn = dot3(fs, c.n);
+  for (int k = 0; k < 3; ++k) fs[k] -= fsn * c.n[k];
+  const double after = std::sqrt(dot3(fs, fs));
+  if (after > 0.0) {
+    const double scale = before / after;
+    for (int k = 0; k < 3; ++k) fs[k] *= scale;
+  }
+  for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
+  for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];
+  const double limit = friction * fn;
+  const double mag = std::sqrt(dot3(ft, ft));
+  if (mag > limit) {
+    const double scale = mag > 0.0 ? limit / mag : 0.0;
+    for (int k = 0; k < 3; ++k) {
+      ft[k] *= scale;
+      fs[k] = ft[k];
+    }
+  }
+}
+
+}  // namespace
+
+// The contact's share of the global energy tallies (compute pair geocontact): each contact
+// once, whole if both grains are owned here, half if shared with another rank.
+void PairGeocontact::tally_contact(const geocontact::LawParams &law,
+                                   const geocontact::ContactState &state, bool owned_pair)
+{
+  const double w = owned_pair ? 1.0 : 0.5;
+  const double stored = geocontact::elastic_energy(law, state);
+  pvector[GV_DISSIPATED] += w * (state.work - stored);
+  pvector[GV_ELASTIC] += w * stored;
+  if (state.force > 0.0) pvector[GV_CONTACTS] += w;
+  if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
+}
+
+// Normal and tangential force on grain i (and the opposite on j if owned here), with the
+// torques of the tangential force about each centre, -r (n x Ft).
+void PairGeocontact::apply_contact_force(int i, int j, double fn, const double *ft,
+                                         const double *n, const double *del, double energy)
+{
+  double **f = atom->f;
+  double **torque = atom->torque;
+  const double *radius = atom->radius;
+  const int nlocal = atom->nlocal;
+  const double fx = fn * n[0] + ft[0], fy = fn * n[1] + ft[1], fz = fn * n[2] + ft[2];
+  const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
+                         n[0] * ft[1] - n[1] * ft[0]};
+  f[i][0] += fx;
+  f[i][1] += fy;
+  f[i][2] += fz;
+  for (int k = 0; k < 3; ++k) torque[i][k] -= radius[i] * tor[k];
+  if (j < nlocal) {
+    f[j][0] -= fx;
+    f[j][1] -= fy;
+    f[j][2] -= fz;
+    for (int k = 0; k < 3; ++k) torque[j][k] -= radius[j] * tor[k];
+  }
+  if (evflag) ev_tally_xyz(i, j, nlocal, 0, energy, 0.0, fx, fy, fz, del[0], del[1], del[2]);
+}
+
 void PairGeocontact::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
@@ -373,9 +508,7 @@ void PairGeocontact::compute(int eflag, int vflag)
 
   double **x = atom->x;
   double **v = atom->v;
-  double **f = atom->f;
   double **omega = atom->omega;
-  double **torque = atom->torque;
   const double *radius = atom->radius;
   const double *rmass = atom->rmass;
   const int *type = atom->type;
@@ -423,68 +556,16 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double r = std::sqrt(rsq);
       const geocontact::StepResult res = geocontact::step(law, rec.law, radsum - r);
 
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, n[3] = {0.0, 0.0, 0.0};
+      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0};
+      ContactFrame frame{};
       if (res.force > 0.0) {
-        const double rinv = 1.0 / r;
-        n[0] = del[0] * rinv;
-        n[1] = del[1] * rinv;
-        n[2] = del[2] * rinv;
-        // relative velocity of the contact point of i with respect to that of j
-        const double vr[3] = {v[i][0] - v[j][0], v[i][1] - v[j][1], v[i][2] - v[j][2]};
-        const double vnn = dot3(vr, n);
-        const double wr[3] = {radi * omega[i][0] + radius[j] * omega[j][0],
-                              radi * omega[i][1] + radius[j] * omega[j][1],
-                              radi * omega[i][2] + radius[j] * omega[j][2]};
-        const double vt[3] = {vr[0] - vnn * n[0] - (wr[1] * n[2] - wr[2] * n[1]),
-                              vr[1] - vnn * n[1] - (wr[2] * n[0] - wr[0] * n[2]),
-                              vr[2] - vnn * n[2] - (wr[0] * n[1] - wr[1] * n[0])};
-
-        // Contact radius from the unloading stiffness S = 2 E* a; Mindlin k_t = 8 G* a.
-        const double stiffness_unload = geocontact::unloading_stiffness(law, rec.law);
-        const double a = stiffness_unload / (2.0 * law.material.effective_modulus());
-        const double kt = 8.0 * law.material.effective_shear_modulus() * a;
-
-        fn = res.force;
-        double damp_t = 0.0;
-        if (tp.damping > 0.0) {
-          const double mi = rmass[i], mj = rmass[j];
-          const double meff = mi * mj / (mi + mj);
-          // approach rate is -vnn; the damping force opposes it; no tension from damping
-          fn -= 2.0 * tp.damping * std::sqrt(meff * stiffness_unload) * vnn;
-          if (fn < 0.0) fn = 0.0;
-          damp_t = 2.0 * tp.damping * std::sqrt(meff * kt);
-        }
-
-        if (tp.friction > 0.0) {
-          double *fs = rec.tangential;
-          // Rotate the stored force into the current tangent plane, keeping its magnitude.
-          const double before = std::sqrt(dot3(fs, fs));
-          const double fsn = dot3(fs, n);
-          fs[0] -= fsn * n[0];
-          fs[1] -= fsn * n[1];
-          fs[2] -= fsn * n[2];
-          const double after = std::sqrt(dot3(fs, fs));
-          if (after > 0.0) {
-            const double scale = before / after;
-            fs[0] *= scale;
-            fs[1] *= scale;
-            fs[2] *= scale;
-          }
-          // Incremental Mindlin with the current stiffness: storing the force, not the
-          // displacement, so a changing contact radius never makes the force jump.
-          for (int c = 0; c < 3; ++c) fs[c] -= kt * vt[c] * dt;
-          for (int c = 0; c < 3; ++c) ft[c] = fs[c] - damp_t * vt[c];
-          const double limit = tp.friction * fn;
-          const double mag = std::sqrt(dot3(ft, ft));
-          if (mag > limit) {
-            // sliding: the stored force becomes the Coulomb force
-            const double scale = mag > 0.0 ? limit / mag : 0.0;
-            for (int c = 0; c < 3; ++c) {
-              ft[c] *= scale;
-              fs[c] = ft[c];
-            }
-          }
-        }
+        frame = contact_frame(del, r, v[i], v[j], omega[i], omega[j], radi, radius[j]);
+        const ContactStiffness stiffness = contact_stiffness(law, rec.law);
+        const Damping damping = damping_coefficients(tp.damping, rmass[i], rmass[j], stiffness);
+        fn = damped_normal_force(res.force, damping.normal, frame.vn);
+        if (tp.friction > 0.0)
+          tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
+                           tp.friction, fn, dt);
       } else {
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
       }
@@ -494,39 +575,10 @@ void PairGeocontact::compute(int eflag, int vflag)
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }
-      if (eflag_global) {
-        // each contact once: whole if both grains are owned here, half if shared with a rank
-        const double w = j < nlocal ? 1.0 : 0.5;
-        const double stored = geocontact::elastic_energy(law, rec.law);
-        pvector[GV_DISSIPATED] += w * (rec.law.work - stored);
-        pvector[GV_ELASTIC] += w * stored;
-        if (rec.law.force > 0.0) pvector[GV_CONTACTS] += w;
-        if (rec.law.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
-      }
+      if (eflag_global) tally_contact(law, rec.law, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
-
-      const double fx = fn * n[0] + ft[0], fy = fn * n[1] + ft[1], fz = fn * n[2] + ft[2];
-      // torque of the tangential force about each centre: -r (n x Ft)
-      const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
-                             n[0] * ft[1] - n[1] * ft[0]};
-      f[i][0] += fx;
-      f[i][1] += fy;
-      f[i][2] += fz;
-      torque[i][0] -= radi * tor[0];
-      torque[i][1] -= radi * tor[1];
-      torque[i][2] -= radi * tor[2];
-      if (j < nlocal) {
-        f[j][0] -= fx;
-        f[j][1] -= fy;
-        f[j][2] -= fz;
-        torque[j][0] -= radius[j] * tor[0];
-        torque[j][1] -= radius[j] * tor[1];
-        torque[j][2] -= radius[j] * tor[2];
-      }
-      if (evflag) {
-        const double energy = eflag ? geocontact::elastic_energy(law, rec.law) : 0.0;
-        ev_tally_xyz(i, j, nlocal, 0, energy, 0.0, fx, fy, fz, del[0], del[1], del[2]);
-      }
+      const double energy = eflag ? geocontact::elastic_energy(law, rec.law) : 0.0;
+      apply_contact_force(i, j, fn, ft, frame.n, del, energy);
     }
   }
 }

@@ -66,6 +66,10 @@ class PairGeocontact : public Pair {
   void index_contacts();
   void sync_mirrors();
   int add_law(const std::string &text, const std::string &source);
+  void tally_contact(const geocontact::LawParams &law, const geocontact::ContactState &state,
+                     bool owned_pair);
+  void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
+                           const double *del, double energy);
 
   FixGeocontactHistory *history_;
   std::vector<geocontact::LawParams> laws_;
