@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 from pathlib import Path
 
@@ -10,6 +11,9 @@ from geocontact import __version__
 from geocontact.io import write_json_atomic, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
+# the plugin of this checkout, also for the MPI drivers that run in temporary folders
+os.environ.setdefault("GEOCONTACT_LAMMPS_PLUGIN",
+                      str(ROOT / "build" / "lammps-plugin" / "geocontactplugin.so"))
 OUT = ROOT / "out" / "bench"
 DOC = ROOT / "docs" / "benchmarks.md"
 

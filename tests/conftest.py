@@ -1,7 +1,15 @@
+import os
+from pathlib import Path
+
 import pytest
 
 from geocontact import preset
 from geocontact.law import CyclicLaw, LawParams
+
+# The LAMMPS plugin of this checkout, for in-process tests and their MPI subprocesses (which run
+# in temporary folders).
+os.environ.setdefault("GEOCONTACT_LAMMPS_PLUGIN", str(
+    Path(__file__).resolve().parents[1] / "build" / "lammps-plugin" / "geocontactplugin.so"))
 
 # A yield approach of the order of the reference case's; the law itself does not care where
 # delta_y comes from (geocontact.hertz supplies it in real parameter files).

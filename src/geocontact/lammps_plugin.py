@@ -15,8 +15,10 @@ from pathlib import Path
 
 from .errors import InputError
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-DEFAULT_PLUGIN = REPO_ROOT / "build" / "lammps-plugin" / "geocontactplugin.so"
+# Where `make plugin` builds it, relative to the working directory (the repository root): the
+# installed package does not know where a checkout is, so elsewhere set the variable.
+DEFAULT_PLUGIN = Path("build") / "lammps-plugin" / "geocontactplugin.so"
+PLUGIN_VARIABLE = "GEOCONTACT_LAMMPS_PLUGIN"
 
 
 def mpi_library_dir() -> Path:
@@ -32,10 +34,12 @@ def preload_mpi() -> None:
 
 
 def plugin_path() -> Path:
-    """The built plugin: ``$GEOCONTACT_LAMMPS_PLUGIN`` or ``build/lammps-plugin/``."""
-    path = Path(os.environ.get("GEOCONTACT_LAMMPS_PLUGIN", DEFAULT_PLUGIN))
+    """The built plugin: ``$GEOCONTACT_LAMMPS_PLUGIN``, or ``build/lammps-plugin/`` of the
+    working directory (a checkout where ``make plugin`` ran)."""
+    path = Path(os.environ.get(PLUGIN_VARIABLE) or DEFAULT_PLUGIN).resolve()
     if not path.exists():
-        raise InputError(f"lammps plugin: {path} not found; run `make plugin` first")
+        raise InputError(f"lammps plugin: {path} not found; run `make plugin` in the checkout "
+                         f"and run from there, or set {PLUGIN_VARIABLE} to the built .so")
     return path
 
 
