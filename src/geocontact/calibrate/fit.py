@@ -14,6 +14,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import InputError
+from ..hertz import hertz_coefficient
 from ..law.params import HERTZ_EXPONENT, LawParams, saturating_ratio
 from ..material import Material
 
@@ -197,7 +198,7 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     """Every parameter of the law from FE (or test) cycles; returns validated LawParams."""
     if len(levels) < 3:
         raise InputError(f"calibration: needs >= 3 load levels, got {len(levels)}")
-    kh = 4.0 / 3.0 * material.effective_modulus * np.sqrt(material.effective_radius)
+    kh = hertz_coefficient(material)
     loading = fit_loading(loading_approach, loading_force, yield_approach, kh)
     depth = np.array([lv.max_approach / yield_approach for lv in levels])
     if np.any(depth <= 1.0):

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..hertz import hertz_coefficient
 from ..io import read_text_input, write_text_atomic
 from ..material import Material
 
@@ -205,8 +206,7 @@ class LawParams:
     @property
     def hertz_coefficient(self) -> float:
         """Kh of F = Kh delta^1.5 for two identical spheres (SPEC 4)."""
-        m = self.material
-        return 4.0 / 3.0 * m.effective_modulus * math.sqrt(m.effective_radius)
+        return hertz_coefficient(self.material)
 
     @property
     def yield_force(self) -> float:
