@@ -4,7 +4,8 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench examples calibrate-examples clean plugin test-plugin ccx
+.PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
+	test-plugin ccx
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -48,7 +49,7 @@ ccx:
 	command -v ccx >/dev/null || (apt-get update && apt-get install -y calculix-ccx) \
 	  || (sudo apt-get update && sudo apt-get install -y calculix-ccx)
 
-bench: $(STAMP) plugin ccx
+bench: $(STAMP) plugin ccx check-calibrations
 	$(PY) benchmarks/run.py
 
 # Regenerate the shipped illustrative parameter files (never edited by hand).
@@ -65,6 +66,12 @@ calibrate-examples: $(STAMP)
 	  --out examples/params-reference.json
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh $(CALIBRATE_MESH) --levels 13 \
 	  --acceptance --out examples/params-reference-weak.json
+
+# The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
+# from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a
+# mismatch; never writes into examples/). docs/calibration.md "Regenerating the shipped files".
+check-calibrations: $(STAMP)
+	$(PY) scripts/check_calibrations.py --mesh $(CALIBRATE_MESH)
 
 clean:
 	rm -rf $(VENV) build out .pytest_cache .ruff_cache

@@ -95,6 +95,90 @@ def test_published_fits_critical_values_agree_with_the_analytic_first_yield():
         jg.interference, rel=0.005)
 
 
+# --- von Mises limit: unloading, residual approach and loop work against Etsion et al. (2005) --
+@pytest.fixture(scope="module", params=[30.0, 100.0], ids=["30Fy", "100Fy"])
+def von_mises_cycle(request):
+    """One coarse von Mises cycle 0 -> F -> 0 (F = 30 or 100 analytic Fy, 8 steps per segment;
+    omega_max = 11.4 and 29.2 omega_c), as ball-wall interference and force of the half model."""
+    material = preset("von-mises")
+    peak = request.param * hertz.incipient_yield(material).force
+    result = run_history(material, [0.0, peak, 0.0], mesh="coarse", write_fields=False,
+                         steps_per_segment=8)
+    return material, result
+
+
+def test_von_mises_unloading_residual_and_loop_work_match_etsion_kligerman_kadin(von_mises_cycle):
+    """The FE unloading of the von Mises sphere (preset von-mises: E/sigma_c = 1000, nu = 0.3,
+    inside EKK's range E/S_y = 200-1000, nu = 0.3, omega_max <= 110 omega_c) against the fits of
+    Etsion, Kligerman & Kadin (2005), normalised with Kogut-Etsion's omega_c and P_c.
+
+    Tolerances: the coarse mesh is within 1.2 % (residual approach) and 2.5 % (plastic work) of
+    the fine one and 24 -> 40 load steps move them by 1.6 / 2.4 % (docs/verification.md, mesh
+    convergence); the published fits are themselves uncertain: EKK's and Jackson-Chusoipin-
+    Green's residual fits differ by 0.7 % at 11 omega_c and 8 % at 29 omega_c, KE's and JG's
+    loading fits by up to 4 %. Hence 6 % on omega_res/omega_max, 3 % on the unloading exponent
+    (a Hertzian 3/2 is 8-12 % off), 0.03 P_max on the unloading curve, 5 % on the loading work
+    (as the loading-curve test) and 8 % on the loop work (the difference of two works, each
+    within a few %). Measured (30 / 100 Fy): residual ratio +1.8 / +2.8 %, exponent +0.3 /
+    +0.8 %, curve 0.012 / 0.010 P_max, loading work -1.8 / -0.5 %, loop work -2.9 / +0.9 %.
+    """
+    from geocontact.calibrate.fit import _power_exponent
+
+    material, result = von_mises_cycle
+    ke = fits.kogut_etsion_critical(material)
+    omega = result.curve["approach_m"] / 2.0  # ball-wall interference of the half model
+    force = result.curve["force_N"]
+    (cycle,) = result.summary["cycles"]
+    k = int(np.argmax(force))
+    omega_max, force_max = omega[k], force[k]
+    omega_res = cycle["residual_approach_m"] / 2.0
+    w = omega_max / ke.interference
+    assert 10.0 < w < 35.0  # well past first yield, inside the fits' range
+
+    # residual interference
+    assert omega_res / omega_max == pytest.approx(float(fits.etsion_residual_ratio(w)), rel=0.06)
+    # unloading: the exponent of P/P_max = t^n fitted to the FE branch, and the curve itself
+    # (with the FE's own omega_res, so that the shape is checked apart from the residual)
+    unload_omega, unload_force = omega[k:], force[k:]
+    n_fe, _ = _power_exponent(unload_omega, unload_force, omega_res, omega_max, force_max)
+    n_ekk = float(fits.etsion_unloading_exponent(w))
+    assert n_fe == pytest.approx(n_ekk, rel=0.03)
+    t = np.clip((unload_omega - omega_res) / (omega_max - omega_res), 0.0, None)
+    assert np.max(np.abs(unload_force / force_max - t**n_ekk)) < 0.03
+    # works of the half model (curve and summary energies are for the pair, SPEC section 2)
+    unit = ke.force * ke.interference
+    loading_work = result.curve["work_J"][k] / 2.0
+    assert loading_work == pytest.approx(float(fits.kogut_etsion_loading_work(w)) * unit,
+                                         rel=0.05)
+    reference_loop = (float(fits.kogut_etsion_loading_work(w) * fits.etsion_loop_work_ratio(w))
+                      * unit)
+    assert cycle["loop_work_J"] / 2.0 == pytest.approx(reference_loop, rel=0.08)
+    # the FE's plastic dissipation is the loop work less the elastic energy locked in by the
+    # residual stresses (energy balance over the closed cycle)
+    assert cycle["plastic_work_J"] < cycle["loop_work_J"]
+    assert cycle["plastic_work_J"] + cycle["residual_elastic_energy_J"] == pytest.approx(
+        cycle["loop_work_J"], rel=0.03)
+
+
+def test_etsion_fits_limits_and_closed_form_work():
+    """The fits as coded: no residual and a Hertzian 3/2 at first yield, EKK's and JCG's residual
+    ratios within 1 % of each other at 11 omega_c and 8 % at 29 omega_c (the spread used in the
+    tolerance above), and the KE loading work the integral of the KE load."""
+    from scipy.integrate import quad
+
+    assert fits.etsion_residual_ratio(1.0) == 0.0 and fits.jackson_residual_ratio(1.0) == 0.0
+    assert fits.etsion_unloading_exponent(1.0) == 1.5
+    np.testing.assert_allclose(fits.etsion_unloading_load(10.0, [1.0, 0.2]), [1.0, 0.0])
+    ratio = fits.jackson_residual_ratio([11.4, 29.2]) / fits.etsion_residual_ratio([11.4, 29.2])
+    np.testing.assert_allclose(ratio, [0.993, 1.081], atol=0.002)
+    for w in (0.5, 3.0, 20.0):
+        exact = quad(lambda x: float(fits.kogut_etsion_load(x)), 0.0, w, points=[1.0, 6.0])[0]
+        assert fits.kogut_etsion_loading_work(w) == pytest.approx(exact, rel=1e-9)
+    # an elastic cycle gives back (almost) all: 0 at w = 1 but for KE's 3 % jump there
+    assert abs(float(fits.etsion_loop_work_ratio(1.0))) < 0.031
+    assert np.all(np.diff(fits.etsion_loop_work_ratio([2.0, 10.0, 50.0, 110.0])) > 0)
+
+
 # --- fully plastic onset ---------------------------------------------------------------------
 def test_fully_plastic_onset_interpolates_the_first_loading_crossing():
     force = [0.0, 100.0, 200.0, 300.0, 250.0, 400.0]

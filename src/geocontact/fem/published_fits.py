@@ -21,6 +21,22 @@ of a sphere on a rigid flat, E' = E / (1 - nu^2) (not the E* of two spheres).
       H_G / S_y = 2.84 [1 - exp(-0.82 (a/R)^-0.7)],
       a = sqrt(R omega) (w / 1.9)^(B/2) for w >= 1.9 (Hertz a = sqrt(R omega) below),
       B = 0.14 exp(23 S_y / E').
+- Etsion, I., Kligerman, Y. & Kadin, Y. (2005) Unloading of an elastic-plastic loaded spherical
+  contact. Int. J. Solids Struct. 42, 3716-3729 (EKK). FE of the same sphere / rigid flat,
+  elastic-perfectly plastic, E/S_y = 200-1000, nu = 0.3, 1 <= omega_max/omega_c <= 110, in the
+  Kogut-Etsion normalisation (omega_c, P_c above); with w = omega_max / omega_c::
+
+      omega_res / omega_max = [1 - w^-0.28] [1 - w^-0.69],
+      P / P_max = ((omega - omega_res) / (omega_max - omega_res))^n,   n = 1.5 w^-0.0331.
+
+- Jackson, R. L., Chusoipin, I. & Green, I. (2005) A finite element study of the residual stress
+  and deformation in hemispherical contacts. J. Tribol. 127, 484-493 (JCG), the second published
+  residual fit, in the JG normalisation: omega_res / omega_max = 1.02 [1 - ((w + 5.9)/6.9)^-0.54].
+
+The loading work and the loop work ("what unloading does not give back", SPEC section 6) of a
+load-unload cycle follow from KE's loading fit and EKK's unloading fit by integration
+(:func:`kogut_etsion_loading_work`, :func:`etsion_loop_work_ratio`); EKK give no energy fit of
+their own.
 """
 
 from __future__ import annotations
@@ -101,6 +117,53 @@ def jackson_green_load(material: Material, w) -> np.ndarray:
             + 4.0 * hardness / c * (1.0 - np.exp(-w ** (5.0 / 9.0) / 25.0)) * w)
 
 
+def kogut_etsion_loading_work(w) -> np.ndarray:
+    """Work of the KE loading force from 0 to w = omega/omega_c, in units of P_c omega_c
+    (Hertz below 1, the two KE branches above; closed-form integral of kogut_etsion_load)."""
+    w = np.asarray(w, dtype=float)
+    hertz = np.minimum(w, 1.0) ** 2.5 / 2.5
+    first = 1.03 * (np.clip(w, 1.0, 6.0) ** 2.425 - 1.0) / 2.425
+    second = 1.40 * (np.maximum(w, 6.0) ** 2.263 - 6.0**2.263) / 2.263
+    return hertz + first + second
+
+
+# --- Etsion, Kligerman & Kadin (2005), Jackson, Chusoipin & Green (2005) -----------------------
+def etsion_residual_ratio(w) -> np.ndarray:
+    """omega_res / omega_max after unloading from w = omega_max/omega_c (EKK; 0 up to w = 1)."""
+    w = np.maximum(np.asarray(w, dtype=float), 1.0)
+    return (1.0 - w**-0.28) * (1.0 - w**-0.69)
+
+
+def etsion_unloading_exponent(w) -> np.ndarray:
+    """n of P/P_max = t^n after unloading from w = omega_max/omega_c (EKK; 3/2 up to w = 1)."""
+    return 1.5 * np.maximum(np.asarray(w, dtype=float), 1.0) ** -0.0331
+
+
+def etsion_unloading_load(w_max: float, interference_ratio) -> np.ndarray:
+    """P/P_max on unloading from w_max, against omega/omega_max (EKK); 0 below omega_res."""
+    rho = float(etsion_residual_ratio(w_max))
+    t = (np.asarray(interference_ratio, dtype=float) - rho) / (1.0 - rho)
+    return np.clip(t, 0.0, None) ** float(etsion_unloading_exponent(w_max))
+
+
+def etsion_loop_work_ratio(w_max) -> np.ndarray:
+    """W_p / W_total of a load-unload cycle to w_max: KE loading, EKK unloading.
+
+    W_total = P_c omega_c kogut_etsion_loading_work(w_max); the unloading gives back
+    P_max (omega_max - omega_res) / (n + 1) with P_max the KE load at w_max.
+    """
+    w = np.maximum(np.asarray(w_max, dtype=float), 1.0)
+    returned = (kogut_etsion_load(w) * w * (1.0 - etsion_residual_ratio(w))
+                / (etsion_unloading_exponent(w) + 1.0))
+    return 1.0 - returned / kogut_etsion_loading_work(w)
+
+
+def jackson_residual_ratio(w) -> np.ndarray:
+    """omega_res / omega_max after unloading from w = omega_max/omega_c (JCG; 0 up to w = 1)."""
+    w = np.maximum(np.asarray(w, dtype=float), 1.0)
+    return 1.02 * (1.0 - ((w + 5.9) / 6.9) ** -0.54)
+
+
 def fe_load_at(interference: np.ndarray, force: np.ndarray, at: np.ndarray) -> np.ndarray:
     """An FE loading curve F(omega) (monotonic) read at ``at``: linear in log-log between steps."""
     keep = (interference > 0) & (force > 0)
@@ -110,7 +173,9 @@ def fe_load_at(interference: np.ndarray, force: np.ndarray, at: np.ndarray) -> n
 
 
 __all__ = [
-    "Critical", "fe_load_at", "jackson_green_c", "jackson_green_contact_radius",
-    "jackson_green_critical", "jackson_green_load", "kogut_etsion_critical", "kogut_etsion_load",
+    "Critical", "etsion_loop_work_ratio", "etsion_residual_ratio", "etsion_unloading_exponent",
+    "etsion_unloading_load", "fe_load_at", "jackson_green_c", "jackson_green_contact_radius",
+    "jackson_green_critical", "jackson_green_load", "jackson_residual_ratio",
+    "kogut_etsion_critical", "kogut_etsion_load", "kogut_etsion_loading_work",
     "sphere_on_flat_modulus",
 ]
