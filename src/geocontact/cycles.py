@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import copy
 import math
-import sys
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -511,26 +510,6 @@ def check_cyclic_history(forces: list[float]) -> None:
                          f"for a cycle analysis, got {forces[-1]:g} N")
 
 
-def _finished_fe(directory, material, forces, mesh, steps):
-    """A finished FE run in ``directory`` with exactly these inputs and this version, else None
-    (also when it cannot be read back, e.g. written by an FE with other curve columns)."""
-    from .fem.campaign import load_result
-    from .fem.run import STEPS_PER_SEGMENT
-
-    if not (directory / "summary.json").exists():
-        return None
-    try:
-        result = load_result(directory)
-    except InputError:
-        return None
-    inputs = result.summary.get("inputs", {})
-    same = (result.summary.get("version") == __version__
-            and inputs.get("material") == material.to_dict()
-            and inputs.get("forces_N") == list(forces) and inputs.get("mesh") == mesh
-            and inputs.get("steps_per_segment") == int(steps or STEPS_PER_SEGMENT[mesh]))
-    return result if same else None
-
-
 def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                resume: bool = False, fit_params=None, progress: bool = False,
@@ -554,13 +533,11 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                          f"{ours[key]:g} (the law must describe the FE's material)")
     out = Path(out)
     fe_dir = out / "fe"
-    result = _finished_fe(fe_dir, material, forces, mesh, steps_per_segment) if resume else None
-    if result is None:
-        result = run_history(material, forces, mesh=mesh, out=fe_dir,
-                             steps_per_segment=steps_per_segment, resume=resume,
-                             progress=progress, write_fields=True)
-    elif progress:
-        print(f"cycles: reusing the finished FE run in {fe_dir}", file=sys.stderr)
+    # resume: a finished FE run of the same identity (inputs, FE code, libraries: fem.reuse)
+    # is reused, else the FE goes on from its checkpoint
+    result = run_history(material, forces, mesh=mesh, out=fe_dir,
+                         steps_per_segment=steps_per_segment, resume=resume,
+                         progress=progress, write_fields=True)
     fe_cycles = result.summary["cycles"]
     analyses = {"fe": analyse(fe_cycles, tolerance=tolerance, source="fe")}
     if params is not None:

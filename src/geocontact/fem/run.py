@@ -13,9 +13,9 @@ the half model, energies = 2 x the half model's (SPEC section 2). The force is t
 from __future__ import annotations
 
 import csv
-import hashlib
 import json
 import math
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError
 from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
     history_from_dict,
     load_history,
@@ -34,7 +34,7 @@ from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
 from ..hertz import incipient_yield
 from ..io import atomic_directory, atomic_path, write_json_atomic
 from ..material import Material
-from .mesh import PRESETS, build_mesh, mesh_preset
+from .mesh import PRESETS, build_mesh
 from .plasticity import APEX, ELASTIC
 from .solver import ContactSolver, State
 
@@ -49,6 +49,7 @@ MAX_CUTBACKS = 8
 # Treatment of the volumetric strain of the P2 element (B-bar projection per element).
 VOLUMETRIC = {"bbar-p1": (True, 1), "bbar-p0": (True, 0), "full": (False, 0)}
 VOLUMETRIC_DEFAULT = "bbar-p1"
+TOLERANCE = 1e-8  # Newton tolerance, relative to the force scale (ContactSolver)
 PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC section 2)
 # Fully plastic onset Fp (SPEC section 4): the first load at which FULLY_PLASTIC_FRACTION of the
 # core of the contact area, the disc r < FULLY_PLASTIC_CORE * a, is yielding at the surface.
@@ -147,10 +148,7 @@ def load_schedule(forces: list[float], n: int, yield_force: float) -> tuple[list
 
 
 # --- the run -----------------------------------------------------------------------------------
-def _signature(material: Material, forces: list[float], mesh: str, steps: int) -> str:
-    text = json.dumps({"material": material.to_dict(), "forces": forces, "mesh": mesh,
-                       "steps": steps}, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+CHECKPOINT_FORMAT = 2
 
 
 def _atomic_savez(path: Path, **arrays) -> None:
@@ -161,6 +159,18 @@ def _atomic_savez(path: Path, **arrays) -> None:
 def checkpoint_path(out: str | Path) -> Path:
     out = Path(out)
     return out.parent / (out.name + ".checkpoint.npz")
+
+
+def pending_fields_path(out: str | Path) -> Path:
+    """The folder beside the checkpoint that keeps the ParaView files of the waypoints a run has
+    passed until it finishes (they then move into ``out/fields``): a resumed run writes the
+    same files as an uninterrupted one."""
+    out = Path(out)
+    return out.parent / (out.name + ".checkpoint.fields")
+
+
+def _field_name(step: int) -> str:
+    return f"step_{step:05d}.vtu"
 
 
 def fully_plastic_onset(force, approach, fraction,
@@ -286,6 +296,86 @@ def _skfem_mesh_from_arrays(doflocs: np.ndarray, t: np.ndarray):
     return MeshTri2(np.ascontiguousarray(doflocs), np.ascontiguousarray(t))
 
 
+@dataclass
+class _Checkpoint:
+    """A run after ``done`` converged steps, as its checkpoint holds it."""
+
+    done: int
+    state: State
+    rows: list[list[float]]
+    meta: dict[str, Any]  # first_yield, fully_plastic, last_elastic of _Run
+    yield_force: float  # the yield probe's prediction, which placed the load steps
+    mesh: Any  # the skfem mesh the run was on
+    fields: bool  # the pending folder holds the ParaView files of the waypoints passed
+    wall_time_s: float
+
+    def problem(self, solver: ContactSolver, targets: list[float], marks: list[int],
+                pending: Path | None, write_fields: bool) -> str | None:
+        """Why the run cannot go on from here (None: it can)."""
+        fresh = solver.initial_state().arrays()
+        for name, value in self.state.arrays().items():
+            if np.shape(value) != np.shape(fresh[name]):
+                return f"inconsistent (state {name} has shape {np.shape(value)})"
+        if not 0 <= self.done <= len(targets):
+            return f"inconsistent ({self.done} steps done of {len(targets)})"
+        passed = [m for m in marks if 1 <= m <= self.done]
+        if write_fields and passed and pending is not None and not (self.fields and all(
+                (pending / _field_name(m)).is_file() for m in passed)):
+            return "it lacks the ParaView fields of the waypoints already passed"
+        return None
+
+
+def _read_checkpoint(path: Path, identity) -> _Checkpoint | None:
+    """The checkpoint at ``path`` if it is a readable one of the run ``identity``, else None
+    after one line on stderr saying why: a checkpoint only saves work, so a truncated, older or
+    foreign one means starting over, never a traceback."""
+    try:
+        checkpoint, reason = _parse_checkpoint(path, identity)
+    except Exception as exc:  # noqa: BLE001 - any defect of the file is the same: unusable
+        detail = " ".join(str(exc).split())[:160]
+        checkpoint, reason = None, f"unreadable ({type(exc).__name__}: {detail})"
+    if reason is not None:
+        _warn_checkpoint(path, reason)
+    return checkpoint
+
+
+def _warn_checkpoint(path: Path, reason: str) -> None:
+    print(f"warning: checkpoint {path} not used: {reason}; starting afresh", file=sys.stderr)
+
+
+def _parse_checkpoint(path: Path, identity) -> tuple[_Checkpoint | None, str | None]:
+    from .reuse import difference
+
+    with np.load(path, allow_pickle=False) as data:
+        saved = {k: data[k] for k in data.files}
+    if "identity" not in saved or int(saved.get("format", 1)) != CHECKPOINT_FORMAT:
+        return None, "written by an older FE (old checkpoint format)"
+    reason = difference(json.loads(str(saved["identity"])), identity)
+    if reason is not None:
+        return None, reason
+    done = int(saved["done"])
+    rows = np.asarray(saved["rows"], dtype=float)
+    if rows.shape != (done + 1, len(CURVE_COLUMNS)):
+        raise ValueError(f"curve rows of shape {rows.shape} for {done} steps")
+    meta = json.loads(str(saved["meta"]))
+    return _Checkpoint(
+        done=done,
+        state=State.from_arrays({k[6:]: v for k, v in saved.items() if k.startswith("state_")}),
+        rows=[list(r) for r in rows],
+        meta={k: meta[k] for k in ("first_yield", "fully_plastic", "last_elastic")},
+        yield_force=float(saved["yield_force_estimate"]),
+        mesh=_skfem_mesh_from_arrays(saved["mesh_doflocs"], saved["mesh_t"]),
+        fields=bool(saved["fields"]),
+        wall_time_s=float(saved["wall_time_s"]),
+    ), None
+
+
+def _solver(material: Material, fe_mesh, identity) -> ContactSolver:
+    bbar, order = VOLUMETRIC[identity.volumetric]
+    return ContactSolver(material, fe_mesh, force_scale=max(identity.forces),
+                         tolerance=identity.tolerance, bbar=bbar, volumetric_order=order)
+
+
 def run_history(
     material: Material,
     forces,
@@ -297,7 +387,7 @@ def run_history(
     progress: bool = False,
     write_fields: bool = True,
     keep_states: bool = False,
-    tolerance: float = 1e-8,
+    tolerance: float = TOLERANCE,
     volumetric: str = VOLUMETRIC_DEFAULT,
     mesh_force: float | None = None,
 ) -> FemResult:
@@ -307,52 +397,59 @@ def run_history(
     instead of the history's largest (>= it), so runs of different peaks can share one mesh
     (e.g. single loads compared with a longer history). ``out``: result directory (curve.csv,
     summary.json, fields/*.vtu), written atomically; a checkpoint ``<out>.checkpoint.npz`` is
-    written after every converged step and used by ``resume=True``.
+    written after every converged step (the ParaView files of the waypoints passed wait beside
+    it in ``<out>.checkpoint.fields/``). ``resume=True``: reuse a finished run in ``out`` of the
+    same identity (``fem.reuse``: inputs, FE code, library versions), else go on from the
+    checkpoint if it is one of this identity; an unusable checkpoint is reported in one line
+    and the run starts over. ``write_fields`` and ``progress`` do not change the result.
     Raises ConvergenceError (one line, naming the step and load) if a step fails after
     ``MAX_CUTBACKS`` halvings; the checkpoint then holds the last converged state.
     """
-    started = time.perf_counter()
-    forces = validate_forces(list(forces))
-    mesh_preset(mesh)
-    steps = int(steps_per_segment or STEPS_PER_SEGMENT[mesh])
-    if steps < 1:
-        raise InputError(f"steps_per_segment: must be >= 1, got {steps}")
-    fmax = max(forces)
-    if mesh_force is not None and not (math.isfinite(mesh_force) and mesh_force >= fmax):
-        raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, got {mesh_force!r}")
-    sized_for = fmax if mesh_force is None else float(mesh_force)
-    mesh_key = f"{mesh}/{volumetric}" + ("" if mesh_force is None else f"/{sized_for!r}")
-    signature = _signature(material, forces, mesh_key, steps)
-    ckpt = checkpoint_path(out) if out is not None else None
-    saved = None
-    if resume and ckpt is not None and ckpt.exists():
-        with np.load(ckpt, allow_pickle=False) as data:
-            if str(data["signature"]) == signature:
-                saved = {k: data[k] for k in data.files}
-            else:
-                print("warning: checkpoint is for other inputs; starting afresh", file=sys.stderr)
+    from .reuse import FeRunIdentity, finished_run
 
+    started = time.perf_counter()
+    identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
+                                tolerance=tolerance, volumetric=volumetric,
+                                mesh_force=mesh_force)
+    forces, steps = list(identity.forces), identity.steps_per_segment
+    if resume and out is not None and not keep_states:
+        why: list[str] = []
+        finished = finished_run(out, identity, fields=write_fields, why=why)
+        if finished is not None:
+            if progress:
+                print(f"fem: reusing the finished run in {out} (same inputs, FE code and "
+                      "libraries)", file=sys.stderr)
+            return finished
+        if why:
+            print(f"fem: not reusing the run in {out}: {why[0]}; running it again",
+                  file=sys.stderr)
+    ckpt = checkpoint_path(out) if out is not None else None
+    pending = pending_fields_path(out) if out is not None else None
+    saved = (_read_checkpoint(ckpt, identity)
+             if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
-        fe_mesh = _skfem_mesh_from_arrays(saved["mesh_doflocs"], saved["mesh_t"])
-    else:
-        fe_mesh = history_mesh(material, sized_for, mesh)
-    if volumetric not in VOLUMETRIC:
-        raise InputError(f"volumetric: unknown {volumetric!r} (allowed: {', '.join(VOLUMETRIC)})")
-    bbar, order = VOLUMETRIC[volumetric]
-    solver = ContactSolver(material, fe_mesh, force_scale=fmax, tolerance=tolerance, bbar=bbar,
-                           volumetric_order=order)
+        solver = _solver(material, saved.mesh, identity)
+        targets, marks = load_schedule(forces, steps, saved.yield_force)
+        problem = saved.problem(solver, targets, marks, pending, write_fields)
+        if problem is not None:
+            _warn_checkpoint(ckpt, problem)
+            saved = None
+    if saved is None:
+        solver = _solver(material, history_mesh(material, identity.mesh_force, mesh), identity)
+        if pending is not None:
+            shutil.rmtree(pending, ignore_errors=True)  # files of an earlier, other run
+    fe_mesh = solver.mesh
     run = _Run(solver, material)
 
     if saved is not None:
-        yield_force = float(saved["yield_force_estimate"])
-        state = State.from_arrays({k[6:]: v for k, v in saved.items() if k.startswith("state_")})
-        run.rows = [list(r) for r in saved["rows"]]
-        meta = json.loads(str(saved["meta"]))
-        run.first_yield = meta["first_yield"]
-        run.fully_plastic = meta["fully_plastic"]
-        run.last_elastic = meta["last_elastic"]
-        done = int(saved["done"])
-        elapsed_before = float(saved["wall_time_s"])
+        yield_force = saved.yield_force
+        state = saved.state
+        run.rows = saved.rows
+        run.first_yield = saved.meta["first_yield"]
+        run.fully_plastic = saved.meta["fully_plastic"]
+        run.last_elastic = saved.meta["last_elastic"]
+        done = saved.done
+        elapsed_before = saved.wall_time_s
     else:
         yield_force = _probe_yield_force(solver, material)
         state = solver.initial_state()
@@ -360,9 +457,10 @@ def run_history(
         done = 0
         elapsed_before = 0.0
     targets, marks = load_schedule(forces, steps, yield_force)
-    field_steps = set(marks)
+    # ParaView files of the waypoints, written to the pending folder as the run passes them
+    field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
+    record = json.dumps(identity.to_dict())
 
-    fields: dict[int, State] = {}
     states = [state] if keep_states else []
     bar = None
     if progress:
@@ -377,14 +475,15 @@ def run_history(
             run.record(step, state)
             if keep_states:
                 states.append(state)
-            if write_fields and step in field_steps:
-                fields[step] = state
+            if step in field_steps:
+                _save_fields(solver, state, pending / _field_name(step))
             if ckpt is not None:
                 meta = {"first_yield": run.first_yield, "fully_plastic": run.fully_plastic,
                         "last_elastic": run.last_elastic}
                 _atomic_savez(
-                    ckpt, signature=np.array(signature), done=np.array(step),
-                    rows=np.array(run.rows), yield_force_estimate=np.array(yield_force),
+                    ckpt, format=np.array(CHECKPOINT_FORMAT), identity=np.array(record),
+                    done=np.array(step), rows=np.array(run.rows),
+                    yield_force_estimate=np.array(yield_force), fields=np.array(write_fields),
                     mesh_doflocs=fe_mesh.doflocs, mesh_t=fe_mesh.t, meta=np.array(json.dumps(meta)),
                     wall_time_s=np.array(elapsed_before + time.perf_counter() - started),
                     **{f"state_{k2}": v for k2, v in state.arrays().items()},
@@ -420,18 +519,24 @@ def run_history(
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
         "version": __version__,
-        "inputs": {"material": material.to_dict(), "forces_N": forces, "mesh": mesh,
-                   "steps_per_segment": steps, "tolerance": tolerance,
-                   "mesh_force_N": sized_for,
-                   "volumetric": volumetric},
+        "inputs": identity.inputs(),
         "conventions": "approach is ball-ball (2 x ball-wall); energies are for the pair",
     }
+    # what made this result (FemJob.key, checkpoints and --resume compare it: fem.reuse)
+    summary["identity"] = identity.to_dict()
+    summary["fields"] = [f"fields/{_field_name(s)}" for s in field_steps]
     result = FemResult(curve=curve, summary=summary, states=states, solver=solver)
     if out is not None:
-        write_result(result, Path(out), solver, fields)
-        if ckpt is not None and ckpt.exists():
-            ckpt.unlink()
+        write_result(result, Path(out), solver, {},
+                     field_files=[pending / _field_name(s) for s in field_steps])
+        ckpt.unlink(missing_ok=True)
+        shutil.rmtree(pending, ignore_errors=True)
     return result
+
+
+def _save_fields(solver: ContactSolver, state: State, path: Path) -> None:
+    with atomic_path(path) as tmp:
+        write_fields(solver, state, tmp)
 
 
 def _probe_yield_force(solver: ContactSolver, material: Material) -> float:
@@ -469,9 +574,10 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int) -> S
 
 
 # --- output files ------------------------------------------------------------------------------
-def write_result(result: FemResult, out: Path, solver: ContactSolver,
-                 fields: dict[int, State]) -> None:
-    """Write the run directory atomically (io.atomic_directory)."""
+def write_result(result: FemResult, out: Path, solver: ContactSolver | None,
+                 fields: dict[int, State], field_files=()) -> None:
+    """Write the run directory atomically (io.atomic_directory); ``fields``: states to write as
+    ParaView files, ``field_files``: ParaView files already written (copied into fields/)."""
     with atomic_directory(out) as tmp:
         with open(tmp / "curve.csv", "w", newline="") as fh:
             writer = csv.writer(fh)
@@ -480,10 +586,12 @@ def write_result(result: FemResult, out: Path, solver: ContactSolver,
             for i in range(len(curve["step"])):
                 writer.writerow([repr(curve[c][i].item()) if curve[c].dtype.kind == "f"
                                  else int(curve[c][i]) for c in CURVE_COLUMNS])
-        if fields:
+        if fields or field_files:
             (tmp / "fields").mkdir()
             for step, state in fields.items():
-                write_fields(solver, state, tmp / "fields" / f"step_{step:05d}.vtu")
+                write_fields(solver, state, tmp / "fields" / _field_name(step))
+            for path in field_files:
+                shutil.copyfile(path, tmp / "fields" / Path(path).name)
         write_json_atomic(tmp / "summary.json", result.summary)
 
 
