@@ -141,7 +141,7 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
                 job = jobs[i]
                 try:
                     results[i] = _finish(cache, job, _run_job(job, str(_cached(cache, job))))
-                except Exception as exc:  # noqa: BLE001 - reported with the run, others go on
+                except Exception as exc:  # reported with the run; the others go on
                     _failed(failures, i, jobs[i], exc, progress)
                     continue
                 if progress:
@@ -221,7 +221,7 @@ def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failu
             job = jobs[indices[0]]
             try:
                 result = _finish(cache, job, future.result())
-            except (Exception, asyncio.CancelledError) as exc:  # noqa: BLE001 - see _failed
+            except (Exception, asyncio.CancelledError) as exc:  # reported with the run (_failed)
                 for i in indices:
                     _failed(failures, i, jobs[i], exc, progress)
                 continue

@@ -149,8 +149,8 @@ def difference(recorded: Any, identity: FeRunIdentity) -> str | None:
     current = identity.to_dict()
     if not isinstance(recorded, dict) or recorded.get("schema") != SCHEMA:
         return "made by an older FE (no identity record)"
-    if recorded.get("key") == current["key"]:
-        return None
+    if all(recorded.get(name) == value for name, value in current.items()):
+        return None  # the whole record, not only its key: a hand-edited record is not trusted
     if recorded.get("fe_code") != current["fe_code"]:
         return "made by other FE code"
     theirs = recorded.get("libraries") or {}
@@ -200,8 +200,8 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
     else:
         reason = difference(result.summary.get("identity"), identity)
         if reason is None and fields:
-            names = result.summary.get("fields")
-            if not isinstance(names, list) or not all(
+            names = result.summary.get("fields")  # a run with fields has at least one
+            if not isinstance(names, list) or not names or not all(
                     (directory / str(name)).is_file() for name in names):
                 reason = "written without its ParaView fields"
         if reason is None:

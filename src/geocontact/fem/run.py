@@ -331,7 +331,7 @@ def _read_checkpoint(path: Path, identity) -> _Checkpoint | None:
     foreign one means starting over, never a traceback."""
     try:
         checkpoint, reason = _parse_checkpoint(path, identity)
-    except Exception as exc:  # noqa: BLE001 - any defect of the file is the same: unusable
+    except Exception as exc:  # any defect of the file is the same: unusable
         detail = " ".join(str(exc).split())[:160]
         checkpoint, reason = None, f"unreadable ({type(exc).__name__}: {detail})"
     if reason is not None:
