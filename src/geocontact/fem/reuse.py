@@ -61,8 +61,10 @@ def fe_code_hash() -> str:
     return digest.hexdigest()[:16]
 
 
+@functools.cache
 def distribution_version(name: str) -> str:
-    """Installed version of the distribution ``name`` ("absent" if it is not installed)."""
+    """Installed version of the distribution ``name`` ("absent" if it is not installed); read
+    once per process, as the modules in use are the ones loaded then."""
     try:
         return metadata.version(name)
     except metadata.PackageNotFoundError:

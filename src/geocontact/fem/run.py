@@ -34,6 +34,14 @@ from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
 from ..hertz import incipient_yield
 from ..io import atomic_directory, atomic_path, write_json_atomic
 from ..material import Material
+from .checkpoint import (
+    checkpoint_path,
+    field_name,
+    pending_fields_path,
+    read_checkpoint,
+    save_checkpoint,
+    warn_checkpoint,
+)
 from .mesh import PRESETS, build_mesh
 from .plasticity import APEX, ELASTIC
 from .solver import ContactSolver, State
@@ -145,32 +153,6 @@ def load_schedule(forces: list[float], n: int, yield_force: float) -> tuple[list
             targets += _segment(a, b, n, yield_force)
         marks.append(len(targets))  # 1-based step number of the waypoint
     return targets, marks
-
-
-# --- the run -----------------------------------------------------------------------------------
-CHECKPOINT_FORMAT = 2
-
-
-def _atomic_savez(path: Path, **arrays) -> None:
-    with atomic_path(path) as tmp:
-        np.savez(tmp, **arrays)
-
-
-def checkpoint_path(out: str | Path) -> Path:
-    out = Path(out)
-    return out.parent / (out.name + ".checkpoint.npz")
-
-
-def pending_fields_path(out: str | Path) -> Path:
-    """The folder beside the checkpoint that keeps the ParaView files of the waypoints a run has
-    passed until it finishes (they then move into ``out/fields``): a resumed run writes the
-    same files as an uninterrupted one."""
-    out = Path(out)
-    return out.parent / (out.name + ".checkpoint.fields")
-
-
-def _field_name(step: int) -> str:
-    return f"step_{step:05d}.vtu"
 
 
 def fully_plastic_onset(force, approach, fraction,
@@ -290,86 +272,7 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
     return cycles
 
 
-def _skfem_mesh_from_arrays(doflocs: np.ndarray, t: np.ndarray):
-    from skfem import MeshTri2
-
-    return MeshTri2(np.ascontiguousarray(doflocs), np.ascontiguousarray(t))
-
-
-@dataclass
-class _Checkpoint:
-    """A run after ``done`` converged steps, as its checkpoint holds it."""
-
-    done: int
-    state: State
-    rows: list[list[float]]
-    meta: dict[str, Any]  # first_yield, fully_plastic, last_elastic of _Run
-    yield_force: float  # the yield probe's prediction, which placed the load steps
-    mesh: Any  # the skfem mesh the run was on
-    fields: bool  # the pending folder holds the ParaView files of the waypoints passed
-    wall_time_s: float
-
-    def problem(self, solver: ContactSolver, targets: list[float], marks: list[int],
-                pending: Path | None, write_fields: bool) -> str | None:
-        """Why the run cannot go on from here (None: it can)."""
-        fresh = solver.initial_state().arrays()
-        for name, value in self.state.arrays().items():
-            if np.shape(value) != np.shape(fresh[name]):
-                return f"inconsistent (state {name} has shape {np.shape(value)})"
-        if not 0 <= self.done <= len(targets):
-            return f"inconsistent ({self.done} steps done of {len(targets)})"
-        passed = [m for m in marks if 1 <= m <= self.done]
-        if write_fields and passed and pending is not None and not (self.fields and all(
-                (pending / _field_name(m)).is_file() for m in passed)):
-            return "it lacks the ParaView fields of the waypoints already passed"
-        return None
-
-
-def _read_checkpoint(path: Path, identity) -> _Checkpoint | None:
-    """The checkpoint at ``path`` if it is a readable one of the run ``identity``, else None
-    after one line on stderr saying why: a checkpoint only saves work, so a truncated, older or
-    foreign one means starting over, never a traceback."""
-    try:
-        checkpoint, reason = _parse_checkpoint(path, identity)
-    except Exception as exc:  # any defect of the file is the same: unusable
-        detail = " ".join(str(exc).split())[:160]
-        checkpoint, reason = None, f"unreadable ({type(exc).__name__}: {detail})"
-    if reason is not None:
-        _warn_checkpoint(path, reason)
-    return checkpoint
-
-
-def _warn_checkpoint(path: Path, reason: str) -> None:
-    print(f"warning: checkpoint {path} not used: {reason}; starting afresh", file=sys.stderr)
-
-
-def _parse_checkpoint(path: Path, identity) -> tuple[_Checkpoint | None, str | None]:
-    from .reuse import difference
-
-    with np.load(path, allow_pickle=False) as data:
-        saved = {k: data[k] for k in data.files}
-    if "identity" not in saved or int(saved.get("format", 1)) != CHECKPOINT_FORMAT:
-        return None, "written by an older FE (old checkpoint format)"
-    reason = difference(json.loads(str(saved["identity"])), identity)
-    if reason is not None:
-        return None, reason
-    done = int(saved["done"])
-    rows = np.asarray(saved["rows"], dtype=float)
-    if rows.shape != (done + 1, len(CURVE_COLUMNS)):
-        raise ValueError(f"curve rows of shape {rows.shape} for {done} steps")
-    meta = json.loads(str(saved["meta"]))
-    return _Checkpoint(
-        done=done,
-        state=State.from_arrays({k[6:]: v for k, v in saved.items() if k.startswith("state_")}),
-        rows=[list(r) for r in rows],
-        meta={k: meta[k] for k in ("first_yield", "fully_plastic", "last_elastic")},
-        yield_force=float(saved["yield_force_estimate"]),
-        mesh=_skfem_mesh_from_arrays(saved["mesh_doflocs"], saved["mesh_t"]),
-        fields=bool(saved["fields"]),
-        wall_time_s=float(saved["wall_time_s"]),
-    ), None
-
-
+# --- the run -----------------------------------------------------------------------------------
 def _solver(material: Material, fe_mesh, identity) -> ContactSolver:
     bbar, order = VOLUMETRIC[identity.volumetric]
     return ContactSolver(material, fe_mesh, force_scale=max(identity.forces),
@@ -425,14 +328,15 @@ def run_history(
                   file=sys.stderr)
     ckpt = checkpoint_path(out) if out is not None else None
     pending = pending_fields_path(out) if out is not None else None
-    saved = (_read_checkpoint(ckpt, identity)
+    saved = (read_checkpoint(ckpt, identity, len(CURVE_COLUMNS))
              if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
         solver = _solver(material, saved.mesh, identity)
         targets, marks = load_schedule(forces, steps, saved.yield_force)
-        problem = saved.problem(solver, targets, marks, pending, write_fields)
+        problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
+                                write_fields)
         if problem is not None:
-            _warn_checkpoint(ckpt, problem)
+            warn_checkpoint(ckpt, problem)
             saved = None
     if saved is None:
         solver = _solver(material, history_mesh(material, identity.mesh_force, mesh), identity)
@@ -445,9 +349,9 @@ def run_history(
         yield_force = saved.yield_force
         state = saved.state
         run.rows = saved.rows
-        run.first_yield = saved.meta["first_yield"]
-        run.fully_plastic = saved.meta["fully_plastic"]
-        run.last_elastic = saved.meta["last_elastic"]
+        run.first_yield = saved.detector["first_yield"]
+        run.fully_plastic = saved.detector["fully_plastic"]
+        run.last_elastic = saved.detector["last_elastic"]
         done = saved.done
         elapsed_before = saved.wall_time_s
     else:
@@ -476,18 +380,13 @@ def run_history(
             if keep_states:
                 states.append(state)
             if step in field_steps:
-                _save_fields(solver, state, pending / _field_name(step))
+                _save_fields(solver, state, pending / field_name(step))
             if ckpt is not None:
-                meta = {"first_yield": run.first_yield, "fully_plastic": run.fully_plastic,
-                        "last_elastic": run.last_elastic}
-                _atomic_savez(
-                    ckpt, format=np.array(CHECKPOINT_FORMAT), identity=np.array(record),
-                    done=np.array(step), rows=np.array(run.rows),
-                    yield_force_estimate=np.array(yield_force), fields=np.array(write_fields),
-                    mesh_doflocs=fe_mesh.doflocs, mesh_t=fe_mesh.t, meta=np.array(json.dumps(meta)),
-                    wall_time_s=np.array(elapsed_before + time.perf_counter() - started),
-                    **{f"state_{k2}": v for k2, v in state.arrays().items()},
-                )
+                save_checkpoint(ckpt, record, run.rows, state, fe_mesh, yield_force=yield_force,
+                                fields=write_fields,
+                                wall_time_s=elapsed_before + time.perf_counter() - started,
+                                first_yield=run.first_yield, fully_plastic=run.fully_plastic,
+                                last_elastic=run.last_elastic)
             if bar is not None:
                 bar.update(1)
     finally:
@@ -524,11 +423,11 @@ def run_history(
     }
     # what made this result (FemJob.key, checkpoints and --resume compare it: fem.reuse)
     summary["identity"] = identity.to_dict()
-    summary["fields"] = [f"fields/{_field_name(s)}" for s in field_steps]
+    summary["fields"] = [f"fields/{field_name(s)}" for s in field_steps]
     result = FemResult(curve=curve, summary=summary, states=states, solver=solver)
     if out is not None:
         write_result(result, Path(out), solver, {},
-                     field_files=[pending / _field_name(s) for s in field_steps])
+                     field_files=[pending / field_name(s) for s in field_steps])
         ckpt.unlink(missing_ok=True)
         shutil.rmtree(pending, ignore_errors=True)
     return result
@@ -589,7 +488,7 @@ def write_result(result: FemResult, out: Path, solver: ContactSolver | None,
         if fields or field_files:
             (tmp / "fields").mkdir()
             for step, state in fields.items():
-                write_fields(solver, state, tmp / "fields" / _field_name(step))
+                write_fields(solver, state, tmp / "fields" / field_name(step))
             for path in field_files:
                 shutil.copyfile(path, tmp / "fields" / Path(path).name)
         write_json_atomic(tmp / "summary.json", result.summary)
