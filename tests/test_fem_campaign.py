@@ -108,7 +108,8 @@ def test_failed_run_leaves_the_others_cached_sequential(material, tmp_path, monk
         run_campaign([bad, good], tmp_path, workers=1, progress=False)
     message = str(info.value)
     assert "\n" not in message and message.startswith("campaign: 1 of 2 FE runs failed")
-    assert "never converges (forces 0, 20, 0 N; coarse mesh; 2 steps/segment" in message
+    assert "never converges (forces 0, 20, 0 N; coarse mesh; 2 steps/segment; tolerance 1e-300;" \
+        in message and "the other run is finished and cached" in message
     assert "ConvergenceError: yield probe" in message and "rerun the same command" in message
     assert [f["key"] for f in info.value.failures] == [bad.key()]
     assert _cached(tmp_path, good) is not None and _cached(tmp_path, bad) is None
@@ -127,7 +128,7 @@ def test_failed_run_leaves_the_others_cached_on_dask(material, tmp_path, monkeyp
     message = str(info.value)
     assert "\n" not in message and message.startswith("campaign: 1 of 3 FE runs failed")
     assert "never converges (forces 0, 20, 0 N" in message and "ConvergenceError" in message
-    assert "the other 2 are finished and cached" in message
+    assert "the other 2 runs are finished and cached" in message
     assert _cached(tmp_path, jobs[0]) is not None and _cached(tmp_path, jobs[2]) is not None
     _nothing_runs(monkeypatch)
     run_campaign([jobs[0], jobs[2]], tmp_path, progress=False)

@@ -28,6 +28,7 @@ from .run import TOLERANCE, VOLUMETRIC_DEFAULT, FemResult, run_history, write_re
 
 DEFAULT_CACHE = Path("out/cache/fem")
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+MESSAGE_FAILURES = 3  # failed runs described in a CampaignError's message (all in .failures)
 
 
 class CampaignError(GeocontactError):
@@ -184,12 +185,17 @@ def _campaign_error(jobs: list[FemJob], failures: dict[int, BaseException],
     records = [{"name": jobs[i].name(), "key": jobs[i].key(),
                 "inputs": jobs[i].identity().describe(), "error": _describe_error(exc)}
                for i, exc in sorted(failures.items())]
-    runs = "; ".join(f"{r['name']} ({r['inputs']}): {r['error']}" for r in records)
+    shown = MESSAGE_FAILURES
+    runs = "; ".join(f"{r['name']} ({r['inputs']}): {r['error']}" for r in records[:shown])
+    if len(records) > shown:
+        runs += f"; and {len(records) - shown} more"
+    others = len(jobs) - len(records)
+    finished = ("no other run" if others == 0 else "the other run is" if others == 1
+                else f"the other {others} runs are")
     return CampaignError(
-        f"campaign: {len(records)} of {len(jobs)} FE runs failed: {runs}; the other "
-        f"{len(jobs) - len(records)} are finished and cached in {cache}; rerun the same command "
-        "to resume (finished runs come from the cache, an interrupted run goes on from its "
-        "checkpoint)", records)
+        f"campaign: {len(records)} of {len(jobs)} FE runs failed: {runs}; {finished} finished "
+        f"and cached in {cache}; rerun the same command to resume (finished runs come from the "
+        "cache, an interrupted run goes on from its checkpoint)", records)
 
 
 def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failures) -> None:

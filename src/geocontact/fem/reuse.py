@@ -138,11 +138,19 @@ class FeRunIdentity:
     def describe(self) -> str:
         """The inputs in a few words, for messages."""
         m = self.material
-        return (f"forces {', '.join(f'{f:g}' for f in self.forces)} N; {self.mesh} mesh; "
-                f"{self.steps_per_segment} steps/segment; E = {m.youngs_modulus:.3g} Pa, "
-                f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
-                f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "
-                f"R = {m.radius:g} m")
+        settings = [f"forces {', '.join(f'{f:g}' for f in self.forces)} N",
+                    f"{self.mesh} mesh", f"{self.steps_per_segment} steps/segment"]
+        if self.mesh_force != max(self.forces):
+            settings.append(f"mesh sized for {self.mesh_force:g} N")
+        if self.tolerance != TOLERANCE:
+            settings.append(f"tolerance {self.tolerance:g}")
+        if self.volumetric != VOLUMETRIC_DEFAULT:
+            settings.append(f"volumetric {self.volumetric}")
+        settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
+                        f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
+                        f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "
+                        f"R = {m.radius:g} m")
+        return "; ".join(settings)
 
 
 def difference(recorded: Any, identity: FeRunIdentity) -> str | None:
