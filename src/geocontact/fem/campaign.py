@@ -23,7 +23,13 @@ from urllib.parse import urlsplit
 from ..errors import GeocontactError, InputError
 from ..force_history import validate_forces
 from ..material import Material
-from .reuse import FeRunIdentity, fe_code_hash, finished_run, load_result  # noqa: F401
+from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
+    FeRunIdentity,
+    difference,
+    fe_code_hash,
+    finished_run,
+    load_result,
+)
 from .run import TOLERANCE, VOLUMETRIC_DEFAULT, FemResult, run_history, write_result
 
 DEFAULT_CACHE = Path("out/cache/fem")
@@ -158,6 +164,10 @@ def _finish(cache: Path, job: FemJob, result: FemResult) -> FemResult:
     path = _cached(cache, job)
     if not (path / "summary.json").exists():  # a remote worker wrote on its own disk
         write_result(result, path, None, {})
+    reason = difference(result.summary.get("identity"), job.identity())
+    if reason is not None:  # e.g. a remote worker with other library versions
+        print(f"campaign: warning: {job.name()} was {reason} on its worker; its result is "
+              "used here but will not be reused from the cache", file=sys.stderr)
     return result
 
 
