@@ -14,7 +14,12 @@ import geocontact.fem.run as fem_run
 from geocontact.cycles import run_cycles
 from geocontact.fem.campaign import FemJob
 from geocontact.fem.reuse import LIBRARIES, FeRunIdentity, fe_code_hash, finished_run
-from geocontact.fem.run import checkpoint_path, pending_fields_path, run_history
+from geocontact.fem.run import (
+    STEPS_PER_SEGMENT,
+    checkpoint_path,
+    pending_fields_path,
+    run_history,
+)
 from geocontact.material import MATERIAL_KEYS, preset
 
 FORCES = [0.0, 60.0, 0.0]
@@ -65,8 +70,8 @@ def test_key_changes_with_every_input_and_library(material, monkeypatch):
     key = base.key()
     # other spellings of the same run: same key (defaults resolved, the label is a name)
     assert FemJob(material, (0, 100, 0)).key() == key
-    assert FemJob(material, (0.0, 100.0, 0.0), steps_per_segment=12, mesh_force=100.0,
-                  label="another name").key() == key
+    assert FemJob(material, (0.0, 100.0, 0.0), steps_per_segment=STEPS_PER_SEGMENT["coarse"],
+                  mesh_force=100.0, label="another name").key() == key
     variants = {
         "forces": FemJob(material, (0.0, 101.0, 0.0)),
         "history shape": FemJob(material, (0.0, 100.0, 0.0, 100.0, 0.0)),
