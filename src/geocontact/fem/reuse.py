@@ -46,8 +46,9 @@ SCHEMA = "geocontact.fe-identity/1"
 LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
-FE_SOURCES = ("fem/mesh.py", "fem/plasticity.py", "fem/run.py", "fem/solver.py",
-              "force_history.py", "hertz.py", "material.py")
+# fem/checkpoint.py restores the state a resumed run goes on from.
+FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/run.py",
+              "fem/solver.py", "force_history.py", "hertz.py", "material.py")
 
 
 @functools.cache
