@@ -1,16 +1,31 @@
-"""The FE campaign: Dask runs equal direct runs, results are cached by their inputs."""
+"""The FE campaign: Dask runs equal direct runs, results are cached by their identity, a failed
+run (any exception, a worker killed) leaves the others finished and cached."""
 
-import time
+import os
+import sys
 
+import cloudpickle
+import dask
 import numpy as np
 import pytest
 
+import geocontact.fem.campaign as campaign
+import geocontact.fem.run as fem_run
+from geocontact.cli import main
 from geocontact.errors import InputError
-from geocontact.fem.campaign import FemJob, load_result, run_campaign
-from geocontact.fem.run import run_history
+from geocontact.fem.campaign import (
+    CampaignError,
+    FemJob,
+    check_scheduler_address,
+    load_result,
+    run_campaign,
+)
+from geocontact.fem.reuse import finished_run
+from geocontact.fem.run import checkpoint_path, run_history
 from geocontact.material import load_material
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+NEVER_CONVERGES = 1e-300  # a Newton tolerance below round-off: the first solve fails
 
 
 @pytest.fixture(scope="module")
@@ -18,37 +33,158 @@ def material():
     return load_material("reference")
 
 
-def test_campaign_matches_direct_runs_and_caches(material, tmp_path):
+def _nothing_runs(monkeypatch):
+    """From now on any FE work of a campaign fails the test."""
+    def boom(*args, **kwargs):
+        raise AssertionError("a cached campaign ran FE work")
+
+    monkeypatch.setattr(campaign, "_run_job", boom)
+    monkeypatch.setattr(campaign, "_run_on_dask", boom)
+
+
+def _cached(cache, job):
+    return finished_run(cache / job.key(), job.identity())
+
+
+def test_campaign_matches_direct_runs_and_caches(material, tmp_path, monkeypatch):
     jobs = [FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=4),
             FemJob(material, (0.0, 40.0, 0.0), steps_per_segment=4)]
     results = run_campaign(jobs, tmp_path / "cache", workers=2, progress=False)
     direct = run_history(material, [0.0, 40.0, 0.0], steps_per_segment=4, write_fields=False)
     assert np.allclose(results[1].curve["approach_m"], direct.curve["approach_m"], rtol=1e-10)
     assert results[0].summary["cycles"][0]["max_force_N"] == pytest.approx(20.0)
-    # every job has its own cache entry, keyed by inputs
+    assert results[1].summary["identity"] == direct.summary["identity"]
+    # every job has its own cache entry, keyed by its identity
     assert len({j.key() for j in jobs}) == 2
-    assert all((tmp_path / "cache" / j.key() / "summary.json").exists() for j in jobs)
-    again_start = time.perf_counter()
+    assert all(_cached(tmp_path / "cache", j) is not None for j in jobs)
+    # a rerun reads every result back and runs nothing
+    _nothing_runs(monkeypatch)
     again = run_campaign(jobs, tmp_path / "cache", progress=False)
-    assert time.perf_counter() - again_start < 2.0
     assert np.array_equal(again[0].curve["force_N"], results[0].curve["force_N"])
-
-
-def test_key_depends_on_every_input(material):
-    base = FemJob(material, (0.0, 100.0, 0.0))
-    assert base.key() == FemJob(material, (0, 100, 0)).key()
-    assert base.key() != FemJob(material, (0.0, 101.0, 0.0)).key()
-    assert base.key() != FemJob(material, (0.0, 100.0, 0.0), mesh="default").key()
-    assert base.key() != FemJob(material, (0.0, 100.0, 0.0), steps_per_segment=5).key()
-    softer = load_material("reference-weak")
-    assert base.key() != FemJob(softer, (0.0, 100.0, 0.0)).key()
 
 
 def test_bad_campaign_input(material, tmp_path):
     with pytest.raises(InputError, match="mesh"):
         FemJob(material, (0.0, 100.0), mesh="huge")
+    with pytest.raises(InputError, match="tolerance"):
+        FemJob(material, (0.0, 100.0), tolerance=0.0)
     with pytest.raises(InputError, match="no FE runs"):
         run_campaign([], tmp_path)
     (tmp_path / "broken").mkdir()
     with pytest.raises(InputError, match="unreadable"):
         load_result(tmp_path / "broken")
+
+
+# --- a malformed --scheduler is an input error before any connection -----------------------
+@pytest.mark.parametrize("address", ["not a url", "tcp://", "tcp://host:notaport", "tcp://host",
+                                     "http://host:8786", "tcp://host:99999", "", "tcp://:8786",
+                                     "tcp://host:8786/path"])
+def test_malformed_scheduler_address(address, material, tmp_path, monkeypatch, capsys):
+    with pytest.raises(InputError, match="--scheduler"):
+        check_scheduler_address(address)
+    _nothing_runs(monkeypatch)
+    with pytest.raises(InputError, match="--scheduler"):
+        run_campaign([FemJob(material, (0.0, 20.0, 0.0))], tmp_path, scheduler=address)
+    for command in (["calibrate", "--material", "reference", "--out", str(tmp_path / "P.json")],
+                    ["sweep", "--out", str(tmp_path / "sweep")]):
+        assert main([*command, "--scheduler", address]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and err.startswith("error: --scheduler"), err
+    assert not (tmp_path / "P.json").exists() and not (tmp_path / "sweep").exists()
+
+
+def test_wellformed_scheduler_addresses():
+    for address in ("tcp://127.0.0.1:8786", "localhost:8786", "tls://scheduler.lan:8786",
+                    "tcp://[::1]:8786", "ws://host:1"):
+        assert check_scheduler_address(address) == address
+
+
+# --- a failed run does not stop the campaign ------------------------------------------------
+def test_failed_run_leaves_the_others_cached_sequential(material, tmp_path, monkeypatch):
+    good = FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=2, label="good")
+    bad = FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=2, tolerance=NEVER_CONVERGES,
+                 label="never converges")
+    with pytest.raises(CampaignError) as info:
+        run_campaign([bad, good], tmp_path, workers=1, progress=False)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("campaign: 1 of 2 FE runs failed")
+    assert "never converges (forces 0, 20, 0 N; coarse mesh; 2 steps/segment; tolerance 1e-300;" \
+        in message and "the other run is finished and cached" in message
+    assert "ConvergenceError: yield probe" in message and "rerun the same command" in message
+    assert [f["key"] for f in info.value.failures] == [bad.key()]
+    assert _cached(tmp_path, good) is not None and _cached(tmp_path, bad) is None
+    _nothing_runs(monkeypatch)
+    assert run_campaign([good], tmp_path, progress=False)[0].summary["identity"]["key"] == \
+        good.key()
+
+
+def test_failed_run_leaves_the_others_cached_on_dask(material, tmp_path, monkeypatch):
+    jobs = [FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=2, label="low"),
+            FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=2, tolerance=NEVER_CONVERGES,
+                   label="never converges"),
+            FemJob(material, (0.0, 30.0, 0.0), steps_per_segment=2, label="high")]
+    with pytest.raises(CampaignError) as info:
+        run_campaign(jobs, tmp_path, workers=2, progress=False)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("campaign: 1 of 3 FE runs failed")
+    assert "never converges (forces 0, 20, 0 N" in message and "ConvergenceError" in message
+    assert "the other 2 runs are finished and cached" in message
+    assert _cached(tmp_path, jobs[0]) is not None and _cached(tmp_path, jobs[2]) is not None
+    _nothing_runs(monkeypatch)
+    run_campaign([jobs[0], jobs[2]], tmp_path, progress=False)
+
+
+def _run_job_with_faults(job, directory):
+    """Stands in for campaign._run_job on the workers (shipped by value, see below): the run
+    labelled "killed" kills its worker process at load step 3, "gmsh error" raises; the
+    others run as usual."""
+    import geocontact.fem.campaign as on_worker  # the worker's own module: not monkeypatched
+    import geocontact.fem.run as fe
+
+    if job.label == "gmsh error":
+        raise RuntimeError("gmsh: simulated meshing failure\n(second line of the message)")
+    if job.label == "killed":
+        advance = fe._advance
+
+        def dying(solver, state, target, step):
+            if step == 3:
+                os._exit(1)  # as the kernel's OOM killer would: no exception, no clean-up
+            return advance(solver, state, target, step)
+
+        fe._advance = dying
+    return on_worker._run_job(job, directory)
+
+
+def test_killed_worker_and_any_error_lose_nothing_finished(material, tmp_path, monkeypatch):
+    jobs = [FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=2, label="finishes"),
+            FemJob(material, (0.0, 25.0, 0.0), steps_per_segment=2, label="killed"),
+            FemJob(material, (0.0, 30.0, 0.0), steps_per_segment=2, label="gmsh error")]
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    monkeypatch.setattr(campaign, "_run_job", _run_job_with_faults)
+    try:
+        # one death is enough to give up on a run (Dask's default retries it 3 times)
+        with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+                pytest.raises(CampaignError) as info:
+            run_campaign(jobs, tmp_path, workers=2, progress=False)
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("campaign: 2 of 3 FE runs failed")
+    assert "killed (forces 0, 25, 0 N" in message and "KilledWorker: the worker running it died" \
+        in message
+    assert "gmsh error (forces 0, 30, 0 N" in message and "RuntimeError: gmsh: simulated" in message
+    assert {f["name"] for f in info.value.failures} == {"killed", "gmsh error"}
+    # nothing finished is lost: the run that finished is cached, the killed one keeps its steps
+    assert _cached(tmp_path, jobs[0]) is not None
+    with np.load(checkpoint_path(tmp_path / jobs[1].key())) as saved:
+        assert int(saved["done"]) == 2
+    # the rerun: the finished run from the cache, the killed one from its checkpoint
+    monkeypatch.undo()
+    steps = []
+    advance = fem_run._advance
+    monkeypatch.setattr(fem_run, "_advance", lambda solver, state, target, step: (
+        steps.append(step), advance(solver, state, target, step))[1])
+    again = run_campaign(jobs[:2], tmp_path, progress=False)
+    assert steps and steps[0] == 3
+    assert len(again[1].curve["step"]) == again[1].summary["steps"] + 1
+    assert not checkpoint_path(tmp_path / jobs[1].key()).exists()

@@ -230,7 +230,14 @@ def test_cycles_rerun_that_fails_leaves_the_old_analysis_whole(tmp_path, monkeyp
     assert verify_manifest(out) == []
     # the FE of the failed rerun is kept in its checkpoint beside the folder, for --resume
     assert cycles.checkpoint_of(out).exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["cyc", "cyc.fe.checkpoint.npz"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "cyc", "cyc.fe.checkpoint.fields", "cyc.fe.checkpoint.npz"]
+    monkeypatch.undo()
+    summary = cycles.run_cycles(material, forces, out, mesh="coarse", steps_per_segment=4,
+                                resume=True)
+    assert summary["fe_run"]["inputs"]["steps_per_segment"] == 4
+    assert verify_manifest(out) == [] and (out / "fe" / "fields").is_dir()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cyc"]  # checkpoint gone on landing
 
 
 def test_report_keeps_a_users_report_and_replaces_its_own_figures(tmp_path, capsys):

@@ -512,26 +512,6 @@ def check_cyclic_history(forces: list[float]) -> None:
                          f"for a cycle analysis, got {forces[-1]:g} N")
 
 
-def _finished_fe(directory, material, forces, mesh, steps):
-    """A finished FE run in ``directory`` with exactly these inputs and this version, else None
-    (also when it cannot be read back, e.g. written by an FE with other curve columns)."""
-    from .fem.campaign import load_result
-    from .fem.run import STEPS_PER_SEGMENT
-
-    if not (directory / "summary.json").exists():
-        return None
-    try:
-        result = load_result(directory)
-    except InputError:
-        return None
-    inputs = result.summary.get("inputs", {})
-    same = (result.summary.get("version") == __version__
-            and inputs.get("material") == material.to_dict()
-            and inputs.get("forces_N") == list(forces) and inputs.get("mesh") == mesh
-            and inputs.get("steps_per_segment") == int(steps or STEPS_PER_SEGMENT[mesh]))
-    return result if same else None
-
-
 def checkpoint_of(out: str | Path) -> Path:
     """The FE checkpoint of ``run_cycles(out=...)``: beside ``out`` (the folder itself is
     replaced whole when the analysis lands), removed once it has."""
@@ -568,7 +548,9 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                                 steps_per_segment=steps_per_segment, tolerance=tolerance,
                                 resume=resume, fit_params=fit_params, progress=progress,
                                 inputs=inputs, previous_fe=out / "fe", checkpoint=checkpoint)
-    checkpoint.unlink(missing_ok=True)
+    from .fem.checkpoint import remove_checkpoint
+
+    remove_checkpoint(checkpoint)  # the analysis has landed
     return summary
 
 
@@ -579,8 +561,18 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
     from .fem.run import run_history  # the FE is an optional extra: imported when used
 
     fe_dir = out / "fe"
-    result = (_finished_fe(previous_fe, material, forces, mesh, steps_per_segment)
-              if resume else None)
+    # resume: a finished FE run of the same identity (inputs, FE code, libraries: fem.reuse)
+    # in the previous folder is reused, else the FE goes on from its checkpoint
+    result = None
+    if resume:
+        from .fem.reuse import FeRunIdentity, finished_run
+
+        identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment)
+        why: list[str] = []
+        result = finished_run(previous_fe, identity, fields=True, why=why)
+        if why:
+            print(f"cycles: not reusing the FE run in {previous_fe}: {why[0]}; running it "
+                  "again", file=sys.stderr)
     if result is None:
         result = run_history(material, forces, mesh=mesh, out=fe_dir,
                              steps_per_segment=steps_per_segment, resume=resume,

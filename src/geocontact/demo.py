@@ -11,12 +11,15 @@
 7. a seismic record (Kobe 1995) with an aftershock through the calibrated law;
 8. ``geocontact report`` of the whole directory -> ``report.html``.
 
-Every FE run goes through the cached campaign (``fem.campaign``), so a second demo is fast.
+Every FE run goes through the cached campaign (``fem.campaign``) or, for the reference cycle and
+the cyclic history (which keep their ParaView fields), is carried over from the previous demo in
+``out`` when its identity (``fem.reuse``) is unchanged, so a second demo is fast.
 ``quick=True`` is the same job on tiny loads and few steps (the test suite's end-to-end check).
 """
 
 from __future__ import annotations
 
+import shutil
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -114,9 +117,11 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                               "held_out_all_met": acceptance["held_out_all_met"]}
     done("calibration")
 
+    _carry_over(out / "fe-reference", work / "fe-reference")
     reference = run_history(material, [0.0, plan.reference_force, 0.0],
                             mesh=plan.reference_mesh, out=work / "fe-reference",
-                            steps_per_segment=plan.steps)
+                            steps_per_segment=plan.steps, resume=True,
+                            overwrite=True)  # ``work`` is the demo's own new folder
     summary["fe_reference"] = {k: reference.summary[k] for k in
                                ("first_yield_force_N", "fully_plastic_force_N", "cycles",
                                 "wall_time_s")}
@@ -124,8 +129,10 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
 
     forces = preset_history("repeated", plan.cyclic_peak)
     forces = forces[: 2 * plan.cyclic_count + 1]
+    _carry_over(out / "cycles-repeated", work / "cycles-repeated")
     cyc = run_cycles(material, forces, work / "cycles-repeated", params=params,
-                     mesh=plan.cyclic_mesh, steps_per_segment=plan.steps,
+                     mesh=plan.cyclic_mesh, steps_per_segment=plan.steps, resume=True,
+                     overwrite=True,
                      inputs={"history": "repeated", "peak_force_N": plan.cyclic_peak})
     summary["cycles_repeated"] = {k: v.get("classification") for k, v in
                                   cyc["analyses"].items()}
@@ -159,6 +166,14 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                            "reference results.</b>" if plan is QUICK else "")),
                  preface=preface)
     done("report")
+
+
+def _carry_over(previous: Path, target: Path) -> None:
+    """Copy a run of the previous demo into the new one; ``run_history(resume=True)`` (or
+    ``run_cycles(resume=True)`` for its FE run) then reuses it if its identity is this run's
+    (fem.reuse) and runs it again if not."""
+    if (previous / "summary.json").is_file():
+        shutil.copytree(previous, target)
 
 
 def _paper_findings(directory: Path, plan: Plan, cache: Path) -> dict:

@@ -62,6 +62,10 @@ def run(args) -> int:
         raise InputError(f"--steps: must be >= 1, got {args.steps}")
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    if args.scheduler is not None:
+        from ..fem.campaign import check_scheduler_address
+
+        check_scheduler_address(args.scheduler)
     out = Path(args.out)
     if out.suffix != ".json":
         raise InputError(f"--out: expected a .json file name, got {args.out!r}")

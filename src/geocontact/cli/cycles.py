@@ -33,8 +33,8 @@ def register(sub) -> None:
     p.add_argument("--fit-params", default=None, metavar="OUT.json",
                    help="write --params with its cyclic extension fitted to this FE run")
     p.add_argument("--resume", action="store_true",
-                   help="reuse a finished FE run in DIR/fe with the same inputs, or continue "
-                        "from DIR.fe.checkpoint.npz beside DIR")
+                   help="reuse a finished FE run in DIR/fe of the same inputs, FE code and "
+                        "libraries, or continue from DIR.fe.checkpoint.npz beside DIR")
     p.add_argument("--json", action="store_true", help="print summary.json on stdout")
     p.set_defaults(run=run)
 

@@ -21,7 +21,8 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="result directory (written atomically)")
     add_force_flag(p)
     p.add_argument("--resume", action="store_true",
-                   help="continue from DIR.checkpoint.npz if it matches the inputs")
+                   help="reuse DIR if it is a finished run of the same inputs, FE code and "
+                        "libraries, else continue from DIR.checkpoint.npz if it is one of them")
     p.add_argument("--steps", type=int, default=None,
                    help="load steps per monotonic segment (default: by mesh preset)")
     p.add_argument("--json", action="store_true", help="print summary.json on stdout")

@@ -32,6 +32,10 @@ def run(args) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    if args.scheduler is not None:
+        from ..fem.campaign import check_scheduler_address
+
+        check_scheduler_address(args.scheduler)
     names = [n.strip() for n in args.sweeps.split(",")] if args.sweeps else None
     summary = run_sweeps(args.out, names, mesh=args.mesh, peak_force=args.peak_force,
                          cache_dir=args.cache, scheduler=args.scheduler, workers=args.workers,

@@ -3,8 +3,9 @@
 A calibration, a material sweep or a set of held-out checks is a list of FE runs that do not
 depend on each other. ``run_campaign`` runs them on a Dask cluster (a local one by default, or
 an existing scheduler by address, so a campaign scales past one machine) and caches every result
-by a hash of its inputs and the code version: a rerun of the same campaign is instant, and a run
-interrupted half-way resumes from its FE checkpoint.
+under its identity (``fem.reuse``: inputs, FE source hash, library versions): a rerun of the
+same campaign is instant, a run interrupted half-way resumes from its FE checkpoint, and a run
+that fails leaves the others finished and cached.
 
     jobs = [FemJob(material, (0, 1000, 0, 1000)), FemJob(material, (0, 3000, 0, 3000))]
     results = run_campaign(jobs, cache_dir="out/cache/fem")   # list of FemResult, same order
@@ -12,29 +13,43 @@ interrupted half-way resumes from its FE checkpoint.
 
 from __future__ import annotations
 
-import csv
-import functools
-import hashlib
-import json
+import asyncio
 import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from urllib.parse import urlsplit
 
-import numpy as np
-
-from ..errors import ConvergenceError, InputError
+from ..errors import GeocontactError, InputError
 from ..force_history import validate_forces
 from ..material import Material
-from .mesh import mesh_preset
-from .run import CURVE_COLUMNS, FemResult, run_history, write_result
+from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
+    FeRunIdentity,
+    difference,
+    fe_code_hash,
+    finished_run,
+    load_result,
+)
+from .run import TOLERANCE, VOLUMETRIC_DEFAULT, FemResult, run_history, write_result
 
 DEFAULT_CACHE = Path("out/cache/fem")
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+MESSAGE_FAILURES = 3  # failed runs described in a CampaignError's message (all in .failures)
+
+
+class CampaignError(GeocontactError):
+    """Some runs of a campaign failed; the others finished and are cached. ``failures``: one
+    dict per failed run (name, key, inputs, error)."""
+
+    def __init__(self, message: str, failures: list[dict]):
+        super().__init__(message)
+        self.failures = failures
 
 
 @dataclass(frozen=True)
 class FemJob:
-    """One FE run: a material, a piecewise-linear force history (N) and the mesh settings."""
+    """One FE run: a material, a piecewise-linear force history (N) and the FE settings of
+    ``run_history``. ``label`` names it in messages; it is not part of its identity."""
 
     material: Material
     forces: tuple[float, ...]
@@ -42,70 +57,46 @@ class FemJob:
     steps_per_segment: int | None = None
     label: str = ""
     mesh_force: float | None = None  # size the mesh for this force (default: the largest)
+    tolerance: float = TOLERANCE
+    volumetric: str = VOLUMETRIC_DEFAULT
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
-        mesh_preset(self.mesh)
-        if self.mesh_force is not None and not (
-                isinstance(self.mesh_force, (int, float)) and self.mesh_force >= max(self.forces)):
-            raise InputError(f"mesh_force: must be >= the largest force {max(self.forces):g} N, "
-                             f"got {self.mesh_force!r}")
+        self.identity()  # one-line InputError on a setting the FE would refuse
+
+    def identity(self) -> FeRunIdentity:
+        return FeRunIdentity.of(self.material, self.forces, self.mesh,
+                                steps_per_segment=self.steps_per_segment,
+                                tolerance=self.tolerance, volumetric=self.volumetric,
+                                mesh_force=self.mesh_force)
 
     def inputs(self) -> dict:
-        from .. import __version__
-
-        inputs = {"material": self.material.to_dict(), "forces_N": list(self.forces),
-                  "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
-                  "version": __version__, "fe_code": fe_code_hash()}
-        if self.mesh_force is not None:
-            inputs["mesh_force_N"] = float(self.mesh_force)
-        return inputs
+        """The identity record: inputs, FE code hash, library versions, key."""
+        return self.identity().to_dict()
 
     def key(self) -> str:
-        """Hash of everything that decides the result (inputs and code version)."""
-        text = json.dumps(self.inputs(), sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
+        """Hash of everything that decides the result (``fem.reuse.FeRunIdentity``)."""
+        return self.identity().key()
 
     def name(self) -> str:
         return self.label or f"Fmax={max(self.forces):g}N"
 
 
-# The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
-# detector, a solver fix) invalidates cached results even when the version string is unchanged.
-_FE_SOURCES = ("fem/mesh.py", "fem/plasticity.py", "fem/run.py", "fem/solver.py",
-               "force_history.py", "hertz.py", "material.py")
-
-
-@functools.cache
-def fe_code_hash() -> str:
-    """Hash of the FE engine's source files (part of every cache key)."""
-    root = Path(__file__).resolve().parent.parent
-    digest = hashlib.sha256()
-    for name in _FE_SOURCES:
-        digest.update(name.encode())
-        digest.update((root / name).read_bytes())
-    return digest.hexdigest()[:16]
-
-
-def load_result(directory: str | Path) -> FemResult:
-    """A result directory written by ``run_history(out=...)`` back as a FemResult."""
-    directory = Path(directory)
+def check_scheduler_address(address: str) -> str:
+    """``address`` of a Dask scheduler as ``[scheme://]host:port``; a one-line InputError on
+    anything else, before any connection is tried."""
+    text = str(address).strip()
+    url = urlsplit(text if "://" in text else f"tcp://{text}")
     try:
-        summary = json.loads((directory / "summary.json").read_text())
-        with open(directory / "curve.csv", newline="") as fh:
-            rows = list(csv.reader(fh))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"FE result {directory}: unreadable ({exc})") from None
-    header, body = rows[0], rows[1:]
-    missing = [c for c in CURVE_COLUMNS if c not in header]
-    if missing:
-        raise InputError(f"FE result {directory}: curve.csv lacks columns {missing}")
-    data = np.array(body, dtype=float).reshape(len(body), len(header))
-    curve = {name: data[:, i] for i, name in enumerate(header)}
-    for name in ("step", "plastic_points", "iterations"):
-        if name in curve:
-            curve[name] = curve[name].astype(int)
-    return FemResult(curve=curve, summary=summary)
+        port = url.port
+    except ValueError:
+        port = None
+    if (url.scheme not in SCHEDULER_SCHEMES or not url.hostname or port is None
+            or port < 1 or url.path not in ("", "/") or url.query or url.fragment
+            or " " in text):
+        raise InputError(f"--scheduler: expected a Dask scheduler address "
+                         f"[{'|'.join(SCHEDULER_SCHEMES)}://]host:port, got {address!r}")
+    return text
 
 
 def _run_job(job: FemJob, directory: str) -> FemResult:
@@ -114,6 +105,7 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
     result = run_history(job.material, list(job.forces), mesh=job.mesh, out=directory,
                          steps_per_segment=job.steps_per_segment, resume=True,
                          write_fields=False, mesh_force=job.mesh_force,
+                         tolerance=job.tolerance, volumetric=job.volumetric,
                          overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 
@@ -131,32 +123,41 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
     local cluster of ``workers`` processes (default: one per core, at most one per job). With a
     remote cluster the workers write their results where ``cache_dir`` points on their machine;
     the results also come back over the wire and are cached here.
+
+    A run that fails (no convergence, a gmsh error, any exception, its worker killed or out of
+    memory) does not stop the others: they finish and are cached, then ``CampaignError`` names
+    every failed run with its inputs and says how to resume (rerun: finished runs come from the
+    cache, an interrupted run goes on from its checkpoint).
     """
     jobs = list(jobs)
     if not jobs:
         raise InputError("campaign: no FE runs to do")
+    if scheduler is not None:
+        scheduler = check_scheduler_address(scheduler)
     cache = Path(cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
-    results: list[FemResult | None] = [None] * len(jobs)
-    todo: list[int] = []
-    for i, job in enumerate(jobs):
-        path = _cached(cache, job)
-        if (path / "summary.json").exists():
-            results[i] = load_result(path)
-        else:
-            todo.append(i)
+    results: list[FemResult | None] = [finished_run(_cached(cache, job), job.identity())
+                                       for job in jobs]
+    todo = [i for i, result in enumerate(results) if result is None]
     if progress:
         print(f"campaign: {len(jobs)} FE runs, {len(jobs) - len(todo)} cached, "
               f"{len(todo)} to run", file=sys.stderr)
+    failures: dict[int, BaseException] = {}
     if todo:
         if scheduler is None and (len(todo) == 1 or workers == 1):
             for n, i in enumerate(todo, 1):
                 job = jobs[i]
-                results[i] = _finish(cache, job, _run_job(job, str(_cached(cache, job))))
+                try:
+                    results[i] = _finish(cache, job, _run_job(job, str(_cached(cache, job))))
+                except Exception as exc:  # reported with the run; the others go on
+                    _failed(failures, i, jobs[i], exc, progress)
+                    continue
                 if progress:
-                    print(f"campaign: {n}/{len(todo)} done ({jobs[i].name()})", file=sys.stderr)
+                    print(f"campaign: {n}/{len(todo)} done ({job.name()})", file=sys.stderr)
         else:
-            _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress)
+            _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failures)
+    if failures:
+        raise _campaign_error(jobs, failures, cache)
     return results  # type: ignore[return-value]
 
 
@@ -164,10 +165,51 @@ def _finish(cache: Path, job: FemJob, result: FemResult) -> FemResult:
     path = _cached(cache, job)
     if not (path / "summary.json").exists():  # a remote worker wrote on its own disk
         write_result(result, path, None, {}, overwrite=True)
+    reason = difference(result.summary.get("identity"), job.identity())
+    if reason is not None:  # e.g. a remote worker with other library versions
+        print(f"campaign: warning: {job.name()} was {reason} on its worker; its result is "
+              "used here but will not be reused from the cache", file=sys.stderr)
     return result
 
 
-def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress) -> None:
+def _describe_error(exc: BaseException) -> str:
+    """One line: the error's type and message."""
+    if type(exc).__name__ == "KilledWorker":
+        return ("KilledWorker: the worker running it died on every attempt (killed, or out "
+                "of memory)")
+    if isinstance(exc, asyncio.CancelledError):
+        return f"{type(exc).__name__}: the cluster cancelled it (scheduler lost?)"
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text[:240] + ' ...' if len(text) > 240 else text}"
+
+
+def _failed(failures: dict[int, BaseException], i: int, job: FemJob, exc: BaseException,
+            progress: bool) -> None:
+    failures[i] = exc
+    if progress:
+        print(f"campaign: FAILED {job.name()} ({job.identity().describe()}): "
+              f"{_describe_error(exc)}", file=sys.stderr)
+
+
+def _campaign_error(jobs: list[FemJob], failures: dict[int, BaseException],
+                    cache: Path) -> CampaignError:
+    records = [{"name": jobs[i].name(), "key": jobs[i].key(),
+                "inputs": jobs[i].identity().describe(), "error": _describe_error(exc)}
+               for i, exc in sorted(failures.items())]
+    shown = MESSAGE_FAILURES
+    runs = "; ".join(f"{r['name']} ({r['inputs']}): {r['error']}" for r in records[:shown])
+    if len(records) > shown:
+        runs += f"; and {len(records) - shown} more"
+    others = len(jobs) - len(records)
+    finished = ("no other run" if others == 0 else "the other run is" if others == 1
+                else f"the other {others} runs are")
+    return CampaignError(
+        f"campaign: {len(records)} of {len(jobs)} FE runs failed: {runs}; {finished} finished "
+        f"and cached in {cache}; rerun the same command to resume (finished runs come from the "
+        "cache, an interrupted run goes on from its checkpoint)", records)
+
+
+def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failures) -> None:
     from dask.distributed import Client, LocalCluster, as_completed
 
     cluster = None
@@ -180,23 +222,30 @@ def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress) -> No
         try:
             client = Client(scheduler, timeout=30)
         except OSError as exc:
-            raise InputError(f"scheduler: cannot connect to {scheduler} ({exc})") from None
+            raise InputError(f"--scheduler: cannot connect to {scheduler} ({exc})") from None
     try:
-        futures = {}
+        same: dict[str, list[int]] = {}  # a run asked for twice is run once
         for i in todo:
-            job = jobs[i]
+            same.setdefault(jobs[i].key(), []).append(i)
+        futures = {}
+        for key, indices in same.items():
+            job = jobs[indices[0]]
             future = client.submit(_run_job, job, str(_cached(cache, job).resolve()),
-                                   key=f"fem-{job.key()}", pure=False)
-            futures[future] = i
+                                   key=f"fem-{key}", pure=False)
+            futures[future] = indices
         for n, future in enumerate(as_completed(futures), 1):
-            i = futures[future]
+            indices = futures[future]
+            job = jobs[indices[0]]
             try:
-                result = future.result()
-            except ConvergenceError as exc:
-                raise ConvergenceError(f"campaign run {jobs[i].name()}: {exc}") from None
-            results[i] = _finish(cache, jobs[i], result)
+                result = _finish(cache, job, future.result())
+            except (Exception, asyncio.CancelledError) as exc:  # reported with the run (_failed)
+                for i in indices:
+                    _failed(failures, i, jobs[i], exc, progress)
+                continue
+            for i in indices:
+                results[i] = result
             if progress:
-                print(f"campaign: {n}/{len(todo)} done ({jobs[i].name()}, "
+                print(f"campaign: {n}/{len(futures)} done ({job.name()}, "
                       f"{result.summary['wall_time_s']:.1f} s)", file=sys.stderr)
     finally:
         client.close()

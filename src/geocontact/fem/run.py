@@ -13,9 +13,9 @@ the half model, energies = 2 x the half model's (SPEC section 2). The force is t
 from __future__ import annotations
 
 import csv
-import hashlib
 import json
 import math
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError
 from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
     history_from_dict,
     load_history,
@@ -34,7 +34,17 @@ from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
 from ..hertz import incipient_yield
 from ..io import atomic_directory, atomic_path, check_replaceable, write_json_atomic
 from ..material import Material
-from .mesh import PRESETS, build_mesh, mesh_preset
+from .checkpoint import (
+    checkpoint_path,
+    field_name,
+    fields_beside,
+    pending_fields_path,  # noqa: F401  (re-exported)
+    read_checkpoint,
+    remove_checkpoint,
+    save_checkpoint,
+    warn_checkpoint,
+)
+from .mesh import PRESETS, build_mesh
 from .plasticity import APEX, ELASTIC
 from .solver import ContactSolver, State
 
@@ -49,6 +59,7 @@ MAX_CUTBACKS = 8
 # Treatment of the volumetric strain of the P2 element (B-bar projection per element).
 VOLUMETRIC = {"bbar-p1": (True, 1), "bbar-p0": (True, 0), "full": (False, 0)}
 VOLUMETRIC_DEFAULT = "bbar-p1"
+TOLERANCE = 1e-8  # Newton tolerance, relative to the force scale (ContactSolver)
 PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC section 2)
 # Fully plastic onset Fp (SPEC section 4): the first load at which FULLY_PLASTIC_FRACTION of the
 # core of the contact area, the disc r < FULLY_PLASTIC_CORE * a, is yielding at the surface.
@@ -144,23 +155,6 @@ def load_schedule(forces: list[float], n: int, yield_force: float) -> tuple[list
             targets += _segment(a, b, n, yield_force)
         marks.append(len(targets))  # 1-based step number of the waypoint
     return targets, marks
-
-
-# --- the run -----------------------------------------------------------------------------------
-def _signature(material: Material, forces: list[float], mesh: str, steps: int) -> str:
-    text = json.dumps({"material": material.to_dict(), "forces": forces, "mesh": mesh,
-                       "steps": steps}, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _atomic_savez(path: Path, **arrays) -> None:
-    with atomic_path(path) as tmp:
-        np.savez(tmp, **arrays)
-
-
-def checkpoint_path(out: str | Path) -> Path:
-    out = Path(out)
-    return out.parent / (out.name + ".checkpoint.npz")
 
 
 def fully_plastic_onset(force, approach, fraction,
@@ -280,10 +274,11 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
     return cycles
 
 
-def _skfem_mesh_from_arrays(doflocs: np.ndarray, t: np.ndarray):
-    from skfem import MeshTri2
-
-    return MeshTri2(np.ascontiguousarray(doflocs), np.ascontiguousarray(t))
+# --- the run -----------------------------------------------------------------------------------
+def _solver(material: Material, fe_mesh, identity) -> ContactSolver:
+    bbar, order = VOLUMETRIC[identity.volumetric]
+    return ContactSolver(material, fe_mesh, force_scale=max(identity.forces),
+                         tolerance=identity.tolerance, bbar=bbar, volumetric_order=order)
 
 
 def run_history(
@@ -297,7 +292,7 @@ def run_history(
     progress: bool = False,
     write_fields: bool = True,
     keep_states: bool = False,
-    tolerance: float = 1e-8,
+    tolerance: float = TOLERANCE,
     volumetric: str = VOLUMETRIC_DEFAULT,
     mesh_force: float | None = None,
     overwrite: bool = False,
@@ -309,58 +304,67 @@ def run_history(
     instead of the history's largest (>= it), so runs of different peaks can share one mesh
     (e.g. single loads compared with a longer history). ``out``: result directory (curve.csv,
     summary.json, fields/*.vtu), written atomically; an existing ``out`` is replaced only if it
-    is an FE result of ours (``io.check_replaceable``, checked before any work; ``overwrite`` lifts
-    it). A checkpoint ``<out>.checkpoint.npz`` (or ``checkpoint``) is written after every
-    converged step and used by ``resume=True``; the default one is removed when the result has
-    landed, an explicit ``checkpoint`` is left to the caller (who lands the result later).
+    is an FE result of ours (``io.check_replaceable``, checked before any work; ``overwrite``
+    lifts it). A checkpoint ``<out>.checkpoint.npz`` (or ``checkpoint``) is written after every
+    converged step (the ParaView files of the waypoints passed wait beside it in
+    ``<out>.checkpoint.fields/``); the default one is removed when the result has landed, an
+    explicit ``checkpoint`` is left to the caller (who lands the result later:
+    ``checkpoint.remove_checkpoint``). ``resume=True``: reuse a finished run in ``out`` of the
+    same identity (``fem.reuse``: inputs, FE code, library versions), else go on from the
+    checkpoint if it is one of this identity; an unusable checkpoint is reported in one line
+    and the run starts over. ``write_fields`` and ``progress`` do not change the result.
     Raises ConvergenceError (one line, naming the step and load) if a step fails after
     ``MAX_CUTBACKS`` halvings; the checkpoint then holds the last converged state.
     """
+    from .reuse import FeRunIdentity, finished_run
+
     started = time.perf_counter()
-    forces = validate_forces(list(forces))
-    mesh_preset(mesh)
-    steps = int(steps_per_segment or STEPS_PER_SEGMENT[mesh])
-    if steps < 1:
-        raise InputError(f"steps_per_segment: must be >= 1, got {steps}")
-    fmax = max(forces)
-    if mesh_force is not None and not (math.isfinite(mesh_force) and mesh_force >= fmax):
-        raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, got {mesh_force!r}")
-    sized_for = fmax if mesh_force is None else float(mesh_force)
-    mesh_key = f"{mesh}/{volumetric}" + ("" if mesh_force is None else f"/{sized_for!r}")
-    signature = _signature(material, forces, mesh_key, steps)
+    identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
+                                tolerance=tolerance, volumetric=volumetric,
+                                mesh_force=mesh_force)
+    forces, steps = list(identity.forces), identity.steps_per_segment
+    if resume and out is not None and not keep_states:
+        why: list[str] = []
+        finished = finished_run(out, identity, fields=write_fields, why=why)
+        if finished is not None:
+            if progress:
+                print(f"fem: reusing the finished run in {out} (same inputs, FE code and "
+                      "libraries)", file=sys.stderr)
+            return finished
+        if why:
+            print(f"fem: not reusing the run in {out}: {why[0]}; running it again",
+                  file=sys.stderr)
     if out is not None:
-        check_replaceable(out, "fem", overwrite=overwrite)
+        check_replaceable(out, "fem", overwrite=overwrite)  # before any work
     ckpt = Path(checkpoint) if checkpoint is not None else (
         checkpoint_path(out) if out is not None else None)
-    saved = None
-    if resume and ckpt is not None and ckpt.exists():
-        with np.load(ckpt, allow_pickle=False) as data:
-            if str(data["signature"]) == signature:
-                saved = {k: data[k] for k in data.files}
-            else:
-                print("warning: checkpoint is for other inputs; starting afresh", file=sys.stderr)
-
+    pending = fields_beside(ckpt) if ckpt is not None else None
+    saved = (read_checkpoint(ckpt, identity, len(CURVE_COLUMNS))
+             if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
-        fe_mesh = _skfem_mesh_from_arrays(saved["mesh_doflocs"], saved["mesh_t"])
-    else:
-        fe_mesh = history_mesh(material, sized_for, mesh)
-    if volumetric not in VOLUMETRIC:
-        raise InputError(f"volumetric: unknown {volumetric!r} (allowed: {', '.join(VOLUMETRIC)})")
-    bbar, order = VOLUMETRIC[volumetric]
-    solver = ContactSolver(material, fe_mesh, force_scale=fmax, tolerance=tolerance, bbar=bbar,
-                           volumetric_order=order)
+        solver = _solver(material, saved.mesh, identity)
+        targets, marks = load_schedule(forces, steps, saved.yield_force)
+        problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
+                                write_fields)
+        if problem is not None:
+            warn_checkpoint(ckpt, problem)
+            saved = None
+    if saved is None:
+        solver = _solver(material, history_mesh(material, identity.mesh_force, mesh), identity)
+        if pending is not None:
+            shutil.rmtree(pending, ignore_errors=True)  # files of an earlier, other run
+    fe_mesh = solver.mesh
     run = _Run(solver, material)
 
     if saved is not None:
-        yield_force = float(saved["yield_force_estimate"])
-        state = State.from_arrays({k[6:]: v for k, v in saved.items() if k.startswith("state_")})
-        run.rows = [list(r) for r in saved["rows"]]
-        meta = json.loads(str(saved["meta"]))
-        run.first_yield = meta["first_yield"]
-        run.fully_plastic = meta["fully_plastic"]
-        run.last_elastic = meta["last_elastic"]
-        done = int(saved["done"])
-        elapsed_before = float(saved["wall_time_s"])
+        yield_force = saved.yield_force
+        state = saved.state
+        run.rows = saved.rows
+        run.first_yield = saved.detector["first_yield"]
+        run.fully_plastic = saved.detector["fully_plastic"]
+        run.last_elastic = saved.detector["last_elastic"]
+        done = saved.done
+        elapsed_before = saved.wall_time_s
     else:
         yield_force = _probe_yield_force(solver, material)
         state = solver.initial_state()
@@ -368,9 +372,10 @@ def run_history(
         done = 0
         elapsed_before = 0.0
     targets, marks = load_schedule(forces, steps, yield_force)
-    field_steps = set(marks)
+    # ParaView files of the waypoints, written to the pending folder as the run passes them
+    field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
+    record = json.dumps(identity.to_dict())
 
-    fields: dict[int, State] = {}
     states = [state] if keep_states else []
     bar = None
     if progress:
@@ -385,18 +390,14 @@ def run_history(
             run.record(step, state)
             if keep_states:
                 states.append(state)
-            if write_fields and step in field_steps:
-                fields[step] = state
+            if step in field_steps:
+                _save_fields(solver, state, pending / field_name(step))
             if ckpt is not None:
-                meta = {"first_yield": run.first_yield, "fully_plastic": run.fully_plastic,
-                        "last_elastic": run.last_elastic}
-                _atomic_savez(
-                    ckpt, signature=np.array(signature), done=np.array(step),
-                    rows=np.array(run.rows), yield_force_estimate=np.array(yield_force),
-                    mesh_doflocs=fe_mesh.doflocs, mesh_t=fe_mesh.t, meta=np.array(json.dumps(meta)),
-                    wall_time_s=np.array(elapsed_before + time.perf_counter() - started),
-                    **{f"state_{k2}": v for k2, v in state.arrays().items()},
-                )
+                save_checkpoint(ckpt, record, run.rows, state, fe_mesh, yield_force=yield_force,
+                                fields=write_fields,
+                                wall_time_s=elapsed_before + time.perf_counter() - started,
+                                first_yield=run.first_yield, fully_plastic=run.fully_plastic,
+                                last_elastic=run.last_elastic)
             if bar is not None:
                 bar.update(1)
     finally:
@@ -428,18 +429,25 @@ def run_history(
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
         "version": __version__,
-        "inputs": {"material": material.to_dict(), "forces_N": forces, "mesh": mesh,
-                   "steps_per_segment": steps, "tolerance": tolerance,
-                   "mesh_force_N": sized_for,
-                   "volumetric": volumetric},
+        "inputs": identity.inputs(),
         "conventions": "approach is ball-ball (2 x ball-wall); energies are for the pair",
     }
+    # what made this result (FemJob.key, checkpoints and --resume compare it: fem.reuse)
+    summary["identity"] = identity.to_dict()
+    summary["fields"] = [f"fields/{field_name(s)}" for s in field_steps]
     result = FemResult(curve=curve, summary=summary, states=states, solver=solver)
     if out is not None:
-        write_result(result, Path(out), solver, fields, overwrite=overwrite)
-        if checkpoint is None and ckpt is not None and ckpt.exists():
-            ckpt.unlink()
+        write_result(result, Path(out), solver, {},
+                     field_files=[pending / field_name(s) for s in field_steps],
+                     overwrite=overwrite)
+        if checkpoint is None:
+            remove_checkpoint(ckpt)
     return result
+
+
+def _save_fields(solver: ContactSolver, state: State, path: Path) -> None:
+    with atomic_path(path) as tmp:
+        write_fields(solver, state, tmp)
 
 
 def _probe_yield_force(solver: ContactSolver, material: Material) -> float:
@@ -477,9 +485,11 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int) -> S
 
 
 # --- output files ------------------------------------------------------------------------------
-def write_result(result: FemResult, out: Path, solver: ContactSolver,
-                 fields: dict[int, State], *, overwrite: bool = False) -> None:
-    """Write the run directory atomically (io.atomic_directory)."""
+def write_result(result: FemResult, out: Path, solver: ContactSolver | None,
+                 fields: dict[int, State], field_files=(), *, overwrite: bool = False) -> None:
+    """Write the run directory atomically (io.atomic_directory); ``fields``: states to write as
+    ParaView files, ``field_files``: ParaView files already written (copied into fields/).
+    ``overwrite``: replace ``out`` even if it is not an FE result of ours."""
     inputs = result.summary.get("inputs")
     with atomic_directory(out, "fem", overwrite=overwrite, inputs=inputs) as tmp:
         with open(tmp / "curve.csv", "w", newline="") as fh:
@@ -489,10 +499,12 @@ def write_result(result: FemResult, out: Path, solver: ContactSolver,
             for i in range(len(curve["step"])):
                 writer.writerow([repr(curve[c][i].item()) if curve[c].dtype.kind == "f"
                                  else int(curve[c][i]) for c in CURVE_COLUMNS])
-        if fields:
+        if fields or field_files:
             (tmp / "fields").mkdir()
             for step, state in fields.items():
-                write_fields(solver, state, tmp / "fields" / f"step_{step:05d}.vtu")
+                write_fields(solver, state, tmp / "fields" / field_name(step))
+            for path in field_files:
+                shutil.copyfile(path, tmp / "fields" / Path(path).name)
         write_json_atomic(tmp / "summary.json", result.summary)
 
 

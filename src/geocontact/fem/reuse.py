@@ -1,0 +1,226 @@
+"""When an FE result may be reused: one identity for the cache, the checkpoint and ``--resume``.
+
+An FE run is decided by its inputs (material, force history, mesh preset and the force its mesh
+is sized for, load steps per segment, Newton tolerance, volumetric treatment), by the FE engine's
+source code and by the libraries that compute it (gmsh meshes, scikit-fem assembles, scipy
+factorises, numpy does the rest). :class:`FeRunIdentity` holds all of them; its ``key()`` names
+a campaign's cache entry, signs a checkpoint and is written to ``summary.json`` (``identity``),
+and :func:`finished_run` is the one test of whether a result directory may stand in for a run::
+
+    identity = FeRunIdentity.of(material, forces, "coarse", steps_per_segment=6)
+    result = finished_run(directory, identity)   # FemResult, or None: run it again
+
+What does not change the numbers is left out: whether ParaView fields are written, progress
+bars, a campaign label, the output path.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..force_history import validate_forces
+from ..material import Material
+from .mesh import mesh_preset
+from .run import (
+    CURVE_COLUMNS,
+    STEPS_PER_SEGMENT,
+    TOLERANCE,
+    VOLUMETRIC,
+    VOLUMETRIC_DEFAULT,
+    FemResult,
+)
+
+SCHEMA = "geocontact.fe-identity/1"
+# The distributions whose versions decide an FE result (importlib.metadata names).
+LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
+# The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
+# detector, a solver fix) invalidates earlier results even when the version string is unchanged.
+# fem/checkpoint.py restores the state a resumed run goes on from.
+FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/run.py",
+              "fem/solver.py", "force_history.py", "hertz.py", "material.py")
+
+
+@functools.cache
+def fe_code_hash() -> str:
+    """Hash of the FE engine's source files (``FE_SOURCES``)."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    for name in FE_SOURCES:
+        digest.update(name.encode())
+        digest.update((root / name).read_bytes())
+    return digest.hexdigest()[:16]
+
+
+@functools.cache
+def distribution_version(name: str) -> str:
+    """Installed version of the distribution ``name`` ("absent" if it is not installed); read
+    once per process, as the modules in use are the ones loaded then."""
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return "absent"
+
+
+def library_versions() -> dict[str, str]:
+    return {name: distribution_version(name) for name in LIBRARIES}
+
+
+@dataclass(frozen=True)
+class FeRunIdentity:
+    """Everything that decides an FE run's result, with the defaults resolved (an omitted
+    ``steps_per_segment`` is the mesh preset's, an omitted ``mesh_force`` the largest force),
+    so two spellings of the same run have the same key."""
+
+    material: Material
+    forces: tuple[float, ...]
+    mesh: str
+    steps_per_segment: int
+    tolerance: float
+    volumetric: str
+    mesh_force: float
+
+    @classmethod
+    def of(cls, material: Material, forces, mesh: str = "coarse", *,
+           steps_per_segment: int | None = None, tolerance: float = TOLERANCE,
+           volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None
+           ) -> FeRunIdentity:
+        """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
+        an input the FE would refuse."""
+        forces = tuple(validate_forces(list(forces)))
+        mesh_preset(mesh)
+        steps = STEPS_PER_SEGMENT[mesh] if steps_per_segment is None else steps_per_segment
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+            raise InputError(f"steps_per_segment: must be an integer >= 1, got {steps!r}")
+        if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
+                math.isfinite(tolerance) and tolerance > 0):
+            raise InputError(f"tolerance: must be a positive number, got {tolerance!r}")
+        if volumetric not in VOLUMETRIC:
+            raise InputError(f"volumetric: unknown {volumetric!r} (allowed: "
+                             f"{', '.join(VOLUMETRIC)})")
+        fmax = max(forces)
+        if mesh_force is None:
+            mesh_force = fmax
+        elif isinstance(mesh_force, bool) or not isinstance(mesh_force, (int, float)) or not (
+                math.isfinite(mesh_force) and mesh_force >= fmax):
+            raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, "
+                             f"got {mesh_force!r}")
+        return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
+                   float(mesh_force))
+
+    def inputs(self) -> dict[str, Any]:
+        """The inputs as ``summary.json`` records them (``inputs``)."""
+        return {"material": self.material.to_dict(), "forces_N": list(self.forces),
+                "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
+                "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
+                "volumetric": self.volumetric}
+
+    def to_dict(self) -> dict[str, Any]:
+        """Inputs, FE source hash and library versions, and the key of them all."""
+        record = {"schema": SCHEMA, "inputs": self.inputs(), "fe_code": fe_code_hash(),
+                  "libraries": library_versions()}
+        text = json.dumps(record, sort_keys=True)
+        return {"key": hashlib.sha256(text.encode()).hexdigest()[:20], **record}
+
+    def key(self) -> str:
+        """Hash of everything that decides the result (the cache entry's name)."""
+        return self.to_dict()["key"]
+
+    def describe(self) -> str:
+        """The inputs in a few words, for messages."""
+        m = self.material
+        settings = [f"forces {', '.join(f'{f:g}' for f in self.forces)} N",
+                    f"{self.mesh} mesh", f"{self.steps_per_segment} steps/segment"]
+        if self.mesh_force != max(self.forces):
+            settings.append(f"mesh sized for {self.mesh_force:g} N")
+        if self.tolerance != TOLERANCE:
+            settings.append(f"tolerance {self.tolerance:g}")
+        if self.volumetric != VOLUMETRIC_DEFAULT:
+            settings.append(f"volumetric {self.volumetric}")
+        settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
+                        f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
+                        f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "
+                        f"R = {m.radius:g} m")
+        return "; ".join(settings)
+
+
+def difference(recorded: Any, identity: FeRunIdentity) -> str | None:
+    """What differs between a recorded identity (``to_dict()`` of an earlier run) and
+    ``identity``, in a few words; None when they are the same."""
+    current = identity.to_dict()
+    if not isinstance(recorded, dict) or recorded.get("schema") != SCHEMA:
+        return "made by an older FE (no identity record)"
+    if all(recorded.get(name) == value for name, value in current.items()):
+        return None  # the whole record, not only its key: a hand-edited record is not trusted
+    if recorded.get("fe_code") != current["fe_code"]:
+        return "made by other FE code"
+    theirs = recorded.get("libraries") or {}
+    for name, version in current["libraries"].items():
+        if theirs.get(name) != version:
+            return f"made with {name} {theirs.get(name)} (now {version})"
+    inputs = recorded.get("inputs") or {}
+    for name, value in current["inputs"].items():
+        if inputs.get(name) != value:
+            return f"made with other inputs ({name})"
+    return "made with another identity"
+
+
+def load_result(directory: str | Path) -> FemResult:
+    """A result directory written by ``run_history(out=...)`` back as a FemResult."""
+    directory = Path(directory)
+    try:
+        summary = json.loads((directory / "summary.json").read_text())
+        with open(directory / "curve.csv", newline="") as fh:
+            rows = list(csv.reader(fh))
+        header, body = rows[0], rows[1:]
+        data = np.array(body, dtype=float).reshape(len(body), len(header))
+    except (OSError, ValueError, IndexError) as exc:
+        raise InputError(f"FE result {directory}: unreadable ({exc})") from None
+    missing = [c for c in CURVE_COLUMNS if c not in header]
+    if missing:
+        raise InputError(f"FE result {directory}: curve.csv lacks columns {missing}")
+    curve = {name: data[:, i] for i, name in enumerate(header)}
+    for name in ("step", "plastic_points", "iterations"):
+        if name in curve:
+            curve[name] = curve[name].astype(int)
+    return FemResult(curve=curve, summary=summary)
+
+
+def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool = False,
+                 why: list[str] | None = None) -> FemResult | None:
+    """The finished FE run in ``directory`` if it may stand in for a run of ``identity`` (same
+    key: same inputs, FE code and libraries; with ``fields`` also its ParaView files), else
+    None. ``why``: a list that receives the reason a run that is there is not reused."""
+    directory = Path(directory)
+    if not (directory / "summary.json").exists():
+        return None
+    try:
+        result = load_result(directory)
+    except InputError as exc:
+        reason = str(exc)
+    else:
+        reason = difference(result.summary.get("identity"), identity)
+        if reason is None and fields:
+            names = result.summary.get("fields")  # a run with fields has at least one
+            if not isinstance(names, list) or not names or not all(
+                    (directory / str(name)).is_file() for name in names):
+                reason = "written without its ParaView fields"
+        if reason is None:
+            return result
+    if why is not None:
+        why.append(reason)
+    return None
+
+
+__all__ = ["FE_SOURCES", "LIBRARIES", "FeRunIdentity", "difference", "distribution_version",
+           "fe_code_hash", "finished_run", "library_versions", "load_result"]

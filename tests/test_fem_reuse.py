@@ -1,0 +1,264 @@
+"""When an FE result may be reused (fem.reuse): one identity for the cache, the checkpoint and
+``--resume``; a resumed run writes what an uninterrupted one writes; a bad checkpoint costs a
+fresh start, never a traceback."""
+
+import json
+from dataclasses import replace
+
+import meshio
+import numpy as np
+import pytest
+
+import geocontact.fem.reuse as reuse
+import geocontact.fem.run as fem_run
+from geocontact.cycles import run_cycles
+from geocontact.fem.campaign import FemJob
+from geocontact.fem.reuse import LIBRARIES, FeRunIdentity, fe_code_hash, finished_run
+from geocontact.fem.run import (
+    STEPS_PER_SEGMENT,
+    checkpoint_path,
+    pending_fields_path,
+    run_history,
+)
+from geocontact.material import MATERIAL_KEYS, preset
+
+FORCES = [0.0, 60.0, 0.0]
+STEPS = 3  # 10 load steps; waypoints (ParaView files) at steps 7 and 10
+
+
+@pytest.fixture(scope="module")
+def material():
+    return preset("reference")
+
+
+def _run(material, out=None, **kwargs):
+    return run_history(material, FORCES, mesh="coarse", steps_per_segment=STEPS, out=out,
+                       **kwargs)
+
+
+def _interrupt_at(monkeypatch, step):
+    """Make the FE stop with KeyboardInterrupt when it starts load step ``step``."""
+    real = fem_run._advance
+
+    def advance(solver, state, target, k):
+        if k == step:
+            raise KeyboardInterrupt
+        return real(solver, state, target, k)
+
+    monkeypatch.setattr(fem_run, "_advance", advance)
+
+
+def _count_steps(monkeypatch):
+    """Count the load steps the FE solves from now on."""
+    real, calls = fem_run._advance, []
+
+    def advance(solver, state, target, k):
+        calls.append(k)
+        return real(solver, state, target, k)
+
+    monkeypatch.setattr(fem_run, "_advance", advance)
+    return calls
+
+
+def _files(directory):
+    return sorted(str(p.relative_to(directory)) for p in directory.rglob("*"))
+
+
+# --- A: one identity ---------------------------------------------------------------------------
+def test_key_changes_with_every_input_and_library(material, monkeypatch):
+    base = FemJob(material, (0.0, 100.0, 0.0))
+    key = base.key()
+    # other spellings of the same run: same key (defaults resolved, the label is a name)
+    assert FemJob(material, (0, 100, 0)).key() == key
+    assert FemJob(material, (0.0, 100.0, 0.0), steps_per_segment=STEPS_PER_SEGMENT["coarse"],
+                  mesh_force=100.0, label="another name").key() == key
+    variants = {
+        "forces": FemJob(material, (0.0, 101.0, 0.0)),
+        "history shape": FemJob(material, (0.0, 100.0, 0.0, 100.0, 0.0)),
+        "mesh": FemJob(material, (0.0, 100.0, 0.0), mesh="default"),
+        "steps_per_segment": FemJob(material, (0.0, 100.0, 0.0), steps_per_segment=5),
+        "tolerance": FemJob(material, (0.0, 100.0, 0.0), tolerance=1e-9),
+        "volumetric": FemJob(material, (0.0, 100.0, 0.0), volumetric="full"),
+        "mesh_force": FemJob(material, (0.0, 100.0, 0.0), mesh_force=200.0),
+    }
+    for name in (*MATERIAL_KEYS, "radius"):
+        value = getattr(material, name)
+        variants[name] = FemJob(replace(material, **{name: value * 1.01 if value else 0.01}),
+                                (0.0, 100.0, 0.0))
+    keys = {name: job.key() for name, job in variants.items()}
+    assert key not in keys.values()
+    assert len(set(keys.values())) == len(keys)
+    # the FE source and every library's version: monkeypatch where the key reads them
+    with monkeypatch.context() as m:
+        m.setattr(reuse, "fe_code_hash", lambda: "other FE code")
+        assert base.key() != key
+    real = reuse.distribution_version
+    for library in LIBRARIES:
+        with monkeypatch.context() as m:
+            m.setattr(reuse, "distribution_version",
+                      lambda name, lib=library: real(name) + ("+other" if name == lib else ""))
+            assert base.key() != key, library
+    assert base.key() == key
+
+
+def test_summary_records_the_identity_and_fields_progress_do_not_change_it(material, tmp_path):
+    quiet = _run(material, tmp_path / "a", write_fields=False, progress=False)
+    loud = _run(material, tmp_path / "b", write_fields=True, progress=True)
+    job = FemJob(material, tuple(FORCES), steps_per_segment=STEPS)
+    assert quiet.summary["identity"] == loud.summary["identity"]
+    identity = json.loads((tmp_path / "b" / "summary.json").read_text())["identity"]
+    assert identity["key"] == job.key() == FeRunIdentity.of(
+        material, FORCES, "coarse", steps_per_segment=STEPS).key()
+    assert identity["inputs"] == loud.summary["inputs"]
+    assert identity["fe_code"] == fe_code_hash()
+    assert set(identity["libraries"]) == set(LIBRARIES)
+    assert all(v and v != "absent" for v in identity["libraries"].values())
+    np.testing.assert_array_equal(quiet.curve["approach_m"], loud.curve["approach_m"])
+    # a run written without fields does not stand in for one that needs them
+    assert finished_run(tmp_path / "a", job.identity()) is not None
+    assert finished_run(tmp_path / "a", job.identity(), fields=True) is None
+    assert finished_run(tmp_path / "b", job.identity(), fields=True) is not None
+
+
+def test_cycles_resume_reuses_only_a_run_of_the_same_code(material, tmp_path, monkeypatch,
+                                                          capsys):
+    out = tmp_path / "cycles"
+    first = run_cycles(material, FORCES, out, mesh="coarse", steps_per_segment=STEPS)
+    steps = _count_steps(monkeypatch)
+    again = run_cycles(material, FORCES, out, mesh="coarse", steps_per_segment=STEPS,
+                       resume=True)
+    assert steps == [] and again["analyses"]["fe"] == first["analyses"]["fe"]
+    # the FE run was made by other (older) code: --resume runs it again
+    summary_path = out / "fe" / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["identity"]["fe_code"] = "0123456789abcdef"
+    summary_path.write_text(json.dumps(summary))
+    capsys.readouterr()
+    run_cycles(material, FORCES, out, mesh="coarse", steps_per_segment=STEPS, resume=True)
+    assert len(steps) == 10
+    assert "made by other FE code" in capsys.readouterr().err
+    assert json.loads(summary_path.read_text())["identity"]["fe_code"] == fe_code_hash()
+
+
+# --- B: a resumed run writes the same files ------------------------------------------------
+def test_resumed_run_writes_the_files_of_an_uninterrupted_one(material, tmp_path, monkeypatch):
+    whole = tmp_path / "whole"
+    full = _run(material, whole)
+    out = tmp_path / "resumed"
+    with monkeypatch.context() as m:
+        _interrupt_at(m, 9)  # after the peak waypoint (step 7), before the end (step 10)
+        with pytest.raises(KeyboardInterrupt):
+            _run(material, out)
+    assert not out.exists() and checkpoint_path(out).exists()
+    assert _files(pending_fields_path(out)) == ["step_00007.vtu"]
+    steps = _count_steps(monkeypatch)
+    resumed = _run(material, out, resume=True)
+    assert steps == [9, 10]
+    assert _files(out) == _files(whole) == [".geocontact-result.json", "curve.csv", "fields",
+                                            "fields/step_00007.vtu", "fields/step_00010.vtu",
+                                            "summary.json"]
+    assert (out / "curve.csv").read_text() == (whole / "curve.csv").read_text()
+    for column in ("force_N", "approach_m", "plastic_dissipation_J", "elastic_energy_J"):
+        np.testing.assert_array_equal(resumed.curve[column], full.curve[column])
+    for name in ("step_00007.vtu", "step_00010.vtu"):
+        a, b = meshio.read(out / "fields" / name), meshio.read(whole / "fields" / name)
+        np.testing.assert_array_equal(a.point_data["displacement"],
+                                      b.point_data["displacement"])
+        for key in ("eqps", "mises", "yield_state"):
+            np.testing.assert_array_equal(a.cell_data[key][0], b.cell_data[key][0])
+    # nothing left beside the result
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["resumed", "whole"]
+
+
+def test_resume_with_fields_from_a_checkpoint_without_them_starts_afresh(material, tmp_path,
+                                                                        monkeypatch, capsys):
+    out = tmp_path / "run"
+    with monkeypatch.context() as m:
+        _interrupt_at(m, 9)
+        with pytest.raises(KeyboardInterrupt):
+            _run(material, out, write_fields=False)
+    capsys.readouterr()
+    _run(material, out, resume=True)
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "lacks the ParaView fields" in err
+    assert _files(out / "fields") == ["step_00007.vtu", "step_00010.vtu"]
+
+
+# --- C: a bad checkpoint is one line and a fresh start -------------------------------------
+@pytest.fixture(scope="module")
+def good_checkpoint(material, tmp_path_factory):
+    """The bytes of a real checkpoint after 5 of the 10 steps."""
+    out = tmp_path_factory.mktemp("checkpoint") / "run"
+    real = fem_run._advance
+
+    def advance(solver, state, target, k):
+        if k == 6:
+            raise KeyboardInterrupt
+        return real(solver, state, target, k)
+
+    fem_run._advance = advance
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            _run(material, out, write_fields=False)
+    finally:
+        fem_run._advance = real
+    return checkpoint_path(out).read_bytes()
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(material):
+    return _run(material, write_fields=False)
+
+
+def _corrupt(kind, good, path):
+    with np.load(path.parent / "good.npz") as data:
+        saved = {k: data[k] for k in data.files}
+    if kind == "truncated":
+        path.write_bytes(good[: len(good) // 2])
+    elif kind == "missing keys":
+        np.savez(path, **{k: v for k, v in saved.items() if not k.startswith("state_")})
+    elif kind == "old format":  # the format before fem.reuse: a 16-hex signature
+        old = {k: v for k, v in saved.items() if k not in ("identity", "format", "fields")}
+        np.savez(path, signature=np.array("0123456789abcdef"), **old)
+    elif kind == "signature not JSON":
+        np.savez(path, **{**saved, "identity": np.array([1, 2, 3])})
+    elif kind == "signature a bare hash":
+        np.savez(path, **{**saved, "identity": np.array('"0123456789abcdef"')})
+    elif kind == "other inputs":
+        record = json.loads(str(saved["identity"]))
+        record["inputs"]["forces_N"] = [0.0, 61.0, 0.0]
+        np.savez(path, **{**saved, "identity": np.array(json.dumps(record))})
+    elif kind == "inconsistent rows":
+        np.savez(path, **{**saved, "rows": saved["rows"][:-2]})
+
+
+@pytest.mark.parametrize("kind, reason", [
+    ("truncated", "unreadable"), ("missing keys", "unreadable"),
+    ("old format", "old checkpoint format"), ("signature not JSON", "unreadable"),
+    ("signature a bare hash", "older FE"),
+    ("other inputs", "other inputs (forces_N)"), ("inconsistent rows", "unreadable"),
+])
+def test_bad_checkpoint_is_one_line_and_a_fresh_start(kind, reason, material, good_checkpoint,
+                                                      uninterrupted, tmp_path, capsys):
+    out = tmp_path / "run"
+    (tmp_path / "good.npz").write_bytes(good_checkpoint)
+    path = checkpoint_path(out)
+    _corrupt(kind, good_checkpoint, path)
+    capsys.readouterr()
+    result = _run(material, out, resume=True, write_fields=False)
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err, err
+    assert err.startswith(f"warning: checkpoint {path} not used") and reason in err, err
+    assert err.endswith("starting afresh")
+    np.testing.assert_array_equal(result.curve["approach_m"], uninterrupted.curve["approach_m"])
+    assert not path.exists() and (out / "summary.json").exists()
+
+
+def test_good_checkpoint_is_resumed(material, good_checkpoint, uninterrupted, tmp_path,
+                                    monkeypatch, capsys):
+    out = tmp_path / "run"
+    checkpoint_path(out).write_bytes(good_checkpoint)
+    steps = _count_steps(monkeypatch)
+    result = _run(material, out, resume=True, write_fields=False)
+    assert steps == [6, 7, 8, 9, 10] and capsys.readouterr().err == ""
+    np.testing.assert_array_equal(result.curve["approach_m"], uninterrupted.curve["approach_m"])
