@@ -11,7 +11,8 @@ docs/fem.md.
 Element size. As in the paper's model there are three zones of decreasing density away from the
 tip (zone I within 0.1 R). Inside zone I the size grows geometrically with the distance d from
 the tip, ``h = d / grading``, between a floor ``h_tip = a_min / per_tip_radius`` (a_min is the
-smallest contact radius to resolve, normally the yield contact radius) and the zone-I cap; the
+smallest contact radius to resolve: ``run.tip_contact_radius``, from the yield contact radius
+and the history's first load step) and the zone-I cap; the
 whole range of contact radii a_min ... a_max of a history is thus resolved with about
 ``grading`` elements across each contact radius, at a cost that grows only with log(a_max/a_min).
 

@@ -120,9 +120,10 @@ def tip_contact_radius(material: Material, min_force: float, mesh: str) -> float
     ``min_force``.
 
     A yielding run's first load steps are close below Fy (load_schedule: geometric from Fy / 2,
-    points at 0.8 and 0.95 Fy; contact radius 0.85-0.93 a_y), resolved by >= per_tip_radius
-    elements already: the meshes of ordinary runs, the verified results and the cached runs of
-    the reference material are unchanged (docs/fem.md lists the paper histories checked). A
+    points at 0.8 and 0.95 Fy; contact radius 0.85-0.93 a_y), which the 0.7 a_y rule already
+    spans with >= per_tip_radius >= 3 elements: the meshes of ordinary runs, the verified results
+    and the FE runs of the reference material are unchanged (docs/fem.md lists the histories
+    checked). A
     strong grain, or a history that stays below yield, reaches contacts far smaller than a_y (for
     sigma_c -> infinity a_y is even clipped to R/2); there the first load step decides.
     """
