@@ -31,6 +31,10 @@ def _hertz_contact_radius(material, force):
     return hertz.contact_radius(material, hertz.hertz_approach(material, force))
 
 
+def incipient_force(material):
+    return hertz.incipient_yield(material).force
+
+
 def test_strong_grain_matches_hertz_over_three_decades_of_force():
     """One history 0 -> 6 -> 60 -> 600 -> 6000 N on the coarse mesh: approach and contact radius
     within 2 % of Hertz at every decade (before the fix: 35-46 % / 18-47 % off at 6000 N on the
@@ -67,10 +71,6 @@ def test_yielding_runs_keep_the_verified_mesh():
     smallest = smallest_resolved_force(STRONG, [0.0, 6000.0], STEPS_PER_SEGMENT["coarse"])
     assert tip_contact_radius(STRONG, smallest, "coarse") == pytest.approx(
         _hertz_contact_radius(STRONG, smallest))
-
-
-def incipient_force(material):
-    return hertz.incipient_yield(material).force
 
 
 def test_elements_across_counts_surface_edges_between_axis_and_contact_radius():
