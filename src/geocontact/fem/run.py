@@ -31,7 +31,7 @@ from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
     preset_history,
     validate_forces,
 )
-from ..hertz import incipient_yield
+from ..hertz import contact_radius, hertz_approach, incipient_yield
 from ..io import atomic_directory, atomic_path, check_replaceable, write_json_atomic
 from ..material import Material
 from .checkpoint import (
@@ -44,7 +44,14 @@ from .checkpoint import (
     save_checkpoint,
     warn_checkpoint,
 )
-from .mesh import PRESETS, build_mesh
+from .mesh import (
+    ELEMENTS_ACROSS_SMALLEST_CONTACT,
+    MIN_ELEMENTS_ACROSS_CONTACT,
+    PRESETS,
+    build_mesh,
+    elements_across,
+    mesh_preset,
+)
 from .plasticity import APEX, ELASTIC
 from .solver import ContactSolver, State
 
@@ -100,12 +107,102 @@ def largest_contact_radius_estimate(material: Material, force: float) -> float:
     return 1.2 * max(hertz, plastic)
 
 
-def history_mesh(material: Material, max_force: float, mesh: str = "default"):
-    """The mesh of a history whose largest force is ``max_force``: it resolves every contact
-    radius from the yield contact radius to the largest one (``mesh.build_mesh``)."""
-    a_min = yield_contact_radius_estimate(material)
+def hertz_contact_radius(material: Material, force: float) -> float:
+    """Hertz contact radius at ``force`` (geocontact.hertz): the contact radius of a load below
+    yield, and a lower bound above it (a plastic contact is wider)."""
+    return float(contact_radius(material, hertz_approach(material, force)))
+
+
+def smallest_resolved_force(material: Material, forces, steps_per_segment: int) -> float:
+    """The smallest positive load step of the history ``forces`` with ``steps_per_segment``
+    steps per segment (``load_schedule`` with the analytic first-yield force; the run's own
+    schedule uses the FE-probed one, a few per cent away): the smallest load whose contact the
+    mesh must resolve."""
+    targets, _ = load_schedule(list(forces), steps_per_segment,
+                               float(incipient_yield(material).force))
+    return min(f for f in targets if f > 0.0)
+
+
+def tip_contact_radius(material: Material, min_force: float, mesh: str) -> float:
+    """The ``a_min`` of ``mesh.build_mesh`` (h_tip = a_min / per_tip_radius) for a history whose
+    smallest load step is ``min_force``: 0.7 x the analytic yield contact radius (the rule the
+    meshes were verified with), made smaller only where that would leave fewer than
+    ``ELEMENTS_ACROSS_SMALLEST_CONTACT`` (3) elements across the Hertz contact radius at
+    ``min_force``.
+
+    A yielding run's first load steps are close below Fy (load_schedule: geometric from Fy / 2,
+    points at 0.8 and 0.95 Fy; contact radius 0.85-0.93 a_y), which the 0.7 a_y rule already
+    spans with >= per_tip_radius >= 3 elements: the meshes of ordinary runs, the verified results
+    and the FE runs of the reference material are unchanged (docs/fem.md lists the histories
+    checked). A
+    strong grain, or a history that stays below yield, reaches contacts far smaller than a_y (for
+    sigma_c -> infinity a_y is even clipped to R/2); there the first load step decides.
+    """
+    per_tip = mesh_preset(mesh).per_tip_radius
+    first_step = per_tip / ELEMENTS_ACROSS_SMALLEST_CONTACT * hertz_contact_radius(material,
+                                                                                 min_force)
+    return min(yield_contact_radius_estimate(material), first_step)
+
+
+def history_mesh(material: Material, max_force: float, mesh: str = "default",
+                 min_force: float | None = None):
+    """The mesh of a history whose largest force is ``max_force`` and smallest load step
+    ``min_force``: it resolves every contact radius from the smallest (``tip_contact_radius``)
+    to the largest one (``mesh.build_mesh``).
+
+    ``min_force`` None: the first step of a ramp 0 -> ``max_force`` with the preset's steps.
+    """
+    if min_force is None:
+        min_force = smallest_resolved_force(material, [0.0, max_force], STEPS_PER_SEGMENT[mesh])
+    a_min = tip_contact_radius(material, min_force, mesh)
     a_max = max(largest_contact_radius_estimate(material, max_force), 2.0 * a_min)
     return build_mesh(material.radius, a_min, a_max, mesh)
+
+
+def contact_resolution(material: Material, fe_mesh, curve: dict[str, np.ndarray],
+                       first_yield: dict[str, Any] | None) -> tuple[dict[str, Any], list[str]]:
+    """Surface elements spanning the contact radius (``mesh.elements_across``) at the first
+    loaded step, at first yield and at the peak, and a warning if any is below
+    ``MIN_ELEMENTS_ACROSS_CONTACT`` (the ~2 % accuracy limit, docs/fem.md).
+
+    The radius counted is the FE contact radius, and at elastic points (before first yield)
+    the smaller of it and Hertz's: an under-resolved FE contact is too wide (40 % at one element),
+    which would hide the under-resolution. First yield: the Hertz radius at the FE first-yield
+    force.
+    """
+    force, radius = curve["force_N"], curve["contact_radius_m"]
+    yield_force = first_yield["force_N"] if first_yield else math.inf
+
+    def point(k: int) -> dict[str, Any]:
+        a = float(radius[k])
+        if force[k] < yield_force:
+            a = min(a, hertz_contact_radius(material, float(force[k])))
+        return {"step": int(curve["step"][k]), "force_N": float(force[k]),
+                "contact_radius_m": a, "elements": elements_across(fe_mesh, material.radius, a)}
+
+    loaded = np.nonzero(force > 0.0)[0]
+    points: dict[str, Any] = {"first_loaded_step": None, "first_yield": None, "peak": None}
+    if loaded.size:
+        points["first_loaded_step"] = point(int(loaded[0]))
+        points["peak"] = point(int(np.argmax(force)))
+    if first_yield:
+        a = hertz_contact_radius(material, first_yield["force_N"])
+        points["first_yield"] = {"force_N": first_yield["force_N"], "contact_radius_m": a,
+                                 "elements": elements_across(fe_mesh, material.radius, a)}
+    low = [(name, p) for name, p in points.items()
+           if p is not None and p["elements"] < MIN_ELEMENTS_ACROSS_CONTACT]
+    warnings = []
+    if low:
+        where = "; ".join(f"{p['elements']:.2g} at the {name.replace('_', ' ')} "
+                          f"(F = {p['force_N']:.4g} N, a = {p['contact_radius_m']:.3g} m)"
+                          for name, p in low)
+        warnings.append(
+            f"under-resolved contact: surface elements across the contact radius {where}; "
+            f"below {MIN_ELEMENTS_ACROSS_CONTACT:g} the approach and contact radius can be off "
+            f"by more than 2 % (docs/fem.md, 'Mesh resolution of the contact')")
+    summary = {"elements_across_contact_radius": points,
+               "minimum_elements": MIN_ELEMENTS_ACROSS_CONTACT}
+    return summary, warnings
 
 
 def _hertz_force(material: Material, contact_radius: float) -> float:
@@ -350,7 +447,12 @@ def run_history(
             warn_checkpoint(ckpt, problem)
             saved = None
     if saved is None:
-        solver = _solver(material, history_mesh(material, identity.mesh_force, mesh), identity)
+        # a shared mesh (mesh_force) is sized from the ramp 0 -> mesh_force, the same for every
+        # run sharing it; a history starting lower is then checked (contact_resolution)
+        sized_history = forces if mesh_force is None else [0.0, identity.mesh_force]
+        fe_mesh = history_mesh(material, identity.mesh_force, mesh,
+                               min_force=smallest_resolved_force(material, sized_history, steps))
+        solver = _solver(material, fe_mesh, identity)
         if pending is not None:
             shutil.rmtree(pending, ignore_errors=True)  # files of an earlier, other run
     fe_mesh = solver.mesh
@@ -409,6 +511,9 @@ def run_history(
     from .. import __version__
 
     first = run.first_yield or {}
+    resolution, warnings = contact_resolution(material, fe_mesh, curve, run.first_yield)
+    for message in warnings:
+        print(f"warning: {message}", file=sys.stderr)
     summary = {
         "first_yield_force_N": first.get("force_N"),
         "first_yield_approach_m": first.get("approach_m"),
@@ -425,6 +530,8 @@ def run_history(
         "cycles": _cycles(curve, forces, marks),
         "mesh": {"elements": int(fe_mesh.t.shape[1]), "nodes": int(fe_mesh.doflocs.shape[1]),
                  "preset": mesh, "element": f"P2 triangle (6-node, isoparametric), {volumetric}"},
+        "contact_resolution": resolution,
+        "warnings": warnings,
         "steps": int(len(targets)),
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
@@ -546,6 +653,7 @@ def write_fields(solver: ContactSolver, state: State, path: Path) -> None:
 
 __all__ = [
     "CURVE_COLUMNS", "FULLY_PLASTIC_CORE", "FULLY_PLASTIC_FRACTION", "FemResult", "PRESETS",
-    "fully_plastic_onset", "history_from_dict", "history_mesh", "load_history",
+    "contact_resolution", "fully_plastic_onset", "history_from_dict", "history_mesh",
+    "load_history",
     "load_schedule", "preset_history", "run_history", "write_result",
 ]
