@@ -127,8 +127,32 @@ def law_files(directory: Path) -> list[Path]:
     return found
 
 
+# Log-axis figures start their curves this far below delta_y (the law is Hertz there) and
+# sample every branch on a log grid, so slopes read off the figure are the law's own.
+LOG_FLOOR = 1e-3
+LOG_POINTS = 300
+
+
+def positive(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """The points of a curve that a log-log axis can show (x > 0 and y > 0, finite): a line is
+    never drawn through zero on a log axis."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    return x[keep], y[keep]
+
+
+def _toward(start: float, end: float, points: int, floor: float) -> np.ndarray:
+    """From ``start`` to ``end``, dense on a log scale of the distance to ``end``
+    (down to ``floor`` of the span): an unloading branch that vanishes at the residual
+    approach as a power of the distance is then resolved to its end."""
+    span = start - end
+    return end + span * np.geomspace(1.0, floor, points)
+
+
 def law_curves(params, depths) -> list[tuple]:
-    """Load to each depth (in delta_y), unload until apart, reload past the peak."""
+    """Load to each depth (in delta_y), unload until apart, reload past the peak: every branch
+    on a log grid (loading from ``LOG_FLOOR`` delta_y, unloading and reloading dense near the
+    residual approach), so the curves are fit for log axes."""
     from .law import Contact
 
     dy = params.yield_approach
@@ -136,13 +160,16 @@ def law_curves(params, depths) -> list[tuple]:
     for depth in depths:
         c = Contact(params)
         dmax = depth * dy
-        up = np.linspace(0, dmax, 200)
-        fu = [c.update(d)[0] for d in up]
+        up = np.geomspace(LOG_FLOOR * dy, dmax, LOG_POINTS)
+        fu = np.array([c.update(d)[0] for d in up])
         dres = c.state.residual_approach
-        down = np.linspace(dmax, dres, 200)
-        fd = [c.update(d)[0] for d in down]
-        again = np.linspace(dres, 1.2 * dmax, 200)
-        fr = [c.update(d)[0] for d in again]
+        floor = min(1e-4, LOG_FLOOR * dy / dmax)
+        down = _toward(dmax, dres, LOG_POINTS, floor)
+        fd = np.array([c.update(d)[0] for d in down])
+        c.update(dres)
+        again = np.concatenate([_toward(dmax, dres, LOG_POINTS, floor)[::-1],
+                                np.geomspace(dmax, 1.2 * dmax, 40)[1:]])
+        fr = np.array([c.update(d)[0] for d in again])
         curves.append((depth, up, fu, down, fd, again, fr))
     return curves
 
@@ -159,15 +186,20 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4.2))
     data = {}
     for depth, up, fu, down, fd, again, fr in law_curves(params, depths):
-        line, = ax.plot(up / dy, np.array(fu) / fy, lw=1.4, label=f"δmax = {depth:g} δy")
-        ax.plot(down / dy, np.array(fd) / fy, "--", color=line.get_color(), lw=1)
-        ax.plot(again / dy, np.array(fr) / fy, ":", color=line.get_color(), lw=1)
-        data[f"approach_over_dy_{depth:g}"] = np.concatenate([up, down, again]) / dy
-        data[f"force_over_fy_{depth:g}"] = np.concatenate([fu, fd, fr]) / fy
+        color = None
+        for branch, d, f, style in (("loading", up, fu, "-"), ("unloading", down, fd, "--"),
+                                    ("reloading", again, fr, ":")):
+            x, y = positive(d / dy, f / fy)
+            line, = ax.plot(x, y, style, color=color, lw=1.4 if branch == "loading" else 1,
+                            label=f"δmax = {depth:g} δy" if branch == "loading" else None)
+            color = line.get_color()
+            data[f"{branch}_approach_over_dy_{depth:g}"] = x
+            data[f"{branch}_force_over_fy_{depth:g}"] = y
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlim(0.1, 1.5 * max(depths))
-    ax.set_ylim(1e-2, None)
+    # two decades of Hertz below yield (slope 3/2) under the elastic-plastic branches
+    ax.set_xlim(1e-2, 1.5 * max(depths))
+    ax.set_ylim(1e-3, None)
     ax.set_xlabel("δ / δy")
     ax.set_ylabel("F / Fy")
     ax.legend(fontsize=8)
@@ -279,9 +311,13 @@ def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -
                     ("approach_over_max", "force_over_max", "approach_over_yield",
                      "force_over_yield")}
             axes[0].plot(cols["approach_over_max"], cols["force_over_max"], lw=1, label=label)
-            axes[1].loglog(cols["approach_over_yield"][1:], cols["force_over_yield"][1:], lw=1,
-                           label=label)
-            data.update({f"{k}@{v:g}": a for k, a in cols.items()})
+            # the log-log panel: only the FE points a log axis can show (not the start at
+            # zero nor the end of unloading at zero force), joined by straight segments
+            x, y = positive(cols["approach_over_yield"], cols["force_over_yield"])
+            axes[1].loglog(x, y, lw=1, label=label)
+            data.update({f"{k}@{v:g}": a for k, a in cols.items()
+                         if k in ("approach_over_max", "force_over_max")})
+            data.update({f"approach_over_yield@{v:g}": x, f"force_over_yield@{v:g}": y})
         axes[0].set_xlabel("δ / δmax")
         axes[0].set_ylabel("F / Fmax")
         axes[1].set_xlabel("δ / δy")
@@ -352,8 +388,11 @@ def cycles_section(report: Report, directory: Path, root: Path, figures: Path) -
             if fit:
                 ax.loglog(n[n >= 2], fit["coefficient"] * n[n >= 2] ** -fit["power"], "-",
                           color=line.get_color(), lw=0.8)
-            data[f"{name}_{key}"] = r
-        data[f"{name}_cycle"] = n
+                data[f"{name}_{key}_fit"] = fit["coefficient"] * n[n >= 2] ** -fit["power"]
+            # what the log axes show (every ratio, round-off included, is in summary.json)
+            data[f"{name}_{key}_cycle"] = n[shown]
+            data[f"{name}_{key}"] = r[shown]
+        data[f"{name}_fit_cycle"] = n[n >= 2]
         nc = a["critical_cycles"]
         rows.append([name, len(a["cycles"]), a["state"], a["eventual_state"],
                      str(nc["measured"]["elastic_shakedown"]),
