@@ -24,6 +24,7 @@ def test_report_of_fe_run_and_law_file(tmp_path, capsys):
     for name in ("fe_force_approach", "fe_energy", "P_cycles", "P_residual_work"):
         assert (tmp_path / "run" / "figures" / f"{name}.csv").stat().st_size > 100
     assert "figures/fe_force_approach.csv" in html
+    assert "Values below the run&#x27;s resolution" in html  # and what it is, per kind
     assert "report:" in capsys.readouterr().out
 
 

@@ -35,6 +35,7 @@ from .io import (
     write_text_atomic,
 )
 from .report import Figure, Report, is_our_report, render_html, save_figure, table
+from .resolution import Resolution, clean_fe_cycles, fe_summary_resolutions
 
 FIGURES = "figures"
 REPORT_HTML = "report.html"
@@ -101,16 +102,19 @@ def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> No
                 {"step": step, "work_J": col["work_J"], "elastic_J": col["elastic_energy_J"],
                  "plastic_J": col["plastic_dissipation_J"]})
     _save(fig, figures, f2)
+    resolutions = fe_summary_resolutions(s)
+    cycles = clean_fe_cycles(s["cycles"], resolutions)
     rows = [[i + 1, c["max_force_N"], c["max_approach_m"] * 1e6,
              "-" if c["residual_approach_m"] is None else c["residual_approach_m"] * 1e6,
-             c["plastic_work_J"]] for i, c in enumerate(s["cycles"])]
+             c["plastic_work_J"]] for i, c in enumerate(cycles)]
     fy, fp = s.get("first_yield_force_N"), s.get("fully_plastic_force_N")
     report.add(
         f"FE run {_rel(directory, root) or '.'}",
         f"<p>First yield {'not reached' if fy is None else f'{fy:.4g} N'}; fully plastic "
         f"{'not reached' if fp is None else f'{fp:.4g} N'}; wall time "
         f"{s['wall_time_s']:.1f} s; version {s.get('version')}.</p>",
-        table(["cycle", "Fmax (N)", "δmax (µm)", "δres (µm)", "Wp (J)"], rows), f1, f2)
+        table(["cycle", "Fmax (N)", "δmax (µm)", "δres (µm)", "Wp (J)"], rows),
+        "<p>" + " ".join(html_escape(r.note()) for r in resolutions.values()) + "</p>", f1, f2)
 
 
 # --- law parameters ------------------------------------------------------------------------------
@@ -349,11 +353,17 @@ def seismic_section(report: Report, directory: Path, root: Path, figures: Path) 
     s = _summary(directory)
     rel = _rel(directory, root)
     items: list = []
+    energy = (Resolution.from_dict(s["resolution"]["energy"]) if "resolution" in s
+              else None)  # (a summary written before resolutions were recorded)
+    clean = energy.clean if energy else (lambda x: x)
     rows = [[e["label"], e["record"].get("name", ""),
              e["paper_rule"]["peak_time_fraction"], e["paper_rule"]["history_class"],
-             e["settlement_m"] * 1e6] for e in s["events"]]
+             e["settlement_m"] * 1e6,
+             clean(sum(c["dissipated_energy_J"] for c in e["contacts"]))] for e in s["events"]]
     items.append(table(["event", "record", "peak-time fraction", "paper's rule",
-                        "settlement (µm)"], rows))
+                        "settlement (µm)", "dissipated by the contacts (J)"], rows))
+    if energy:
+        items.append(f"<p>{html_escape(energy.note())}</p>")
     for name in s.get("figures", []):
         stem = Path(name).stem
         csv = {"record": "records.csv"}.get(stem, "history.csv")

@@ -73,7 +73,7 @@ class FemJob:
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates cached results even when the version string is unchanged.
 _FE_SOURCES = ("fem/mesh.py", "fem/plasticity.py", "fem/run.py", "fem/solver.py",
-               "force_history.py", "hertz.py", "material.py")
+               "force_history.py", "hertz.py", "material.py", "resolution.py")
 
 
 @functools.cache
