@@ -36,6 +36,7 @@ from .io import (
 )
 from .report import Figure, Report, is_our_report, render_html, save_figure, table
 from .resolution import Resolution, clean_fe_cycles, fe_summary_resolutions
+from .resolution import note as resolution_note
 
 FIGURES = "figures"
 REPORT_HTML = "report.html"
@@ -114,7 +115,7 @@ def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> No
         f"{'not reached' if fp is None else f'{fp:.4g} N'}; wall time "
         f"{s['wall_time_s']:.1f} s; version {s.get('version')}.</p>",
         table(["cycle", "Fmax (N)", "δmax (µm)", "δres (µm)", "Wp (J)"], rows),
-        "<p>" + " ".join(html_escape(r.note()) for r in resolutions.values()) + "</p>", f1, f2)
+        f"<p>{html_escape(resolution_note(*resolutions.values()))}</p>", f1, f2)
 
 
 # --- law parameters ------------------------------------------------------------------------------

@@ -46,8 +46,7 @@ class Resolution:
 
     def note(self) -> str:
         """One sentence for a report: what the resolution is and what it does."""
-        return (f"Values below the run's resolution, {self.value:.2g} {self.unit} "
-                f"({self.definition}), are round-off and shown as 0.")
+        return note(self)
 
     def to_dict(self) -> dict[str, Any]:
         return {"value": self.value, "unit": self.unit, "definition": self.definition}
@@ -55,6 +54,12 @@ class Resolution:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Resolution:
         return cls(float(d["value"]), str(d["unit"]), str(d["definition"]))
+
+
+def note(*resolutions: Resolution) -> str:
+    """One sentence for a report: what the run's resolutions are and what they do."""
+    each = "; ".join(f"{r.value:.2g} {r.unit}, {r.definition}" for r in resolutions)
+    return f"Values below the run's resolution ({each}) are round-off and shown as 0."
 
 
 def _scale(values) -> float:
