@@ -23,7 +23,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import NullFormatter, ScalarFormatter
+from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter, ScalarFormatter
 
 from .cycles import ROUND_OFF
 from .errors import InputError
@@ -144,6 +144,21 @@ def positive(x, y) -> tuple[np.ndarray, np.ndarray]:
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
     return x[keep], y[keep]
+
+
+def readable_log_ticks(ax) -> None:
+    """Tick labels of a log axis that spans little more than a decade: matplotlib labels every
+    minor tick there (2, 3, ..., 9 x 10^n, overlapping); label 1, 2 and 5 x 10^n instead."""
+    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        if axis.get_scale() != "log" or not 0 < lo < hi:
+            continue
+        if hi / lo <= 300.0:
+            axis.set_major_locator(LogLocator(subs=(1.0,)))
+            axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+            axis.set_major_formatter(FormatStrFormatter("%g"))
+            axis.set_minor_formatter(FormatStrFormatter("%g"))
+        else:
+            axis.set_minor_formatter(NullFormatter())
 
 
 def _toward(start: float, end: float, points: int, floor: float) -> np.ndarray:
@@ -328,6 +343,7 @@ def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -
         axes[1].set_xlabel("δ / δy")
         axes[1].set_ylabel("F / Fy")
         axes[0].legend(fontsize=7)
+        readable_log_ticks(axes[1])
         fig_item = Figure(f"sweep_{name}", f"Influence of {entry['label']}",
                           "Loading and unloading at the same peak force, normalised by the peak "
                           "(left) and by incipient yield (right).", data)
