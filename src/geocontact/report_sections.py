@@ -224,7 +224,9 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
     ax.set_ylabel("F / Fy")
     ax.legend(fontsize=8)
     f1 = Figure(f"{tag}_cycles", "The law: loading (solid), unloading (dashed), reloading "
-                "(dotted)", "From several peak depths; reloading rejoins the virgin curve.", data)
+                "(dotted)", "From several peak depths; reloading rejoins the virgin curve. "
+                "Every branch sampled on a log grid (loading from 0.001 δy: Hertz, slope 3/2, "
+                "below yield); points at zero force are not drawn on the log axes.", data)
     _save(fig, figures, f1)
 
     x = np.geomspace(1, max(1000.0, 1.5 * depth_max), 200)
@@ -346,7 +348,9 @@ def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -
         readable_log_ticks(axes[1])
         fig_item = Figure(f"sweep_{name}", f"Influence of {entry['label']}",
                           "Loading and unloading at the same peak force, normalised by the peak "
-                          "(left) and by incipient yield (right).", data)
+                          "(left) and by incipient yield (right, log axes: the FE points with "
+                          "δ > 0 and F > 0, so not the start of loading nor the end of "
+                          "unloading).", data)
         _save(fig, figures, fig_item)
         items.append(fig_item)
         for st in entry["statements"]:
