@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
 .PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
-	test-plugin ccx
+	test-plugin ccx chromium check-figures
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -48,6 +48,19 @@ demo: $(STAMP)
 ccx:
 	command -v ccx >/dev/null || (apt-get update && apt-get install -y calculix-ccx) \
 	  || (sudo apt-get update && sudo apt-get install -y calculix-ccx)
+
+# Headless Chromium, the browser of `make check-figures` (Debian/Ubuntu package; not needed by
+# `test`, whose figure checks skip only their browser part without it)
+chromium:
+	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium) \
+	  || (sudo apt-get update && sudo apt-get install -y chromium)
+
+# Every figure of a report looked at in a real browser (docs/analyses.md "Checking the figures"):
+# the quick demo, then each <img> decoded and not blank, and a full-page screenshot.
+CHECK_FIGURES_OUT ?= out/demo-quick
+check-figures: $(STAMP) chromium
+	$(VENV)/bin/geocontact demo --quick --out $(CHECK_FIGURES_OUT)
+	$(PY) scripts/check_report_figures.py $(CHECK_FIGURES_OUT)/report.html
 
 bench: $(STAMP) plugin ccx check-calibrations
 	$(PY) benchmarks/run.py

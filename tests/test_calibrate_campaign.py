@@ -290,7 +290,7 @@ def test_params_and_acceptance_reference_each_other_and_stale_ones_go(calibrated
     from geocontact.calibrate.workflow import check_acceptance
     from geocontact.io import read_manifest
 
-    root, out, _ = calibrated
+    root, out = calibrated
     work = tmp_path / "copy"
     shutil.copytree(root, work, ignore=shutil.ignore_patterns("cache"))
     params = work / out.name

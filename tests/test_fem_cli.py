@@ -97,3 +97,35 @@ def test_interrupted_run_keeps_checkpoint_and_resumes(tmp_path, monkeypatch):
     assert resumed.summary["first_yield_force_N"] == pytest.approx(
         full.summary["first_yield_force_N"])
     assert (out / "summary.json").exists() and not checkpoint_path(out).exists()
+
+
+def test_elastic_run_reports_round_off_plastic_work_as_zero(tmp_path, capsys):
+    """An elastic run (sigma_c = 1e15 Pa) dissipates nothing: its plastic work is round-off of
+    either sign, printed and summarised as 0 against the run's stated resolution; curve.csv
+    keeps the raw values."""
+    material = tmp_path / "elastic.toml"
+    material.write_text("[material]\nyoungs_modulus = 10e9\npoissons_ratio = 0.25\n"
+                        "compressive_yield_stress = 1e15\nfriction_angle_deg = 30.0\n"
+                        "hardening_ratio = 0.0\n\n[geometry]\nradius = 0.1\n")
+    history = _history(tmp_path, "[history]\nforces = [0, 60, 0, 60, 0]\n")
+    out = tmp_path / "run"
+    assert main(["fem", "--material", str(material), "--history", str(history), "--mesh",
+                 "coarse", "--steps", "3", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    energy, approach = summary["resolution"]["energy"], summary["resolution"]["approach"]
+    cycles = summary["cycles"]
+    assert len(cycles) == 2
+    expected = 1e-12 * max(c["max_force_N"] for c in cycles) * max(c["max_approach_m"]
+                                                                    for c in cycles)
+    assert energy["value"] == pytest.approx(expected) and energy["unit"] == "J"
+    assert "largest force" in energy["definition"]
+    assert approach["value"] == pytest.approx(1e-12 * cycles[0]["max_approach_m"])
+    assert all(c["plastic_work_J"] == 0.0 and c["loop_work_J"] == 0.0
+               and c["residual_approach_m"] == 0.0 for c in cycles)
+    assert printed.count("plastic work 0 J (below the resolution") == 2
+    assert printed.count("residual 0 m (below the resolution") == 2
+    assert f"resolution {energy['value']:.2g} J: 1e-12 x" in printed
+    with open(out / "curve.csv") as fh:
+        raw = [float(r["plastic_dissipation_J"]) for r in csv.DictReader(fh)]
+    assert max(abs(w) for w in raw) < energy["value"]  # raw round-off, kept as computed

@@ -4,6 +4,8 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
+
 from geocontact.cli import main
 from geocontact.fem.run import run_history
 from geocontact.material import load_material
@@ -22,6 +24,7 @@ def test_report_of_fe_run_and_law_file(tmp_path, capsys):
     for name in ("fe_force_approach", "fe_energy", "P_cycles", "P_residual_work"):
         assert (tmp_path / "run" / "figures" / f"{name}.csv").stat().st_size > 100
     assert "figures/fe_force_approach.csv" in html
+    assert "Values below the run&#x27;s resolution" in html  # and what it is, per kind
     assert "report:" in capsys.readouterr().out
 
 
@@ -52,3 +55,33 @@ def test_report_of_a_calibration_shows_its_acceptance(tmp_path):
     runs = json.loads((tmp_path / "params-reference.acceptance.json").read_text())["runs"]
     assert html.count("data:image/png;base64,") == 2 + len(runs)
     assert all(f"params-reference.acceptance/{r['name']}.csv" in html for r in runs)
+
+
+def _figure_columns(path: Path) -> dict[str, np.ndarray]:
+    """Every column of a figure's CSV (ragged: short columns end in blanks)."""
+    rows = path.read_text().splitlines()
+    names = rows[0].split(",")
+    cells = [r.split(",") for r in rows[1:]]
+    return {n: np.array([float(c[i]) for c in cells if i < len(c) and c[i]])
+            for i, n in enumerate(names)}
+
+
+def test_law_figure_is_fit_for_log_axes(tmp_path):
+    """The log-log law figure: only positive points (nothing drawn through zero), and below
+    delta_y the loading curve is Hertz's, of local log-slope 3/2 (not a chord from zero)."""
+    shutil.copy(EXAMPLES / "params-reference.json", tmp_path / "P.json")
+    assert main(["report", str(tmp_path)]) == 0
+    data = _figure_columns(tmp_path / "figures" / "P_cycles.csv")
+    assert any(name.startswith("unloading_") for name in data)
+    for name, values in data.items():
+        assert values.size > 50 and np.all(values > 0), name
+    depths = [n.removeprefix("loading_approach_over_dy_") for n in data
+              if n.startswith("loading_approach_over_dy_")]
+    assert depths
+    for depth in depths:
+        x = data[f"loading_approach_over_dy_{depth}"]
+        y = data[f"loading_force_over_fy_{depth}"]
+        assert x.min() <= 1.001e-3
+        elastic = x < 1.0
+        slope = np.diff(np.log(y[elastic])) / np.diff(np.log(x[elastic]))
+        assert np.max(np.abs(slope - 1.5)) < 1e-3, depth

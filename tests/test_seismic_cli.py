@@ -75,6 +75,19 @@ def test_seismic_command_writes_histories_summary_and_figures(files, capsys):
                 >= first["accumulated_dissipated_energy_J"] * (1 - 1e-9))
         assert second["accumulated_residual_approach_m"] == pytest.approx(
             first["accumulated_residual_approach_m"] + second["residual_approach_increment_m"])
+    # dissipations are physics or exactly 0: round-off (below the run's stated resolution,
+    # relative to its largest work) is reported as 0, e.g. the aftershock's inside the envelope
+    energy = summary["resolution"]["energy"]
+    scale = max(summary["energy_J"]["base_input"], summary["energy_J"]["contact_work"],
+                *(row["total_dissipated_energy_J"] for row in summary["contacts"]))
+    assert energy["value"] == pytest.approx(1e-12 * scale) and energy["unit"] == "J"
+    values = [c[key] for e in events for c in e["contacts"] for key in
+              ("dissipated_energy_J", "accumulated_dissipated_energy_J")]
+    values += [c["shakedown"][key] for e in events for c in e["contacts"]
+               for key in ("dissipation", "dissipation_late")]
+    values += [row["dissipated_energy_J"] for row in summary["contacts"]]
+    assert all(v == 0.0 or abs(v) >= energy["value"] for v in values)
+    assert [c["dissipated_energy_J"] for c in events[1]["contacts"]] == [0.0] * 3
     for name in ("history.csv", "records.csv", "contacts.csv", "events.csv", "summary.json",
                  "record.png", "force_history.png", "loops.png"):
         assert (out / name).stat().st_size > 0

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import NullFormatter, ScalarFormatter
+from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter, ScalarFormatter
 
 from .cycles import ROUND_OFF
 from .errors import InputError
@@ -35,6 +35,8 @@ from .io import (
     write_text_atomic,
 )
 from .report import Figure, Report, is_our_report, render_html, save_figure, table
+from .resolution import Resolution, clean_fe_cycles, fe_summary_resolutions
+from .resolution import note as resolution_note
 
 FIGURES = "figures"
 REPORT_HTML = "report.html"
@@ -101,16 +103,19 @@ def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> No
                 {"step": step, "work_J": col["work_J"], "elastic_J": col["elastic_energy_J"],
                  "plastic_J": col["plastic_dissipation_J"]})
     _save(fig, figures, f2)
+    resolutions = fe_summary_resolutions(s)
+    cycles = clean_fe_cycles(s["cycles"], resolutions)
     rows = [[i + 1, c["max_force_N"], c["max_approach_m"] * 1e6,
              "-" if c["residual_approach_m"] is None else c["residual_approach_m"] * 1e6,
-             c["plastic_work_J"]] for i, c in enumerate(s["cycles"])]
+             c["plastic_work_J"]] for i, c in enumerate(cycles)]
     fy, fp = s.get("first_yield_force_N"), s.get("fully_plastic_force_N")
     report.add(
         f"FE run {_rel(directory, root) or '.'}",
         f"<p>First yield {'not reached' if fy is None else f'{fy:.4g} N'}; fully plastic "
         f"{'not reached' if fp is None else f'{fp:.4g} N'}; wall time "
         f"{s['wall_time_s']:.1f} s; version {s.get('version')}.</p>",
-        table(["cycle", "Fmax (N)", "δmax (µm)", "δres (µm)", "Wp (J)"], rows), f1, f2)
+        table(["cycle", "Fmax (N)", "δmax (µm)", "δres (µm)", "Wp (J)"], rows),
+        f"<p>{html_escape(resolution_note(*resolutions.values()))}</p>", f1, f2)
 
 
 # --- law parameters ------------------------------------------------------------------------------
@@ -127,8 +132,47 @@ def law_files(directory: Path) -> list[Path]:
     return found
 
 
+# Log-axis figures start their curves this far below delta_y (the law is Hertz there) and
+# sample every branch on a log grid, so slopes read off the figure are the law's own.
+LOG_FLOOR = 1e-3
+LOG_POINTS = 300
+
+
+def positive(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """The points of a curve that a log-log axis can show (x > 0 and y > 0, finite): a line is
+    never drawn through zero on a log axis."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    return x[keep], y[keep]
+
+
+def readable_log_ticks(ax) -> None:
+    """Tick labels of a log axis that spans little more than a decade: matplotlib labels every
+    minor tick there (2, 3, ..., 9 x 10^n, overlapping); label 1, 2 and 5 x 10^n instead."""
+    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        if axis.get_scale() != "log" or not 0 < lo < hi:
+            continue
+        if hi / lo <= 300.0:
+            axis.set_major_locator(LogLocator(subs=(1.0,)))
+            axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+            axis.set_major_formatter(FormatStrFormatter("%g"))
+            axis.set_minor_formatter(FormatStrFormatter("%g"))
+        else:
+            axis.set_minor_formatter(NullFormatter())
+
+
+def _toward(start: float, end: float, points: int, floor: float) -> np.ndarray:
+    """From ``start`` to ``end``, dense on a log scale of the distance to ``end``
+    (down to ``floor`` of the span): an unloading branch that vanishes at the residual
+    approach as a power of the distance is then resolved to its end."""
+    span = start - end
+    return end + span * np.geomspace(1.0, floor, points)
+
+
 def law_curves(params, depths) -> list[tuple]:
-    """Load to each depth (in delta_y), unload until apart, reload past the peak."""
+    """Load to each depth (in delta_y), unload until apart, reload past the peak: every branch
+    on a log grid (loading from ``LOG_FLOOR`` delta_y, unloading and reloading dense near the
+    residual approach), so the curves are fit for log axes."""
     from .law import Contact
 
     dy = params.yield_approach
@@ -136,13 +180,16 @@ def law_curves(params, depths) -> list[tuple]:
     for depth in depths:
         c = Contact(params)
         dmax = depth * dy
-        up = np.linspace(0, dmax, 200)
-        fu = [c.update(d)[0] for d in up]
+        up = np.geomspace(LOG_FLOOR * dy, dmax, LOG_POINTS)
+        fu = np.array([c.update(d)[0] for d in up])
         dres = c.state.residual_approach
-        down = np.linspace(dmax, dres, 200)
-        fd = [c.update(d)[0] for d in down]
-        again = np.linspace(dres, 1.2 * dmax, 200)
-        fr = [c.update(d)[0] for d in again]
+        floor = min(1e-4, LOG_FLOOR * dy / dmax)
+        down = _toward(dmax, dres, LOG_POINTS, floor)
+        fd = np.array([c.update(d)[0] for d in down])
+        c.update(dres)
+        again = np.concatenate([_toward(dmax, dres, LOG_POINTS, floor)[::-1],
+                                np.geomspace(dmax, 1.2 * dmax, 40)[1:]])
+        fr = np.array([c.update(d)[0] for d in again])
         curves.append((depth, up, fu, down, fd, again, fr))
     return curves
 
@@ -159,20 +206,27 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4.2))
     data = {}
     for depth, up, fu, down, fd, again, fr in law_curves(params, depths):
-        line, = ax.plot(up / dy, np.array(fu) / fy, lw=1.4, label=f"δmax = {depth:g} δy")
-        ax.plot(down / dy, np.array(fd) / fy, "--", color=line.get_color(), lw=1)
-        ax.plot(again / dy, np.array(fr) / fy, ":", color=line.get_color(), lw=1)
-        data[f"approach_over_dy_{depth:g}"] = np.concatenate([up, down, again]) / dy
-        data[f"force_over_fy_{depth:g}"] = np.concatenate([fu, fd, fr]) / fy
+        color = None
+        for branch, d, f, style in (("loading", up, fu, "-"), ("unloading", down, fd, "--"),
+                                    ("reloading", again, fr, ":")):
+            x, y = positive(d / dy, f / fy)
+            line, = ax.plot(x, y, style, color=color, lw=1.4 if branch == "loading" else 1,
+                            label=f"δmax = {depth:g} δy" if branch == "loading" else None)
+            color = line.get_color()
+            data[f"{branch}_approach_over_dy_{depth:g}"] = x
+            data[f"{branch}_force_over_fy_{depth:g}"] = y
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlim(0.1, 1.5 * max(depths))
-    ax.set_ylim(1e-2, None)
+    # two decades of Hertz below yield (slope 3/2) under the elastic-plastic branches
+    ax.set_xlim(1e-2, 1.5 * max(depths))
+    ax.set_ylim(1e-3, None)
     ax.set_xlabel("δ / δy")
     ax.set_ylabel("F / Fy")
     ax.legend(fontsize=8)
     f1 = Figure(f"{tag}_cycles", "The law: loading (solid), unloading (dashed), reloading "
-                "(dotted)", "From several peak depths; reloading rejoins the virgin curve.", data)
+                "(dotted)", "From several peak depths; reloading rejoins the virgin curve. "
+                "Every branch sampled on a log grid (loading from 0.001 δy: Hertz, slope 3/2, "
+                "below yield); points at zero force are not drawn on the log axes.", data)
     _save(fig, figures, f1)
 
     x = np.geomspace(1, max(1000.0, 1.5 * depth_max), 200)
@@ -279,17 +333,24 @@ def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -
                     ("approach_over_max", "force_over_max", "approach_over_yield",
                      "force_over_yield")}
             axes[0].plot(cols["approach_over_max"], cols["force_over_max"], lw=1, label=label)
-            axes[1].loglog(cols["approach_over_yield"][1:], cols["force_over_yield"][1:], lw=1,
-                           label=label)
-            data.update({f"{k}@{v:g}": a for k, a in cols.items()})
+            # the log-log panel: only the FE points a log axis can show (not the start at
+            # zero nor the end of unloading at zero force), joined by straight segments
+            x, y = positive(cols["approach_over_yield"], cols["force_over_yield"])
+            axes[1].loglog(x, y, lw=1, label=label)
+            data.update({f"{k}@{v:g}": a for k, a in cols.items()
+                         if k in ("approach_over_max", "force_over_max")})
+            data.update({f"approach_over_yield@{v:g}": x, f"force_over_yield@{v:g}": y})
         axes[0].set_xlabel("δ / δmax")
         axes[0].set_ylabel("F / Fmax")
         axes[1].set_xlabel("δ / δy")
         axes[1].set_ylabel("F / Fy")
         axes[0].legend(fontsize=7)
+        readable_log_ticks(axes[1])
         fig_item = Figure(f"sweep_{name}", f"Influence of {entry['label']}",
                           "Loading and unloading at the same peak force, normalised by the peak "
-                          "(left) and by incipient yield (right).", data)
+                          "(left) and by incipient yield (right, log axes: the FE points with "
+                          "δ > 0 and F > 0, so not the start of loading nor the end of "
+                          "unloading).", data)
         _save(fig, figures, fig_item)
         items.append(fig_item)
         for st in entry["statements"]:
@@ -313,11 +374,17 @@ def seismic_section(report: Report, directory: Path, root: Path, figures: Path) 
     s = _summary(directory)
     rel = _rel(directory, root)
     items: list = []
+    energy = (Resolution.from_dict(s["resolution"]["energy"]) if "resolution" in s
+              else None)  # (a summary written before resolutions were recorded)
+    clean = energy.clean if energy else (lambda x: x)
     rows = [[e["label"], e["record"].get("name", ""),
              e["paper_rule"]["peak_time_fraction"], e["paper_rule"]["history_class"],
-             e["settlement_m"] * 1e6] for e in s["events"]]
+             e["settlement_m"] * 1e6,
+             clean(sum(c["dissipated_energy_J"] for c in e["contacts"]))] for e in s["events"]]
     items.append(table(["event", "record", "peak-time fraction", "paper's rule",
-                        "settlement (µm)"], rows))
+                        "settlement (µm)", "dissipated by the contacts (J)"], rows))
+    if energy:
+        items.append(f"<p>{html_escape(energy.note())}</p>")
     for name in s.get("figures", []):
         stem = Path(name).stem
         csv = {"record": "records.csv"}.get(stem, "history.csv")
@@ -352,8 +419,11 @@ def cycles_section(report: Report, directory: Path, root: Path, figures: Path) -
             if fit:
                 ax.loglog(n[n >= 2], fit["coefficient"] * n[n >= 2] ** -fit["power"], "-",
                           color=line.get_color(), lw=0.8)
-            data[f"{name}_{key}"] = r
-        data[f"{name}_cycle"] = n
+                data[f"{name}_{key}_fit"] = fit["coefficient"] * n[n >= 2] ** -fit["power"]
+            # what the log axes show (every ratio, round-off included, is in summary.json)
+            data[f"{name}_{key}_cycle"] = n[shown]
+            data[f"{name}_{key}"] = r[shown]
+        data[f"{name}_fit_cycle"] = n[n >= 2]
         nc = a["critical_cycles"]
         rows.append([name, len(a["cycles"]), a["state"], a["eventual_state"],
                      str(nc["measured"]["elastic_shakedown"]),

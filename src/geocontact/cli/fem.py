@@ -33,6 +33,7 @@ def run(args) -> int:
     from ..errors import InputError
     from ..fem.run import load_history, run_history
     from ..material import load_material
+    from ..resolution import fe_summary_resolutions
 
     material = load_material(args.material)
     forces = load_history(args.history)
@@ -51,9 +52,12 @@ def run(args) -> int:
               f"{s['wall_time_s']:.1f} s")
         print(f"first yield: {'not reached' if fy is None else f'{fy:.6g} N'}; "
               f"fully plastic: {'not reached' if fp is None else f'{fp:.6g} N'}")
+        resolutions = fe_summary_resolutions(s)
+        approach, energy = resolutions["approach"], resolutions["energy"]
         for i, c in enumerate(s["cycles"], 1):
-            res = c["residual_approach_m"]
             print(f"cycle {i}: Fmax {c['max_force_N']:.6g} N, approach {c['max_approach_m']:.6g} m,"
-                  f" residual {'-' if res is None else f'{res:.6g} m'},"
-                  f" plastic work {c['plastic_work_J']:.6g} J")
+                  f" residual {approach.format(c['residual_approach_m'])},"
+                  f" plastic work {energy.format(c['plastic_work_J'])}")
+        for r in (energy, approach):
+            print(f"resolution {r.value:.2g} {r.unit}: {r.definition}")
     return 0

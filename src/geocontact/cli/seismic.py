@@ -108,6 +108,9 @@ def run(args) -> int:
     if args.json:
         print_json(summary)
     else:
+        from ..resolution import Resolution
+
+        energy = Resolution.from_dict(summary["resolution"]["energy"])
         cls = summary["classification"]
         print(f"{result.events[0].record.record.name}: PGA {summary['scaled_pga_m_s2']:.3g} m/s^2, "
               f"peak at {100 * summary['peak_time_fraction']:.1f} % of the record -> paper rule: "
@@ -115,7 +118,8 @@ def run(args) -> int:
         for row in summary["contacts"]:
             print(f"  contact {row['contact']}: residual approach "
                   f"+{row['seismic_residual_approach_m']:.4g} m, dissipated "
-                  f"{row['dissipated_energy_J']:.4g} J, {row['history_class']}, "
+                  f"{energy.format(row['dissipated_energy_J'], '.4g')}, {row['history_class']}, "
                   f"{row['shakedown_state']}")
-        print(f"settlement {summary['settlement_m']:.4g} m; wrote {args.out}")
+        print(f"settlement {summary['settlement_m']:.4g} m; energy resolution "
+              f"{energy.value:.2g} J ({energy.definition}); wrote {args.out}")
     return 0

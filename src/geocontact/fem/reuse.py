@@ -48,7 +48,7 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
 FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/run.py",
-              "fem/solver.py", "force_history.py", "hertz.py", "material.py")
+              "fem/solver.py", "force_history.py", "hertz.py", "material.py", "resolution.py")
 
 
 @functools.cache

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import resolution
 from ..errors import ConvergenceError
 from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
     history_from_dict,
@@ -511,9 +512,12 @@ def run_history(
     from .. import __version__
 
     first = run.first_yield or {}
-    resolution, warnings = contact_resolution(material, fe_mesh, curve, run.first_yield)
+    contact, warnings = contact_resolution(material, fe_mesh, curve, run.first_yield)
     for message in warnings:
         print(f"warning: {message}", file=sys.stderr)
+    # per-cycle values below the run's resolution are round-off: 0 here, raw in curve.csv
+    resolutions = resolution.fe_resolutions(float(np.max(curve["force_N"])),
+                                            float(np.max(curve["approach_m"])))
     summary = {
         "first_yield_force_N": first.get("force_N"),
         "first_yield_approach_m": first.get("approach_m"),
@@ -527,10 +531,11 @@ def run_history(
                                     else None),
         "fully_plastic_criterion": {"yielded_core_fraction": FULLY_PLASTIC_FRACTION,
                                     "core_radius_over_contact_radius": FULLY_PLASTIC_CORE},
-        "cycles": _cycles(curve, forces, marks),
+        "cycles": resolution.clean_fe_cycles(_cycles(curve, forces, marks), resolutions),
+        "resolution": resolution.fe_summary_record(resolutions),
         "mesh": {"elements": int(fe_mesh.t.shape[1]), "nodes": int(fe_mesh.doflocs.shape[1]),
                  "preset": mesh, "element": f"P2 triangle (6-node, isoparametric), {volumetric}"},
-        "contact_resolution": resolution,
+        "contact_resolution": contact,
         "warnings": warnings,
         "steps": int(len(targets)),
         "newton_iterations": int(np.sum(curve["iterations"])),

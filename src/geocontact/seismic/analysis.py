@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..resolution import Resolution, seismic_energy
 from . import classify
 from .column import Column, ColumnModel, law_contacts
 from .records import ProcessedRecord, load_record, process
@@ -153,6 +154,7 @@ class SeismicResult:
     def contact_summary(self) -> list[dict[str, Any]]:
         c = self.column
         h = self.history
+        clean = energy_resolution(c).clean
         rows = []
         for k in range(c.model.spheres):
             rows.append({
@@ -164,9 +166,9 @@ class SeismicResult:
                 "residual_approach_m": float(c.contacts.residual_approach[k]),
                 "seismic_residual_approach_m": float(h["residual_approach"][-1, k]
                                                      - h["residual_approach"][0, k]),
-                "dissipated_energy_J": float(h["dissipated_energy"][-1, k]
-                                             - h["dissipated_energy"][0, k]),
-                "total_dissipated_energy_J": float(c.contacts.dissipated_energy[k]),
+                "dissipated_energy_J": clean(float(h["dissipated_energy"][-1, k]
+                                                   - h["dissipated_energy"][0, k])),
+                "total_dissipated_energy_J": clean(float(c.contacts.dissipated_energy[k])),
             })
         return rows
 
@@ -234,12 +236,22 @@ class SeismicResult:
                 "base_input": c.base_work,
                 "contact_work": c.contact_work,
                 "damping_loss": c.damping_loss,
-                "dissipated_by_law": float(np.sum(self.history["dissipated_energy"][-1]
-                                                  - self.history["dissipated_energy"][0])),
-                "balance_error": c.energy_error(),
+                "dissipated_by_law": energy_resolution(c).clean(float(np.sum(
+                    self.history["dissipated_energy"][-1] - self.history["dissipated_energy"][0]))),
+                "balance_error": c.energy_error(),  # as computed: it measures the integration
             },
+            "resolution": {"energy": energy_resolution(c).to_dict(),
+                           "applies_to": "dissipated energies of contacts, events and the law "
+                                         "(0.0 when below; history.csv keeps the raw values)"},
             "events": events,
         }
+
+
+def energy_resolution(column: Column) -> Resolution:
+    """The run's energy resolution (``geocontact.resolution``): dissipations below it are
+    round-off of differences of cumulative energies (a contact reloaded inside its envelope)."""
+    return seismic_energy(column.base_work, column.contact_work,
+                          float(np.max(np.abs(column.contacts.dissipated_energy), initial=0.0)))
 
 
 def _classify_window(column: Column, history: dict[str, np.ndarray], event: EventResult,
@@ -254,6 +266,7 @@ def _classify_window(column: Column, history: dict[str, np.ndarray], event: Even
     event.record_class = classify.history_class(
         event.record.acceleration, significance=settings.significance,
         tolerance=settings.tolerance, early_fraction=settings.early_peak_fraction)
+    clean = energy_resolution(column).clean
     for k in range(column.model.spheres):
         force = history["force"][window, k]
         residual = history["residual_approach"][window, k]
@@ -272,13 +285,14 @@ def _classify_window(column: Column, history: dict[str, np.ndarray], event: Even
             "residual_approach_increment_m": float(residual[-1] - residual[0]),
             "accumulated_residual_approach_m": float(residual[-1]
                                                      - history["residual_approach"][0, k]),
-            "dissipated_energy_J": float(dissipated[-1] - dissipated[0]),
-            "accumulated_dissipated_energy_J": float(dissipated[-1]
-                                                     - history["dissipated_energy"][0, k]),
+            "dissipated_energy_J": clean(float(dissipated[-1] - dissipated[0])),
+            "accumulated_dissipated_energy_J": clean(float(
+                dissipated[-1] - history["dissipated_energy"][0, k])),
             "history_class": hc.history_class,
             "rainflow": hc.to_dict(),
             "shakedown_state": sd.state,
-            "shakedown": sd.to_dict(),
+            "shakedown": {**sd.to_dict(), "dissipation": clean(sd.dissipation),
+                          "dissipation_late": clean(sd.dissipation_late)},
             "agrees_with_paper_rule": classify.agrees_with_paper_rule(hc.history_class,
                                                                       event.paper_rule),
         })
