@@ -17,6 +17,7 @@ Presets live in ``geocontact/data/presets/*.toml`` (data, not code).
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import asdict, dataclass, replace
 from importlib import resources
@@ -38,13 +39,19 @@ GEOMETRY_KEYS = ("radius",)
 MAX_FRICTION_ANGLE_DEG = math.degrees(math.atan(3.0))
 
 
-def _finite(field: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{field}: expected a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise InputError(f"{field}: must be a finite number, got {value}")
-    return value
+def finite_number(field: str, value: Any) -> float:
+    """``value`` as a float, or a one-line InputError naming ``field``: the one check of a
+    number read from a file (material, history, law parameters). A TOML/JSON ``true`` is not
+    a number (Python's bool is an int: it would silently read as 1)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{field}: expected a number, got {value!r}"[:200])
+    try:
+        number = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        number = math.inf
+    if not math.isfinite(number):
+        raise InputError(f"{field}: must be a finite number, got {number}")
+    return number
 
 
 @dataclass(frozen=True)
@@ -60,7 +67,7 @@ class Material:
 
     def __post_init__(self) -> None:
         for key in (*MATERIAL_KEYS, *GEOMETRY_KEYS):
-            object.__setattr__(self, key, _finite(key, getattr(self, key)))
+            object.__setattr__(self, key, finite_number(key, getattr(self, key)))
         if self.youngs_modulus <= 0:
             raise InputError(f"youngs_modulus: must be > 0 Pa, got {self.youngs_modulus:g}")
         if not -1.0 < self.poissons_ratio < 0.5:

@@ -6,7 +6,8 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from .common import print_json
+from ..io import check_output_file
+from .common import check_steps, check_workers, print_json
 
 
 def register(sub) -> None:
@@ -57,13 +58,12 @@ def run(args) -> int:
     from ..material import load_material
 
     started = time.perf_counter()
-    if args.steps is not None and args.steps < 1:
-        raise InputError(f"--steps: must be >= 1, got {args.steps}")
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    check_steps(args.steps)
+    check_workers(args.workers)
     out = Path(args.out)
     if out.suffix != ".json":
         raise InputError(f"--out: expected a .json file name, got {args.out!r}")
+    check_output_file(out, "--out")
     material = load_material(args.material)
     peaks = _peak_list(args.peak_forces) if args.peak_forces is not None else None
     cache = Path(args.cache) if args.cache else DEFAULT_CACHE

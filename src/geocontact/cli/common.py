@@ -6,9 +6,34 @@ import json
 import sys
 from typing import Any
 
+from ..errors import InputError
 from ..io import json_safe
+
+# Upper bounds of the counts given on the command line, so a typo fails at once instead of
+# running for days or exhausting memory:
+# FE load steps per monotonic segment: the presets use 12-40; 10000 is 250x the finest, where
+# a segment already takes hours and the curve/checkpoint grow with every step.
+MAX_STEPS_PER_SEGMENT = 10000
+# local Dask worker processes: each holds an FE model; beyond 256 use a cluster (--scheduler).
+MAX_WORKERS = 256
 
 
 def print_json(document: dict[str, Any]) -> None:
     json.dump(json_safe(document), sys.stdout, indent=2)
     sys.stdout.write("\n")
+
+
+def check_count(field: str, value: int | None, high: int, why: str = "") -> None:
+    """An optional integer argument in [1, high]; ``why`` says where the bound comes from."""
+    if value is not None and not 1 <= value <= high:
+        raise InputError(f"{field}: must be in [1, {high}]{' (' + why + ')' if why else ''}, "
+                         f"got {value}")
+
+
+def check_steps(value: int | None) -> None:
+    check_count("--steps", value, MAX_STEPS_PER_SEGMENT,
+                "FE load steps per monotonic segment; the mesh presets use 12-40")
+
+
+def check_workers(value: int | None) -> None:
+    check_count("--workers", value, MAX_WORKERS, "local processes; use --scheduler beyond")

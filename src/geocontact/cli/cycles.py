@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import print_json
+from .common import check_steps, print_json
 
 
 def register(sub) -> None:
@@ -50,8 +50,7 @@ def run(args) -> int:
     params = load_params(args.params) if args.params else None
     if args.fit_params and params is None:
         raise InputError("--fit-params: needs --params (the law whose cyclic part to fit)")
-    if args.steps is not None and args.steps < 1:
-        raise InputError(f"--steps: must be >= 1, got {args.steps}")
+    check_steps(args.steps)
     summary = run_cycles(
         material, forces, args.out, params=params, mesh=args.mesh, steps_per_segment=args.steps,
         tolerance=args.tolerance, resume=args.resume, fit_params=args.fit_params,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..io import provenance, read_csv_column, write_csv, write_json_atomic
+from ..io import check_output_file, provenance, read_csv_column, write_csv, write_json_atomic
 from ..law import BRANCH_NAMES, Contact, load_params
 from .common import print_json
 
@@ -19,6 +19,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    check_output_file(args.out, "--out")
+    check_output_file(f"{args.out}.meta.json", "--out")
     params = load_params(args.params)
     approaches = read_csv_column(args.approach, "approach_m")
     contact = Contact(params)

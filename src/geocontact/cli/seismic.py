@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from .common import print_json
+from .common import check_count, print_json
 
 
 def register(sub) -> None:
@@ -81,11 +81,12 @@ def run(args) -> int:
 
     from ..law import load_params
     from ..seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
+    from ..seismic.column import MAX_SPHERES
 
     if args.pga is not None and not args.pga > 0:
         raise InputError(f"--pga: must be > 0 m/s^2, got {args.pga:g}")
-    if args.column is not None and args.column < 1:
-        raise InputError(f"--column: must be >= 1 sphere, got {args.column}")
+    check_count("--column", args.column, MAX_SPHERES,
+                "spheres; the stored histories grow as spheres x samples")
     settings = Settings.from_defaults(
         target_pga=args.pga, spheres=args.column, unit=args.unit, baseline=args.baseline,
         surcharge=args.surcharge, density=args.density, damping_ratio=args.damping,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .common import print_json
+from .common import check_workers, print_json
 
 
 def register(sub) -> None:
@@ -26,11 +26,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
     from ..sweeps import run_sweeps
 
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    check_workers(args.workers)
     names = [n.strip() for n in args.sweeps.split(",")] if args.sweeps else None
     summary = run_sweeps(args.out, names, mesh=args.mesh, peak_force=args.peak_force,
                          cache_dir=args.cache, scheduler=args.scheduler, workers=args.workers)
