@@ -286,3 +286,42 @@ def test_golden_per_family_bounds(tmp_path, capsys):
 
     assert golden.main(["--out", str(tmp_path / "g.json"), "--per-family", "0"]) == 2
     one_line_error(capsys, "--per-family", "[4, 10000]")
+
+
+# --- found by tests/test_fuzz_cli.py ------------------------------------------------------------
+@pytest.mark.parametrize("value, message", [
+    ("5e-324", "youngs_modulus: must be in [1000, 1e+13] Pa"),  # NaN yield force, warnings
+    ("1e20", "youngs_modulus: must be in [1000, 1e+13] Pa"),
+])
+def test_material_magnitudes(tmp_path, capsys, value, message):
+    (tmp_path / "m.toml").write_text(MATERIAL_TOML.format(E=value))
+    assert main(["yield", "--material", str(tmp_path / "m.toml")]) == 2
+    one_line_error(capsys, message)
+
+
+def test_yield_strain_and_radius_ranges():
+    base = preset("reference")
+    with pytest.raises(InputError, match=r"compressive_yield_stress: must be in \[100, 1e\+09\]"):
+        base.with_(compressive_yield_stress=5e9)
+    with pytest.raises(InputError, match=r"radius: must be in \[1e-09, 1000\] m"):
+        base.with_(radius=1e-300)
+
+
+def test_forces_beyond_what_the_fe_mesh_resolves(tmp_path, capsys):
+    # --max-force 1.8e308 overflowed in the geometric peak series (a numpy warning)
+    assert main(["calibrate", "--material", "reference", "--out", str(tmp_path / "P.json"),
+                 "--max-force", "1.7976931348622103e+308"]) == 2
+    one_line_error(capsys, "--max-force: must be <= 1.364e+05 N", "a <= R/2")
+    (tmp_path / "h.toml").write_text("[history]\nforces = [0, 1e9, 0]\n")
+    assert main(["fem", "--material", "reference", "--history", str(tmp_path / "h.toml"),
+                 "--out", str(tmp_path / "run")]) == 2
+    one_line_error(capsys, "history.forces: must be <= 1.364e+05 N")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h.toml"]
+
+
+def test_seismic_density_range():
+    from geocontact.seismic.column import ColumnModel
+
+    # 1e-300 kg/m^3 ended in a ConvergenceError of the static column (exit 1)
+    with pytest.raises(InputError, match=r"density: must be in \[1, 100000\] kg/m\^3"):
+        ColumnModel(5, 0.1, 1e-300)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..io import check_output_file
-from .common import check_steps, check_workers, print_json
+from .common import check_resolved_force, check_steps, check_workers, print_json
 
 
 def register(sub) -> None:
@@ -53,6 +53,7 @@ def _peak_list(text: str) -> list[float]:
 
 
 def run(args) -> int:
+    from ..calibrate.campaign import settings
     from ..calibrate.workflow import calibrate_to_file
     from ..fem.campaign import DEFAULT_CACHE
     from ..material import load_material
@@ -66,6 +67,12 @@ def run(args) -> int:
     check_output_file(out, "--out")
     material = load_material(args.material)
     peaks = _peak_list(args.peak_forces) if args.peak_forces is not None else None
+    if peaks:
+        check_resolved_force(material, max(peaks), "--peak-forces")
+    else:
+        default = settings()["campaign"]["max_force_N"]
+        check_resolved_force(material, default if args.max_force is None else args.max_force,
+                             "--max-force")
     cache = Path(args.cache) if args.cache else DEFAULT_CACHE
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,

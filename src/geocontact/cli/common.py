@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from typing import Any
 
@@ -37,3 +38,26 @@ def check_steps(value: int | None) -> None:
 
 def check_workers(value: int | None) -> None:
     check_count("--workers", value, MAX_WORKERS, "local processes; use --scheduler beyond")
+
+
+def check_resolved_force(material, force: float | None, field: str) -> None:
+    """A peak force the FE mesh resolves: its contact radius estimate (``fem.run``) within the
+    refined zone, a <= R/2 (``fem.mesh.build_mesh`` clips there); beyond it the contact would
+    outgrow the mesh (and 1e308 N overflowed). The bound is found on that same estimate."""
+    if force is None or not (math.isfinite(force) and force > 0):
+        return  # the command's own checks name it
+    from ..fem.run import largest_contact_radius_estimate
+
+    def resolved(f: float) -> bool:
+        return largest_contact_radius_estimate(material, f) <= 0.5 * material.radius
+
+    if resolved(force):
+        return
+    low, high = 0.0, force
+    for _ in range(200):  # bisection in log F: the estimate grows with the force
+        mid = math.sqrt(low * high) if low > 0 else high * 1e-12
+        low, high = (mid, high) if resolved(mid) else (low, mid)
+        if low > 0 and high / low < 1.0 + 1e-6:
+            break
+    raise InputError(f"{field}: must be <= {low:.4g} N for this material (the largest force "
+                     f"whose contact radius the FE mesh resolves, a <= R/2), got {force:g}")

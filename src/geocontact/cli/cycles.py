@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import check_steps, print_json
+from .common import check_resolved_force, check_steps, print_json
 
 
 def register(sub) -> None:
@@ -51,6 +51,7 @@ def run(args) -> int:
     if args.fit_params and params is None:
         raise InputError("--fit-params: needs --params (the law whose cyclic part to fit)")
     check_steps(args.steps)
+    check_resolved_force(material, max(forces), "history.forces")
     summary = run_cycles(
         material, forces, args.out, params=params, mesh=args.mesh, steps_per_segment=args.steps,
         tolerance=args.tolerance, resume=args.resume, fit_params=args.fit_params,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import check_steps, print_json
+from .common import check_resolved_force, check_steps, print_json
 
 
 def register(sub) -> None:
@@ -34,6 +34,7 @@ def run(args) -> int:
     material = load_material(args.material)
     forces = load_history(args.history)
     check_steps(args.steps)
+    check_resolved_force(material, max(forces), "history.forces")
     result = run_history(material, forces, mesh=args.mesh, out=args.out,
                          steps_per_segment=args.steps, resume=args.resume,
                          progress=sys.stderr.isatty() or not args.json)
