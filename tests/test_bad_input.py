@@ -325,3 +325,29 @@ def test_seismic_density_range():
     # 1e-300 kg/m^3 ended in a ConvergenceError of the static column (exit 1)
     with pytest.raises(InputError, match=r"density: must be in \[1, 100000\] kg/m\^3"):
         ColumnModel(5, 0.1, 1e-300)
+
+
+@pytest.mark.parametrize("name, text, option", [
+    ("p.json", "[" * 100000 + "]" * 100000, "params"),
+    ("m.toml", "a = " + "[" * 100000 + "]" * 100000, "material"),
+    ("h.toml", "a = " + "[" * 100000 + "]" * 100000, "history"),
+])
+def test_deeply_nested_files(tmp_path, approach_csv, capsys, name, text, option):
+    # json/tomllib raise RecursionError (a traceback) on a file nested this deep
+    (tmp_path / name).write_text(text)
+    argv = {"params": ["law", "--params", str(tmp_path / name), "--approach", str(approach_csv),
+                       "--out", str(tmp_path / "f.csv")],
+            "material": ["yield", "--material", str(tmp_path / name)],
+            "history": ["fem", "--material", "reference", "--history", str(tmp_path / name),
+                        "--out", str(tmp_path / "run")]}[option]
+    assert main(argv) == 2
+    one_line_error(capsys, f"{option}: malformed", "nested too deeply")
+
+
+def test_law_approach_beyond_the_radius(tmp_path, capsys):
+    # 1e308 gave force inf and dissipated energy NaN, exit 0
+    (tmp_path / "a.csv").write_text("approach_m\n0\n1e308\n")
+    assert main(["law", "--params", str(PARAMS), "--approach", str(tmp_path / "a.csv"),
+                 "--out", str(tmp_path / "f.csv")]) == 2
+    one_line_error(capsys, "approach_m: must be <= the sphere radius 0.1 m", "value 2")
+    assert not (tmp_path / "f.csv").exists()

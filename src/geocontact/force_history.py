@@ -78,4 +78,6 @@ def load_history(path: str | Path) -> list[float]:
         data = tomllib.loads(read_text_input(path, "history"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"history: malformed TOML in {path}: {exc}") from None
+    except RecursionError:
+        raise InputError(f"history: malformed TOML in {path}: nested too deeply") from None
     return history_from_dict(data)

@@ -209,6 +209,8 @@ def load_material(path: str | Path) -> Material:
         data = tomllib.loads(read_text_input(p, "material"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"material: malformed TOML in {path}: {exc}") from None
+    except RecursionError:
+        raise InputError(f"material: malformed TOML in {path}: nested too deeply") from None
     return Material.from_dict(data, source=str(path))
 
 

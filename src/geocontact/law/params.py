@@ -475,6 +475,8 @@ def load_params(path: str | Path) -> LawParams:
         raise InputError(
             f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}"
         ) from None
+    except RecursionError:
+        raise InputError(f"params: malformed JSON in {path}: nested too deeply") from None
     if not isinstance(data, dict):
         raise InputError(f"params: {path} must hold a JSON object")
     return LawParams.from_dict(data, source="params")
