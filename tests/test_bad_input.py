@@ -351,3 +351,26 @@ def test_law_approach_beyond_the_radius(tmp_path, capsys):
                  "--out", str(tmp_path / "f.csv")]) == 2
     one_line_error(capsys, "approach_m: must be <= the sphere radius 0.1 m", "value 2")
     assert not (tmp_path / "f.csv").exists()
+
+
+def test_other_output_files_naming_a_folder(tmp_path, capsys):
+    from geocontact.law import golden, illustrative
+
+    folder = tmp_path / "existing"
+    folder.mkdir()
+    assert illustrative.main(["--out", str(folder)]) == 2
+    one_line_error(capsys, "--out", "existing folder")
+    assert golden.main(["--out", str(folder)]) == 2
+    one_line_error(capsys, "--out", "existing folder")
+    (tmp_path / "h.toml").write_text("[history]\nforces = [0, 300, 0]\n")
+    assert main(["cycles", "--material", "reference", "--history", str(tmp_path / "h.toml"),
+                 "--params", str(PARAMS), "--fit-params", str(folder),
+                 "--out", str(tmp_path / "run")]) == 2
+    one_line_error(capsys, "--fit-params", "existing folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["existing", "h.toml"]
+
+
+def test_seismic_aftershock_count(tmp_path, capsys):
+    assert main(["seismic", "R.csv", "--params", str(PARAMS), "--out", str(tmp_path / "o"),
+                 "--aftershock", *["R.csv"] * 21]) == 2
+    one_line_error(capsys, "--aftershock: at most 20 records")

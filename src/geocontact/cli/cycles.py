@@ -42,6 +42,7 @@ def run(args) -> int:
     from ..cycles import run_cycles
     from ..errors import InputError
     from ..force_history import load_history
+    from ..io import check_output_file
     from ..law import load_params
     from ..material import load_material
 
@@ -50,6 +51,8 @@ def run(args) -> int:
     params = load_params(args.params) if args.params else None
     if args.fit_params and params is None:
         raise InputError("--fit-params: needs --params (the law whose cyclic part to fit)")
+    if args.fit_params:
+        check_output_file(args.fit_params, "--fit-params")
     check_steps(args.steps)
     check_resolved_force(material, max(forces), "history.forces")
     summary = run_cycles(

@@ -81,12 +81,15 @@ def run(args) -> int:
 
     from ..law import load_params
     from ..seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
-    from ..seismic.column import MAX_SPHERES
+    from ..seismic.column import MAX_AFTERSHOCKS, MAX_SPHERES
 
     if args.pga is not None and not args.pga > 0:
         raise InputError(f"--pga: must be > 0 m/s^2, got {args.pga:g}")
     check_count("--column", args.column, MAX_SPHERES,
                 "spheres; the stored histories grow as spheres x samples")
+    if len(args.aftershock) > MAX_AFTERSHOCKS:
+        raise InputError(f"--aftershock: at most {MAX_AFTERSHOCKS} records (each is a full run "
+                         f"of the column after the main shock), got {len(args.aftershock)}")
     settings = Settings.from_defaults(
         target_pga=args.pga, spheres=args.column, unit=args.unit, baseline=args.baseline,
         surcharge=args.surcharge, density=args.density, damping_ratio=args.damping,

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ArgumentParser, InputError, run_reporting_errors
-from ..io import write_text_atomic
+from ..io import check_output_file, write_text_atomic
 from .params import LawParams, load_params
 from .reference import Contact
 
@@ -175,6 +175,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def run() -> int:
         args = parser.parse_args(argv)
+        check_output_file(args.out, "--out")
         variants = 4  # _variants: cyclic on, off, transition, deep
         if not variants <= args.per_family <= MAX_PER_FAMILY:
             raise InputError(f"--per-family: must be in [{variants}, {MAX_PER_FAMILY}] "

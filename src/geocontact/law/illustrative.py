@@ -12,6 +12,7 @@ from importlib import resources
 
 from ..errors import ArgumentParser, run_reporting_errors
 from ..hertz import incipient_yield
+from ..io import check_output_file
 from ..material import Material, load_material
 from .params import LawParams
 
@@ -38,6 +39,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def run() -> int:
         args = parser.parse_args(argv)
+        check_output_file(args.out, "--out")
         illustrative_params(load_material(args.material)).save(args.out)
         print(f"wrote {args.out}")
         return 0

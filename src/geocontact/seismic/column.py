@@ -47,6 +47,9 @@ ContactFactory = Callable[[int], Any]  # n -> an object with the ContactArrays i
 # approach, residual approach, dissipated energy): at the 1 ms default sampling a 40 s record
 # on 100 spheres is already ~130 MB in memory and a history.csv of 400 columns.
 MAX_SPHERES = 100
+# Events of one sequence (main shock + aftershocks): each is a full run of the column and all
+# stay in memory; sequences in the literature have a handful.
+MAX_AFTERSHOCKS = 20
 # Aerogels to osmium; outside it the static column's forces leave the range in which its
 # Newton inversion of the virgin curve converges (1e-300 kg/m^3 gave a ConvergenceError).
 DENSITY_RANGE = (1.0, 1e5)  # kg/m^3
