@@ -374,3 +374,14 @@ def test_seismic_aftershock_count(tmp_path, capsys):
     assert main(["seismic", "R.csv", "--params", str(PARAMS), "--out", str(tmp_path / "o"),
                  "--aftershock", *["R.csv"] * 21]) == 2
     one_line_error(capsys, "--aftershock: at most 20 records")
+
+
+def test_column_refuses_a_run_of_too_many_steps():
+    from geocontact.law.illustrative import illustrative_params
+    from geocontact.seismic.column import Column, ColumnModel, law_contacts
+
+    params = illustrative_params(preset("reference"))
+    column = Column(ColumnModel(2, params.material.radius, 2650.0), law_contacts(params),
+                    safety=1e-9)  # np.arange of ~1e13 steps: MemoryError
+    with pytest.raises(InputError, match="time_step: .* steps for 40 s .*at most 1e\\+08"):
+        column.steps_for(40.0)

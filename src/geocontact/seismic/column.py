@@ -298,10 +298,9 @@ class Column:
         h.energy_error.append(self.energy_error())
 
     # --- time integration -------------------------------------------------------------------
-    def run(self, duration: float, base_acceleration: Callable[[np.ndarray], np.ndarray]
-            | None = None, *, event: int = 0) -> None:
-        """Advance by ``duration`` seconds; ``base_acceleration(t)`` (m/s^2, vectorised) is
-        the base motion (None: the base is at rest)."""
+    def steps_for(self, duration: float) -> int:
+        """Time steps to advance by ``duration`` s; an InputError if that is over
+        MAX_STEPS_PER_RUN (checked before a run starts, so no progress line precedes it)."""
         if not (math.isfinite(duration) and duration >= 0):
             raise InputError(f"duration: must be >= 0 s, got {duration:g}")
         nsteps = duration / self.dt
@@ -309,7 +308,13 @@ class Column:
             raise InputError(f"time_step: {self.dt:g} s needs {nsteps:.3g} steps for "
                              f"{duration:g} s (at most {MAX_STEPS_PER_RUN:.0e}); raise it or "
                              "time_step_safety")
-        nsteps = int(math.ceil(nsteps - 1e-9))
+        return int(math.ceil(nsteps - 1e-9))
+
+    def run(self, duration: float, base_acceleration: Callable[[np.ndarray], np.ndarray]
+            | None = None, *, event: int = 0) -> None:
+        """Advance by ``duration`` seconds; ``base_acceleration(t)`` (m/s^2, vectorised) is
+        the base motion (None: the base is at rest)."""
+        nsteps = self.steps_for(duration)
         times = self.t + self.dt * np.arange(nsteps + 1)
         acc_base = (np.zeros(nsteps + 1) if base_acceleration is None
                     else np.asarray(base_acceleration(times), dtype=float))
