@@ -342,3 +342,33 @@ def test_seismic_on_mutated_records_parameters_and_arguments(capsys, no_work, da
                 value = number_text(data)
             argv += [option, value]
         run_cli(capsys, argv, out=out)
+
+
+@fuzz(10)
+@given(data=st.data())
+def test_seismic_short_real_runs(capsys, data):
+    """A few whole runs on a 0.2 s record (about 1 s each): the integration, classification and
+    outputs with odd but accepted settings."""
+    pytest.importorskip("eqsig")
+    with folder() as tmp:
+        t = np.arange(41) * 0.005
+        acc = 0.2 * np.sin(2 * np.pi * 5.0 * t)
+        record = tmp / "rec.csv"
+        record.write_text("time_s,acceleration_g\n" + "".join(
+            f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, acc, strict=True)))
+        params = tmp / "p.json"
+        params.write_text(json.dumps(PARAMS))
+        out = tmp / "quake"
+        argv = ["seismic", str(record), "--params", str(params), "--out", str(out),
+                "--no-figures", "--gap", data.draw(st.sampled_from(["0", "0.01"])),
+                "--column", data.draw(st.sampled_from(["1", "2", "5"]))]
+        choices = {"--pga": ["0.001", "3", "30", "1e4"], "--damping": ["0", "0.05", "1", "50"],
+                   "--surcharge": ["0", "1", "1e5"], "--density": ["1", "2650", "1e5"],
+                   "--time-step-safety": ["1e-3", "0.5", "1"],
+                   "--output-interval": ["1e-9", "0.01", "1"],
+                   "--baseline": ["none", "mean", "quadratic"],
+                   "--aftershock": [f"{record}@0.5", str(record)]}
+        for option in data.draw(st.lists(st.sampled_from(sorted(choices)), max_size=3,
+                                         unique=True)):
+            argv += [option, data.draw(st.sampled_from(choices[option]))]
+        run_cli(capsys, argv, out=out)

@@ -27,7 +27,7 @@ class ArgumentParser(argparse.ArgumentParser):
     bad input (argparse itself prints the usage too); ``--help`` still prints the usage."""
 
     def error(self, message: str):
-        raise InputError(f"{self.prog}: {message}")
+        raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")
 
 
 def run_reporting_errors(run: Callable[[], int | None]) -> int:
