@@ -41,6 +41,7 @@ import numpy as np
 from scipy.constants import g as STANDARD_GRAVITY
 
 from ..errors import ConvergenceError, InputError
+from ..material import finite_number
 
 ContactFactory = Callable[[int], Any]  # n -> an object with the ContactArrays interface
 # The paper's column has 5 spheres. The histories keep 4 values per contact and sample (force,
@@ -87,8 +88,10 @@ class ColumnModel:
         if isinstance(self.spheres, bool) or not isinstance(self.spheres, int) or self.spheres < 1:
             raise InputError(f"column: number of spheres must be an integer >= 1, got "
                              f"{self.spheres!r}")
+        for name in ("radius", "density", "gravity", "surcharge", "damping_ratio"):
+            finite_number(name, getattr(self, name))  # no bools, no NaN, no inf
         low, high = DENSITY_RANGE
-        if not (math.isfinite(self.density) and low <= self.density <= high):
+        if not low <= self.density <= high:
             raise InputError(f"density: must be in [{low:g}, {high:g}] kg/m^3, got "
                              f"{self.density:g}")
         checks = {
