@@ -3,7 +3,6 @@ file parser, shared by the FE engine and the law's force-controlled driver."""
 
 from __future__ import annotations
 
-import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -12,14 +11,16 @@ import numpy as np
 
 from .errors import InputError
 from .io import read_text_input
+from .material import finite_number
 
 PRESETS = ("repeated", "mono-increasing", "mono-decreasing")
 
 
 def preset_history(name: str, peak_force: float) -> list[float]:
     """The paper's named histories as force waypoints starting and ending at 0."""
-    if not (isinstance(peak_force, (int, float)) and peak_force > 0):
-        raise InputError(f"history.peak_force: must be > 0 N, got {peak_force!r}")
+    peak_force = finite_number("history.peak_force", peak_force)
+    if not peak_force > 0:
+        raise InputError(f"history.peak_force: must be > 0 N, got {peak_force:g}")
     if name == "repeated":  # 10 cycles 0 -> F -> 0
         peaks = [peak_force] * 10
     elif name == "mono-decreasing":  # 3000, 2500, ..., 500, 100 N for F = 3000 N
@@ -51,6 +52,8 @@ def history_from_dict(data: dict[str, Any]) -> list[float]:
         return preset_history(str(h["preset"]), h.get("peak_force", 3000.0))
     if "forces" not in h:
         raise InputError("history.forces: missing (or give preset = ...)")
+    if "peak_force" in h:  # it would be ignored: the forces are the history
+        raise InputError("history.peak_force: only with preset = ... (forces are in N already)")
     return validate_forces(h["forces"])
 
 
@@ -59,11 +62,10 @@ def validate_forces(forces) -> list[float]:
         raise InputError("history.forces: need a list of at least 2 force values (N)")
     out = []
     for i, f in enumerate(forces):
-        if isinstance(f, bool) or not isinstance(f, (int, float, np.floating, np.integer)):
-            raise InputError(f"history.forces[{i}]: expected a number, got {f!r}")
-        if not math.isfinite(float(f)) or f < 0:
-            raise InputError(f"history.forces[{i}]: must be a finite force >= 0 N, got {f!r}")
-        out.append(float(f))
+        f = finite_number(f"history.forces[{i}]", f)
+        if f < 0:
+            raise InputError(f"history.forces[{i}]: must be a finite force >= 0 N, got {f:g}")
+        out.append(f)
     if max(out) <= 0:
         raise InputError("history.forces: the largest force must be > 0 N")
     if out[0] != 0.0:
@@ -76,4 +78,6 @@ def load_history(path: str | Path) -> list[float]:
         data = tomllib.loads(read_text_input(path, "history"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"history: malformed TOML in {path}: {exc}") from None
+    except RecursionError:
+        raise InputError(f"history: malformed TOML in {path}: nested too deeply") from None
     return history_from_dict(data)

@@ -94,15 +94,27 @@ def _temp_prefix(path: Path, kind: str) -> str:
     return f".{path.name}.{kind}-{os.getpid()}-"
 
 
+def check_output_file(path: str | Path, what: str) -> Path:
+    """``path`` as a file to (over)write: not an existing folder, not below a file. Commands
+    call it before their work, so a bad --out fails at once; ``atomic_path`` calls it too."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what}: {path} is an existing folder; expected a file name")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{what}: {parent} is a file, so {path} cannot be written")
+            break
+    return path
+
+
 @contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
+def atomic_path(path: str | Path, what: str = "output") -> Iterator[Path]:
     """A temporary path beside ``path`` (same suffix, so writers infer the format) that is
     renamed onto ``path`` when the block succeeds and removed when it fails: a reader never
     sees a half-written file."""
-    path = Path(path)
+    path = check_output_file(path, what)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if path.is_dir():
-        raise InputError(f"{path}: is a folder, expected a file path to write")
     sweep_temporaries(path)
     fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(path, "tmp"), suffix=path.suffix,
                                dir=path.parent)

@@ -17,6 +17,7 @@ Presets live in ``geocontact/data/presets/*.toml`` (data, not code).
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import asdict, dataclass, replace
 from importlib import resources
@@ -36,15 +37,30 @@ MATERIAL_KEYS = (
 GEOMETRY_KEYS = ("radius",)
 # tan(beta) < 3 keeps the cohesion factor (1 - tan(beta)/3) positive (SPEC section 3).
 MAX_FRICTION_ANGLE_DEG = math.degrees(math.atan(3.0))
+# Magnitudes in which the Hertz and FE numbers stay far from float under/overflow (a Young's
+# modulus of 5e-324 Pa gave NaN for every yield quantity): soft foams to diamond, grains from
+# nanometres to boulders.
+YOUNGS_MODULUS_RANGE = (1e3, 1e13)  # Pa
+RADIUS_RANGE = (1e-9, 1e3)  # m
+# sigma_c / E, the uniaxial yield strain: the model is small-strain elastic-plastic (Hertz's
+# field, the FE's infinitesimal strains), so yield must come at a small strain; above 10 % the
+# incipient-yield contact radius is no longer small against the sphere.
+YIELD_STRAIN_RANGE = (1e-8, 0.1)
 
 
-def _finite(field: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{field}: expected a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise InputError(f"{field}: must be a finite number, got {value}")
-    return value
+def finite_number(field: str, value: Any) -> float:
+    """``value`` as a float, or a one-line InputError naming ``field``: the one check of a
+    number read from a file (material, history, law parameters). A TOML/JSON ``true`` is not
+    a number (Python's bool is an int: it would silently read as 1)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{field}: expected a number, got {value!r}"[:200])
+    try:
+        number = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        number = math.inf
+    if not math.isfinite(number):
+        raise InputError(f"{field}: must be a finite number, got {number}")
+    return number
 
 
 @dataclass(frozen=True)
@@ -60,15 +76,19 @@ class Material:
 
     def __post_init__(self) -> None:
         for key in (*MATERIAL_KEYS, *GEOMETRY_KEYS):
-            object.__setattr__(self, key, _finite(key, getattr(self, key)))
-        if self.youngs_modulus <= 0:
-            raise InputError(f"youngs_modulus: must be > 0 Pa, got {self.youngs_modulus:g}")
+            object.__setattr__(self, key, finite_number(key, getattr(self, key)))
+        low, high = YOUNGS_MODULUS_RANGE
+        if not low <= self.youngs_modulus <= high:
+            raise InputError(f"youngs_modulus: must be in [{low:g}, {high:g}] Pa, got "
+                             f"{self.youngs_modulus:g}")
         if not -1.0 < self.poissons_ratio < 0.5:
             raise InputError(f"poissons_ratio: must be in (-1, 0.5), got {self.poissons_ratio:g}")
-        if self.compressive_yield_stress <= 0:
+        low, high = (f * self.youngs_modulus for f in YIELD_STRAIN_RANGE)
+        if not low <= self.compressive_yield_stress <= high:
             raise InputError(
-                "compressive_yield_stress: must be > 0 Pa, got "
-                f"{self.compressive_yield_stress:g}"
+                f"compressive_yield_stress: must be in [{low:g}, {high:g}] Pa "
+                f"({YIELD_STRAIN_RANGE[0]:g} to {YIELD_STRAIN_RANGE[1]:g} x youngs_modulus: a "
+                f"small yield strain), got {self.compressive_yield_stress:g}"
             )
         if not 0.0 <= self.friction_angle_deg < MAX_FRICTION_ANGLE_DEG:
             raise InputError(
@@ -77,8 +97,9 @@ class Material:
             )
         if not 0.0 <= self.hardening_ratio < 1.0:
             raise InputError(f"hardening_ratio: must be in [0, 1), got {self.hardening_ratio:g}")
-        if self.radius <= 0:
-            raise InputError(f"radius: must be > 0 m, got {self.radius:g}")
+        low, high = RADIUS_RANGE
+        if not low <= self.radius <= high:
+            raise InputError(f"radius: must be in [{low:g}, {high:g}] m, got {self.radius:g}")
 
     # --- derived quantities (SPEC sections 2-3) -------------------------------------------
     @property
@@ -188,6 +209,8 @@ def load_material(path: str | Path) -> Material:
         data = tomllib.loads(read_text_input(p, "material"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"material: malformed TOML in {path}: {exc}") from None
+    except RecursionError:
+        raise InputError(f"material: malformed TOML in {path}: nested too deeply") from None
     return Material.from_dict(data, source=str(path))
 
 

@@ -39,11 +39,18 @@ QUANTITIES = ("secant_stiffness", "normalised_stiffness", "peak_over_yield", "re
 TRENDS = ("increasing", "decreasing", "constant", "varies")
 
 
-def load_sweeps() -> dict[str, Any]:
-    """The shipped sweep definitions (``data/sweeps.toml``), checked."""
-    text = (resources.files("geocontact") / "data" / "sweeps.toml").read_text()
+def load_sweeps(text: str | None = None) -> dict[str, Any]:
+    """The shipped sweep definitions (``data/sweeps.toml``, or that file's ``text``), checked."""
+    if text is None:
+        text = (resources.files("geocontact") / "data" / "sweeps.toml").read_text()
     data = tomllib.loads(text)
     for name, sweep in data["sweep"].items():
+        values = [float(v) for v in sweep["values"]]
+        # a trend is read step by step along the sweep: a repeated point would read as a
+        # non-monotone trend (a false disagreement with the paper), an unsorted one as reversed
+        if len(values) < 2 or np.any(np.diff(values) <= 0):
+            raise InputError(f"sweeps.toml: sweep {name}: values must be >= 2 strictly "
+                             f"increasing numbers (no repeated point), got {sweep['values']}")
         for statement in sweep.get("statements", []):
             if statement["quantity"] not in QUANTITIES or statement["trend"] not in TRENDS:
                 raise InputError(f"sweeps.toml: sweep {name}: bad statement {statement}")
@@ -136,7 +143,9 @@ def run_sweeps(out: str | Path, names: list[str] | None = None, *, mesh: str = "
     before the FE campaign; ``overwrite`` lifts it)."""
     check_replaceable(out, "sweep", overwrite=overwrite)
     definition = load_sweeps()
-    names = list(names or definition["sweep"])
+    # a sweep named twice (--sweeps E,E) is that sweep once: run twice, its points would be
+    # listed twice and its trend read as non-monotone, a false disagreement with the paper
+    names = list(dict.fromkeys(names or definition["sweep"]))
     fmax = float(peak_force if peak_force is not None else definition["peak_force"])
     if not np.isfinite(fmax) or fmax <= 0:
         raise InputError(f"peak_force: must be a positive number of newtons, got {fmax}")

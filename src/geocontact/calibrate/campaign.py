@@ -29,6 +29,9 @@ from ..material import Material
 from .fit import LevelData, fit_law
 
 MIN_LEVELS = 3
+# The shipped calibrations use 7 and 13 levels (two per decade); 50 levels is ~8 per decade
+# over the widest range, each one a full FE run: more is a typo, not a finer fit.
+MAX_LEVELS = 50
 
 
 def settings() -> dict[str, Any]:
@@ -54,8 +57,9 @@ def peak_forces(material: Material, levels: int | None = None,
                 max_force: float | None = None) -> list[float]:
     """Geometric peak loads from ~2 Fy to max_force (SPEC section 7)."""
     n = settings()["campaign"]["levels"] if levels is None else levels
-    if isinstance(n, bool) or not isinstance(n, int) or n < MIN_LEVELS:
-        raise InputError(f"--levels: need an integer >= {MIN_LEVELS}, got {n!r}")
+    if isinstance(n, bool) or not isinstance(n, int) or not MIN_LEVELS <= n <= MAX_LEVELS:
+        raise InputError(f"--levels: need an integer in [{MIN_LEVELS}, {MAX_LEVELS}] (each "
+                         f"level is one FE run), got {n!r}")
     low, high = force_range(material, max_force)
     return [float(f) for f in np.geomspace(low, high, n)]
 
@@ -65,9 +69,9 @@ def check_peaks(material: Material, peaks) -> list[float]:
     peaks = sorted(float(p) for p in peaks)
     for p in peaks:
         _check_positive("--peak-forces", p)
-    if len(set(peaks)) < MIN_LEVELS:
-        raise InputError(f"--peak-forces: need >= {MIN_LEVELS} distinct peak loads, "
-                         f"got {len(set(peaks))}")
+    if not MIN_LEVELS <= len(set(peaks)) <= MAX_LEVELS:
+        raise InputError(f"--peak-forces: need {MIN_LEVELS} to {MAX_LEVELS} distinct peak loads "
+                         f"(each is one FE run), got {len(set(peaks))}")
     fy = incipient_yield(material).force
     if peaks[0] <= 1.2 * fy:
         raise InputError(f"--peak-forces: {peaks[0]:g} N is within 20 % of first yield "

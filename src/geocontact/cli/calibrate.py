@@ -6,7 +6,8 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from .common import add_force_flag, print_json
+from ..io import check_output_file
+from .common import add_force_flag, check_resolved_force, check_steps, check_workers, print_json
 
 
 def register(sub) -> None:
@@ -53,15 +54,14 @@ def _peak_list(text: str) -> list[float]:
 
 
 def run(args) -> int:
+    from ..calibrate.campaign import settings
     from ..calibrate.workflow import calibrate_to_file
     from ..fem.campaign import DEFAULT_CACHE
     from ..material import load_material
 
     started = time.perf_counter()
-    if args.steps is not None and args.steps < 1:
-        raise InputError(f"--steps: must be >= 1, got {args.steps}")
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    check_steps(args.steps)
+    check_workers(args.workers)
     if args.scheduler is not None:
         from ..fem.campaign import check_scheduler_address
 
@@ -69,8 +69,15 @@ def run(args) -> int:
     out = Path(args.out)
     if out.suffix != ".json":
         raise InputError(f"--out: expected a .json file name, got {args.out!r}")
+    check_output_file(out, "--out")
     material = load_material(args.material)
     peaks = _peak_list(args.peak_forces) if args.peak_forces is not None else None
+    if peaks:
+        check_resolved_force(material, max(peaks), "--peak-forces")
+    else:
+        default = settings()["campaign"]["max_force_N"]
+        check_resolved_force(material, default if args.max_force is None else args.max_force,
+                             "--max-force")
     cache = Path(args.cache) if args.cache else DEFAULT_CACHE
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_force_flag, print_json
+from .common import add_force_flag, check_resolved_force, check_steps, print_json
 
 
 def register(sub) -> None:
@@ -43,6 +43,7 @@ def run(args) -> int:
     from ..cycles import run_cycles
     from ..errors import InputError
     from ..force_history import load_history
+    from ..io import check_output_file
     from ..law import load_params
     from ..material import load_material
 
@@ -51,8 +52,10 @@ def run(args) -> int:
     params = load_params(args.params) if args.params else None
     if args.fit_params and params is None:
         raise InputError("--fit-params: needs --params (the law whose cyclic part to fit)")
-    if args.steps is not None and args.steps < 1:
-        raise InputError(f"--steps: must be >= 1, got {args.steps}")
+    if args.fit_params:
+        check_output_file(args.fit_params, "--fit-params")
+    check_steps(args.steps)
+    check_resolved_force(material, max(forces), "history.forces")
     summary = run_cycles(
         material, forces, args.out, params=params, mesh=args.mesh, steps_per_segment=args.steps,
         tolerance=args.tolerance, resume=args.resume, fit_params=args.fit_params,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_force_flag, print_json
+from .common import add_force_flag, check_resolved_force, check_steps, print_json
 
 
 def register(sub) -> None:
@@ -30,15 +30,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
     from ..fem.run import load_history, run_history
     from ..material import load_material
     from ..resolution import fe_summary_resolutions
 
     material = load_material(args.material)
     forces = load_history(args.history)
-    if args.steps is not None and args.steps < 1:
-        raise InputError(f"--steps: must be >= 1, got {args.steps}")
+    check_steps(args.steps)
+    check_resolved_force(material, max(forces), "history.forces")
     result = run_history(material, forces, mesh=args.mesh, out=args.out,
                          steps_per_segment=args.steps, resume=args.resume, overwrite=args.force,
                          progress=sys.stderr.isatty() or not args.json)

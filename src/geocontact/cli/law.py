@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..io import provenance, read_csv_column, write_csv, write_json_atomic
+from ..errors import InputError
+from ..io import check_output_file, provenance, read_csv_column, write_csv, write_json_atomic
 from ..law import BRANCH_NAMES, Contact, load_params
 from .common import print_json
 
@@ -19,8 +20,17 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    check_output_file(args.out, "--out")
+    check_output_file(f"{args.out}.meta.json", "--out")
     params = load_params(args.params)
     approaches = read_csv_column(args.approach, "approach_m")
+    radius = params.material.radius
+    too_deep = np.flatnonzero(approaches > radius)
+    if too_deep.size:  # 1e308 gave an infinite force and NaN energies
+        i = int(too_deep[0])
+        raise InputError(f"approach_m: must be <= the sphere radius {radius:g} m (a ball-ball "
+                         f"approach; far beyond any contact law), got {approaches[i]:g} "
+                         f"(value {i + 1} of {args.approach})")
     contact = Contact(params)
     n = approaches.size
     force, stiffness = np.empty(n), np.empty(n)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from .common import add_force_flag, print_json
+from .common import add_force_flag, check_count, print_json
 
 
 def register(sub) -> None:
@@ -83,13 +83,17 @@ def run(args) -> int:
     from ..io import check_replaceable
     from ..law import load_params
     from ..seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
+    from ..seismic.column import MAX_AFTERSHOCKS, MAX_SPHERES
 
     check_replaceable(args.out, "seismic", overwrite=args.force)  # before the run, not after
 
     if args.pga is not None and not args.pga > 0:
         raise InputError(f"--pga: must be > 0 m/s^2, got {args.pga:g}")
-    if args.column is not None and args.column < 1:
-        raise InputError(f"--column: must be >= 1 sphere, got {args.column}")
+    check_count("--column", args.column, MAX_SPHERES,
+                "spheres; the stored histories grow as spheres x samples")
+    if len(args.aftershock) > MAX_AFTERSHOCKS:
+        raise InputError(f"--aftershock: at most {MAX_AFTERSHOCKS} records (each is a full run "
+                         f"of the column after the main shock), got {len(args.aftershock)}")
     settings = Settings.from_defaults(
         target_pga=args.pga, spheres=args.column, unit=args.unit, baseline=args.baseline,
         surcharge=args.surcharge, density=args.density, damping_ratio=args.damping,

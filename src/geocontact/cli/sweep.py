@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .common import add_force_flag, print_json
+from .common import add_force_flag, check_workers, print_json
 
 
 def register(sub) -> None:
@@ -27,11 +27,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
     from ..sweeps import run_sweeps
 
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers: must be >= 1, got {args.workers}")
+    check_workers(args.workers)
     if args.scheduler is not None:
         from ..fem.campaign import check_scheduler_address
 

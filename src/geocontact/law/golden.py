@@ -14,20 +14,22 @@ the fully plastic approach, and many cycles to one peak with the cyclic (ratchet
 
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 from pathlib import Path
 
 import numpy as np
 
-from ..io import write_text_atomic
+from ..errors import ArgumentParser, InputError, run_reporting_errors
+from ..io import check_output_file, write_text_atomic
 from .params import LawParams, load_params
 from .reference import Contact
 
 GOLDEN_SCHEMA = "geocontact.golden/1"
 DEFAULT_PARAMS = Path(__file__).resolve().parents[3] / "examples" / "params-illustrative.json"
 SEED = 20250722
+# Histories per family: the shipped file uses 50; 10000 already makes a file of ~100 MB.
+MAX_PER_FAMILY = 10000
 STATE_KEYS = ("approach", "force", "max_approach", "max_force", "residual_approach",
               "unloading_exponent", "reloading_exponent", "branch", "branch_value",
               "ratchet_shift", "pending_ratchet", "cycles", "work")
@@ -162,22 +164,33 @@ def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dic
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m geocontact.law.golden",
-                                     description=__doc__.splitlines()[0])
+    parser = ArgumentParser(prog="python -m geocontact.law.golden",
+                            description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="output JSON file")
     parser.add_argument("--params", default=str(DEFAULT_PARAMS),
                         help="geocontact.law/1 parameter file (default: %(default)s)")
     parser.add_argument("--per-family", type=int, default=50,
-                        help="histories per family, split over the cyclic on/off variants")
+                        help="histories per family, split over the 4 parameter variants")
     parser.add_argument("--seed", type=int, default=SEED)
-    args = parser.parse_args(argv)
-    golden = generate(load_params(args.params), args.per_family, args.seed)
-    out = Path(args.out)
-    # repr-exact floats (json writes the shortest round-tripping form)
-    write_text_atomic(out, json.dumps(golden, separators=(",", ":")) + "\n")
-    n_steps = sum(len(c["approaches"]) for c in golden["cases"])
-    print(f"golden: {len(golden['cases'])} histories, {n_steps} steps -> {out}")
-    return 0
+
+    def run() -> int:
+        args = parser.parse_args(argv)
+        check_output_file(args.out, "--out")
+        variants = 4  # _variants: cyclic on, off, transition, deep
+        if not variants <= args.per_family <= MAX_PER_FAMILY:
+            raise InputError(f"--per-family: must be in [{variants}, {MAX_PER_FAMILY}] "
+                             f"(split over {variants} parameter variants), got {args.per_family}")
+        if args.seed < 0:
+            raise InputError(f"--seed: must be an integer >= 0, got {args.seed}")
+        golden = generate(load_params(args.params), args.per_family, args.seed)
+        out = Path(args.out)
+        # repr-exact floats (json writes the shortest round-tripping form)
+        write_text_atomic(out, json.dumps(golden, separators=(",", ":")) + "\n")
+        n_steps = sum(len(c["approaches"]) for c in golden["cases"])
+        print(f"golden: {len(golden['cases'])} histories, {n_steps} steps -> {out}")
+        return 0
+
+    return run_reporting_errors(run)
 
 
 if __name__ == "__main__":

@@ -7,11 +7,12 @@ let users and tests run the law before an FE calibration exists.
 
 from __future__ import annotations
 
-import argparse
 import json
 from importlib import resources
 
+from ..errors import ArgumentParser, run_reporting_errors
 from ..hertz import incipient_yield
+from ..io import check_output_file
 from ..material import Material, load_material
 from .params import LawParams
 
@@ -32,13 +33,18 @@ def illustrative_params(material: Material) -> LawParams:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = ArgumentParser(prog="python -m geocontact.law.illustrative", description=__doc__)
     parser.add_argument("--material", default="reference", help="material TOML or preset name")
     parser.add_argument("--out", required=True)
-    args = parser.parse_args(argv)
-    illustrative_params(load_material(args.material)).save(args.out)
-    print(f"wrote {args.out}")
-    return 0
+
+    def run() -> int:
+        args = parser.parse_args(argv)
+        check_output_file(args.out, "--out")
+        illustrative_params(load_material(args.material)).save(args.out)
+        print(f"wrote {args.out}")
+        return 0
+
+    return run_reporting_errors(run)
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import InputError
 from ..hertz import hertz_coefficient
 from ..io import read_text_input, write_text_atomic
-from ..material import Material
+from ..material import Material, finite_number
 
 SCHEMA = "geocontact.law/1"
 HERTZ_EXPONENT = 1.5
@@ -59,12 +59,7 @@ def _number(where: str, data: dict[str, Any], key: str, lo=None, hi=None, lo_ope
             hi_open=False) -> float:
     if key not in data:
         raise InputError(f"{where}.{key}: missing")
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}.{key}: expected a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise InputError(f"{where}.{key}: must be finite, got {value}")
+    value = finite_number(f"{where}.{key}", data[key])
     bad_lo = lo is not None and (value <= lo if lo_open else value < lo)
     bad_hi = hi is not None and (value >= hi if hi_open else value > hi)
     if bad_lo or bad_hi:
@@ -77,14 +72,30 @@ def _number(where: str, data: dict[str, Any], key: str, lo=None, hi=None, lo_ope
     return value
 
 
-def _check_keys(where: str, data: Any, allowed: set[str]) -> dict[str, Any]:
+def _check_keys(where: str, data: Any, allowed: set[str] | None) -> dict[str, Any]:
+    """``data`` as a JSON object with keys from ``allowed`` (None: any key)."""
     if not isinstance(data, dict):
-        raise InputError(f"{where}: must be an object")
-    unknown = sorted(set(data) - allowed)
+        raise InputError(f"{where}: must be a JSON object {{...}}, got {_short(data)}")
+    unknown = sorted(set(data) - allowed) if allowed is not None else []
     if unknown:
         names = ", ".join(sorted(allowed))
         raise InputError(f"{where}.{unknown[0]}: unknown key (allowed: {names})")
     return data
+
+
+def _short(value: Any) -> str:
+    """A value as it reads in the JSON file, cut to stay on one line."""
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _label(value: Any) -> str:
+    if not isinstance(value, str):
+        raise InputError(f"label: must be a string, got {_short(value)}")
+    return value
 
 
 def power_law_critical_cycle(coefficient: float, power: float, tolerance: float) -> int | None:
@@ -379,12 +390,9 @@ class LawParams:
         for key in ("material", "yield", "loading", "unloading", "reloading", "residual_approach"):
             if key not in data:
                 raise InputError(f"{key}: missing")
-        material = Material.from_dict(_check_keys("material", data["material"],
-                                                  set(data["material"]) if isinstance(
-                                                      data["material"], dict) else set()),
+        material = Material.from_dict(_check_keys("material", data["material"], None),
                                       source="material")
-        yd = _check_keys("yield", data["yield"], set(data["yield"]) if isinstance(
-            data["yield"], dict) else set())
+        yd = _check_keys("yield", data["yield"], None)
         yield_approach = _number("yield", yd, "approach_m", 0, None, lo_open=True)
         ld = _check_keys("loading", data["loading"], {
             "elastic_plastic_exponent", "fully_plastic_approach_ratio", "fully_plastic_exponent",
@@ -425,9 +433,9 @@ class LawParams:
             plastic_work_log_power=_log_power("plastic_work", pw),
             cyclic=CyclicLaw.from_dict(data.get("cyclic", {"tolerance": 0.01})),
             yield_extra={k: v for k, v in yd.items() if k not in ("approach_m", "force_N")},
-            provenance=dict(data.get("provenance", {})),
-            fit_errors=dict(data.get("fit_errors", {})),
-            label=str(data.get("label", "")),
+            provenance=dict(_check_keys("provenance", data.get("provenance", {}), None)),
+            fit_errors=dict(_check_keys("fit_errors", data.get("fit_errors", {}), None)),
+            label=_label(data.get("label", "")),
         )
         if "force_N" in yd:
             given = _number("yield", yd, "force_N", 0, None, lo_open=True)
@@ -471,6 +479,8 @@ def load_params(path: str | Path) -> LawParams:
         raise InputError(
             f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}"
         ) from None
+    except RecursionError:
+        raise InputError(f"params: malformed JSON in {path}: nested too deeply") from None
     if not isinstance(data, dict):
         raise InputError(f"params: {path} must hold a JSON object")
     return LawParams.from_dict(data, source="params")

@@ -319,6 +319,8 @@ def run_seismic(params, main: EventSpec, aftershocks: list[EventSpec], settings:
                     safety=settings.time_step_safety,
                     probe_force_factor=settings.stiffness_probe_force_factor,
                     output_interval=settings.output_interval)
+    for rec in processed:  # a time step far too small fails now, not after the first event
+        column.steps_for(rec.duration + settings.gap)
     events = []
     for i, (spec, rec) in enumerate(zip(specs, processed, strict=True)):
         label = "main shock" if i == 0 else f"aftershock {i}"

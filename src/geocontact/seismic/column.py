@@ -19,7 +19,8 @@ Model (docs/seismic.md):
   it (Newton on fresh contacts), so the motion starts from exact equilibrium.
 * Velocity Verlet, time step dt = safety * sqrt(m / k_max) (the chain's highest frequency is below
   2 sqrt(k_max/m), so safety < 1 is stable), k_max the law's largest tangent (loading or
-  unloading) at a probe force a few times the static one.
+  unloading) at a probe force a few times the static one. A time step given explicitly must not
+  exceed the stability limit of the column linearised at k_max (:func:`critical_time_step`).
 * Optional damping: P = max(F + c approach', 0) with c = 2 zeta sqrt(m_eff k_tangent), m_eff = m/2
   (m for the base contact), the approach rate from the half-step velocities; never tensile.
 
@@ -40,8 +41,22 @@ import numpy as np
 from scipy.constants import g as STANDARD_GRAVITY
 
 from ..errors import ConvergenceError, InputError
+from ..material import finite_number
 
 ContactFactory = Callable[[int], Any]  # n -> an object with the ContactArrays interface
+# The paper's column has 5 spheres. The histories keep 4 values per contact and sample (force,
+# approach, residual approach, dissipated energy): at the 1 ms default sampling a 40 s record
+# on 100 spheres is already ~130 MB in memory and a history.csv of 400 columns.
+MAX_SPHERES = 100
+# Events of one sequence (main shock + aftershocks): each is a full run of the column and all
+# stay in memory; sequences in the literature have a handful.
+MAX_AFTERSHOCKS = 20
+# Aerogels to osmium; outside it the static column's forces leave the range in which its
+# Newton inversion of the virgin curve converges (1e-300 kg/m^3 gave a ConvergenceError).
+DENSITY_RANGE = (1.0, 1e5)  # kg/m^3
+# Steps of one call of Column.run: each is a Python-level Verlet step (tens of microseconds), so
+# 1e8 is about an hour; a time step so small that a record needs more is a typo.
+MAX_STEPS_PER_RUN = 10**8
 
 
 def law_contacts(params) -> ContactFactory:
@@ -73,9 +88,14 @@ class ColumnModel:
         if isinstance(self.spheres, bool) or not isinstance(self.spheres, int) or self.spheres < 1:
             raise InputError(f"column: number of spheres must be an integer >= 1, got "
                              f"{self.spheres!r}")
+        for name in ("radius", "density", "gravity", "surcharge", "damping_ratio"):
+            finite_number(name, getattr(self, name))  # no bools, no NaN, no inf
+        low, high = DENSITY_RANGE
+        if not low <= self.density <= high:
+            raise InputError(f"density: must be in [{low:g}, {high:g}] kg/m^3, got "
+                             f"{self.density:g}")
         checks = {
             "radius": (self.radius, 0.0, False),
-            "density": (self.density, 0.0, False),
             "gravity": (self.gravity, 0.0, True),
             "surcharge": (self.surcharge, 0.0, True),
             "damping_ratio": (self.damping_ratio, 0.0, True),
@@ -93,6 +113,27 @@ class ColumnModel:
     def static_forces(self) -> np.ndarray:
         """Contact k (from the top) carries the k+1 spheres above it and the surcharge."""
         return (np.arange(self.spheres) + 1.0) * self.mass * self.gravity + self.surcharge
+
+
+def critical_time_step(mass: float, stiffness: float, spheres: int,
+                       damping_ratio: float = 0.0) -> float:
+    """Largest stable time step of the column's velocity-Verlet scheme, linearised with every
+    contact at the tangent ``stiffness`` (N/m).
+
+    The chain (top sphere free, the bottom one on the fixed base grain) has the stiffness matrix
+    k T, T tridiagonal with 1, 2, ..., 2 on the diagonal and -1 beside it, whose eigenvalues are
+    4 sin^2((2j - 1) pi / (2 (2N + 1))), j = 1..N: omega_max = 2 sqrt(k/m) sin((2N - 1) pi /
+    (2 (2N + 1))), from sqrt(k/m) (one sphere) towards 2 sqrt(k/m) (long columns). Verlet
+    (central difference) is stable for omega dt <= 2, and with a modal damping ratio xi for
+    omega dt <= 2 (sqrt(1 + xi^2) - xi) (the half-step-velocity damping of ``Column.run`` has
+    exactly this limit). The contact dashpots 2 zeta sqrt(m_eff k) give the top mode at most
+    xi = zeta sqrt(lambda_max(T)) (the base dashpot, m_eff = m, bounds them all), so with damping
+    the value is a safe lower bound of the limit (exact for one sphere and without damping).
+    """
+    lam = 4.0 * math.sin((2 * spheres - 1) * math.pi / (2 * (2 * spheres + 1))) ** 2
+    omega = math.sqrt(lam * stiffness / mass)
+    xi = damping_ratio * math.sqrt(lam)
+    return 2.0 * (math.sqrt(1.0 + xi * xi) - xi) / omega
 
 
 def virgin_approach(factory: ContactFactory, forces: np.ndarray, *, rtol: float = 1e-12,
@@ -187,14 +228,23 @@ class Column:
         # m_eff = m/2 between two free spheres, m against the base grain
         self.effective_mass = np.full(n, 0.5 * self.mass)
         self.effective_mass[-1] = self.mass
+        k_max = self._probe_stiffness(factory, probe_force_factor)
+        self.stiffness_estimate = k_max
+        limit = critical_time_step(self.mass, k_max, n, model.damping_ratio)
         if time_step is None:
-            k_max = self._probe_stiffness(factory, probe_force_factor)
-            self.stiffness_estimate = k_max
             time_step = safety * math.sqrt(self.mass / k_max)
-        else:
-            self.stiffness_estimate = float(np.max(stiffness, initial=0.0))
+            if time_step > limit:  # only with strong damping: safety <= 1 is enough without
+                raise InputError(
+                    f"time_step_safety: {safety:g} gives dt = {time_step:.4g} s, above the "
+                    f"stability limit {limit:.4g} s with damping_ratio {model.damping_ratio:g}; "
+                    f"must be <= {limit / math.sqrt(self.mass / k_max):.4g}")
         if not (math.isfinite(time_step) and time_step > 0):
             raise InputError(f"time_step: must be a finite number > 0 s, got {time_step:g}")
+        if time_step > limit:
+            raise InputError(
+                f"time_step: must be in (0, {limit:.4g}] s, the stability limit of the explicit "
+                f"(velocity Verlet) column at the probe contact stiffness {k_max:.4g} N/m, "
+                f"got {time_step:g}")
         self.dt = float(time_step)
         self.stride = max(1, int(round(output_interval / self.dt)))
         self.t = 0.0
@@ -251,13 +301,23 @@ class Column:
         h.energy_error.append(self.energy_error())
 
     # --- time integration -------------------------------------------------------------------
+    def steps_for(self, duration: float) -> int:
+        """Time steps to advance by ``duration`` s; an InputError if that is over
+        MAX_STEPS_PER_RUN (checked before a run starts, so no progress line precedes it)."""
+        if not (math.isfinite(duration) and duration >= 0):
+            raise InputError(f"duration: must be >= 0 s, got {duration:g}")
+        nsteps = duration / self.dt
+        if nsteps > MAX_STEPS_PER_RUN:
+            raise InputError(f"time_step: {self.dt:g} s needs {nsteps:.3g} steps for "
+                             f"{duration:g} s (at most {MAX_STEPS_PER_RUN:.0e}); raise it or "
+                             "time_step_safety")
+        return int(math.ceil(nsteps - 1e-9))
+
     def run(self, duration: float, base_acceleration: Callable[[np.ndarray], np.ndarray]
             | None = None, *, event: int = 0) -> None:
         """Advance by ``duration`` seconds; ``base_acceleration(t)`` (m/s^2, vectorised) is
         the base motion (None: the base is at rest)."""
-        if not (math.isfinite(duration) and duration >= 0):
-            raise InputError(f"duration: must be >= 0 s, got {duration:g}")
-        nsteps = int(math.ceil(duration / self.dt - 1e-9))
+        nsteps = self.steps_for(duration)
         times = self.t + self.dt * np.arange(nsteps + 1)
         acc_base = (np.zeros(nsteps + 1) if base_acceleration is None
                     else np.asarray(base_acceleration(times), dtype=float))
