@@ -301,8 +301,12 @@ def test_material_magnitudes(tmp_path, capsys, value, message):
 
 def test_yield_strain_and_radius_ranges():
     base = preset("reference")
-    with pytest.raises(InputError, match=r"compressive_yield_stress: must be in \[100, 1e\+09\]"):
-        base.with_(compressive_yield_stress=5e9)
+    with pytest.raises(InputError, match=r"compressive_yield_stress: must be in \[100, 1e\+16\]"):
+        base.with_(compressive_yield_stress=5e16)
+    with pytest.raises(InputError, match=r"compressive_yield_stress: must be in \[100, 1e\+16\]"):
+        base.with_(compressive_yield_stress=50.0)
+    # an effectively elastic grain (the reference run against Hertz) is admitted
+    assert base.with_(compressive_yield_stress=1e15).compressive_yield_stress == 1e15
     with pytest.raises(InputError, match=r"radius: must be in \[1e-09, 1000\] m"):
         base.with_(radius=1e-300)
 
