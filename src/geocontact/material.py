@@ -88,7 +88,8 @@ class Material:
         if not low <= self.compressive_yield_stress <= high:
             raise InputError(
                 f"compressive_yield_stress: must be in [{low:g}, {high:g}] Pa "
-                f"({YIELD_STRAIN_RANGE[0]:g} to {YIELD_STRAIN_RANGE[1]:g} x youngs_modulus), got {self.compressive_yield_stress:g}"
+                f"({YIELD_STRAIN_RANGE[0]:g} to {YIELD_STRAIN_RANGE[1]:g} x youngs_modulus), "
+                f"got {self.compressive_yield_stress:g}"
             )
         if not 0.0 <= self.friction_angle_deg < MAX_FRICTION_ANGLE_DEG:
             raise InputError(
