@@ -15,6 +15,9 @@ def register(sub) -> None:
     p.add_argument("--params", required=True, help="law parameters (geocontact.law/1 JSON)")
     p.add_argument("--approach", required=True, help="CSV with a column approach_m (m)")
     p.add_argument("--out", required=True, help="output CSV: approach_m, force_N, ...")
+    p.add_argument("--radius", type=float, default=None, metavar="R",
+                   help="sphere radius in m: the law for two spheres of radius R by similarity "
+                        "(F_r(d) = s^2 F(d/s), s = R / the file's radius; SPEC 10)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.set_defaults(run=run)
 
@@ -23,6 +26,8 @@ def run(args) -> int:
     check_output_file(args.out, "--out")
     check_output_file(f"{args.out}.meta.json", "--out")
     params = load_params(args.params)
+    if args.radius is not None:
+        params = params.for_radius(args.radius)
     approaches = read_csv_column(args.approach, "approach_m")
     radius = params.material.radius
     too_deep = np.flatnonzero(approaches > radius)
@@ -56,8 +61,10 @@ def run(args) -> int:
         "max_approach_m": float(contact.state.max_approach + contact.state.ratchet_shift),
         "residual_approach_m": float(residual[-1]),
         "dissipated_energy_J": float(dissipated[-1]),
+        "radius_m": params.material.radius,
         "provenance": provenance("law", {"params": str(args.params),
-                                         "approach": str(args.approach)}),
+                                         "approach": str(args.approach),
+                                         "radius_m": args.radius}),
     }
     write_json_atomic(f"{args.out}.meta.json", summary)
     if args.json:

@@ -182,6 +182,27 @@ class CyclicLaw:
         )
 
 
+# Powers of the scale s = r / R of a quantity, by the unit suffix of its key (SPEC 10).
+_SIMILARITY_POWERS = {"_N": 2, "_m": 1, "_J": 3, "_N_per_m": 1}
+
+
+def _scale_by_unit(value: Any, s: float, power: int = 0) -> Any:
+    """A copy of a JSON-like record with every number scaled by s^power, power from the unit
+    suffix of the key it stands under (nested under a key without one: unchanged)."""
+    if isinstance(value, dict):
+        out = {}
+        for key, item in value.items():
+            suffix = max((u for u in _SIMILARITY_POWERS if str(key).endswith(u)), key=len,
+                         default=None)
+            out[key] = _scale_by_unit(item, s, _SIMILARITY_POWERS[suffix] if suffix else power)
+        return out
+    if isinstance(value, list):
+        return [_scale_by_unit(v, s, power) for v in value]
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and power:
+        return value * s**power
+    return value
+
+
 @dataclass(frozen=True)
 class LawParams:
     """Every parameter of the law, with the material and incipient yield it belongs to."""
@@ -231,6 +252,31 @@ class LawParams:
     @property
     def fully_plastic_force(self) -> float:
         return self.yield_force * self.fully_plastic_approach_ratio**self.elastic_plastic_exponent
+
+    # --- similarity (SPEC 10) ---------------------------------------------------------------
+    def for_radius(self, radius: float) -> LawParams:
+        """The law of two identical spheres of radius ``radius`` of the same material.
+
+        The rate-independent continuum problem has no length scale: with s = r / R the
+        spheres of radius r are those of radius R scaled by s, so F_r(delta) = s^2 F_R(delta / s),
+        energies scale by s^3 and every approach by s. The law's only length is delta_y (its
+        other parameters are functions of delta / delta_y), so scaling delta_y and the radius
+        is the whole rescaling; the recorded yield values and fit errors scale with their units
+        (``_N`` s^2, ``_m`` s, ``_J`` s^3). Exact for any history (tests/test_law_similarity.py;
+        the FE itself: tests/test_fem_similarity.py)."""
+        from dataclasses import replace
+
+        from ..material import finite_number
+
+        radius = finite_number("radius", radius)
+        material = self.material.with_(radius=radius)  # the material's own radius range
+        s = radius / self.material.radius
+        similarity = {"from_radius_m": self.material.radius, "scale": s,
+                      "rule": "F_r(d) = s^2 F_R(d / s), s = r / R (SPEC 10)"}
+        return replace(self, material=material, yield_approach=s * self.yield_approach,
+                       yield_extra=_scale_by_unit(self.yield_extra, s),
+                       fit_errors=_scale_by_unit(self.fit_errors, s),
+                       provenance={**self.provenance, "similarity": similarity})
 
     # --- the fitted functions of the plastic depth x = delta_max / delta_y ----------------
     def unloading_exponent(self, depth):

@@ -1,0 +1,116 @@
+"""The law for grains of any size by similarity (SPEC 10): spheres of radius r = s R of the
+calibrated material follow F_r(d) = s^2 F_R(d / s), with energies s^3 and every approach s
+times, along any history (the FE proof is tests/test_fem_similarity.py)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from geocontact.cli import main
+from geocontact.errors import InputError
+from geocontact.law import Contact, load_params
+from geocontact.law.params import LawParams
+
+CALIBRATED = "examples/params-reference.json"  # cyclic extension, third regime, log power
+
+
+def _history(params: LawParams, n: int = 4000) -> np.ndarray:
+    """A random history of loading, partial unloading, reloading and separation, up to 400 dy."""
+    rng = np.random.default_rng(7)
+    dy = params.yield_approach
+    turns = np.concatenate([[0.0], rng.uniform(-5, 400, 60) * dy])
+    path = np.concatenate([np.linspace(a, b, n // 60) for a, b in zip(turns[:-1], turns[1:],
+                                                                     strict=True)])
+    return path
+
+
+@pytest.mark.parametrize("scale", [1e-3, 0.1, 0.37, 3.0, 250.0])
+@pytest.mark.parametrize("source", [CALIBRATED, "examples/params-illustrative.json"])
+def test_law_of_scaled_spheres_is_the_scaled_law(source, scale):
+    base = load_params(source)
+    scaled = base.for_radius(scale * base.material.radius)
+    assert scaled.material.radius == pytest.approx(scale * base.material.radius, rel=1e-15)
+    path = _history(base)
+    a, b = Contact(base), Contact(scaled)
+    for d in path:
+        fa, ka = a.update(d)
+        fb, kb = b.update(scale * d)
+        assert fb == pytest.approx(scale**2 * fa, rel=1e-12,
+                                   abs=1e-12 * scale**2 * base.yield_force)
+        assert kb == pytest.approx(scale * ka, rel=1e-12, abs=1e-12 * scale * base.yield_force
+                                   / base.yield_approach)
+        assert b.dissipated_energy == pytest.approx(
+            scale**3 * a.dissipated_energy,
+            rel=1e-11, abs=1e-12 * scale**3 * base.yield_force * base.yield_approach)
+    sa, sb = a.state, b.state
+    for name in ("max_approach", "residual_approach", "ratchet_shift"):
+        assert getattr(sb, name) == pytest.approx(scale * getattr(sa, name), rel=1e-12,
+                                                  abs=1e-15 * scale)
+    assert sb.cycles == sa.cycles and sb.branch == sa.branch
+
+
+def test_recorded_values_scale_with_their_units():
+    base = load_params(CALIBRATED)
+    s = 0.01
+    scaled = base.for_radius(s * base.material.radius)
+    assert scaled.yield_force == pytest.approx(s**2 * base.yield_force, rel=1e-13)
+    assert scaled.fully_plastic_approach == pytest.approx(s * base.fully_plastic_approach)
+    assert scaled.yield_extra["fe_force_N"] == pytest.approx(s**2 * base.yield_extra["fe_force_N"])
+    a0, a1 = base.yield_extra["analytic"], scaled.yield_extra["analytic"]
+    assert a1["contact_radius_m"] == pytest.approx(s * a0["contact_radius_m"])
+    assert a1["peak_pressure_Pa"] == a0["peak_pressure_Pa"]  # stresses do not scale
+    assert scaled.fit_errors["loading_rms_relative"] == base.fit_errors["loading_rms_relative"]
+    assert scaled.provenance["similarity"]["scale"] == pytest.approx(s)
+    # the scaled parameter file is itself a valid one (written and read back)
+    again = LawParams.from_dict(json.loads(scaled.to_json()))
+    assert again.yield_approach == scaled.yield_approach
+
+
+def test_analytic_yield_of_the_scaled_material_is_the_scaled_yield():
+    """Independent of the law: Hertz incipient yield of spheres of radius r (geocontact.hertz)
+    is that of R scaled (force s^2, approach s), as the law's rescaling assumes."""
+    from geocontact.hertz import incipient_yield
+
+    base = load_params(CALIBRATED)
+    s = 0.05
+    y0 = incipient_yield(base.material)
+    y1 = incipient_yield(base.material.with_(radius=s * base.material.radius))
+    assert y1.force == pytest.approx(s**2 * y0.force, rel=1e-9)
+    assert y1.approach == pytest.approx(s * y0.approach, rel=1e-9)
+
+
+def test_bad_radius_is_a_one_line_error(tmp_path, capsys):
+    base = load_params(CALIBRATED)
+    for bad in (0.0, -1.0, math.inf, math.nan):
+        with pytest.raises(InputError, match="radius"):
+            base.for_radius(bad)
+    (tmp_path / "a.csv").write_text("approach_m\n0\n1e-5\n0\n")
+    code = main(["law", "--params", CALIBRATED, "--approach", str(tmp_path / "a.csv"),
+                 "--out", str(tmp_path / "f.csv"), "--radius", "-0.01"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "radius" in err
+
+
+def test_law_cli_radius(tmp_path, capsys):
+    base = load_params(CALIBRATED)
+    s = 0.02
+    d = np.array([0.0, 50, 20, 120, 0.0]) * base.yield_approach
+    for name, values in (("big.csv", d), ("small.csv", s * d)):
+        (tmp_path / name).write_text("approach_m\n" + "".join(f"{float(v)!r}\n" for v in values))
+    assert main(["law", "--params", CALIBRATED, "--approach", str(tmp_path / "big.csv"),
+                 "--out", str(tmp_path / "F.csv")]) == 0
+    capsys.readouterr()
+    assert main(["law", "--params", CALIBRATED, "--approach", str(tmp_path / "small.csv"),
+                 "--out", str(tmp_path / "f.csv"),
+                 "--radius", repr(s * base.material.radius), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["radius_m"] == pytest.approx(s * base.material.radius)
+    big = np.genfromtxt(tmp_path / "F.csv", delimiter=",", names=True, dtype=None,
+                        encoding=None)
+    small = np.genfromtxt(tmp_path / "f.csv", delimiter=",", names=True, dtype=None,
+                          encoding=None)
+    np.testing.assert_allclose(small["force_N"], s**2 * big["force_N"], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(small["residual_approach_m"], s * big["residual_approach_m"],
+                               rtol=1e-12, atol=0)
