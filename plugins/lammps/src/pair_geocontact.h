@@ -67,7 +67,7 @@ class PairGeocontact : public Pair {
   void sync_mirrors();
   int add_law(const std::string &text, const std::string &source);
   void tally_contact(const geocontact::LawParams &law, const geocontact::ContactState &state,
-                     bool owned_pair);
+                     double scale, bool owned_pair);
   void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
                            const double *del, double energy);
 
@@ -75,7 +75,7 @@ class PairGeocontact : public Pair {
   std::vector<geocontact::LawParams> laws_;
   std::vector<std::string> law_texts_;  // the parameter documents, for restart files
   TypePairLaw **coeffs_;
-  double *type_radius_;                 // radius of each type's own law (m)
+  double *type_max_radius_;             // largest radius of each type's atoms (m): cutoffs
 
   // Between neighbor-list rebuilds the records live here, one per neighbor-list pair in list
   // order (read and written sequentially each step); sync_mirrors() writes them back to the
