@@ -20,6 +20,15 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
+
+#if defined(__GNUC__) || defined(__clang__)
+#define GEOCONTACT_ALWAYS_INLINE inline __attribute__((always_inline))
+#define GEOCONTACT_NOINLINE __attribute__((noinline))
+#else
+#define GEOCONTACT_ALWAYS_INLINE inline
+#define GEOCONTACT_NOINLINE
+#endif
 
 namespace geocontact {
 
@@ -254,41 +263,33 @@ inline double pending_ratchet(const LawParams &p, double depth, double cycles,
 
 }  // namespace detail
 
-// Advance one contact to a new approach (m): the rules of the reference (reference.py), the
-// arithmetic the Python reference is checked against by the golden vectors. The caller
-// guarantees a finite approach. `State` is ContactState, or any type with its members as
-// assignable lvalues (arrays.hpp's ContactRef: one contact of a struct of arrays, read and
-// written in place), so the law exists once for one contact and for arrays of them.
+namespace detail {
+
+template <class From, class To>
+inline void copy_state(const From &from, To &to)
+{
+  to.approach = from.approach;
+  to.force = from.force;
+  to.max_approach = from.max_approach;
+  to.max_force = from.max_force;
+  to.residual_approach = from.residual_approach;
+  to.unloading_exponent = from.unloading_exponent;
+  to.reloading_exponent = from.reloading_exponent;
+  to.branch_value = from.branch_value;
+  to.ratchet_shift = from.ratchet_shift;
+  to.pending_ratchet = from.pending_ratchet;
+  to.cycles = from.cycles;
+  to.work = from.work;
+  to.branch = from.branch;
+}
+
+// The general step: branch moves until the target approach is reached (at most a few branch
+// ends are crossed). Kept out of line: step() below inlines only its fast paths, so a loop over
+// arrays of contacts stays small and the state of most contacts is touched in place.
 template <class State>
-inline StepResult step(const LawParams &p, State &s, double approach_new)
+GEOCONTACT_NOINLINE StepResult step_moves(const LawParams &p, State &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
-  // Fast paths (most contacts of a DEM step), same results as the general loop below.
-  if (s.branch == APART && approach_new <= s.residual_approach + s.ratchet_shift) {
-    s.approach = approach_new;  // stays apart: no force, nothing else changes
-    return {0.0, 0.0};
-  }
-  if (s.max_approach <= dy && approach_new <= s.max_approach && s.pending_ratchet == 0.0) {
-    // elastic envelope: Hertz; conservative, so the work is the Hertz energy
-    const double previous = s.approach;
-    s.approach = approach_new;
-    if (approach_new > 0.0) {
-      const double root = std::sqrt(approach_new);
-      const double f = kh * approach_new * root;
-      s.force = f;
-      s.work = f * approach_new / (kHertzExponent + 1.0);
-      if (approach_new != previous) {
-        s.branch = approach_new > previous ? RELOADING : UNLOADING;
-        s.branch_value = approach_new > previous ? kHertzExponent : 1.0;
-      }
-      return {f, kHertzExponent * kh * root};
-    }
-    s.force = 0.0;
-    s.work = 0.0;
-    s.branch = APART;
-    s.branch_value = 1.0;  // left along an (elastic) unloading curve, A = 1
-    return {0.0, 0.0};
-  }
   double force = s.force, dmax = s.max_approach, fmax = s.max_force, dres = s.residual_approach;
   double nu = s.unloading_exponent, nr = s.reloading_exponent, bval = s.branch_value;
   double shift = s.ratchet_shift, pending = s.pending_ratchet, cycles = s.cycles, work = s.work;
@@ -460,6 +461,55 @@ inline StepResult step(const LawParams &p, State &s, double approach_new)
   s.work = work;
   s.branch = b;
   return {force, stiff};
+}
+
+}  // namespace detail
+
+// Advance one contact to a new approach (m): the rules of the reference (reference.py), the
+// arithmetic the Python reference is checked against by the golden vectors. The caller
+// guarantees a finite approach. `State` is ContactState, or any type with its members as
+// assignable lvalues (arrays.hpp's ContactRef: one contact of a struct of arrays, read and
+// written in place), so the law exists once for one contact and for arrays of them.
+template <class State>
+GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double approach_new)
+{
+  const double kh = p.hertz_coefficient, dy = p.yield_approach;
+  // Fast paths (most contacts of a DEM step), same results as the general loop below.
+  if (s.branch == APART && approach_new <= s.residual_approach + s.ratchet_shift) {
+    s.approach = approach_new;  // stays apart: no force, nothing else changes
+    return {0.0, 0.0};
+  }
+  if (s.max_approach <= dy && approach_new <= s.max_approach && s.pending_ratchet == 0.0) {
+    // elastic envelope: Hertz; conservative, so the work is the Hertz energy
+    const double previous = s.approach;
+    s.approach = approach_new;
+    if (approach_new > 0.0) {
+      const double root = std::sqrt(approach_new);
+      const double f = kh * approach_new * root;
+      s.force = f;
+      s.work = f * approach_new / (kHertzExponent + 1.0);
+      if (approach_new != previous) {
+        s.branch = approach_new > previous ? RELOADING : UNLOADING;
+        s.branch_value = approach_new > previous ? kHertzExponent : 1.0;
+      }
+      return {f, kHertzExponent * kh * root};
+    }
+    s.force = 0.0;
+    s.work = 0.0;
+    s.branch = APART;
+    s.branch_value = 1.0;  // left along an (elastic) unloading curve, A = 1
+    return {0.0, 0.0};
+  }
+  if constexpr (std::is_same_v<State, ContactState>) {
+    return detail::step_moves(p, s, approach_new);
+  } else {
+    // the general step works on a copy of the state (in registers, not through references)
+    ContactState local;
+    detail::copy_state(s, local);
+    const StepResult r = detail::step_moves(p, local, approach_new);
+    detail::copy_state(local, s);
+    return r;
+  }
 }
 
 // --- diagnostics of a contact state ---------------------------------------------------------
