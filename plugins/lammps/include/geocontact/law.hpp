@@ -20,14 +20,11 @@
 #include <cmath>
 #include <limits>
 #include <string>
-#include <type_traits>
 
 #if defined(__GNUC__) || defined(__clang__)
 #define GEOCONTACT_ALWAYS_INLINE inline __attribute__((always_inline))
-#define GEOCONTACT_NOINLINE __attribute__((noinline))
 #else
 #define GEOCONTACT_ALWAYS_INLINE inline
-#define GEOCONTACT_NOINLINE
 #endif
 
 namespace geocontact {
@@ -265,29 +262,12 @@ inline double pending_ratchet(const LawParams &p, double depth, double cycles,
 
 namespace detail {
 
-template <class From, class To>
-inline void copy_state(const From &from, To &to)
-{
-  to.approach = from.approach;
-  to.force = from.force;
-  to.max_approach = from.max_approach;
-  to.max_force = from.max_force;
-  to.residual_approach = from.residual_approach;
-  to.unloading_exponent = from.unloading_exponent;
-  to.reloading_exponent = from.reloading_exponent;
-  to.branch_value = from.branch_value;
-  to.ratchet_shift = from.ratchet_shift;
-  to.pending_ratchet = from.pending_ratchet;
-  to.cycles = from.cycles;
-  to.work = from.work;
-  to.branch = from.branch;
-}
-
 // The general step: branch moves until the target approach is reached (at most a few branch
-// ends are crossed). Kept out of line: step() below inlines only its fast paths, so a loop over
-// arrays of contacts stays small and the state of most contacts is touched in place.
+// ends are crossed). Inlined into step() like the fast paths: for arrays of contacts
+// (ContactRef) the references then resolve to array elements; a call would pass them through
+// memory.
 template <class State>
-GEOCONTACT_NOINLINE StepResult step_moves(const LawParams &p, State &s, double approach_new)
+GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
   double force = s.force, dmax = s.max_approach, fmax = s.max_force, dres = s.residual_approach;
@@ -500,16 +480,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double ap
     s.branch_value = 1.0;  // left along an (elastic) unloading curve, A = 1
     return {0.0, 0.0};
   }
-  if constexpr (std::is_same_v<State, ContactState>) {
-    return detail::step_moves(p, s, approach_new);
-  } else {
-    // the general step works on a copy of the state (in registers, not through references)
-    ContactState local;
-    detail::copy_state(s, local);
-    const StepResult r = detail::step_moves(p, local, approach_new);
-    detail::copy_state(local, s);
-    return r;
-  }
+  return detail::step_moves(p, s, approach_new);
 }
 
 // --- diagnostics of a contact state ---------------------------------------------------------
