@@ -52,6 +52,7 @@ struct Contacts {
 
   void reset()
   {
+    // same size: assign() keeps every vector's buffer, so the numpy views stay valid
     state.resize(state.size());
     std::fill(force.begin(), force.end(), 0.0);
     std::fill(stiffness.begin(), stiffness.end(), 0.0);

@@ -42,34 +42,19 @@ struct StateArrays {
   void resize(std::size_t n)
   {
     const ContactState fresh;
-    for (auto *field : double_fields()) field->assign(n, 0.0);
-    branch.assign(n, 0);
-    for (std::size_t i = 0; i < n; ++i) store_all(i, fresh);
-  }
-
-  // The double fields in the order of ContactState (the order docs/law.md lists them in).
-  std::vector<std::vector<double> *> double_fields()
-  {
-    return {&approach, &force, &max_approach, &max_force, &residual_approach,
-            &unloading_exponent, &reloading_exponent, &branch_value, &ratchet_shift,
-            &pending_ratchet, &cycles, &work};
-  }
-
-  void store_all(std::size_t i, const ContactState &s)
-  {
-    approach[i] = s.approach;
-    force[i] = s.force;
-    max_approach[i] = s.max_approach;
-    max_force[i] = s.max_force;
-    residual_approach[i] = s.residual_approach;
-    unloading_exponent[i] = s.unloading_exponent;
-    reloading_exponent[i] = s.reloading_exponent;
-    branch_value[i] = s.branch_value;
-    ratchet_shift[i] = s.ratchet_shift;
-    pending_ratchet[i] = s.pending_ratchet;
-    cycles[i] = s.cycles;
-    work[i] = s.work;
-    branch[i] = static_cast<std::int8_t>(s.branch);
+    approach.assign(n, fresh.approach);
+    force.assign(n, fresh.force);
+    max_approach.assign(n, fresh.max_approach);
+    max_force.assign(n, fresh.max_force);
+    residual_approach.assign(n, fresh.residual_approach);
+    unloading_exponent.assign(n, fresh.unloading_exponent);
+    reloading_exponent.assign(n, fresh.reloading_exponent);
+    branch_value.assign(n, fresh.branch_value);
+    ratchet_shift.assign(n, fresh.ratchet_shift);
+    pending_ratchet.assign(n, fresh.pending_ratchet);
+    cycles.assign(n, fresh.cycles);
+    work.assign(n, fresh.work);
+    branch.assign(n, static_cast<std::int8_t>(fresh.branch));
   }
 };
 
