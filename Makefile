@@ -11,7 +11,11 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 
-$(STAMP): pyproject.toml | $(PY)
+# The editable install builds the law's compiled core (CMakeLists.txt: the C++ header bound with
+# nanobind, incrementally in build/python); a change of any of its sources reinstalls.
+CORE_SOURCES := CMakeLists.txt src/geocontact/law/_core.cpp $(wildcard plugins/lammps/include/geocontact/*.hpp)
+
+$(STAMP): pyproject.toml $(CORE_SOURCES) | $(PY)
 	$(PY) -m pip install -q -e ".[fem,campaign,seismic,test]"
 	touch $(STAMP)
 

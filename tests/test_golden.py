@@ -32,3 +32,54 @@ def test_golden_vectors_cover_every_branch_and_every_parameter_variant():
     assert deep["residual_approach"]["log_power"] != 1.0
     dq = deep["loading"]["deep_plastic_approach_ratio"] * deep["yield"]["approach_m"]
     assert any(max(c["approaches"]) > dq for c in golden["cases"] if c["params"] == "deep")
+
+
+def test_golden_vectors_through_the_compiled_binding():
+    """The same vectors replayed through geocontact.law.ContactArrays (the C++ header via the
+    binding, all histories of a parameter variant as one array of contacts), with the ctest's
+    tolerance. Histories are right-aligned: the steps before a shorter one starts hold its
+    contact at approach 0, which leaves an untouched contact exactly as it was."""
+    import numpy as np
+
+    from geocontact.law import ContactArrays, LawParams
+
+    tolerance = 1e-11  # as plugins/lammps/tests/test_golden.cpp
+    golden = json.loads(GOLDEN.read_text())
+    checked = 0
+    for variant, doc in golden["params"].items():
+        cases = [c for c in golden["cases"] if c["params"] == variant]
+        params = LawParams.from_dict(doc)
+        steps = max(len(c["approaches"]) for c in cases)
+        path = np.zeros((steps, len(cases)))
+        for j, c in enumerate(cases):
+            path[steps - len(c["approaches"]):, j] = c["approaches"]
+        arrays = ContactArrays(params, len(cases), threads=2)
+        forces, stiffnesses, branches = (np.empty((steps, len(cases))) for _ in range(3))
+        for s in range(steps):
+            f, k = arrays.step(path[s])
+            forces[s], stiffnesses[s], branches[s] = f, k, arrays.state.branch
+        state = arrays.state.as_dict()
+        for j, c in enumerate(cases):
+            start = steps - len(c["approaches"])
+            scale_f = max(max(map(abs, c["forces"])), 1e-300)
+            scale_k = max(max(map(abs, c["stiffnesses"])), 1e-300)
+            scale_d = max(max(map(abs, c["approaches"])), 1e-300)
+            assert np.all(np.abs(forces[start:, j] - c["forces"]) <= tolerance * scale_f), c["name"]
+            assert np.all(np.abs(stiffnesses[start:, j] - c["stiffnesses"])
+                          <= tolerance * scale_k), c["name"]
+            assert branches[start:, j].tolist() == c["branches"], c["name"]
+            final = c["final_state"]
+            scales = {"approach": scale_d, "force": scale_f, "max_approach": scale_d,
+                      "max_force": scale_f, "residual_approach": scale_d,
+                      "unloading_exponent": 1.0, "reloading_exponent": 1.0,
+                      "branch_value": max(1.0, abs(final["branch_value"])),
+                      "ratchet_shift": scale_d, "pending_ratchet": scale_d,
+                      "cycles": max(1.0, final["cycles"]), "work": scale_f * scale_d}
+            for key, scale in scales.items():
+                assert abs(state[key][j] - final[key]) <= tolerance * scale, (c["name"], key)
+            assert state["branch"][j] == final["branch"], c["name"]
+            for key, values in (("elastic_energy", arrays.elastic_energy),
+                                ("dissipated_energy", arrays.dissipated_energy)):
+                assert abs(values[j] - c[key]) <= tolerance * scale_f * scale_d, (c["name"], key)
+            checked += 1
+    assert checked == len(golden["cases"])

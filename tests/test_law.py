@@ -337,3 +337,106 @@ def test_third_regime_out_of_range_is_a_one_line_error(edit, field):
     doc["loading"].update(edit)
     with pytest.raises(InputError, match=field):
         LawParams.from_dict(doc)
+
+
+# --- the compiled core (the C++ header through geocontact.law._core) -----------------------
+def _random_walks(params, n, steps, seed):
+    rng = np.random.default_rng(seed)
+    paths = np.cumsum(rng.normal(0.0, 3.0, size=(steps, n)), axis=0) * params.yield_approach
+    paths[-5:] = -params.yield_approach
+    return paths
+
+
+def test_results_are_bitwise_the_same_for_any_thread_count():
+    """Contacts are independent: splitting them over threads changes no bit of any output or
+    state field (compared as integers, so -0.0 != 0.0 would count)."""
+    n, steps = 20_000, 60
+    paths = _random_walks(DEEP, n, steps, seed=3)
+    runs, seen = {}, set()
+    for threads in (1, 2, 3, 4):
+        arrays = ContactArrays(DEEP, n, threads=threads)
+        outputs = []
+        for row in paths:
+            f, k = arrays.step(row)
+            outputs += [f.copy(), k.copy()]
+            seen.update(np.unique(arrays.branch).tolist())
+        runs[threads] = [*outputs, *arrays.state.as_dict().values()]
+    for threads in (2, 3, 4):
+        for ours, one in zip(runs[threads], runs[1], strict=True):
+            assert ours.dtype == one.dtype
+            assert np.array_equal(ours.view(np.uint8), one.view(np.uint8))
+    # the population really went through every branch
+    assert seen == {0, 1, 2, 3, 4}
+
+
+def test_state_is_named_arrays_matching_the_reference_state():
+    from geocontact.law.kernel import STATE_FIELDS
+
+    n, steps = 12, 80
+    paths = _random_walks(CYCLIC, n, steps, seed=5)
+    arrays = ContactArrays(CYCLIC, n)
+    for row in paths[:-5]:
+        arrays.step(row)
+    state = arrays.state.as_dict()
+    assert tuple(state) == STATE_FIELDS
+    assert state["branch"].dtype == np.int8 and state["work"].dtype == np.float64
+    for i in range(n):
+        contact = Contact(CYCLIC)
+        for d in paths[:-5, i]:
+            contact.update(d)
+        for name in STATE_FIELDS:
+            expected = getattr(contact.state, name)
+            assert state[name][i] == pytest.approx(expected, rel=1e-11, abs=1e-300), name
+    # the arrays are views of the core's state: a contact set by hand steps from there
+    arrays.state.approach[0] = 0.0
+    arrays.state.branch[0] = 0
+    for name in ("force", "max_approach", "max_force", "residual_approach", "ratchet_shift",
+                 "pending_ratchet", "cycles", "work"):
+        arrays.state.as_dict()[name][0] = 0.0
+    f, _ = arrays.step(np.full(n, 0.5 * DY))
+    assert f[0] == pytest.approx(PARAMS.hertz_coefficient * (0.5 * DY) ** 1.5, rel=1e-14)
+    arrays.reset()
+    assert np.all(arrays.state.work == 0.0) and np.all(arrays.state.unloading_exponent == 1.5)
+
+
+def test_core_derives_the_constants_of_the_python_parameters():
+    from geocontact.law.kernel import core_params
+
+    for params in (PARAMS, CYCLIC, DEEP):
+        core = core_params(params)
+        for name in ("hertz_coefficient", "yield_force", "fully_plastic_approach",
+                     "fully_plastic_force"):
+            assert getattr(core, name) == getattr(params, name), name
+    assert core_params(DEEP).deep_plastic_force == pytest.approx(DEEP.deep_plastic_force,
+                                                                 rel=1e-15)
+
+
+def test_threads_argument_is_checked():
+    with pytest.raises(InputError, match="threads"):
+        ContactArrays(PARAMS, 4, threads=0)
+    arrays = ContactArrays(PARAMS, 4)
+    assert arrays.threads == 1
+    arrays.threads = 2
+    assert arrays.threads == 2
+    with pytest.raises(InputError, match="threads"):
+        arrays.threads = -1
+    with pytest.raises(ValueError, match="shape"):
+        arrays.step_unchecked(np.zeros(5))
+
+
+def test_compiled_core_is_built_from_these_sources():
+    """The extension records a hash of the C++ sources it was compiled from (CMakeLists.txt);
+    a stale build (a header edited without reinstalling: `make .venv/.installed`) fails here."""
+    import hashlib
+    from pathlib import Path
+
+    from geocontact.law import _core
+
+    root = Path(__file__).resolve().parents[1]
+    sources = ["src/geocontact/law/_core.cpp", "plugins/lammps/include/geocontact/law.hpp",
+               "plugins/lammps/include/geocontact/arrays.hpp"]
+    if not all((root / s).exists() for s in sources):
+        pytest.skip("not a source tree")
+    hashes = ";".join(hashlib.sha256((root / s).read_bytes()).hexdigest() for s in sources)
+    assert _core.SOURCE_HASH == hashlib.sha256(hashes.encode()).hexdigest(), (
+        "geocontact.law._core was built from other sources: run make .venv/.installed")

@@ -1,5 +1,6 @@
 """Scalar reference implementation of the hysteretic law: one contact, written to read like
-SPEC section 6 and docs/law.md. The vectorised kernel (``kernel.py``) must agree with it.
+SPEC section 6 and docs/law.md. It is the specification: the compiled law (the C++ header behind
+``ContactArrays`` and the LAMMPS plugin) must agree with it (golden vectors, tests/test_law.py).
 
 Normalised coordinates on the current envelope (after the ratchet shift ``s``)::
 

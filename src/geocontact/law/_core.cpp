@@ -1,0 +1,200 @@
+// geocontact.law._core: the C++ law header (plugins/lammps/include/geocontact/) bound to Python
+// with nanobind. `geocontact.law.ContactArrays` (kernel.py) is the public face; this module only
+// moves parameters in and exposes the state arrays, owned here, as numpy views by name.
+#include "geocontact/arrays.hpp"
+#include "geocontact/law.hpp"
+
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+#ifndef GEOCONTACT_SOURCE_HASH
+#define GEOCONTACT_SOURCE_HASH "unknown"
+#endif
+
+namespace {
+
+using Approach = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+template <class T>
+using View = nb::ndarray<nb::numpy, T, nb::ndim<1>>;
+
+// n contacts of one law (or of plain Hertz), their state and the last step's outputs.
+struct Contacts {
+  geocontact::LawParams params;
+  bool hertz_only = false;
+  int threads = 1;
+  geocontact::StateArrays state;
+  std::vector<double> force, stiffness;
+
+  Contacts(const geocontact::LawParams &p, std::size_t n, bool hertz, int threads_)
+      : params(p), hertz_only(hertz), threads(threads_), state(n), force(n, 0.0),
+        stiffness(n, 0.0)
+  {
+  }
+
+  void step(const double *approach)
+  {
+    if (hertz_only)
+      geocontact::hertz_step(params.hertz_coefficient, state, approach, force.data(),
+                             stiffness.data(), threads);
+    else
+      geocontact::step(params, state, approach, force.data(), stiffness.data(), threads);
+  }
+
+  void reset()
+  {
+    // same size: assign() keeps every vector's buffer, so the numpy views stay valid
+    state.resize(state.size());
+    std::fill(force.begin(), force.end(), 0.0);
+    std::fill(stiffness.begin(), stiffness.end(), 0.0);
+  }
+};
+
+template <class T>
+View<T> view(std::vector<T> &v, nb::handle owner)
+{
+  return View<T>(v.data(), {v.size()}, owner);
+}
+
+int checked_threads(int threads)
+{
+  if (threads < 1) throw nb::value_error(("threads: must be >= 1, got " +
+                                          std::to_string(threads)).c_str());
+  return threads;
+}
+
+}  // namespace
+
+NB_MODULE(_core, m)
+{
+  m.doc() = "The geocontact law header bound to Python (see geocontact.law.kernel).";
+  m.attr("SOURCE_HASH") = GEOCONTACT_SOURCE_HASH;
+  m.attr("STATE_BYTES") = geocontact::kStateBytes;
+  m.attr("STEP_BYTES") = geocontact::kStepBytes;
+  m.attr("HERTZ_STEP_BYTES") = geocontact::kHertzStepBytes;
+  m.attr("HERTZ_EXPONENT") = geocontact::kHertzExponent;
+
+  using geocontact::CyclicLaw;
+  using geocontact::LawParams;
+  using geocontact::Material;
+  nb::class_<Material>(m, "Material")
+      .def(nb::init<>())
+      .def_rw("youngs_modulus", &Material::youngs_modulus)
+      .def_rw("poissons_ratio", &Material::poissons_ratio)
+      .def_rw("compressive_yield_stress", &Material::compressive_yield_stress)
+      .def_rw("friction_angle_deg", &Material::friction_angle_deg)
+      .def_rw("hardening_ratio", &Material::hardening_ratio)
+      .def_rw("radius", &Material::radius);
+  nb::class_<CyclicLaw>(m, "CyclicLaw")
+      .def(nb::init<>())
+      .def_rw("enabled", &CyclicLaw::enabled)
+      .def_rw("residual_ratio_coefficient", &CyclicLaw::residual_ratio_coefficient)
+      .def_rw("residual_ratio_power", &CyclicLaw::residual_ratio_power)
+      .def_rw("plastic_work_ratio_coefficient", &CyclicLaw::plastic_work_ratio_coefficient)
+      .def_rw("plastic_work_ratio_power", &CyclicLaw::plastic_work_ratio_power)
+      .def_rw("tolerance", &CyclicLaw::tolerance);
+  nb::class_<LawParams>(m, "LawParams")
+      .def(nb::init<>())
+      .def_rw("material", &LawParams::material)
+      .def_rw("yield_approach", &LawParams::yield_approach)
+      .def_rw("elastic_plastic_exponent", &LawParams::elastic_plastic_exponent)
+      .def_rw("fully_plastic_approach_ratio", &LawParams::fully_plastic_approach_ratio)
+      .def_rw("fully_plastic_exponent", &LawParams::fully_plastic_exponent)
+      .def_rw("unloading_power", &LawParams::unloading_power)
+      .def_rw("reloading_power", &LawParams::reloading_power)
+      .def_rw("residual_limit", &LawParams::residual_limit)
+      .def_rw("residual_power", &LawParams::residual_power)
+      .def_rw("residual_transition", &LawParams::residual_transition)
+      .def_rw("residual_log_power", &LawParams::residual_log_power)
+      .def_rw("plastic_work_limit", &LawParams::plastic_work_limit)
+      .def_rw("plastic_work_power", &LawParams::plastic_work_power)
+      .def_rw("plastic_work_transition", &LawParams::plastic_work_transition)
+      .def_rw("plastic_work_log_power", &LawParams::plastic_work_log_power)
+      .def_rw("deep_plastic_approach_ratio", &LawParams::deep_plastic_approach_ratio)
+      .def_rw("deep_plastic_exponent", &LawParams::deep_plastic_exponent)
+      .def_rw("cyclic", &LawParams::cyclic)
+      .def("derive", &LawParams::derive, "Set the derived constants from the fields.")
+      .def_ro("hertz_coefficient", &LawParams::hertz_coefficient)
+      .def_ro("yield_force", &LawParams::yield_force)
+      .def_ro("fully_plastic_approach", &LawParams::fully_plastic_approach)
+      .def_ro("fully_plastic_force", &LawParams::fully_plastic_force)
+      .def_ro("deep_plastic_approach", &LawParams::deep_plastic_approach)
+      .def_ro("deep_plastic_force", &LawParams::deep_plastic_force);
+
+  auto contacts = nb::class_<Contacts>(m, "Contacts");
+  contacts
+      .def(
+          "__init__",
+          [](Contacts *self, const LawParams &params, std::size_t n, int threads) {
+            new (self) Contacts(params, n, false, checked_threads(threads));
+          },
+          "params"_a, "n"_a, "threads"_a = 1)
+      .def_static(
+          "hertz",
+          [](double hertz_coefficient, std::size_t n, int threads) {
+            LawParams p;
+            p.hertz_coefficient = hertz_coefficient;
+            return new Contacts(p, n, true, checked_threads(threads));
+          },
+          "hertz_coefficient"_a, "n"_a, "threads"_a = 1, nb::rv_policy::take_ownership)
+      .def_ro("params", &Contacts::params)
+      .def_ro("hertz_only", &Contacts::hertz_only)
+      .def_prop_rw(
+          "threads", [](const Contacts &c) { return c.threads; },
+          [](Contacts &c, int threads) { c.threads = checked_threads(threads); })
+      .def_prop_ro("n", [](const Contacts &c) { return c.state.size(); })
+      .def(
+          "step",
+          [](Contacts &c, Approach approach) {
+            if (approach.shape(0) != c.state.size())
+              throw nb::value_error(("approach: expected shape (" +
+                                     std::to_string(c.state.size()) + ",), got (" +
+                                     std::to_string(approach.shape(0)) + ",)")
+                                        .c_str());
+            nb::gil_scoped_release release;
+            c.step(approach.data());
+          },
+          "approach"_a,
+          "Advance contact i to approach[i]; the results are in force and stiffness.")
+      .def("reset", &Contacts::reset, "Every contact back to untouched.")
+      .def_prop_ro("force", [](nb::handle h) {
+        return view(nb::cast<Contacts &>(h).force, h);
+      }, nb::rv_policy::reference_internal)
+      .def_prop_ro("stiffness", [](nb::handle h) {
+        return view(nb::cast<Contacts &>(h).stiffness, h);
+      }, nb::rv_policy::reference_internal)
+      .def(
+          "state_views",
+          [](nb::handle h) {
+            // every ContactState field as a numpy view of this object's array, by name, in
+            // the order of ContactState (docs/law.md "State per contact")
+            geocontact::StateArrays &s = nb::cast<Contacts &>(h).state;
+            nb::dict views;
+#define GEOCONTACT_FIELD(name) views[#name] = nb::cast(view(s.name, h));
+            GEOCONTACT_FIELD(approach)
+            GEOCONTACT_FIELD(force)
+            GEOCONTACT_FIELD(max_approach)
+            GEOCONTACT_FIELD(max_force)
+            GEOCONTACT_FIELD(residual_approach)
+            GEOCONTACT_FIELD(unloading_exponent)
+            GEOCONTACT_FIELD(reloading_exponent)
+            GEOCONTACT_FIELD(branch_value)
+            GEOCONTACT_FIELD(ratchet_shift)
+            GEOCONTACT_FIELD(pending_ratchet)
+            GEOCONTACT_FIELD(cycles)
+            GEOCONTACT_FIELD(work)
+            GEOCONTACT_FIELD(branch)
+#undef GEOCONTACT_FIELD
+            return views;
+          },
+          "The state arrays by field name (numpy views of this object's memory).");
+}
