@@ -11,12 +11,12 @@ structure (the speed floor).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields
 
 import numpy as np
 
 from ..errors import InputError
+from ..hertz import hertz_coefficient
 from ..material import Material
 from . import _core
 from .params import HERTZ_EXPONENT, LawParams
@@ -102,7 +102,7 @@ class ContactArrays:
         if n < 0:
             raise InputError(f"contacts: number of contacts must be >= 0, got {n}")
         _check_threads(threads)
-        kh = 4.0 / 3.0 * material.effective_modulus * math.sqrt(material.effective_radius)
+        kh = hertz_coefficient(material)
         return cls(None, n, threads=threads, _core_contacts=_core.Contacts.hertz(kh, n, threads))
 
     @property
