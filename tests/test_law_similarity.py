@@ -114,3 +114,32 @@ def test_law_cli_radius(tmp_path, capsys):
     np.testing.assert_allclose(small["force_N"], s**2 * big["force_N"], rtol=1e-12, atol=0)
     np.testing.assert_allclose(small["residual_approach_m"], s * big["residual_approach_m"],
                                rtol=1e-12, atol=0)
+
+
+def test_contact_arrays_with_radii_follow_each_grains_scaled_law():
+    """The compiled path with one radius per contact equals the Python reference of each
+    contact's rescaled law (for_radius), to the golden tolerance of the compiled path."""
+    from geocontact.law import ContactArrays
+
+    base = load_params(CALIBRATED)
+    radii = np.array([0.1, 0.01, 0.037, 0.25, 2.0, 1e-3])
+    many = ContactArrays(base, radii.size, radii=radii)
+    single = [Contact(base.for_radius(r)) for r in radii]
+    unit = _history(base, 1200) / base.material.radius  # approach / radius: the same shape
+    dissipated = np.zeros(radii.size)
+    for d in unit:
+        forces, stiffnesses = many.step(d * radii)
+        for i, c in enumerate(single):
+            f, k = c.update(d * radii[i])
+            assert forces[i] == pytest.approx(f, rel=1e-9, abs=1e-9 * c.params.yield_force)
+            assert stiffnesses[i] == pytest.approx(k, rel=1e-9, abs=1e-9 * c.params.yield_force
+                                                   / c.params.yield_approach)
+    for i, c in enumerate(single):
+        dissipated[i] = c.dissipated_energy
+        assert many.residual_approach[i] == pytest.approx(
+            c.state.residual_approach + c.state.ratchet_shift, rel=1e-9)
+    np.testing.assert_allclose(many.dissipated_energy, dissipated, rtol=1e-8)
+    with pytest.raises(InputError, match="radii"):
+        ContactArrays(base, 3, radii=[0.1, -0.1, 0.1])
+    with pytest.raises(InputError, match="radii"):
+        ContactArrays(base, 3, radii=[0.1, 0.2])

@@ -80,10 +80,16 @@ class ContactArrays:
     ``force, stiffness = contacts.step(approach)``.
 
     ``threads`` (default 1) splits the contacts over that many threads; the results are
-    bitwise the same for any number."""
+    bitwise the same for any number.
+
+    ``radii`` (m, one per contact, optional): grains of any size by similarity (SPEC 10). Contact
+    i is the calibrated law rescaled to spheres of radius ``radii[i]`` (for two grains r1, r2:
+    r_eq = 2 r1 r2 / (r1 + r2)), F = s^2 F_R(d / s) with s = radii[i] / R, stiffness s times,
+    energies s^3 times; ``state`` then stays in the calibrated spheres' units (approaches / s,
+    forces / s^2), the properties below are in the grains' own."""
 
     def __init__(self, params: LawParams | None, n: int, *, threads: int = 1,
-                 _core_contacts: _core.Contacts | None = None):
+                 radii=None, _core_contacts: _core.Contacts | None = None):
         if n < 0:
             raise InputError(f"contacts: number of contacts must be >= 0, got {n}")
         _check_threads(threads)
@@ -93,8 +99,14 @@ class ContactArrays:
                       if _core_contacts is None else _core_contacts)
         self.state = StateArrays(**self._core.state_views())
         self.branch = self.state.branch
-        self.force = self._core.force
-        self.stiffness = self._core.stiffness
+        self._scale = None if radii is None else _scales(params, radii, self.n)
+        if self._scale is None:
+            self.force = self._core.force
+            self.stiffness = self._core.stiffness
+        else:
+            self.force = np.zeros(self.n)
+            self.stiffness = np.zeros(self.n)
+            self._scaled_approach = np.empty(self.n)
 
     @classmethod
     def hertz(cls, material: Material, n: int, *, threads: int = 1) -> ContactArrays:
@@ -122,14 +134,25 @@ class ContactArrays:
             raise InputError(f"approach: expected shape ({self.n},), got {approach.shape}")
         if not np.all(np.isfinite(approach)):
             raise InputError("approach: must be finite numbers of metres (found NaN or inf)")
-        self._core.step(approach)
-        return self.force, self.stiffness
+        return self.step_unchecked(approach)
 
     def step_unchecked(self, approach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``step`` without the finiteness check, for a DEM loop that guarantees finite input
         (a float64 array of shape (n,); other arrays are converted)."""
-        self._core.step(approach)
+        if self._scale is None:
+            self._core.step(approach)
+            return self.force, self.stiffness
+        np.divide(approach, self._scale, out=self._scaled_approach)
+        self._core.step(self._scaled_approach)
+        np.multiply(self._core.force, self._scale**2, out=self.force)
+        np.multiply(self._core.stiffness, self._scale, out=self.stiffness)
         return self.force, self.stiffness
+
+    def _length(self, values: np.ndarray) -> np.ndarray:
+        return values if self._scale is None else values * self._scale
+
+    def _energy(self, values: np.ndarray) -> np.ndarray:
+        return values if self._scale is None else values * self._scale**3
 
     def reset(self) -> None:
         """Every contact back to untouched (as constructed)."""
@@ -137,11 +160,11 @@ class ContactArrays:
 
     @property
     def max_approach(self) -> np.ndarray:
-        return self.state.max_approach + self.state.ratchet_shift
+        return self._length(self.state.max_approach + self.state.ratchet_shift)
 
     @property
     def residual_approach(self) -> np.ndarray:
-        return self.state.residual_approach + self.state.ratchet_shift
+        return self._length(self.state.residual_approach + self.state.ratchet_shift)
 
     @property
     def cycles(self) -> np.ndarray:
@@ -149,7 +172,7 @@ class ContactArrays:
 
     @property
     def work(self) -> np.ndarray:
-        return self.state.work
+        return self._energy(self.state.work)
 
     @property
     def elastic_energy(self) -> np.ndarray:
@@ -158,13 +181,27 @@ class ContactArrays:
         elastic = s.max_approach <= self._core.params.yield_approach
         base = np.where(elastic, 0.0, s.residual_approach)
         n = np.where(elastic, HERTZ_EXPONENT, s.unloading_exponent)
-        return np.where(s.force > 0.0, s.force * (d - base) / (n + 1.0), 0.0)
+        return self._energy(np.where(s.force > 0.0, s.force * (d - base) / (n + 1.0), 0.0))
 
     @property
     def dissipated_energy(self) -> np.ndarray:
         if self._core.hertz_only:
             return np.zeros(self.n)
         return self.work - self.elastic_energy
+
+
+def _scales(params: LawParams | None, radii, n: int) -> np.ndarray:
+    """s = r / R per contact, checked (one radius, or one per contact, each > 0)."""
+    if params is None:
+        raise InputError("radii: the Hertz floor takes no radii (build it for the material)")
+    try:
+        r = np.broadcast_to(np.asarray(radii, dtype=np.float64), (n,)).copy()
+    except ValueError:
+        raise InputError(f"radii: expected one radius or {n} (one per contact), got shape "
+                         f"{np.shape(radii)}") from None
+    if not np.all(np.isfinite(r) & (r > 0.0)):
+        raise InputError("radii: every radius must be a finite number of metres > 0")
+    return r / params.material.radius
 
 
 def _check_threads(threads) -> None:
