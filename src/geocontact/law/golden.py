@@ -26,7 +26,9 @@ from .params import LawParams, load_params
 from .reference import Contact
 
 GOLDEN_SCHEMA = "geocontact.golden/1"
-DEFAULT_PARAMS = Path(__file__).resolve().parents[3] / "examples" / "params-illustrative.json"
+# relative to the working directory (the repository root, where the generator is run): the
+# installed package does not know where a checkout is
+DEFAULT_PARAMS = Path("examples") / "params-illustrative.json"
 SEED = 20250722
 # Histories per family: the shipped file uses 50; 10000 already makes a file of ~100 MB.
 MAX_PER_FAMILY = 10000
