@@ -389,3 +389,23 @@ def test_column_refuses_a_run_of_too_many_steps():
                     safety=1e-9)  # np.arange of ~1e13 steps: MemoryError
     with pytest.raises(InputError, match="time_step: .* steps for 40 s .*at most 1e\\+08"):
         column.steps_for(40.0)
+
+
+def test_library_errors_name_parameters_and_the_command_line_names_flags(tmp_path, capsys):
+    """The API's errors speak of its parameters (max_force, scheduler, overwrite=True); the
+    command line shows the same error with its flags (--max-force, --scheduler, --force)."""
+    from geocontact.calibrate.campaign import peak_forces
+    from geocontact.errors import for_the_command_line
+    from geocontact.io import check_replaceable
+
+    with pytest.raises(InputError, match=r"^max_force: ") as caught:
+        peak_forces(preset("reference"), max_force=-1.0)
+    assert for_the_command_line(str(caught.value)).startswith("--max-force: ")
+    user = tmp_path / "mine"
+    user.mkdir()
+    (user / "notes.txt").write_text("x")
+    with pytest.raises(InputError, match=r"^out: .*pass overwrite=True$") as caught:
+        check_replaceable(user, "fem")
+    assert "--" not in str(caught.value)
+    shown = for_the_command_line(str(caught.value))
+    assert shown.startswith("--out: ") and shown.endswith("pass --force")

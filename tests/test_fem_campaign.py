@@ -80,10 +80,10 @@ def test_bad_campaign_input(material, tmp_path):
                                      "http://host:8786", "tcp://host:99999", "", "tcp://:8786",
                                      "tcp://host:8786/path"])
 def test_malformed_scheduler_address(address, material, tmp_path, monkeypatch, capsys):
-    with pytest.raises(InputError, match="--scheduler"):
+    with pytest.raises(InputError, match="^scheduler:"):
         check_scheduler_address(address)
     _nothing_runs(monkeypatch)
-    with pytest.raises(InputError, match="--scheduler"):
+    with pytest.raises(InputError, match="^scheduler:"):
         run_campaign([FemJob(material, (0.0, 20.0, 0.0))], tmp_path, scheduler=address)
     for command in (["calibrate", "--material", "reference", "--out", str(tmp_path / "P.json")],
                     ["sweep", "--out", str(tmp_path / "sweep")]):

@@ -40,11 +40,28 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+# Library errors name the Python parameter (``max_force: ...``); on the command line the same
+# error names the flag that set it. A message starting with one of these names is shown with
+# the flag instead, and the API's ``overwrite=True`` hint as ``--force``.
+CLI_FLAGS = {"max_force": "--max-force", "levels": "--levels", "peaks": "--peak-forces",
+             "scheduler": "--scheduler", "unit": "--unit", "out": "--out"}
+
+
+def for_the_command_line(message: str) -> str:
+    """An error message of the library as the command line shows it (``CLI_FLAGS``)."""
+    name, colon, rest = message.partition(":")
+    if colon and name in CLI_FLAGS:
+        message = CLI_FLAGS[name] + colon + rest
+    return (message.replace("pass overwrite=True", "pass --force")
+            .replace("(unit: g, m/s2 or cm/s2)", "(--unit g|m/s2|cm/s2)"))
+
+
 def run_reporting_errors(run: Callable[[], int | None]) -> int:
     """Run a command and turn the errors geocontact raises on purpose into one line on stderr
     and the exit code: 2 for bad input, 1 for any other GeocontactError, 130 on Ctrl-C and 143
     on SIGTERM (handled like Ctrl-C: a clean exit, checkpoints kept). Used by the
-    ``geocontact`` CLI and the ``python -m geocontact...`` generators alike."""
+    ``geocontact`` CLI and the ``python -m geocontact...`` generators alike; messages name the
+    command line's flags (``for_the_command_line``)."""
     previous = None
     try:
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
@@ -53,10 +70,10 @@ def run_reporting_errors(run: Callable[[], int | None]) -> int:
     try:
         return int(run() or 0)
     except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {for_the_command_line(str(exc))}", file=sys.stderr)
         return 2
     except GeocontactError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {for_the_command_line(str(exc))}", file=sys.stderr)
         return 1
     except Terminated:
         print("terminated (SIGTERM); checkpoints kept, rerun with --resume where offered",

@@ -162,7 +162,7 @@ def _foreign_files(directory: Path) -> list[Path]:
     return foreign
 
 
-_KEEP_HINT = "choose another folder, move your files out, or pass --force (overwrite=True)"
+_KEEP_HINT = "choose another folder, move your files out, or pass overwrite=True"
 
 
 def check_replaceable(path: str | Path, command: str, *, overwrite: bool = False,

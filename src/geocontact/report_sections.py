@@ -505,7 +505,7 @@ def build_report(directory: str | Path, title: str | None = None, intro: str = "
     html_path = root / REPORT_HTML
     if html_path.exists() and not overwrite and not is_our_report(html_path):
         raise InputError(f"report: {html_path} exists and was not written by geocontact; "
-                         "refusing to replace it: move it or pass --force (overwrite=True)")
+                         "refusing to replace it: move it or pass overwrite=True")
     report = Report(title=title or f"geocontact — {root.name}", intro=intro,
                     provenance=provenance("report", {"directory": str(root)}))
     for heading, items in preface or []:

@@ -45,10 +45,10 @@ def force_range(material: Material, max_force: float | None = None) -> tuple[flo
     max_force (default from data/calibration.toml)."""
     campaign = settings()["campaign"]
     high = campaign["max_force_N"] if max_force is None else max_force
-    _check_positive("--max-force", high)
+    _check_positive("max_force", high)
     low = campaign["lowest_peak_over_yield"] * incipient_yield(material).force
     if high <= low:
-        raise InputError(f"--max-force: {high:g} N is not above the lowest calibration peak "
+        raise InputError(f"max_force: {high:g} N is not above the lowest calibration peak "
                          f"{low:.4g} N (= {campaign['lowest_peak_over_yield']:g} Fy)")
     return low, high
 
@@ -58,7 +58,7 @@ def peak_forces(material: Material, levels: int | None = None,
     """Geometric peak loads from ~2 Fy to max_force (SPEC section 7)."""
     n = settings()["campaign"]["levels"] if levels is None else levels
     if isinstance(n, bool) or not isinstance(n, int) or not MIN_LEVELS <= n <= MAX_LEVELS:
-        raise InputError(f"--levels: need an integer in [{MIN_LEVELS}, {MAX_LEVELS}] (each "
+        raise InputError(f"levels: need an integer in [{MIN_LEVELS}, {MAX_LEVELS}] (each "
                          f"level is one FE run), got {n!r}")
     low, high = force_range(material, max_force)
     return [float(f) for f in np.geomspace(low, high, n)]
@@ -68,13 +68,13 @@ def check_peaks(material: Material, peaks) -> list[float]:
     """User-given peak loads: >= MIN_LEVELS distinct values, all above the analytic Fy."""
     peaks = sorted(float(p) for p in peaks)
     for p in peaks:
-        _check_positive("--peak-forces", p)
+        _check_positive("peaks", p)
     if not MIN_LEVELS <= len(set(peaks)) <= MAX_LEVELS:
-        raise InputError(f"--peak-forces: need {MIN_LEVELS} to {MAX_LEVELS} distinct peak loads "
+        raise InputError(f"peaks: need {MIN_LEVELS} to {MAX_LEVELS} distinct peak loads "
                          f"(each is one FE run), got {len(set(peaks))}")
     fy = incipient_yield(material).force
     if peaks[0] <= 1.2 * fy:
-        raise InputError(f"--peak-forces: {peaks[0]:g} N is within 20 % of first yield "
+        raise InputError(f"peaks: {peaks[0]:g} N is within 20 % of first yield "
                          f"(Fy = {fy:.4g} N); the lowest level must be plastic")
     return sorted(set(peaks))
 

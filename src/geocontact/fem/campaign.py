@@ -94,7 +94,7 @@ def check_scheduler_address(address: str) -> str:
     if (url.scheme not in SCHEDULER_SCHEMES or not url.hostname or port is None
             or port < 1 or url.path not in ("", "/") or url.query or url.fragment
             or " " in text):
-        raise InputError(f"--scheduler: expected a Dask scheduler address "
+        raise InputError(f"scheduler: expected a Dask scheduler address "
                          f"[{'|'.join(SCHEDULER_SCHEMES)}://]host:port, got {address!r}")
     return text
 
@@ -222,7 +222,7 @@ def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failu
         try:
             client = Client(scheduler, timeout=30)
         except OSError as exc:
-            raise InputError(f"--scheduler: cannot connect to {scheduler} ({exc})") from None
+            raise InputError(f"scheduler: cannot connect to {scheduler} ({exc})") from None
     try:
         same: dict[str, list[int]] = {}  # a run asked for twice is run once
         for i in todo:

@@ -157,7 +157,7 @@ def read_at2(path: str | Path, unit: str | None = None) -> Record:
     if chosen is None:
         raise InputError(
             f"{path}: the header does not state the unit (expected 'UNITS OF G'); "
-            "give it explicitly (--unit g|m/s2|cm/s2)"
+            "give it explicitly (unit: g, m/s2 or cm/s2)"
         )
 
     values: list[float] = []
@@ -207,7 +207,7 @@ def _header_unit(header_text: str) -> str | None:
             text = pattern.sub(" ", text)
     if len(found) > 1:
         raise InputError(
-            f"unit: the header names several units ({', '.join(found)}); give it with --unit"
+            f"unit: the header names several units ({', '.join(found)}); give the unit explicitly"
         )
     return found[0] if found else None
 
@@ -255,7 +255,7 @@ def read_table(path: str | Path, unit: str | None = None) -> Record:
     if chosen is None:
         raise InputError(
             f"{path}: the header does not name the acceleration unit; "
-            "give it explicitly (--unit g|m/s2|cm/s2)"
+            "give it explicitly (unit: g, m/s2 or cm/s2)"
         )
     data = np.asarray(rows)
     time, acc = data[:, 0], data[:, 1]
@@ -367,7 +367,7 @@ def load_record(spec: str | Path, unit: str | None = None) -> Record:
     path = Path(text)
     if text.lower().startswith(FEMA_PREFIX):
         if unit is not None:
-            raise InputError("unit: FEMA P695 records carry their unit (g); do not give --unit")
+            raise InputError("unit: FEMA P695 records carry their unit (g); give none")
         return load_fema_p695(text)
     if path.exists():
         if path.suffix.lower() == ".at2":
