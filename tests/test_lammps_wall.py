@@ -151,6 +151,79 @@ def test_wall_force_vector_is_the_sum_of_the_contact_forces_and_energies_are_hal
     lmp.close()
 
 
+def test_an_elastic_wall_contact_is_hertz_sphere_on_flat_with_its_mindlin_stiffness():
+    """Below yield the wall force is Hertz for a sphere on a rigid flat, 4/3 E/(1 - nu^2)
+    sqrt(r) w^1.5; sliding, the tangential force grows with the sphere-flat Mindlin stiffness
+    8 G a/(2 - nu), a = sqrt(r w) (twice the pair's at d = 2 w), and saturates at mu F_n."""
+    radius, friction, speed, dt = 0.04, 0.3, 1e-4, 1e-5
+    law = BASE.for_radius(radius)
+    w = 0.4 * law.yield_approach  # d = 2 w = 0.8 delta_y: elastic
+    lmp = grains([radius], [(0.0, 0.0, radius - w)], "zplane 0.0 NULL", friction=friction,
+                 extra=[f"timestep {dt!r}"])
+    lmp.command("run 1")
+    w = radius - lmp.numpy.extract_atom("x")[0][2]  # as LAMMPS sees it
+    e, nu = law.material.youngs_modulus, law.material.poissons_ratio
+    f_n = 4.0 / 3.0 * e / (1 - nu**2) * math.sqrt(radius) * w**1.5
+    assert lmp.numpy.extract_atom("f")[0][2] == pytest.approx(f_n, rel=1e-12)
+    k_t = 8.0 * law.material.shear_modulus / (2.0 - nu) * math.sqrt(radius * w)
+    lmp.command(f"set atom 1 vy {speed!r}")
+    forces = []
+    for step in range(1, 300):
+        lmp.command(f"run 1 pre {'yes' if step == 1 else 'no'} post no")
+        forces.append(-lmp.numpy.extract_atom("f")[0][1])
+    assert forces[0] / (speed * dt) == pytest.approx(k_t, rel=1e-6)
+    assert forces[-1] == pytest.approx(friction * f_n, rel=1e-9)
+    # the torque of the tangential force at the contact point (0, 0, -r) about the centre:
+    # (0, 0, -r) x (0, -F_t, 0) = (-r F_t, 0, 0)
+    assert lmp.numpy.extract_atom("torque")[0][0] == pytest.approx(-radius * forces[-1],
+                                                                   rel=1e-12)
+    lmp.close()
+
+
+def test_a_grain_inside_a_zcylinder_is_pushed_towards_the_axis_by_the_wall_law():
+    radius, cylinder = 0.05, 0.6
+    law = BASE.for_radius(radius)
+    angle = math.radians(30.0)
+    reference = Contact(law)
+    lmp = grains([radius], [(0.3, 0.0, 0.0)], f"zcylinder {cylinder!r}")
+    lmp.command("run 0")
+    for depth in (5.0, 20.0, 12.0):
+        w = 0.5 * depth * law.yield_approach
+        rho = cylinder - radius + w
+        lmp.command(f"set atom 1 x {rho * math.cos(angle)!r} y {rho * math.sin(angle)!r}")
+        lmp.command("run 1 pre no post no")
+        f = np.array(lmp.numpy.extract_atom("f")[0])
+        expected = reference.update(2 * w)[0]
+        assert f[:2] == pytest.approx(-expected * np.array([math.cos(angle), math.sin(angle)]),
+                                      rel=1e-9)
+        assert f[2] == 0.0
+    lmp.close()
+
+
+def test_a_contact_left_beyond_the_skin_is_forgotten_but_its_dissipation_is_kept():
+    radius = 0.1
+    law = BASE.for_radius(radius)
+    w = 10 * law.yield_approach
+    lmp = grains([radius], [(0.0, 0.0, radius - w)], "zplane 0.0 NULL")
+    lmp.command("run 1")
+    dissipated = wall_vector(lmp)[3]
+    lmp.command(f"set atom 1 z {radius + 0.005!r}")  # apart, within the skin (0.01)
+    lmp.command("run 1")
+    assert wall_array(lmp)[0, 3] > 0 and wall_vector(lmp)[3] == dissipated  # remembered
+    lmp.command(f"set atom 1 z {radius + 0.02!r}")  # beyond the skin
+    lmp.command("run 1")
+    assert not wall_array(lmp)[0].any() and wall_vector(lmp)[3] == dissipated
+    reference = Contact(law)
+    reference.update(2 * w)
+    assert dissipated == pytest.approx(0.5 * reference.dissipated_energy, rel=1e-9)
+    # back on the wall at half the depth: a virgin contact (the dent was forgotten)
+    lmp.command(f"set atom 1 z {radius - 0.5 * w!r}")
+    lmp.command("run 1")
+    assert lmp.numpy.extract_atom("f")[0][2] == pytest.approx(Contact(law).update(w)[0],
+                                                              rel=1e-12)
+    lmp.close()
+
+
 # --- moving walls ----------------------------------------------------------------------------
 
 SPEED = 0.02  # m/s, the top wall down onto a grain held on the floor
@@ -279,6 +352,60 @@ def test_restart_written_mid_history_continues_as_the_uninterrupted_run(tmp_path
     resumed = np.vstack([before, after])
     scale = np.abs(uninterrupted).max(axis=0) + 1e-300
     assert np.all(np.abs(resumed - uninterrupted) <= 1e-12 * scale)
+
+
+# --- MPI: 1 and 2 ranks, migration, restart across rank counts -----------------------------
+
+def run_scenario(ranks: int, *args: str) -> dict:
+    import json
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    mpiexec = Path(sys.executable).with_name("mpiexec")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "result.json"
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+        subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(SCENARIOS), *args,
+                        "--out", str(out)], check=True, env=env, timeout=600, cwd=tmp)
+        return json.loads(out.read_text())
+
+
+SCENARIOS = Path(__file__).with_name("lammps_scenarios.py")
+
+
+def test_wall_contacts_cross_ranks_and_restart_on_another_rank_count(tmp_path):
+    """The `wall` scenario (lammps_scenarios.py): plastic wall contacts carried across the rank
+    boundary give the forces of 1 rank on 2; a restart written on 2 ranks mid-history,
+    continued on 1, gives the uninterrupted run; each grain follows the pair law at d = 2 w."""
+    import lammps_scenarios as scenarios
+
+    restart = tmp_path / "wall.restart"
+    serial = run_scenario(1, "wall")
+    parallel = run_scenario(2, "wall", "--restart-out", str(restart))
+    resumed = run_scenario(1, "wall", "--resume", str(restart))
+    assert (serial["ranks"], parallel["ranks"]) == (1, 2)
+    f1 = np.array([s["forces"] for s in serial["steps"]])
+    f2 = np.array([s["forces"] for s in parallel["steps"]])
+    fr = np.array([s["forces"] for s in resumed["steps"]])
+    x = np.array([s["x"] for s in serial["steps"]])
+    assert np.all(x[:, :2].min(axis=0) < -0.2) and np.all(x[:, :2].max(axis=0) > 0.2)  # crossed
+    peak = np.abs(f1).max()
+    assert np.abs(f2 - f1).max() <= 1e-12 * peak
+    assert np.abs(fr - f1[scenarios.WALL_RESTART_AFTER:]).max() <= 1e-12 * peak
+    w1 = np.array([s["wall"] for s in serial["steps"]])
+    wr = np.array([s["wall"] for s in resumed["steps"]])
+    assert np.abs(wr - w1[scenarios.WALL_RESTART_AFTER:]).max() <= 1e-12 * np.abs(w1).max()
+    # the normal force of each grain: the pair law of its radius at d = 2 w (damping aside: no
+    # normal velocity, positions prescribed)
+    for k, (radius, side, _, _) in enumerate(scenarios.WALL_GRAINS):
+        contact = Contact(BASE.for_radius(radius))
+        z = [scenarios.wall_positions(step)[k][2] for step in range(len(f1))]
+        w = [radius - (0.5 - side * zk) for zk in z]  # interference with its wall
+        expected = np.array([-side * contact.update(2 * wk)[0] for wk in w])
+        assert expected.max() - expected.min() > 20 * BASE.for_radius(radius).yield_force
+        assert np.abs(f1[:, k, 2] - expected).max() <= 1e-9 * np.abs(expected).max()
 
 
 # --- bad input ----------------------------------------------------------------------------------
