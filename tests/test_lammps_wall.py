@@ -6,6 +6,7 @@ tangential force and damping, moving walls, the force on the wall, restarts and 
 from __future__ import annotations
 
 import math
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -352,6 +353,48 @@ def test_restart_written_mid_history_continues_as_the_uninterrupted_run(tmp_path
     resumed = np.vstack([before, after])
     scale = np.abs(uninterrupted).max(axis=0) + 1e-300
     assert np.all(np.abs(resumed - uninterrupted) <= 1e-12 * scale)
+
+
+# the per-atom layout tag as the fix writes it (fix_wall_geocontact.h): "GCWA" in the high, the
+# layout version in the low 32 bits of a 64-bit word, once per atom
+ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCWA", "little") << 32) | 1)
+
+
+@pytest.mark.parametrize(("edit", "fix", "message"), [
+    (None, "zplane 0.0 0.5", None),
+    (ATOM_TAG[:4].replace(b"\x01", b"\x02") + ATOM_TAG[4:], "zplane 0.0 0.5",
+     "wall contacts have wall layout version 2; this fix reads wall layout version 1 only"),
+    (struct.pack("<d", 1.0), "zplane 0.0 0.5", "wall contacts have no wall/geocontact layout tag"),
+    (None, "zplane 0.0 NULL", "wall contacts are for 2 wall\\(s\\), this fix wall has 1"),
+], ids=["intact", "other-version", "foreign", "other-wall-count"])
+def test_a_restart_of_another_layout_or_wall_count_is_refused(tmp_path, edit, fix, message):
+    radius = 0.1
+    w = 10 * BASE.for_radius(radius).yield_approach
+    lmp = grains([radius], [(0.0, 0.0, radius - w)], "zplane 0.0 0.5")
+    lmp.command("run 1")
+    restart = tmp_path / "wall.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+    if edit is not None:
+        data = restart.read_bytes()
+        assert data.count(ATOM_TAG) == 1
+        restart.write_bytes(data.replace(ATOM_TAG, edit))
+    lmp = open_lammps()
+    lmp.command(f"read_restart {restart}")
+    lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} friction 0 damping 0 {fix}")
+    if message is None:  # the dent came back: unloading to half the interference
+        lmp.command(f"set atom 1 z {radius - 0.5 * w!r}")
+        lmp.command("run 1")
+        seen = radius - lmp.numpy.extract_atom("x")[0][2]
+        reference = Contact(BASE.for_radius(radius))
+        reference.update(2 * w)
+        unloading = reference.update(2 * seen)[0]
+        assert unloading < 0.5 * Contact(BASE.for_radius(radius)).update(2 * seen)[0]
+        assert lmp.numpy.extract_atom("f")[0][2] == pytest.approx(unloading, rel=1e-9)
+    else:
+        with pytest.raises(Exception, match=message):
+            lmp.command("run 0")
+    lmp.close()
 
 
 # --- MPI: 1 and 2 ranks, migration, restart across rank counts -----------------------------
