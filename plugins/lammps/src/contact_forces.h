@@ -115,13 +115,15 @@ inline double damped_normal_force(double law_force, double damping, double vn)
 inline void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt,
                              double damping, double friction, double fn, double dt)
 {
-  const double before = std::sqrt(dot3(fs, fs));
   const double fsn = dot3(fs, c.n);
-  for (int k = 0; k < 3; ++k) fs[k] -= fsn * c.n[k];
-  const double after = std::sqrt(dot3(fs, fs));
-  if (after > 0.0) {
-    const double scale = before / after;
-    for (int k = 0; k < 3; ++k) fs[k] *= scale;
+  if (fsn != 0.0) {  // already in the plane (a flat wall's contact): the rotation is exactly 1
+    const double before = std::sqrt(dot3(fs, fs));
+    for (int k = 0; k < 3; ++k) fs[k] -= fsn * c.n[k];
+    const double after = std::sqrt(dot3(fs, fs));
+    if (after > 0.0) {
+      const double scale = before / after;
+      for (int k = 0; k < 3; ++k) fs[k] *= scale;
+    }
   }
   for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
   for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];

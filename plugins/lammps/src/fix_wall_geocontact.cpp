@@ -371,7 +371,9 @@ void FixWallGeocontact::post_force(int /*vflag*/)
         continue;
       }
 
-      WallRecord rec = stored;
+      // the stored record itself when the step commits (most calls), a scratch copy in setup
+      WallRecord scratch;
+      WallRecord &rec = commit ? stored : (scratch = stored);
       if (!rec.active) {
         rec.law = geocontact::ContactState();
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
@@ -392,7 +394,6 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       } else {
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
       }
-      if (commit) stored = rec;
 
       const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
       const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
