@@ -384,6 +384,54 @@ def test_restart_written_mid_history_continues_as_the_uninterrupted_run(tmp_path
     assert np.all(np.abs(resumed - uninterrupted) <= 1e-12 * scale)
 
 
+def pair_on_floor_run(lmp, first: int, last: int, radius: float, dy: float) -> np.ndarray:
+    """Two grains pressed together (pair law) and into the floor (wall law) along a path,
+    sliding: forces on both grains per step."""
+    rows = []
+    for k in range(first, last):
+        depth = dy * (20 * math.sin(math.pi * k / 20) ** 2 + 0.5 * k / 10)
+        lmp.command(f"set atom 1 z {radius - depth!r} x {-radius + 0.5 * depth!r}")
+        lmp.command(f"set atom 2 z {radius - 0.5 * depth!r} x {radius - 0.5 * depth!r}")
+        lmp.command(f"run 1 pre {'yes' if k == first else 'no'} post no")
+        ids = lmp.numpy.extract_atom("id")
+        f = np.array(lmp.numpy.extract_atom("f"))[np.argsort(ids)]
+        rows.append(f.ravel())
+    return np.array(rows)
+
+
+def test_restart_with_pair_and_wall_histories_together(tmp_path):
+    """pair_style geocontact's contact history and the wall's records in one restart file
+    (two per-atom restart sections): both come back, the run continues uninterrupted."""
+    radius = 0.1
+    dy = BASE.for_radius(radius).yield_approach
+    setup = ["pair_style geocontact", f"pair_coeff * * {CALIBRATED_FILE} friction 0.4"]
+
+    def fresh():
+        lmp = grains([radius, radius], [(-radius, 0.0, radius), (radius, 0.0, radius)],
+                     "zplane 0.0 NULL", friction=0.4, extra=setup)
+        lmp.command("set atom 2 vy 1e-3")
+        return lmp
+
+    lmp = fresh()
+    uninterrupted = pair_on_floor_run(lmp, 0, 50, radius, dy)
+    lmp.close()
+    lmp = fresh()
+    before = pair_on_floor_run(lmp, 0, 30, radius, dy)
+    restart = tmp_path / "both.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+    lmp = open_lammps()
+    lmp.command(f"read_restart {restart}")
+    lmp.command("comm_modify vel yes")
+    lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} friction 0.4 damping 0.0 "
+                "zplane 0.0 NULL")
+    after = pair_on_floor_run(lmp, 30, 50, radius, dy)
+    lmp.close()
+    resumed = np.vstack([before, after])
+    assert np.abs(uninterrupted[:, 0::3]).max() > 0  # the pair pushes along x
+    assert np.abs(resumed - uninterrupted).max() <= 1e-12 * np.abs(uninterrupted).max()
+
+
 # the per-atom layout tag as the fix writes it (fix_wall_geocontact.h): "GCWA" in the high, the
 # layout version in the low 32 bits of a 64-bit word, once per atom
 ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCWA", "little") << 32) | 1)
