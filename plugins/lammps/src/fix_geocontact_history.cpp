@@ -1,6 +1,8 @@
 // Per-contact history of pair_style geocontact (see fix_geocontact_history.h).
 #include "fix_geocontact_history.h"
 
+#include "contact_forces.h"
+
 #include "atom.h"
 #include "comm.h"
 #include "error.h"
@@ -85,21 +87,8 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
   int m = 0;
   buf[m++] = static_cast<double>(table.size());
   for (const ContactRecord &r : table) {
-    const geocontact::ContactState &s = r.law;
     buf[m++] = ubuf(r.partner).d;
-    buf[m++] = s.approach;
-    buf[m++] = s.force;
-    buf[m++] = s.max_approach;
-    buf[m++] = s.max_force;
-    buf[m++] = s.residual_approach;
-    buf[m++] = s.unloading_exponent;
-    buf[m++] = s.reloading_exponent;
-    buf[m++] = s.branch_value;
-    buf[m++] = s.ratchet_shift;
-    buf[m++] = s.pending_ratchet;
-    buf[m++] = s.cycles;
-    buf[m++] = s.work;
-    buf[m++] = static_cast<double>(s.branch);
+    m += geocontact_forces::pack_state(r.law, buf + m);
     buf[m++] = r.tangential[0];
     buf[m++] = r.tangential[1];
     buf[m++] = r.tangential[2];
@@ -113,21 +102,8 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
   const int n = static_cast<int>(buf[m++]);
   table.resize(n);
   for (ContactRecord &r : table) {
-    geocontact::ContactState &s = r.law;
     r.partner = static_cast<tagint>(ubuf(buf[m++]).i);
-    s.approach = buf[m++];
-    s.force = buf[m++];
-    s.max_approach = buf[m++];
-    s.max_force = buf[m++];
-    s.residual_approach = buf[m++];
-    s.unloading_exponent = buf[m++];
-    s.reloading_exponent = buf[m++];
-    s.branch_value = buf[m++];
-    s.ratchet_shift = buf[m++];
-    s.pending_ratchet = buf[m++];
-    s.cycles = buf[m++];
-    s.work = buf[m++];
-    s.branch = static_cast<int>(buf[m++]);
+    m += geocontact_forces::unpack_state(r.law, buf + m);
     r.tangential[0] = buf[m++];
     r.tangential[1] = buf[m++];
     r.tangential[2] = buf[m++];

@@ -1,8 +1,9 @@
-// Plugin entry point: registers pair_style geocontact and its history fix with LAMMPS
-// (`plugin load geocontactplugin.so`; no rebuild of LAMMPS).
+// Plugin entry point: registers pair_style geocontact, its history fix and fix wall/geocontact
+// with LAMMPS (`plugin load geocontactplugin.so`; no rebuild of LAMMPS).
 #include "lammpsplugin_abi.h"
 
 #include "fix_geocontact_history.h"
+#include "fix_wall_geocontact.h"
 #include "pair_geocontact.h"
 
 #include "lammps.h"
@@ -17,6 +18,11 @@ static Pair *pair_geocontact_creator(LAMMPS *lmp)
 static Fix *fix_geocontact_history_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixGeocontactHistory(lmp, argc, argv);
+}
+
+static Fix *fix_wall_geocontact_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixWallGeocontact(lmp, argc, argv);
 }
 
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
@@ -39,5 +45,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.info = "geocontact per-contact history (created by pair_style geocontact)";
   plugin.creator.v2 =
       reinterpret_cast<lammpsplugin_factory2 *>(&fix_geocontact_history_creator);
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "wall/geocontact";
+  plugin.info = "geocontact walls: the ball-wall law of the FE half model";
+  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&fix_wall_geocontact_creator);
   (*register_plugin)(&plugin, lmp);
 }

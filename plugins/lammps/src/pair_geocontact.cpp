@@ -1,6 +1,7 @@
 // pair_style geocontact (see pair_geocontact.h and docs in examples/lammps/README.md).
 #include "pair_geocontact.h"
 
+#include "contact_forces.h"
 #include "fix_geocontact_history.h"
 #include "geocontact/params.hpp"
 
@@ -21,6 +22,7 @@
 #include <vector>
 
 using namespace LAMMPS_NS;
+using namespace LAMMPS_NS::geocontact_forces;
 
 namespace {
 
@@ -31,11 +33,6 @@ constexpr double kDefaultFriction = 0.5;
 // version whenever write_restart changes.
 constexpr int kRestartTag = 0x53504347;
 constexpr int kRestartLayoutVersion = 1;
-
-inline double dot3(const double *a, const double *b)
-{
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 // Grains of any size by similarity (SPEC 10): two spheres of radii ri, rj behave as two
 // identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
@@ -123,13 +120,7 @@ int PairGeocontact::add_law(const std::string &text, const std::string &source)
 {
   for (size_t k = 0; k < law_texts_.size(); ++k)
     if (law_texts_[k] == text) return static_cast<int>(k);
-  geocontact::LawParams params;
-  try {
-    params = geocontact::parse_params(text, source);
-  } catch (const geocontact::InputError &e) {
-    error->all(FLERR, "pair_coeff geocontact: {}", e.what());
-  }
-  laws_.push_back(params);
+  laws_.push_back(parse_law(lmp, text, source, "pair_coeff geocontact"));
   law_texts_.push_back(text);
   return static_cast<int>(laws_.size()) - 1;
 }
@@ -147,22 +138,7 @@ void PairGeocontact::coeff(int narg, char **arg)
 
   // Rank 0 reads the file; every rank parses the same text, so errors are collective.
   const std::string path = arg[2];
-  std::string text;
-  int status = 0;
-  if (comm->me == 0) {
-    try {
-      text = geocontact::read_text_file(path);
-    } catch (const geocontact::InputError &) {
-      status = 1;
-    }
-  }
-  MPI_Bcast(&status, 1, MPI_INT, 0, world);
-  if (status)
-    error->all(FLERR, "pair_coeff geocontact: parameter file not found or unreadable: {}", path);
-  int length = static_cast<int>(text.size());
-  MPI_Bcast(&length, 1, MPI_INT, 0, world);
-  text.resize(length);
-  MPI_Bcast(&text[0], length, MPI_CHAR, 0, world);
+  const std::string text = read_text_collective(lmp, path, "pair_coeff geocontact");
   const int law = add_law(text, path);
 
   double friction = kDefaultFriction, damping = 0.0;
@@ -365,102 +341,7 @@ void PairGeocontact::sync_mirrors()
 }
 
 // --- one contact, in the manner of LAMMPS's granular sub-models: geometry, normal force,
-// damping, tangential force, energy tallies, forces on the grains ---------------------------
-
-namespace {
-
-// Where the two grains touch and how the contact point moves: unit normal from j to i, normal
-// relative speed (positive when separating) and tangential relative velocity of the contact
-// point of i with respect to that of j.
-struct ContactFrame {
-  double n[3];
-  double vn;
-  double vt[3];
-};
-
-ContactFrame contact_frame(const double *del, double r, const double *vi, const double *vj,
-                           const double *wi, const double *wj, double radi, double radj)
-{
-  ContactFrame c;
-  const double rinv = 1.0 / r;
-  for (int k = 0; k < 3; ++k) c.n[k] = del[k] * rinv;
-  const double vr[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
-  c.vn = dot3(vr, c.n);
-  const double wr[3] = {radi * wi[0] + radj * wj[0], radi * wi[1] + radj * wj[1],
-                        radi * wi[2] + radj * wj[2]};
-  c.vt[0] = vr[0] - c.vn * c.n[0] - (wr[1] * c.n[2] - wr[2] * c.n[1]);
-  c.vt[1] = vr[1] - c.vn * c.n[1] - (wr[2] * c.n[0] - wr[0] * c.n[2]);
-  c.vt[2] = vr[2] - c.vn * c.n[2] - (wr[0] * c.n[1] - wr[1] * c.n[0]);
-  return c;
-}
-
-// Stiffnesses of the contact for damping and friction: the unloading stiffness S = 2 E* a of
-// the law's current branch gives the contact radius a, and Mindlin's k_t = 8 G* a.
-struct ContactStiffness {
-  double normal;      // S, N/m
-  double tangential;  // k_t, N/m
-};
-
-ContactStiffness contact_stiffness(const geocontact::LawParams &law,
-                                   const geocontact::ContactState &state, double scale)
-{
-  // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
-  const double normal = scale * geocontact::unloading_stiffness(law, state);
-  const double a = normal / (2.0 * law.material.effective_modulus());
-  return {normal, 8.0 * law.material.effective_shear_modulus() * a};
-}
-
-// Viscous damping at a fraction beta of critical, 2 beta sqrt(m_eff k), per direction.
-struct Damping {
-  double normal;
-  double tangential;
-};
-
-Damping damping_coefficients(double beta, double mi, double mj, const ContactStiffness &k)
-{
-  if (beta <= 0.0) return {0.0, 0.0};
-  const double meff = mi * mj / (mi + mj);
-  return {2.0 * beta * std::sqrt(meff * k.normal), 2.0 * beta * std::sqrt(meff * k.tangential)};
-}
-
-// The normal force: the law's force less the damping force against the approach rate (-vn);
-// never tensile.
-double damped_normal_force(double law_force, double damping, double vn)
-{
-  const double fn = law_force - damping * vn;
-  return fn > 0.0 ? fn : 0.0;
-}
-
-// Incremental Mindlin-Coulomb tangential force. The stored force fs (not a displacement, so a
-// changing contact radius never makes the force jump) is first rotated into the current
-// tangent plane keeping its magnitude, then incremented by -k_t v_t dt; the force on the
-// grain adds the tangential damping and is capped by mu fn, where sliding makes the stored
-// force the Coulomb force.
-void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt, double damping,
-                      double friction, double fn, double dt)
-{
-  const double before = std::sqrt(dot3(fs, fs));
-  const double fsn = dot3(fs, c.n);
-  for (int k = 0; k < 3; ++k) fs[k] -= fsn * c.n[k];
-  const double after = std::sqrt(dot3(fs, fs));
-  if (after > 0.0) {
-    const double scale = before / after;
-    for (int k = 0; k < 3; ++k) fs[k] *= scale;
-  }
-  for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
-  for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];
-  const double limit = friction * fn;
-  const double mag = std::sqrt(dot3(ft, ft));
-  if (mag > limit) {
-    const double scale = mag > 0.0 ? limit / mag : 0.0;
-    for (int k = 0; k < 3; ++k) {
-      ft[k] *= scale;
-      fs[k] = ft[k];
-    }
-  }
-}
-
-}  // namespace
+// damping, tangential force (contact_forces.h), energy tallies, forces on the grains ---------
 
 // The contact's share of the global energy tallies (compute pair geocontact): each contact
 // once, whole if both grains are owned here, half if shared with another rank.
@@ -567,9 +448,12 @@ void PairGeocontact::compute(int eflag, int vflag)
       double fn = 0.0, ft[3] = {0.0, 0.0, 0.0};
       ContactFrame frame{};
       if (law_force > 0.0) {
-        frame = contact_frame(del, r, v[i], v[j], omega[i], omega[j], radi, radius[j]);
+        const double rinv = 1.0 / r;
+        const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
+        frame = contact_frame(n, v[i], v[j], omega[i], omega[j], radi, radius[j]);
         const ContactStiffness stiffness = contact_stiffness(law, rec.law, scale);
-        const Damping damping = damping_coefficients(tp.damping, rmass[i], rmass[j], stiffness);
+        const double meff = reduced_mass(rmass[i], rmass[j]);
+        const Damping damping = damping_coefficients(tp.damping, meff, stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
         if (tp.friction > 0.0)
           tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,

@@ -1,0 +1,225 @@
+// One contact's forces besides the normal law, shared by pair_style geocontact (grain-grain)
+// and fix wall/geocontact (grain-wall), in the manner of LAMMPS's granular sub-models: the
+// contact frame, the stiffnesses from the law's state, viscous damping and the incremental
+// Mindlin-Coulomb tangential force; plus the packing of a law state into doubles (contact
+// histories, exchange and restart buffers) and the collective read of a parameter file.
+#ifndef LMP_GEOCONTACT_CONTACT_FORCES_H
+#define LMP_GEOCONTACT_CONTACT_FORCES_H
+
+#include "geocontact/law.hpp"
+#include "geocontact/params.hpp"
+
+#include "comm.h"
+#include "error.h"
+#include "lammps.h"
+
+#include <cmath>
+#include <mpi.h>
+#include <string>
+
+namespace LAMMPS_NS {
+namespace geocontact_forces {
+
+inline double dot3(const double *a, const double *b)
+{
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+// Where the bodies touch and how the contact point moves: the unit normal n (towards body i),
+// the normal relative speed (positive when separating) and the tangential relative velocity of
+// the contact point of i with respect to that of j. A wall is body j with its velocity, no
+// spin and radius 0.
+struct ContactFrame {
+  double n[3];
+  double vn;
+  double vt[3];
+};
+
+inline ContactFrame contact_frame(const double *n, const double *vi, const double *vj,
+                                  const double *wi, const double *wj, double radi, double radj)
+{
+  ContactFrame c;
+  for (int k = 0; k < 3; ++k) c.n[k] = n[k];
+  const double vr[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
+  c.vn = dot3(vr, c.n);
+  const double wr[3] = {radi * wi[0] + radj * wj[0], radi * wi[1] + radj * wj[1],
+                        radi * wi[2] + radj * wj[2]};
+  c.vt[0] = vr[0] - c.vn * c.n[0] - (wr[1] * c.n[2] - wr[2] * c.n[1]);
+  c.vt[1] = vr[1] - c.vn * c.n[1] - (wr[2] * c.n[0] - wr[0] * c.n[2]);
+  c.vt[2] = vr[2] - c.vn * c.n[2] - (wr[0] * c.n[1] - wr[1] * c.n[0]);
+  return c;
+}
+
+// Stiffnesses of the contact for damping and friction: the unloading stiffness S = 2 E* a of
+// the law's current branch gives the contact radius a, and Mindlin's k_t = 8 G* a.
+struct ContactStiffness {
+  double normal;      // S, N/m
+  double tangential;  // k_t, N/m
+};
+
+// Two grains whose law is the calibrated one scaled by s (SPEC 10).
+inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
+                                          const geocontact::ContactState &state, double scale)
+{
+  // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
+  const double normal = scale * geocontact::unloading_stiffness(law, state);
+  const double a = normal / (2.0 * law.material.effective_modulus());
+  return {normal, 8.0 * law.material.effective_shear_modulus() * a};
+}
+
+// A grain on a rigid flat wall, the FE half model of the pair (SPEC 10): at interference w it
+// is one half of the pair at approach d = 2 w, so its contact is the pair's contact (the same
+// contact radius a, the symmetry plane of the pair being the wall), F_wall(w) = F_pair(2 w),
+// and its stiffnesses are twice the pair's: dF/dw = 2 S, which is 2 E*_wall a with the
+// sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
+// G*_wall = G / (2 - nu) = 2 G* (a rigid wall adds no compliance).
+inline ContactStiffness wall_contact_stiffness(const geocontact::LawParams &law,
+                                               const geocontact::ContactState &state,
+                                               double scale)
+{
+  const ContactStiffness pair = contact_stiffness(law, state, scale);
+  return {2.0 * pair.normal, 2.0 * pair.tangential};
+}
+
+inline double reduced_mass(double mi, double mj)
+{
+  return mi * mj / (mi + mj);
+}
+
+// Viscous damping at a fraction beta of critical, 2 beta sqrt(m_eff k), per direction (a
+// grain on a wall: m_eff its mass).
+struct Damping {
+  double normal;
+  double tangential;
+};
+
+inline Damping damping_coefficients(double beta, double meff, const ContactStiffness &k)
+{
+  if (beta <= 0.0) return {0.0, 0.0};
+  return {2.0 * beta * std::sqrt(meff * k.normal), 2.0 * beta * std::sqrt(meff * k.tangential)};
+}
+
+// The normal force: the law's force less the damping force against the approach rate (-vn);
+// never tensile.
+inline double damped_normal_force(double law_force, double damping, double vn)
+{
+  const double fn = law_force - damping * vn;
+  return fn > 0.0 ? fn : 0.0;
+}
+
+// Incremental Mindlin-Coulomb tangential force. The stored force fs (not a displacement, so a
+// changing contact radius never makes the force jump) is first rotated into the current
+// tangent plane keeping its magnitude, then incremented by -k_t v_t dt; the force on the
+// grain adds the tangential damping and is capped by mu fn, where sliding makes the stored
+// force the Coulomb force.
+inline void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt,
+                             double damping, double friction, double fn, double dt)
+{
+  const double fsn = dot3(fs, c.n);
+  if (fsn != 0.0) {  // already in the plane (a flat wall's contact): the rotation is exactly 1
+    const double before = std::sqrt(dot3(fs, fs));
+    for (int k = 0; k < 3; ++k) fs[k] -= fsn * c.n[k];
+    const double after = std::sqrt(dot3(fs, fs));
+    if (after > 0.0) {
+      const double scale = before / after;
+      for (int k = 0; k < 3; ++k) fs[k] *= scale;
+    }
+  }
+  for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
+  for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];
+  const double limit = friction * fn;
+  const double mag = std::sqrt(dot3(ft, ft));
+  if (mag > limit) {
+    const double scale = mag > 0.0 ? limit / mag : 0.0;
+    for (int k = 0; k < 3; ++k) {
+      ft[k] *= scale;
+      fs[k] = ft[k];
+    }
+  }
+}
+
+// --- a law state as doubles (history tables, exchange and restart buffers) ------------------
+
+constexpr int kStateSlots = 13;
+
+inline int pack_state(const geocontact::ContactState &s, double *buf)
+{
+  int m = 0;
+  buf[m++] = s.approach;
+  buf[m++] = s.force;
+  buf[m++] = s.max_approach;
+  buf[m++] = s.max_force;
+  buf[m++] = s.residual_approach;
+  buf[m++] = s.unloading_exponent;
+  buf[m++] = s.reloading_exponent;
+  buf[m++] = s.branch_value;
+  buf[m++] = s.ratchet_shift;
+  buf[m++] = s.pending_ratchet;
+  buf[m++] = s.cycles;
+  buf[m++] = s.work;
+  buf[m++] = static_cast<double>(s.branch);
+  return m;
+}
+
+inline int unpack_state(geocontact::ContactState &s, const double *buf)
+{
+  int m = 0;
+  s.approach = buf[m++];
+  s.force = buf[m++];
+  s.max_approach = buf[m++];
+  s.max_force = buf[m++];
+  s.residual_approach = buf[m++];
+  s.unloading_exponent = buf[m++];
+  s.reloading_exponent = buf[m++];
+  s.branch_value = buf[m++];
+  s.ratchet_shift = buf[m++];
+  s.pending_ratchet = buf[m++];
+  s.cycles = buf[m++];
+  s.work = buf[m++];
+  s.branch = static_cast<int>(buf[m++]);
+  return m;
+}
+
+// --- parameter files --------------------------------------------------------------------------
+
+// Rank 0 reads the file and sends its text to every rank, so errors are collective. `who`
+// opens the error messages ("pair_coeff geocontact", "Fix wall/geocontact").
+inline std::string read_text_collective(LAMMPS *lmp, const std::string &path,
+                                        const std::string &who)
+{
+  std::string text;
+  int status = 0;
+  if (lmp->comm->me == 0) {
+    try {
+      text = geocontact::read_text_file(path);
+    } catch (const geocontact::InputError &) {
+      status = 1;
+    }
+  }
+  MPI_Bcast(&status, 1, MPI_INT, 0, lmp->world);
+  if (status)
+    lmp->error->all(FLERR, "{}: parameter file not found or unreadable: {}", who, path);
+  int length = static_cast<int>(text.size());
+  MPI_Bcast(&length, 1, MPI_INT, 0, lmp->world);
+  text.resize(length);
+  MPI_Bcast(&text[0], length, MPI_CHAR, 0, lmp->world);
+  return text;
+}
+
+// Every rank parses the same text with the Python load_params rules and messages.
+inline geocontact::LawParams parse_law(LAMMPS *lmp, const std::string &text,
+                                       const std::string &source, const std::string &who)
+{
+  geocontact::LawParams params;
+  try {
+    params = geocontact::parse_params(text, source);
+  } catch (const geocontact::InputError &e) {
+    lmp->error->all(FLERR, "{}: {}", who, e.what());
+  }
+  return params;
+}
+
+}  // namespace geocontact_forces
+}  // namespace LAMMPS_NS
+
+#endif

@@ -1,0 +1,584 @@
+// fix wall/geocontact (see fix_wall_geocontact.h and examples/lammps/README.md "Walls").
+#include "fix_wall_geocontact.h"
+
+#include "contact_forces.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "input.h"
+#include "memory.h"
+#include "modify.h"
+#include "neighbor.h"
+#include "update.h"
+#include "utils.h"
+#include "variable.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+using namespace LAMMPS_NS;
+using namespace LAMMPS_NS::geocontact_forces;
+using namespace FixConst;
+
+namespace {
+
+constexpr double kDefaultFriction = 0.5;
+constexpr double kPi = 3.14159265358979323846;
+constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
+constexpr const char *kUsage =
+    "fix ID group wall/geocontact P.json [friction mu] [damping beta] "
+    "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
+    "position v_name]";
+
+}  // namespace
+
+FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), friction_(kDefaultFriction), damping_(0.0), wallstyle_(ZPLANE),
+    lo_(0.0), hi_(0.0), cylinder_radius_(0.0), motion_(STATIC), wiggle_axis_(2),
+    amplitude_(0.0), angular_frequency_(0.0), velocity_(0.0), ivariable_(-1),
+    last_position_(0.0), position_velocity_(0.0), last_position_step_(-1),
+    forgotten_dissipated_(0.0), totals_current_(false), unreadable_restart_(false),
+    unreadable_tag_(0), unreadable_walls_(0)
+{
+  if (narg < 5) error->all(FLERR, "Illegal fix wall/geocontact command: {}", kUsage);
+  if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
+    error->all(FLERR, "Fix wall/geocontact requires atom style sphere (per-atom radius, mass, "
+                      "angular velocity and torque); current atom style is {}",
+               atom->atom_style);
+
+  law_ = parse_law(lmp, read_text_collective(lmp, arg[3], "Fix wall/geocontact"), arg[3],
+                   "Fix wall/geocontact");
+
+  int iarg = 4;
+  while (iarg < narg && (strcmp(arg[iarg], "friction") == 0 ||
+                         strcmp(arg[iarg], "damping") == 0)) {
+    if (iarg + 1 >= narg)
+      error->all(FLERR, "Fix wall/geocontact: keyword '{}' needs a value", arg[iarg]);
+    const double value = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    if (value < 0.0)
+      error->all(FLERR, "Fix wall/geocontact: {} must be >= 0, got {}", arg[iarg], value);
+    (strcmp(arg[iarg], "friction") == 0 ? friction_ : damping_) = value;
+    iarg += 2;
+  }
+  parse_wall(iarg, narg, arg);
+  parse_motion(iarg, narg, arg);
+
+  const int *periodic = domain->periodicity;
+  if (wallstyle_ <= ZPLANE && periodic[wallstyle_])
+    error->all(FLERR, "Fix wall/geocontact: {} wall in a periodic dimension",
+               kWallNames[wallstyle_]);
+  if (wallstyle_ == ZCYLINDER && (periodic[0] || periodic[1]))
+    error->all(FLERR, "Fix wall/geocontact: zcylinder needs non-periodic x and y");
+
+  vector_flag = 1;
+  size_vector = G_COUNT;
+  global_freq = 1;
+  extvector = 1;
+  peratom_flag = 1;
+  size_peratom_cols = static_cast<int>(sides_.size()) * kOutputColumns;
+  peratom_freq = 1;
+  restart_global = 1;
+  restart_peratom = 1;
+  create_attribute = 1;
+  dynamic_group_allow = 1;
+  if (motion_ != STATIC) time_depend = 1;
+  maxexchange = static_cast<int>(sides_.size()) * kRecordSize;
+  for (int k = 0; k < G_COUNT; ++k) tally_[k] = totals_[k] = 0.0;
+  time_origin_ = update->ntimestep;
+
+  array_atom = nullptr;
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+  for (int i = 0; i < atom->nlocal; ++i) set_arrays(i);
+}
+
+FixWallGeocontact::~FixWallGeocontact()
+{
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  memory->destroy(array_atom);
+}
+
+// xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
+void FixWallGeocontact::parse_wall(int &iarg, int narg, char **arg)
+{
+  if (iarg >= narg)
+    error->all(FLERR, "Fix wall/geocontact: no wall given (xplane, yplane, zplane or "
+                      "zcylinder): {}", kUsage);
+  const std::string style = arg[iarg];
+  if (style == "xplane" || style == "yplane" || style == "zplane") {
+    wallstyle_ = style[0] - 'x';
+    if (iarg + 2 >= narg)
+      error->all(FLERR, "Fix wall/geocontact: {} needs lo and hi (NULL for no wall)", style);
+    const bool has_lo = strcmp(arg[iarg + 1], "NULL") != 0;
+    const bool has_hi = strcmp(arg[iarg + 2], "NULL") != 0;
+    if (has_lo) lo_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    if (has_hi) hi_ = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+    if (!has_lo && !has_hi)
+      error->all(FLERR, "Fix wall/geocontact: {} NULL NULL has no wall", style);
+    if (has_lo && has_hi && lo_ > hi_)
+      error->all(FLERR, "Fix wall/geocontact: {} lo ({}) must not be above hi ({})", style,
+                 lo_, hi_);
+    if (has_lo) sides_.push_back(LO);
+    if (has_hi) sides_.push_back(HI);
+    iarg += 3;
+  } else if (style == "zcylinder") {
+    wallstyle_ = ZCYLINDER;
+    if (iarg + 1 >= narg) error->all(FLERR, "Fix wall/geocontact: zcylinder needs a radius R");
+    cylinder_radius_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    if (!(cylinder_radius_ > 0.0))
+      error->all(FLERR, "Fix wall/geocontact: zcylinder radius must be > 0, got {}",
+                 cylinder_radius_);
+    sides_.push_back(CYLINDER);
+    iarg += 2;
+  } else {
+    error->all(FLERR, "Fix wall/geocontact: unknown keyword '{}' (allowed: friction, damping, "
+                      "xplane, yplane, zplane, zcylinder)", style);
+  }
+}
+
+// wiggle dim A period | velocity v | position v_name (at most one)
+void FixWallGeocontact::parse_motion(int &iarg, int narg, char **arg)
+{
+  while (iarg < narg) {
+    const std::string key = arg[iarg];
+    if (key != "wiggle" && key != "velocity" && key != "position")
+      error->all(FLERR, "Fix wall/geocontact: unknown keyword '{}' (allowed after the wall: "
+                        "wiggle, velocity, position)", key);
+    if (motion_ != STATIC)
+      error->all(FLERR, "Fix wall/geocontact: '{}' after another wall motion (one of wiggle, "
+                        "velocity, position)", key);
+    if (key == "wiggle") {
+      if (iarg + 3 >= narg)
+        error->all(FLERR, "Fix wall/geocontact: wiggle needs dim amplitude period");
+      const std::string dim = arg[iarg + 1];
+      if (dim != "x" && dim != "y" && dim != "z")
+        error->all(FLERR, "Fix wall/geocontact: wiggle dim must be x, y or z, got '{}'", dim);
+      wiggle_axis_ = dim[0] - 'x';
+      if (wallstyle_ == ZCYLINDER && wiggle_axis_ != 2)
+        error->all(FLERR, "Fix wall/geocontact: a zcylinder wiggles along z only, got '{}'",
+                   dim);
+      amplitude_ = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      const double period = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+      if (!(period > 0.0))
+        error->all(FLERR, "Fix wall/geocontact: wiggle period must be > 0, got {}", period);
+      angular_frequency_ = 2.0 * kPi / period;
+      motion_ = WIGGLE;
+      iarg += 4;
+    } else {
+      if (iarg + 1 >= narg)
+        error->all(FLERR, "Fix wall/geocontact: keyword '{}' needs a value", key);
+      if (key == "velocity") {
+        velocity_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+        motion_ = VELOCITY;
+      } else {
+        if (strncmp(arg[iarg + 1], "v_", 2) != 0)
+          error->all(FLERR, "Fix wall/geocontact: position needs an equal-style variable "
+                            "v_name, got '{}'", arg[iarg + 1]);
+        variable_ = arg[iarg + 1] + 2;
+        motion_ = POSITION;
+      }
+      iarg += 2;
+    }
+  }
+}
+
+int FixWallGeocontact::setmask()
+{
+  return POST_FORCE;
+}
+
+void FixWallGeocontact::init()
+{
+  if (motion_ == POSITION) {
+    ivariable_ = input->variable->find(variable_.c_str());
+    if (ivariable_ < 0)
+      error->all(FLERR, "Fix wall/geocontact: variable '{}' of position does not exist",
+                 variable_);
+    if (!input->variable->equalstyle(ivariable_))
+      error->all(FLERR, "Fix wall/geocontact: variable '{}' of position is not equal-style",
+                 variable_);
+  }
+  // A per-atom restart record this fix could not read: refused on every rank, the lowest rank
+  // that met one names it.
+  const int mine = unreadable_restart_ ? comm->me : comm->nprocs;
+  int first = comm->nprocs;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, world);
+  if (first < comm->nprocs) {
+    int64_t tag = unreadable_tag_;
+    int walls = unreadable_walls_;
+    MPI_Bcast(&tag, 1, MPI_INT64_T, first, world);
+    MPI_Bcast(&walls, 1, MPI_INT, first, world);
+    if ((tag & ~int64_t(0xffffffff)) != kAtomTagBase)
+      error->all(FLERR, "Fix wall/geocontact: the restart file's per-atom wall contacts have no "
+                        "wall/geocontact layout tag (0x{:016x}); this fix reads wall layout "
+                        "version {} only", static_cast<uint64_t>(tag), kRestartLayoutVersion);
+    if (tag != kAtomTag)
+      error->all(FLERR, "Fix wall/geocontact: the restart file's per-atom wall contacts have wall "
+                        "layout version {}; this fix reads wall layout version {} only",
+                 tag & 0xffffffff, kRestartLayoutVersion);
+    error->all(FLERR, "Fix wall/geocontact: the restart file's wall contacts are for {} wall(s), "
+                      "this fix {} has {}", walls, id, sides_.size());
+  }
+  check_atoms();
+}
+
+void FixWallGeocontact::check_atoms()
+{
+  const double *radius = atom->radius;
+  const int *mask = atom->mask;
+  tagint bad = -1;
+  double bad_radius = 0.0;
+  for (int i = 0; i < atom->nlocal && bad < 0; ++i)
+    if ((mask[i] & groupbit) && !(radius[i] > 0.0)) {
+      bad = atom->tag[i];
+      bad_radius = radius[i];
+    }
+  tagint any = -1;
+  MPI_Allreduce(&bad, &any, 1, MPI_LMP_TAGINT, MPI_MAX, world);
+  if (any < 0) return;
+  double r = any == bad ? bad_radius : -INFINITY, rall = 0.0;
+  MPI_Allreduce(&r, &rall, 1, MPI_DOUBLE, MPI_MAX, world);
+  error->all(FLERR, "Fix wall/geocontact: atom {} has radius {} m; every grain needs a radius "
+                    "> 0 (set diameter)", any, rall);
+}
+
+void FixWallGeocontact::setup(int vflag)
+{
+  post_force(vflag);
+}
+
+// Displacement of the wall along its normal (planes; the radius of a cylinder) or along the
+// wiggle axis, and its velocity, at the current step.
+double FixWallGeocontact::wall_displacement(double &velocity)
+{
+  const double t = static_cast<double>(update->ntimestep - time_origin_) * update->dt;
+  velocity = 0.0;
+  if (motion_ == WIGGLE) {
+    const double phase = angular_frequency_ * t;
+    velocity = amplitude_ * angular_frequency_ * std::sin(phase);
+    return amplitude_ - amplitude_ * std::cos(phase);  // starts at rest at its given place
+  }
+  if (motion_ == VELOCITY) {
+    velocity = velocity_;
+    return velocity_ * t;
+  }
+  if (motion_ == POSITION) {
+    modify->clearstep_compute();
+    const double position = input->variable->compute_equal(ivariable_);
+    modify->addstep_compute(update->ntimestep + 1);
+    // the velocity from the last two steps at which the wall was placed (0 before there are two)
+    const bigint step = update->ntimestep;
+    if (step != last_position_step_) {
+      if (last_position_step_ >= 0)
+        position_velocity_ = (position - last_position_) /
+            (static_cast<double>(step - last_position_step_) * update->dt);
+      last_position_ = position;
+      last_position_step_ = step;
+    }
+    velocity = position_velocity_;
+    return position;
+  }
+  return 0.0;
+}
+
+void FixWallGeocontact::post_force(int /*vflag*/)
+{
+  // During setup the forces are evaluated but the history is not advanced (as fix wall/gran):
+  // the first step of the run then moves from the stored state.
+  const bool commit = !update->setupflag;
+  const double dt = update->dt;
+  const double skin = neighbor->skin;
+  const double calibrated_radius = law_.material.radius;
+
+  double wall_velocity = 0.0;
+  const double shift = wall_displacement(wall_velocity);
+  // the wall's velocity: along the wiggle axis, or along the plane's normal axis
+  double vwall[3] = {0.0, 0.0, 0.0};
+  double lo = lo_, hi = hi_, cylinder = cylinder_radius_;
+  const int normal_axis = wallstyle_ <= ZPLANE ? wallstyle_ : -1;
+  if (motion_ == WIGGLE) {
+    vwall[wiggle_axis_] = wall_velocity;
+    if (wiggle_axis_ == normal_axis) {
+      lo += shift;
+      hi += shift;
+    }
+  } else if (motion_ != STATIC) {
+    if (normal_axis >= 0) {
+      vwall[normal_axis] = wall_velocity;
+      lo += shift;
+      hi += shift;
+    } else {
+      cylinder += shift;  // the radius grows at wall_velocity (radial, set per contact)
+    }
+  }
+
+  double **x = atom->x;
+  double **v = atom->v;
+  double **f = atom->f;
+  double **omega = atom->omega;
+  double **torque = atom->torque;
+  const double *radius = atom->radius;
+  const double *rmass = atom->rmass;
+  const int *mask = atom->mask;
+  const int nlocal = atom->nlocal;
+  const int nwalls = static_cast<int>(sides_.size());
+  const double no_spin[3] = {0.0, 0.0, 0.0};
+
+  for (int k = 0; k < G_COUNT; ++k) tally_[k] = 0.0;
+  tally_[G_DISSIPATED] = forgotten_dissipated_;
+  totals_current_ = false;
+
+  for (int i = 0; i < nlocal; ++i) {
+    double *out = array_atom[i];
+    for (int c = 0; c < size_peratom_cols; ++c) out[c] = 0.0;
+    if (!(mask[i] & groupbit)) continue;
+    for (int w = 0; w < nwalls; ++w, out += kOutputColumns) {
+      // distance from the wall to the centre, and the unit normal from the wall to the grain
+      double distance, n[3] = {0.0, 0.0, 0.0};
+      double vw[3] = {vwall[0], vwall[1], vwall[2]};
+      if (sides_[w] == LO) {
+        distance = x[i][normal_axis] - lo;
+        n[normal_axis] = 1.0;
+      } else if (sides_[w] == HI) {
+        distance = hi - x[i][normal_axis];
+        n[normal_axis] = -1.0;
+      } else {
+        const double rho = std::sqrt(x[i][0] * x[i][0] + x[i][1] * x[i][1]);
+        if (!(rho > 0.0)) continue;  // on the axis: no direction to the wall
+        distance = cylinder - rho;
+        n[0] = -x[i][0] / rho;
+        n[1] = -x[i][1] / rho;
+        if (motion_ == VELOCITY || motion_ == POSITION)
+          for (int c = 0; c < 2; ++c) vw[c] = -wall_velocity * n[c];
+      }
+      const double interference = radius[i] - distance;
+      WallRecord &stored = records_[static_cast<size_t>(i) * nwalls + w];
+      if (!stored.active && interference <= 0.0) continue;  // apart, never touched
+      const double scale = radius[i] / calibrated_radius;
+      const double energy_scale = 0.5 * scale * scale * scale;  // F(w) = F_pair(2 w): half
+      if (stored.active && interference < -skin) {
+        // left the wall by more than the skin: forgotten, as a pair leaving the neighbor list
+        if (commit) {
+          forgotten_dissipated_ += energy_scale * geocontact::dissipated_energy(law_, stored.law);
+          tally_[G_DISSIPATED] = forgotten_dissipated_;
+          set_arrays(i);
+        }
+        continue;
+      }
+
+      // the stored record itself when the step commits (most calls), a scratch copy in setup
+      WallRecord scratch;
+      WallRecord &rec = commit ? stored : (scratch = stored);
+      if (!rec.active) {
+        rec.law = geocontact::ContactState();
+        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+        rec.active = 1;
+      }
+      const geocontact::StepResult res =
+          geocontact::step(law_, rec.law, 2.0 * interference / scale);
+      const double law_force = scale * scale * res.force;
+      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0};
+      if (law_force > 0.0) {
+        const ContactFrame frame = contact_frame(n, v[i], vw, omega[i], no_spin, radius[i], 0.0);
+        const ContactStiffness stiffness = wall_contact_stiffness(law_, rec.law, scale);
+        const Damping damping = damping_coefficients(damping_, rmass[i], stiffness);
+        fn = damped_normal_force(law_force, damping.normal, frame.vn);
+        if (friction_ > 0.0)
+          tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
+                           friction_, fn, dt);
+      } else {
+        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+      }
+
+      const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
+      const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
+                             n[0] * ft[1] - n[1] * ft[0]};
+      for (int c = 0; c < 3; ++c) {
+        f[i][c] += fc[c];
+        torque[i][c] -= radius[i] * tor[c];
+        tally_[GF_X + c] -= fc[c];  // the grain pushes the wall the other way
+      }
+      const geocontact::ContactState &st = rec.law;
+      const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
+      tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
+      tally_[G_ELASTIC] += stored_energy;
+      if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
+      // the state's approaches are the pair's in the calibrated units: w = s d / 2
+      const double half_scale = 0.5 * scale;
+      out[0] = interference;
+      out[1] = scale * scale * st.force;
+      out[2] = std::sqrt(dot3(rec.tangential, rec.tangential));
+      out[3] = half_scale * (st.max_approach + st.ratchet_shift);
+      out[4] = half_scale * (st.residual_approach + st.ratchet_shift);
+      out[5] = st.branch;
+    }
+  }
+}
+
+double FixWallGeocontact::compute_vector(int n)
+{
+  if (!totals_current_) {
+    MPI_Allreduce(tally_, totals_, G_COUNT, MPI_DOUBLE, MPI_SUM, world);
+    totals_current_ = true;
+  }
+  return totals_[n];
+}
+
+// --- per-atom storage: exchange, sorting, restart ---------------------------------------------
+
+void FixWallGeocontact::grow_arrays(int nmax)
+{
+  const size_t nwalls = sides_.size();
+  if (records_.size() < static_cast<size_t>(nmax) * nwalls)
+    records_.resize(static_cast<size_t>(nmax) * nwalls);
+  memory->grow(array_atom, nmax, size_peratom_cols, "wall/geocontact:array_atom");
+}
+
+void FixWallGeocontact::copy_arrays(int i, int j, int /*delflag*/)
+{
+  const size_t nwalls = sides_.size();
+  std::copy_n(records_.begin() + i * nwalls, nwalls, records_.begin() + j * nwalls);
+  for (int c = 0; c < size_peratom_cols; ++c) array_atom[j][c] = array_atom[i][c];
+}
+
+void FixWallGeocontact::set_arrays(int i)
+{
+  const size_t nwalls = sides_.size();
+  for (size_t w = 0; w < nwalls; ++w) {
+    WallRecord &r = records_[i * nwalls + w];
+    r.law = geocontact::ContactState();
+    r.tangential[0] = r.tangential[1] = r.tangential[2] = 0.0;
+    r.active = 0;
+  }
+  for (int c = 0; c < size_peratom_cols; ++c) array_atom[i][c] = 0.0;
+}
+
+int FixWallGeocontact::pack_record(const WallRecord &r, double *buf)
+{
+  int m = pack_state(r.law, buf);
+  buf[m++] = r.tangential[0];
+  buf[m++] = r.tangential[1];
+  buf[m++] = r.tangential[2];
+  buf[m++] = r.active;
+  return m;
+}
+
+int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf)
+{
+  int m = unpack_state(r.law, buf);
+  r.tangential[0] = buf[m++];
+  r.tangential[1] = buf[m++];
+  r.tangential[2] = buf[m++];
+  r.active = static_cast<int>(buf[m++]);
+  return m;
+}
+
+int FixWallGeocontact::pack_exchange(int i, double *buf)
+{
+  const size_t nwalls = sides_.size();
+  int m = 0;
+  for (size_t w = 0; w < nwalls; ++w) m += pack_record(records_[i * nwalls + w], buf + m);
+  return m;
+}
+
+int FixWallGeocontact::unpack_exchange(int nlocal, double *buf)
+{
+  grow_arrays(nlocal + 1);
+  const size_t nwalls = sides_.size();
+  int m = 0;
+  for (size_t w = 0; w < nwalls; ++w) m += unpack_record(records_[nlocal * nwalls + w], buf + m);
+  return m;
+}
+
+// Per atom: [length, layout tag, walls, records]; buf[0] counts itself.
+int FixWallGeocontact::pack_restart(int i, double *buf)
+{
+  buf[1] = ubuf(kAtomTag).d;
+  buf[2] = static_cast<double>(sides_.size());
+  int m = kAtomHeader;
+  m += pack_exchange(i, buf + m);
+  buf[0] = m;
+  return m;
+}
+
+// A record of another layout or wall count is never unpacked: the atom is left without wall
+// contacts and init() refuses the run on every rank.
+void FixWallGeocontact::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
+  grow_arrays(nlocal + 1);
+  set_arrays(nlocal);
+  const double *record = &extra[nlocal][m];
+  const int64_t tag = ubuf(record[1]).i;
+  const int walls = tag == kAtomTag ? static_cast<int>(record[2]) : -1;
+  const int length = static_cast<int>(record[0]);
+  if (walls != static_cast<int>(sides_.size()) || length != size_restart(nlocal)) {
+    if (!unreadable_restart_) {
+      unreadable_tag_ = tag;
+      unreadable_walls_ = walls;
+    }
+    unreadable_restart_ = true;
+    return;
+  }
+  unpack_exchange(nlocal, const_cast<double *>(record + kAtomHeader));
+}
+
+int FixWallGeocontact::size_restart(int /*i*/)
+{
+  return kAtomHeader + static_cast<int>(sides_.size()) * kRecordSize;
+}
+
+int FixWallGeocontact::maxsize_restart()
+{
+  return size_restart(0);
+}
+
+// Global: the wall's clock and position variable, so a moving wall continues where it was, and
+// the energy dissipated by contacts already forgotten (summed over ranks).
+void FixWallGeocontact::write_restart(FILE *fp)
+{
+  double forgotten = 0.0;
+  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
+  if (comm->me != 0) return;
+  const double data[kGlobalSize] = {ubuf(kGlobalTag).d,
+                                    static_cast<double>(time_origin_),
+                                    last_position_,
+                                    position_velocity_,
+                                    static_cast<double>(last_position_step_),
+                                    forgotten,
+                                    static_cast<double>(sides_.size())};
+  const int size = kGlobalSize * sizeof(double);
+  fwrite(&size, sizeof(int), 1, fp);
+  fwrite(data, sizeof(double), kGlobalSize, fp);
+}
+
+void FixWallGeocontact::restart(char *buf)
+{
+  double data[kGlobalSize];
+  memcpy(data, buf, sizeof(data));
+  const int64_t tag = ubuf(data[0]).i;
+  if (tag != kGlobalTag)
+    error->all(FLERR, "Fix wall/geocontact: the restart file's global wall data has {} (tag "
+                      "0x{:016x}); this fix reads wall layout version {} only",
+               (tag & ~int64_t(0xffffffff)) == (kGlobalTag & ~int64_t(0xffffffff))
+                   ? "another layout version" : "no wall/geocontact layout tag",
+               static_cast<uint64_t>(tag), kRestartLayoutVersion);
+  time_origin_ = static_cast<bigint>(data[1]);
+  last_position_ = data[2];
+  position_velocity_ = data[3];
+  last_position_step_ = static_cast<bigint>(data[4]);
+  forgotten_dissipated_ = comm->me == 0 ? data[5] : 0.0;
+}
+
+double FixWallGeocontact::memory_usage()
+{
+  return static_cast<double>(records_.capacity()) * sizeof(WallRecord) +
+      static_cast<double>(atom->nmax) * size_peratom_cols * sizeof(double);
+}

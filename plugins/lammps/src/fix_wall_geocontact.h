@@ -1,0 +1,125 @@
+// fix wall/geocontact: rigid walls for grains with the geocontact law, in the manner of LAMMPS's
+// fix wall/gran (examples/lammps/README.md "Walls").
+//
+//   fix ID group wall/geocontact P.json [friction mu] [damping beta] wallstyle args [motion]
+//     wallstyle: xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
+//     motion:    wiggle dim A period | velocity v | position v_name
+//
+// A grain of radius r = s R (R the file's radius) at wall interference w feels the ball-wall
+// law of the FE half model (SPEC 10): F = s^2 F_R(2 w / s), the pair law of two identical
+// spheres of radius r at approach d = 2 w, with all its history rules; the same Mindlin-Coulomb
+// tangential force and damping as the pair style (contact_forces.h), with the sphere-flat
+// stiffnesses (twice the pair's, the same contact radius). One contact record per wall per atom
+// (law state, tangential force) travels with the atom between ranks and into restart files.
+//
+// Output: global vector [1-3] force of the grains on the wall (N), [4] energy the law dissipated
+// at the wall (J, contacts since the fix was defined), [5] stored elastic energy (J), [6] number
+// of wall contacts; per-atom array, kOutputColumns per wall (lo wall first): interference w (m),
+// normal force (N), |tangential force| (N), max interference (m), residual interference (m),
+// branch of the law.
+#ifdef FIX_CLASS
+// clang-format off
+FixStyle(wall/geocontact,FixWallGeocontact);
+// clang-format on
+#else
+
+#ifndef LMP_FIX_WALL_GEOCONTACT_H
+#define LMP_FIX_WALL_GEOCONTACT_H
+
+#include "fix.h"
+#include "geocontact/law.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class FixWallGeocontact : public Fix {
+ public:
+  // doubles per wall record: 13 law slots, 3 tangential components, the active flag
+  static constexpr int kRecordSize = 17;
+  static constexpr int kOutputColumns = 6;
+  // Restart layouts, bumped whenever a packed record changes: per atom [length, tag, walls,
+  // records], the tag "GCWA" in the high and the version in the low 32 bits; global [tag
+  // "GCWG" + version, time origin, wall position and velocity of the position variable and its
+  // step, dissipated energy of forgotten contacts, walls].
+  static constexpr int kRestartLayoutVersion = 1;
+  static constexpr int64_t kAtomTagBase = static_cast<int64_t>(0x41574347) << 32;
+  static constexpr int64_t kAtomTag = kAtomTagBase | kRestartLayoutVersion;
+  static constexpr int64_t kGlobalTag = (static_cast<int64_t>(0x47574347) << 32) |
+      kRestartLayoutVersion;
+  static constexpr int kAtomHeader = 3;
+  static constexpr int kGlobalSize = 7;
+
+  FixWallGeocontact(class LAMMPS *, int, char **);
+  ~FixWallGeocontact() override;
+  int setmask() override;
+  void init() override;
+  void setup(int) override;
+  void post_force(int) override;
+  double compute_vector(int) override;
+
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+  double memory_usage() override;
+
+ private:
+  enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3 };
+  enum Motion { STATIC, WIGGLE, VELOCITY, POSITION };
+  enum Side { LO, HI, CYLINDER };
+  enum Global { GF_X, GF_Y, GF_Z, G_DISSIPATED, G_ELASTIC, G_CONTACTS, G_COUNT };
+
+  struct WallRecord {
+    geocontact::ContactState law;  // in the calibrated spheres' units, at d = 2 w / s
+    double tangential[3];          // accumulated tangential force on the atom (N)
+    int active;                    // 1 while the atom is within the skin of the wall
+  };
+
+  void parse_wall(int &iarg, int narg, char **arg);
+  void parse_motion(int &iarg, int narg, char **arg);
+  double wall_displacement(double &velocity);
+  void check_atoms();
+  static int pack_record(const WallRecord &r, double *buf);
+  static int unpack_record(WallRecord &r, const double *buf);
+
+  geocontact::LawParams law_;
+  double friction_, damping_;
+  int wallstyle_;
+  double lo_, hi_, cylinder_radius_;
+  std::vector<int> sides_;  // the walls of this fix: LO, HI (planes) or CYLINDER
+
+  int motion_;
+  int wiggle_axis_;
+  double amplitude_, angular_frequency_, velocity_;
+  std::string variable_;
+  int ivariable_;
+  bigint time_origin_;
+  // the position variable's last value, the wall velocity from it, and their step
+  double last_position_, position_velocity_;
+  bigint last_position_step_;
+
+  std::vector<WallRecord> records_;  // sides_.size() per atom, local index major
+  double forgotten_dissipated_;      // this rank's share: contacts dropped beyond the skin
+  double tally_[G_COUNT];            // this rank's sums at the last post_force
+  double totals_[G_COUNT];
+  bool totals_current_;
+
+  bool unreadable_restart_;
+  int64_t unreadable_tag_;
+  int unreadable_walls_;
+};
+
+}  // namespace LAMMPS_NS
+
+#endif
+#endif
