@@ -6,32 +6,17 @@ the pair time is LAMMPS's own timing breakdown (max over ranks) over the timed s
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
-import tempfile
 from pathlib import Path
 
-from common import ROOT, record
+from common import record, run_mpi_driver
 
 DRIVER = Path(__file__).with_name("lammps_driver.py")
 
 
 def measure(pair: str, ranks: int, cells: int, steps: int) -> dict | str:
-    mpiexec = Path(sys.executable).with_name("mpiexec")
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "result.json"
-        env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "OMP_NUM_THREADS": "1"}
-        run = subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(DRIVER),
-                              "--pair", pair, "--cells", str(cells), "--steps", str(steps),
-                              "--out", str(out)], env=env, cwd=tmp, capture_output=True,
-                             text=True, timeout=3600)
-        if run.returncode != 0 or not out.exists():
-            errors = [line for line in run.stderr.splitlines() if "ERROR" in line]
-            return errors[-1].strip() if errors else f"exit status {run.returncode}"
-        return json.loads(out.read_text())
+    return run_mpi_driver(DRIVER, ranks, ["--pair", pair, "--cells", str(cells),
+                                          "--steps", str(steps)])
 
 
 def repeated(pair: str, ranks: int, cells: int, steps: int, repeats: int) -> dict | str:

@@ -9,33 +9,19 @@ lammps_wall_driver.py."""
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-from common import ROOT, record
+from common import record, run_mpi_driver
 
 DRIVER = Path(__file__).with_name("lammps_wall_driver.py")
 PEER = "wall_gran_hertz_material"
 
 
 def measure(wall: str, ranks: int, side: int, steps: int) -> dict | str:
-    mpiexec = Path(sys.executable).with_name("mpiexec")
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "result.json"
-        env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "OMP_NUM_THREADS": "1"}
-        run = subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(DRIVER),
-                              "--wall", wall, "--side", str(side), "--steps", str(steps),
-                              "--out", str(out)], env=env, cwd=tmp, capture_output=True,
-                             text=True, timeout=3600)
-        if run.returncode != 0 or not out.exists():
-            errors = [line for line in run.stderr.splitlines() if "ERROR" in line]
-            return errors[-1].strip() if errors else f"exit status {run.returncode}"
-        return json.loads(out.read_text())
+    return run_mpi_driver(DRIVER, ranks, ["--wall", wall, "--side", str(side),
+                                          "--steps", str(steps)])
 
 
 def median_cost(wall: str, ranks: int, side: int, steps: int, repeats: int) -> dict:

@@ -58,3 +58,23 @@ def write_table() -> None:
              "| --- | --- | --- | --- | --- | --- |\n" + "\n".join(rows[k] for k in sorted(rows))
              + "\n")
     write_text_atomic(DOC, head + table)  # the table ends the page
+
+
+def run_mpi_driver(driver: Path, ranks: int, args: list[str]) -> dict | str:
+    """Run a LAMMPS driver script under ``mpiexec -n ranks`` (one OpenMP thread) in a temporary
+    folder; its JSON result, or the last LAMMPS ERROR line (or exit status) as text."""
+    import subprocess
+    import sys
+    import tempfile
+
+    mpiexec = Path(sys.executable).with_name("mpiexec")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "result.json"
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "OMP_NUM_THREADS": "1"}
+        run = subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(driver),
+                              *args, "--out", str(out)], env=env, cwd=tmp,
+                             capture_output=True, text=True, timeout=3600)
+        if run.returncode != 0 or not out.exists():
+            errors = [line for line in run.stderr.splitlines() if "ERROR" in line]
+            return errors[-1].strip() if errors else f"exit status {run.returncode}"
+        return json.loads(out.read_text())

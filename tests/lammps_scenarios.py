@@ -31,6 +31,22 @@ RADIUS = json.loads(PARAMS_FILE.read_text())["material"]["radius"]
 YIELD_APPROACH = json.loads(PARAMS_FILE.read_text())["yield"]["approach_m"]
 DENSITY = 2650.0
 
+
+def run_scenario(ranks: int, *args: str) -> dict:
+    """Run this script under ``mpiexec -n ranks`` (the venv's, from the mpich wheel) in a
+    temporary folder; returns rank 0's JSON result."""
+    import os
+    import subprocess
+    import tempfile
+
+    mpiexec = Path(sys.executable).with_name("mpiexec")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "result.json"
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+        subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(Path(__file__)),
+                        *args, "--out", str(out)], check=True, env=env, timeout=600, cwd=tmp)
+        return json.loads(out.read_text())
+
 # Packing: cells per side, time step, steps per leg, wall displacement of each leg's end (m).
 CELLS = 8
 TIMESTEP = 3e-4

@@ -418,23 +418,9 @@ def test_unlike_types_with_different_files_need_an_explicit_pair_coeff():
 
 # --- MPI: packing on 1 and 2 ranks, migration, restart -------------------------------------
 
-SCENARIOS = Path(__file__).with_name("lammps_scenarios.py")
 
 
-def run_scenario(ranks: int, *args: str) -> dict:
-    import json
-    import os
-    import subprocess
-    import sys
-    import tempfile
-
-    mpiexec = Path(sys.executable).with_name("mpiexec")
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "result.json"
-        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-        subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(SCENARIOS), *args,
-                        "--out", str(out)], check=True, env=env, timeout=600, cwd=tmp)
-        return json.loads(out.read_text())
+run_scenario = scenarios.run_scenario
 
 
 def test_contact_history_survives_migration_between_ranks():

@@ -9,6 +9,7 @@ import math
 import struct
 from pathlib import Path
 
+import lammps_scenarios as scenarios
 import numpy as np
 import pytest
 
@@ -476,23 +477,9 @@ def test_a_restart_of_another_layout_or_wall_count_is_refused(tmp_path, edit, fi
 
 # --- MPI: 1 and 2 ranks, migration, restart across rank counts -----------------------------
 
-def run_scenario(ranks: int, *args: str) -> dict:
-    import json
-    import os
-    import subprocess
-    import sys
-    import tempfile
-
-    mpiexec = Path(sys.executable).with_name("mpiexec")
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "result.json"
-        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-        subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(SCENARIOS), *args,
-                        "--out", str(out)], check=True, env=env, timeout=600, cwd=tmp)
-        return json.loads(out.read_text())
+run_scenario = scenarios.run_scenario
 
 
-SCENARIOS = Path(__file__).with_name("lammps_scenarios.py")
 
 
 def test_wall_contacts_cross_ranks_and_restart_on_another_rank_count(tmp_path):
