@@ -4,7 +4,7 @@ The law is approach-driven (what DEM needs); the paper's experiments are force-c
 driver walks each monotone segment of a piecewise-linear force history in approach, finding the
 approach of each force target by bisection on a copy of the contact state (the force is
 monotone along any branch while the approach moves one way). The ratchet of the cyclic extension
-is a creep at constant force F_max; a force-controlled reload to F_max goes through all of it.
+is a creep at constant force in the envelope band; a force-controlled reload goes through all of it.
 """
 
 from __future__ import annotations
@@ -67,10 +67,10 @@ def drive_by_force(params: LawParams, forces: list[float], points: int = 60) -> 
                 path_d.append(d)
                 path_f.append(contact.state.force)
                 if contact.state.branch == RATCHET:
-                    # at F_max the ratchet creeps at constant force: under force control the
-                    # whole creep happens at this target (bisection stops at its start)
+                    # in the envelope band the ratchet creeps at constant force: under force
+                    # control the whole creep happens at this target (bisection stops in it)
                     s = contact.state
-                    d = s.max_approach + s.pending_ratchet + s.ratchet_shift
+                    d = s.approach + s.pending_ratchet
                     contact.update(d)
                     path_d.append(d)
                     path_f.append(contact.state.force)

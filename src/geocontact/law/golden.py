@@ -9,7 +9,8 @@ JSON file that the C++ test (``plugins/lammps/tests/test_golden.cpp``) replays. 
 Never edit the output by hand. Each case embeds its parameter document, so the file is
 self-contained. The history families cover what a DEM contact meets: random walks with
 separation and re-contact, partial reversals at every depth, deep plastic excursions beyond
-the fully plastic approach, and many cycles to one peak with the cyclic (ratchet) extension on.
+the fully plastic approach, many cycles to one peak with the cyclic (ratchet) extension on, and
+repeated cycles to the envelope point itself, exact or jittered by 1e-9 (the envelope band).
 """
 
 from __future__ import annotations
@@ -94,12 +95,52 @@ def _elastic(rng, dy):
     return _sample(rng, targets, 6)
 
 
+def _repeated_peaks(rng, law: LawParams):
+    """Repeated cycles to the envelope point itself, as a force-controlled test or a DEM contact
+    meets it: each reload ends at the envelope point after its ratchet (found on a copy of the
+    contact), jittered by up to 1e-12 or 1e-9 relative, then unloads to separation (or to half
+    the peak). The cycle count must not depend on which side of the envelope point a peak lands.
+    (A peak exactly on the envelope point is a corner of the force curve: which one-sided slope
+    and branch label it gets is decided by the last bit of the ratchet shift, which the two
+    implementations may round differently; 1e-12 is thousands of bits away.)"""
+    dy = law.yield_approach
+    jitter = float(rng.choice([1e-12, 1e-9]))
+    contact = Contact(law)
+    path: list[float] = []
+
+    def leg(end: float) -> None:
+        start = path[-1] if path else 0.0
+        n = int(rng.integers(1, 4))
+        for k in range(n):
+            path.append(start + (end - start) * (k + 1) / n)
+            contact.update(path[-1])
+
+    leg(float(rng.uniform(2.0, 80.0)) * dy)
+    for _ in range(int(rng.integers(5, 25))):
+        s = contact.state
+        peak = s.max_approach + s.ratchet_shift
+        leg(peak * float(rng.choice([-0.01, 0.5])))
+        # where this reload's creep (if any) ends: step a copy into the envelope band
+        probe = copy.deepcopy(contact)
+        probe.update(probe.state.ratchet_shift + probe.state.max_approach * (1.0 - 1e-6))
+        t = probe.state
+        envelope = t.max_approach + t.ratchet_shift + t.pending_ratchet
+        leg(envelope * (1.0 + jitter * float(rng.uniform(-1.0, 1.0))))
+    leg(-0.01 * path[-1])
+    return path
+
+
+def _by_yield_approach(family):
+    return lambda rng, law: family(rng, law.yield_approach)
+
+
 FAMILIES = {
-    "random_walk": _random_walk,
-    "partial_reversals": _partial_reversals,
-    "deep_plastic": _deep_plastic,
-    "cycles": _cycles,
-    "elastic": _elastic,
+    "random_walk": _by_yield_approach(_random_walk),
+    "partial_reversals": _by_yield_approach(_partial_reversals),
+    "deep_plastic": _by_yield_approach(_deep_plastic),
+    "cycles": _by_yield_approach(_cycles),
+    "elastic": _by_yield_approach(_elastic),
+    "repeated_peaks": _repeated_peaks,
 }
 
 
@@ -136,7 +177,7 @@ def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dic
         law = LawParams.from_dict(doc)
         for family, make in FAMILIES.items():
             for k in range(n_per_family // len(variants)):
-                approaches = make(rng, law.yield_approach)
+                approaches = make(rng, law)
                 contact = Contact(law)
                 forces, stiffnesses, branches = [], [], []
                 for a in approaches:

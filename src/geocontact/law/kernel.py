@@ -42,7 +42,7 @@ class StateArrays:
     reloading_exponent: np.ndarray
     branch_value: np.ndarray  # A on unloading, k on reloading
     ratchet_shift: np.ndarray  # s (m)
-    pending_ratchet: np.ndarray  # increment this reload adds when it reaches F_max (m)
+    pending_ratchet: np.ndarray  # increment this reload adds in the envelope band (m)
     cycles: np.ndarray  # equivalent cycles at this envelope
     work: np.ndarray  # exact work of the force since the start (J)
     branch: np.ndarray  # int8: 0 apart, 1 virgin, 2 unloading, 3 reloading, 4 ratchet

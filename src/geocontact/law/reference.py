@@ -14,12 +14,21 @@ Branches and the partial-reversal rule (docs/law.md derives why it never creates
             force exactly at d_res, so the residual approach is that of the envelope.
 * RELOADING f = t^k, through the reversal point and (d_max, F_max): k = ln f_rev / ln t_rev,
             which lies in [n_r, n_u]; from full unloading k = n_r (the main reloading curve).
-* RATCHET   (cyclic extension only) at F_max the approach creeps by the cycle's increment of
-            residual approach before the virgin curve is rejoined, shifted by it.
+* RATCHET   (cyclic extension only) a reload that reaches the envelope band, t >= 1 - tol
+            (tol = cyclic.tolerance), creeps at the force it has there by the cycle's
+            increment of residual approach (the shift s grows, d' stays), then goes on along
+            the same reloading curve, shifted by it.
+
+The envelope band (docs/law.md, "Repeated cycles"): approaches within ``tol (d_max - d_res)`` of
+d_max are the envelope point to the cyclic extension. Reaching the band is a repeated cycle; an
+excursion beyond d_max grows the envelope as before, and restarts the count only once it is
+wider than the band (measured from where it left the old envelope, kept in ``branch_value``),
+so round-off and jitter (far below the band) change nothing and a real excursion restarts it.
 
 With ``E = F (d' - d_res) / (n_u + 1)`` (the energy unloading would give back), every step has
 dissipation ``F dd - dE >= 0``: zero on unloading, ``(n_u - k) F dd' / (n_u + 1)`` on reloading,
-the growth of the envelope's plastic work on virgin loading, ``F_max ds`` on a ratchet.
+the growth of the envelope's plastic work on virgin loading, ``F ds`` on a ratchet (d' and so E
+stay put while s grows).
 """
 
 from __future__ import annotations
@@ -46,9 +55,11 @@ class ContactState:
     unloading_exponent: float = HERTZ_EXPONENT
     reloading_exponent: float = HERTZ_EXPONENT
     branch: int = APART
-    branch_value: float = 0.0  # A on unloading, k on reloading
+    branch_value: float = 0.0  # A on unloading, k on reloading, on virgin the approach d' where
+    # the excursion beyond the old envelope started (m)
     ratchet_shift: float = 0.0  # s: accumulated ratchetting (m)
-    pending_ratchet: float = 0.0  # increment this reload will add when it reaches F_max (m)
+    pending_ratchet: float = 0.0  # increment this reload adds in the envelope band (m); the
+    # part still to creep while ratchetting
     cycles: float = 0.0  # equivalent cycles at the current envelope (depth-weighted)
     work: float = 0.0  # exact work of the force since the start (J)
 
@@ -84,9 +95,7 @@ class Contact:
             return 0.0
         if s.branch == UNLOADING:
             return s.branch_value * s.max_force * t**s.unloading_exponent
-        if s.branch == RELOADING:
-            return s.max_force * t**s.branch_value
-        return s.max_force  # RATCHET
+        return s.max_force * t**s.branch_value  # RELOADING, or RATCHET: creeping on it
 
     def _branch_exponent(self) -> float:
         s = self.state
@@ -108,6 +117,14 @@ class Contact:
                  else p.deep_plastic_exponent)
             return n * force / d
         return self._branch_exponent() * force / (d - s.residual_approach)
+
+    def _band(self) -> float:
+        """Width of the envelope band, tol (d_max - d_res): approaches closer to d_max are the
+        envelope point to the cyclic extension (zero without it or on an elastic envelope)."""
+        s, cyclic = self.state, self.params.cyclic
+        if not cyclic.enabled or self._elastic():
+            return 0.0
+        return cyclic.tolerance * (s.max_approach - s.residual_approach)
 
     def _set_envelope(self, max_approach: float) -> None:
         """Update F_max, d_res, n_u, n_r from the largest approach reached (SPEC 6)."""
@@ -143,10 +160,8 @@ class Contact:
     def _start_unloading(self, d: float) -> None:
         s = self.state
         if s.branch == RATCHET:
-            # Reversal while ratchetting: the creep so far becomes permanent.
-            s.ratchet_shift += d - s.max_approach
-            s.pending_ratchet = 0.0
-        if s.branch in (VIRGIN, RATCHET) or self._elastic():
+            s.pending_ratchet = 0.0  # reversal while ratchetting: the creep so far stays
+        if s.branch == VIRGIN or self._elastic():
             amplitude = 1.0
         else:
             t = self._normalised(d)
@@ -154,85 +169,95 @@ class Contact:
         s.branch, s.branch_value = UNLOADING, amplitude
 
     # --- one monotone move along the current branch ---------------------------------------
-    def _move(self, d: float, target: float) -> float:
+    def _move(self, d: float, target: float) -> tuple[float, float]:
         """Advance from shifted approach d toward target along the current branch, up to the
-        branch's end; accumulate the exact work and return where it stopped."""
+        branch's end; accumulate the exact work and return (d, target) where it stopped, in the
+        shifted coordinates after the move (a ratchet moves them)."""
         s = self.state
         up = target > d
         if s.branch == APART:
             contact_at = s.residual_approach
-            if not up:
-                return target
-            if target <= contact_at:
-                return target
+            if not up or target <= contact_at:
+                return target, target
             if s.max_approach == 0.0:
-                s.branch = VIRGIN
+                s.branch, s.branch_value = VIRGIN, 0.0
             else:
                 s.force = 0.0
                 self._start_reloading(contact_at)
-            return contact_at
+            return contact_at, target
         if s.branch == VIRGIN:
             if not up:
                 self._start_unloading(d)
-                return d
+                return d, target
             s.work += float(self.params.virgin_work(target) - self.params.virgin_work(d))
             self._set_envelope(target)
-            s.cycles = 1.0
-            return target
+            # an excursion (from branch_value, where it left the old envelope) wider than the
+            # band is a new envelope: the count restarts; within the band it is the same cycle
+            if target - s.branch_value > self._band():
+                s.cycles = 1.0
+            return target, target
         if s.branch == RATCHET:
             if not up:
-                self._start_unloading(d)  # moves the shift; update() re-bases d and target
-                return d
-            end = min(target, s.max_approach + s.pending_ratchet)
-            s.work += s.max_force * (end - d)
-            if end < s.max_approach + s.pending_ratchet:
-                return end
-            s.ratchet_shift += s.pending_ratchet
-            s.pending_ratchet = 0.0
-            s.branch = VIRGIN
-            return end  # in the old shifted coordinates; update() re-bases
+                self._start_unloading(d)
+                return d, target
+            # creep at constant force: s grows, d' stays (the work is F ds)
+            if target - d < s.pending_ratchet:  # the step ends inside the creep
+                creep, target = target - d, d
+            else:
+                creep, target = s.pending_ratchet, target - s.pending_ratchet
+                s.branch = RELOADING  # crept by the whole increment: reload on
+            s.work += s.force * creep
+            s.ratchet_shift += creep
+            s.pending_ratchet -= creep
+            if s.branch == RELOADING:
+                s.pending_ratchet = 0.0
+            return d, target
         # UNLOADING or RELOADING: F = C (d - base)^n, work = [F d - F d](base) / (n + 1)
         if up and s.branch == UNLOADING:
             if not self._elastic() and self._normalised(d) >= 1.0:
-                s.branch = VIRGIN  # reversed exactly at the envelope point: load on
+                # reversed exactly at the envelope point: load on
+                s.branch, s.branch_value = VIRGIN, d
             else:
                 self._start_reloading(d)
-            return d
+            return d, target
         if not up and s.branch == RELOADING:
             self._start_unloading(d)
-            return d
-        end = min(target, s.max_approach) if up else max(target, s.residual_approach)
+            return d, target
+        ratchets = up and s.pending_ratchet > 0.0
+        band_start = s.max_approach - self._band()
+        if ratchets and d >= band_start:
+            s.branch = RATCHET  # the reload starts inside the envelope band
+            return d, target
+        top = band_start if ratchets else s.max_approach
+        end = min(target, top) if up else max(target, s.residual_approach)
         base = 0.0 if self._elastic() else s.residual_approach
         n = self._branch_exponent()
         f_end = self._force_on_branch(end)
         s.work += (f_end * (end - base) - s.force * (d - base)) / (n + 1.0)
         s.force = f_end
-        if up and end >= s.max_approach:
-            s.branch = RATCHET if s.pending_ratchet > 0.0 else VIRGIN
+        if ratchets and end >= band_start:
+            s.branch = RATCHET
+        elif up and end >= s.max_approach:
+            s.branch, s.branch_value = VIRGIN, s.max_approach  # the excursion starts here
             s.force = s.max_force
         elif not up and end <= s.residual_approach:
             s.branch, s.force = APART, 0.0
-        return end
+        return end, target
 
     def update(self, approach: float) -> tuple[float, float]:
         """Advance to a new approach; return (force N, tangent stiffness dF/d(approach) N/m)."""
         if not math.isfinite(approach):
             raise InputError(f"approach: must be a finite number of metres, got {approach}")
         s = self.state
-        shift = s.ratchet_shift
-        d, target = s.approach - shift, approach - shift
+        d, target = s.approach - s.ratchet_shift, approach - s.ratchet_shift
         for _ in range(16):  # a step crosses at most a few branch ends
             if d == target:
                 break
-            d = self._move(d, target)
-            if s.ratchet_shift != shift:  # a ratchet moved the shifted coordinates
-                d += shift - s.ratchet_shift
-                target += shift - s.ratchet_shift
-                shift = s.ratchet_shift
+            d, target = self._move(d, target)
         else:  # pragma: no cover - guards a logic error, never expected
             raise RuntimeError("law: step did not terminate")
         s.approach = float(approach)
-        s.force = float(self._force_on_branch(target)) if s.branch != RATCHET else s.max_force
+        s.force = float(self._force_on_branch(target))
         return s.force, self._stiffness(target, s.force)
 
     # --- energies ---------------------------------------------------------------------------

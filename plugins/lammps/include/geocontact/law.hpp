@@ -231,9 +231,11 @@ struct ContactState {
   double residual_approach = 0.0;  // delta_res, shifted coordinates (m)
   double unloading_exponent = kHertzExponent;
   double reloading_exponent = kHertzExponent;
-  double branch_value = 0.0;     // A on unloading, k on reloading
+  double branch_value = 0.0;     // A on unloading, k on reloading, on virgin the approach d'
+                                 // where the excursion beyond the old envelope started (m)
   double ratchet_shift = 0.0;    // s (m)
-  double pending_ratchet = 0.0;  // increment this reload adds when it reaches F_max (m)
+  double pending_ratchet = 0.0;  // increment this reload adds in the envelope band; while
+                                 // ratchetting, the part still to creep (m)
   double cycles = 0.0;           // equivalent cycles at this envelope (depth-weighted)
   double work = 0.0;             // exact work of the force since the start (J)
   int branch = APART;
@@ -256,6 +258,15 @@ inline double pending_ratchet(const LawParams &p, double depth, double cycles,
   const double ratio = p.cyclic.residual_ratio_coefficient *
       std::pow(cycles, -p.cyclic.residual_ratio_power);
   return ratio >= p.cyclic.tolerance ? depth * ratio * residual_approach : 0.0;
+}
+
+// Width of the envelope band, tol (d_max - d_res): approaches closer to d_max are the envelope
+// point to the cyclic extension (docs/law.md, "Repeated cycles"); zero without the extension or
+// on an elastic envelope.
+inline double envelope_band(const LawParams &p, double dmax, double dres)
+{
+  if (!p.cyclic.enabled || dmax <= p.yield_approach) return 0.0;
+  return p.cyclic.tolerance * (dmax - dres);
 }
 
 }  // namespace detail
@@ -288,6 +299,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       }
       if (dmax == 0.0) {
         b = VIRGIN;
+        bval = 0.0;
       } else {
         // re-contact: reload from full unloading (depth 1) along the main reloading curve
         force = 0.0;
@@ -317,38 +329,43 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * target;
       nu = kHertzExponent * std::exp(p.unloading_power * lx);
       nr = std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
-      cycles = 1.0;
+      // an excursion (from bval, where it left the old envelope) wider than the band is a new
+      // envelope: the count restarts; within the band it is the same cycle
+      if (target - bval > detail::envelope_band(p, dmax, dres)) cycles = 1.0;
       d = target;
       continue;
     }
     if (b == RATCHET) {
       if (!up) {
-        // a reversal during the creep keeps the creep done so far
-        shift += d - dmax;
+        // a reversal during the creep keeps the creep done so far (already in the shift):
+        // the unloading curve through this point of the reloading curve
         pending = 0.0;
+        const double t = (d - dres) / (dmax - dres);
+        bval = (force / fmax) / std::pow(t, nu);
         b = UNLOADING;
-        bval = 1.0;
-        target -= d - dmax;
-        d = dmax;
         continue;
       }
-      const double end = std::min(target, dmax + pending);
-      work += fmax * (end - d);
-      if (end < dmax + pending) {
-        d = end;
-        continue;
+      // creep at constant force: the shift grows, d' stays (the work is F ds)
+      double creep;
+      if (target - d < pending) {  // the step ends inside the creep
+        creep = target - d;
+        target = d;
+      } else {  // crept by the whole increment: reload on
+        creep = pending;
+        target -= pending;
+        b = RELOADING;
       }
-      shift += pending;
-      target -= pending;
-      pending = 0.0;
-      b = VIRGIN;
-      d = dmax;
+      work += force * creep;
+      shift += creep;
+      pending -= creep;
+      if (b == RELOADING) pending = 0.0;
       continue;
     }
     if (up && b == UNLOADING) {
       // reversal from unloading: the reloading curve through this point and (dmax, Fmax)
       if (!elastic && (d - dres) >= (dmax - dres)) {
         b = VIRGIN;  // reversed exactly at the envelope point: load on
+        bval = d;
         continue;
       }
       double depth, expo;
@@ -384,7 +401,14 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       continue;
     }
     // move along UNLOADING / RELOADING: F = C (d - base)^n, exact work [F (d - base)] / (n + 1)
-    const double end = up ? std::min(target, dmax) : std::max(target, dres);
+    const bool ratchets = up && pending > 0.0;
+    const double band_start = dmax - detail::envelope_band(p, dmax, dres);
+    if (ratchets && d >= band_start) {
+      b = RATCHET;  // the reload starts inside the envelope band
+      continue;
+    }
+    const double top = ratchets ? band_start : dmax;
+    const double end = up ? std::min(target, top) : std::max(target, dres);
     const double base = elastic ? 0.0 : dres;
     double expo, f_end;
     if (elastic) {
@@ -402,8 +426,11 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
     }
     work += (f_end * (end - base) - force * (d - base)) / (expo + 1.0);
     force = f_end;
-    if (up && end >= dmax) {
-      b = pending > 0.0 ? RATCHET : VIRGIN;
+    if (ratchets && end >= band_start) {
+      b = RATCHET;
+    } else if (up && end >= dmax) {
+      b = VIRGIN;
+      bval = dmax;  // the excursion starts here
       force = fmax;
     } else if (!up && end <= dres) {
       b = APART;
@@ -421,7 +448,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
     stiff = target <= dy ? kHertzExponent * kh * std::sqrt(target)  // Hertz: 2 E* a
                          : p.virgin_exponent(target) * force / target;
   } else if (b == RATCHET) {
-    force = fmax;
+    // creeping at the force of its point of the reloading curve: no stiffness
   } else if (dmax <= dy) {
     stiff = kHertzExponent * kh * std::sqrt(target);
   } else if (force > 0.0) {
