@@ -239,7 +239,7 @@ def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
     When the run does not support a decaying power law (the residual increments do not fall
     with N: the history ratchets, or too few cycles), the cyclic extension stays disabled and
     the provenance says why; the analysis is recorded either way."""
-    from ..cycles import analyse, ratchetting_cycles, with_cyclic
+    from ..cyclic_fit import analyse, ratchetting_cycles, with_cyclic
 
     analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
     info = {"history_forces_N": list(job.forces), "mesh": job.mesh, "cache_key": job.key(),
