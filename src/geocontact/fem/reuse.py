@@ -32,7 +32,7 @@ from ..errors import InputError
 from ..force_history import validate_forces
 from ..material import Material
 from .mesh import mesh_preset
-from .run import (
+from .result import (
     CURVE_COLUMNS,
     STEPS_PER_SEGMENT,
     TOLERANCE,
@@ -47,8 +47,9 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/run.py",
-              "fem/solver.py", "force_history.py", "hertz.py", "material.py", "resolution.py")
+FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/result.py",
+              "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py", "material.py",
+              "resolution.py")
 
 
 @functools.cache

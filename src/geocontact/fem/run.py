@@ -18,7 +18,6 @@ import math
 import shutil
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -54,20 +53,17 @@ from .mesh import (
     mesh_preset,
 )
 from .plasticity import APEX, ELASTIC
+from .result import (  # noqa: F401  (re-exported: the FE run's settings and result)
+    CURVE_COLUMNS,
+    STEPS_PER_SEGMENT,
+    TOLERANCE,
+    VOLUMETRIC,
+    VOLUMETRIC_DEFAULT,
+    FemResult,
+)
 from .solver import ContactSolver, State
 
-CURVE_COLUMNS = (
-    "step", "force_N", "approach_m", "contact_radius_m", "plastic_dissipation_J",
-    "elastic_energy_J", "work_J", "peak_pressure_Pa", "plastic_points", "iterations",
-    "yielded_contact_fraction", "yielded_core_fraction",
-)
-# Load steps per monotonic segment of the history, by mesh preset.
-STEPS_PER_SEGMENT = {"coarse": 12, "default": 24, "fine": 40}
 MAX_CUTBACKS = 8
-# Treatment of the volumetric strain of the P2 element (B-bar projection per element).
-VOLUMETRIC = {"bbar-p1": (True, 1), "bbar-p0": (True, 0), "full": (False, 0)}
-VOLUMETRIC_DEFAULT = "bbar-p1"
-TOLERANCE = 1e-8  # Newton tolerance, relative to the force scale (ContactSolver)
 PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC section 2)
 # Fully plastic onset Fp (SPEC section 4): the first load at which FULLY_PLASTIC_FRACTION of the
 # core of the contact area, the disc r < FULLY_PLASTIC_CORE * a, is yielding at the surface.
@@ -81,14 +77,6 @@ PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC se
 # fine one; with 0.8 a it is 23 % off, and over the whole contact area it does not converge.
 FULLY_PLASTIC_FRACTION = 0.95
 FULLY_PLASTIC_CORE = 0.7
-
-
-@dataclass
-class FemResult:
-    curve: dict[str, np.ndarray]
-    summary: dict[str, Any]
-    states: list[State] = field(default_factory=list, repr=False)  # converged states (opt.)
-    solver: ContactSolver | None = field(default=None, repr=False)
 
 
 # --- sizing ------------------------------------------------------------------------------------
