@@ -4,7 +4,7 @@ Runs repeated (10 x 3000 N), monotonically decreasing (3000 -> 100 N) and monoto
 increasing (100 -> 3000 N) histories for sigma_c = 10 MPa (preset ``reference``) and 1 MPa
 (``reference-weak``), and the repeated history for a von Mises grain of the same strength
 (``reference-von-mises``), as one FE campaign cached in ``out/cache/fem``; analyses every run
-with ``geocontact.cycles``; writes to ``out/paper-histories/``:
+with ``geocontact.analyses.cycles``; writes to ``out/paper-histories/``:
 
 * ``<run>.json`` - the run's inputs, FE summary and cycle analysis; ``cycles.csv`` - every cycle
   of every run;
@@ -25,7 +25,9 @@ import sys
 import time
 from pathlib import Path
 
-from geocontact.cycles import with_cyclic
+from geocontact.analyses.cycles import with_cyclic
+from geocontact.analyses.paper_histories import format_value as fmt
+from geocontact.analyses.paper_histories import run_paper_histories, write_study
 from geocontact.errors import InputError
 from geocontact.io import (
     atomic_directory,
@@ -35,8 +37,6 @@ from geocontact.io import (
     write_text_atomic,
 )
 from geocontact.law import load_params
-from geocontact.paper_histories import format_value as fmt
-from geocontact.paper_histories import run_paper_histories, write_study
 
 ROOT = Path(__file__).resolve().parents[1]
 CALIBRATED = {"reference": ROOT / "examples" / "params-reference.json",

@@ -160,7 +160,7 @@ def test_bad_arguments_are_one_line_too(capsys):
 def test_sweep_named_twice_is_run_once(tmp_path, monkeypatch):
     """--sweeps E,E listed every point twice: the stiffness trend read as non-monotone and the
     paper's statements as disagreements."""
-    import geocontact.sweeps as sweeps
+    import geocontact.analyses.sweeps as sweeps
     from geocontact.fem.run import FemResult
     from geocontact.hertz import hertz_coefficient
 
@@ -190,7 +190,7 @@ def test_sweep_named_twice_is_run_once(tmp_path, monkeypatch):
 
 
 def test_sweep_definition_with_a_repeated_point_is_rejected():
-    from geocontact.sweeps import load_sweeps
+    from geocontact.analyses.sweeps import load_sweeps
 
     text = ('base = "reference"\npeak_force = 6000.0\nconstant_tolerance = 0.1\n'
             '[sweep.E]\nparameter = "youngs_modulus"\nlabel = "E"\nscale = 1e-9\n'
@@ -222,7 +222,7 @@ def chain_spectral_radius(spheres: int, dt: float, zeta: float, mass=1.0, k=1.0)
 
 @pytest.mark.parametrize("spheres", [1, 2, 5, 12])
 def test_critical_time_step_is_the_linearised_columns_stability_limit(spheres):
-    from geocontact.seismic.column import critical_time_step
+    from geocontact.analyses.seismic.column import critical_time_step
 
     dt = critical_time_step(1.0, 1.0, spheres)
     assert chain_spectral_radius(spheres, 0.999 * dt, 0.0) <= 1.0 + 1e-9
@@ -235,8 +235,8 @@ def test_critical_time_step_is_the_linearised_columns_stability_limit(spheres):
 
 
 def test_column_rejects_a_time_step_above_the_stability_limit():
+    from geocontact.analyses.seismic.column import Column, ColumnModel, law_contacts
     from geocontact.law.illustrative import illustrative_params
-    from geocontact.seismic.column import Column, ColumnModel, law_contacts
 
     params = illustrative_params(preset("reference"))
     model = ColumnModel(5, params.material.radius, 2650.0)
@@ -324,7 +324,7 @@ def test_forces_beyond_what_the_fe_mesh_resolves(tmp_path, capsys):
 
 
 def test_seismic_density_range():
-    from geocontact.seismic.column import ColumnModel
+    from geocontact.analyses.seismic.column import ColumnModel
 
     # 1e-300 kg/m^3 ended in a ConvergenceError of the static column (exit 1)
     with pytest.raises(InputError, match=r"density: must be in \[1, 100000\] kg/m\^3"):
@@ -381,8 +381,8 @@ def test_seismic_aftershock_count(tmp_path, capsys):
 
 
 def test_column_refuses_a_run_of_too_many_steps():
+    from geocontact.analyses.seismic.column import Column, ColumnModel, law_contacts
     from geocontact.law.illustrative import illustrative_params
-    from geocontact.seismic.column import Column, ColumnModel, law_contacts
 
     params = illustrative_params(preset("reference"))
     column = Column(ColumnModel(2, params.material.radius, 2650.0), law_contacts(params),

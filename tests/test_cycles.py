@@ -1,5 +1,6 @@
-"""Cyclic-history analysis (geocontact.cycles): synthetic sequences with known answers, the law
-along paths, the cyclic parameter fit, and the ``geocontact cycles`` command on a short FE run."""
+"""Cyclic-history analysis (geocontact.analyses.cycles): synthetic sequences with known
+answers, the law along paths, the cyclic parameter fit, and the ``geocontact cycles`` command on
+a short FE run."""
 
 import json
 import math
@@ -8,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geocontact import cycles as cy
+from geocontact.analyses import cycles as cy
 from geocontact.errors import InputError
 from geocontact.law import load_params
 
@@ -141,7 +142,7 @@ def test_bad_inputs_give_one_line_errors():
 
 
 def test_shakedown_rule_is_the_seismic_one():
-    from geocontact.seismic import classify
+    from geocontact.analyses.seismic import classify
 
     assert classify.shakedown_rule is cy.shakedown_rule
     assert cy.shakedown_rule(0.2, 1.0, 0.0, 1.0, 0.05) == cy.RATCHETTING

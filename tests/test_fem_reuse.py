@@ -11,7 +11,7 @@ import pytest
 
 import geocontact.fem.reuse as reuse
 import geocontact.fem.run as fem_run
-from geocontact.cycles import run_cycles
+from geocontact.analyses.cycles import run_cycles
 from geocontact.fem.campaign import FemJob
 from geocontact.fem.reuse import LIBRARIES, FeRunIdentity, fe_code_hash, finished_run
 from geocontact.fem.run import (

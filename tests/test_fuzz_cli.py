@@ -59,9 +59,9 @@ def _stop(*args, **kwargs):
 @pytest.fixture
 def no_work(monkeypatch):
     """Stop a valid FE run at its mesh and a valid seismic run at its time integration."""
+    import geocontact.analyses.seismic.column as column
     import geocontact.calibrate.campaign as calibration
     import geocontact.fem.run as fem_run
-    import geocontact.seismic.column as column
 
     monkeypatch.setattr(fem_run, "history_mesh", _stop)
     monkeypatch.setattr(calibration, "run_campaign", _stop)

@@ -8,8 +8,8 @@ from conftest import YIELD_APPROACH, make_params
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from geocontact.analyses.force_driven import drive_by_force
 from geocontact.errors import InputError
-from geocontact.histories import drive_by_force
 from geocontact.law import Contact, ContactArrays, CyclicLaw, LawParams, force_history
 
 DY = YIELD_APPROACH

@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 
-from geocontact import cycles as cy
+from geocontact.analyses import cycles as cy
+from geocontact.analyses.paper_histories import EXTRA_TOLERANCES, PaperRun, paper_findings, study
 from geocontact.force_history import preset_history
 from geocontact.material import preset
-from geocontact.paper_histories import EXTRA_TOLERANCES, PaperRun, paper_findings, study
 
 
 def synthetic_run(name, history, material, increments, plastic_work, stiffening=0.0):
@@ -192,7 +192,7 @@ def test_report_shows_the_findings_table(paper_like, tmp_path):
 
 
 def test_write_study_writes_every_result_file(paper_like, tmp_path):
-    from geocontact.paper_histories import write_study
+    from geocontact.analyses.paper_histories import write_study
 
     findings, files = write_study(tmp_path / "study", paper_like, {"command": "test"})
     assert sorted(files) == sorted([f"{n}.json" for n in paper_like]
@@ -221,8 +221,8 @@ def test_increments_at_the_fe_resolution_mean_immediate_shakedown(paper_like):
 def test_report_leaves_out_statements_whose_runs_are_missing(paper_like, tmp_path):
     """A study of some of the runs (as the demo's): the report's table holds only what those
     runs decide, and one line names the runs (and the command) the other statements need."""
+    from geocontact.analyses.paper_histories import write_study
     from geocontact.io import provenance
-    from geocontact.paper_histories import write_study
     from geocontact.report_sections import build_report
 
     runs = {k: v for k, v in paper_like.items() if k.endswith("10MPa")}

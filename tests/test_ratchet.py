@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geocontact.histories import drive_by_force
+from geocontact.analyses.force_driven import drive_by_force
 from geocontact.law import Contact, ContactArrays, load_params
 
 ROOT = Path(__file__).resolve().parents[1]

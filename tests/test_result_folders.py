@@ -210,7 +210,7 @@ def test_fem_cli_refuses_a_users_folder_and_force_replaces_it(tmp_path, capsys, 
 
 
 def test_cycles_rerun_that_fails_leaves_the_old_analysis_whole(tmp_path, monkeypatch):
-    import geocontact.cycles as cycles
+    import geocontact.analyses.cycles as cycles
     from geocontact.material import preset
 
     material = preset("reference")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from geocontact.analyses.seismic import classify
 from geocontact.errors import InputError
-from geocontact.seismic import classify
 
 pytest.importorskip("rainflow")
 

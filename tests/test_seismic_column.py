@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from geocontact import preset
-from geocontact.errors import InputError
-from geocontact.law.illustrative import illustrative_params
-from geocontact.seismic.column import (
+from geocontact.analyses.seismic.column import (
     Column,
     ColumnModel,
     hertz_contacts,
     law_contacts,
     virgin_approach,
 )
+from geocontact.errors import InputError
+from geocontact.law.illustrative import illustrative_params
 
 PARAMS = illustrative_params(preset("reference"))
 MATERIAL = PARAMS.material

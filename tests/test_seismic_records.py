@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.constants import g as STANDARD_GRAVITY
 
+from geocontact.analyses.seismic import records
 from geocontact.errors import InputError
-from geocontact.seismic import records
 
 pytest.importorskip("eqsig")
 

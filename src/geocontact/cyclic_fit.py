@@ -4,7 +4,7 @@ cyclic extension fitted from it (SPEC sections 6-8; the paper's eqs. 17-20).
 
 Input is a list of cycles as the FE engine reports them (``summary["cycles"]``: a cycle runs from
 one zero-force waypoint through its peak to the next) or as the law reports them
-(``geocontact.cycles.law_cycles_by_force``, ``law_cycles_along_path``)::
+(``geocontact.analyses.cycles.law_cycles_by_force``, ``law_cycles_along_path``)::
 
     analysis = analyse(fe_result.summary["cycles"], tolerance=0.01, source="fe")
     analysis.state, analysis.critical_cycle, analysis.residual_fit.power
@@ -383,7 +383,7 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
     }
     prov = copy.deepcopy(params.provenance)
     prov["cyclic"] = {
-        "source": f"{analysis.source} cycles analysed by geocontact.cycles",
+        "source": f"{analysis.source} cycles analysed by geocontact.analyses.cycles",
         "cycles": len(analysis.cycles),
         "max_force_N": max(c["max_force_N"] for c in analysis.cycles),
         "critical_cycles": analysis.critical_cycles,

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
+from .analyses.force_driven import drive_by_force, preset_history
 from .fem.campaign import DEFAULT_CACHE
 from .hertz import incipient_yield
-from .histories import drive_by_force, preset_history
 from .io import atomic_directory, provenance, write_json_atomic
 from .material import preset
 from .report import Figure, save_figure, table
@@ -78,11 +78,11 @@ def run_demo(out: str | Path, progress=print, *, quick: bool = False,
 
 
 def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> None:
+    from .analyses.cycles import run_cycles
+    from .analyses.sweeps import run_sweeps
     from .calibrate.workflow import calibrate_to_file
-    from .cycles import run_cycles
     from .fem.run import run_history
     from .report_sections import build_report
-    from .sweeps import run_sweeps
 
     started = time.perf_counter()
     timings: dict[str, float] = {}
@@ -178,7 +178,7 @@ def _carry_over(previous: Path, target: Path) -> None:
 
 def _paper_findings(directory: Path, plan: Plan, cache: Path) -> dict:
     """A subset of the paper's loading-history study and its findings table."""
-    from .paper_histories import run_paper_histories, write_study
+    from .analyses.paper_histories import run_paper_histories, write_study
 
     runs = run_paper_histories(plan.cyclic_mesh, cache, steps_per_segment=plan.steps,
                                only=list(plan.paper_runs))
@@ -215,7 +215,7 @@ def _law_histories(params, directory: Path, summary: dict) -> list:
 def _seismic(params, directory: Path, progress) -> dict:
     """Kobe 1995 (FEMA P695, shipped offline) scaled to 3 m/s^2 under a column of grains, an
     aftershock after it (``geocontact seismic``)."""
-    from .seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
+    from .analyses.seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
 
     settings = Settings.from_defaults()
     result = run_seismic(params, EventSpec("KOBE/NIS000", settings.target_pga),

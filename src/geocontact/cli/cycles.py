@@ -40,7 +40,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..cycles import run_cycles
+    from ..analyses.cycles import run_cycles
     from ..errors import InputError
     from ..force_history import load_history
     from ..io import check_output_file

@@ -62,7 +62,7 @@ def _progress(message: str) -> None:
 
 
 def run(args) -> int:
-    from ..seismic import records
+    from ..analyses.seismic import records
 
     if args.list_records:
         rows = records.fema_p695_catalogue()
@@ -80,10 +80,10 @@ def run(args) -> int:
     if args.out is None:
         raise InputError("--out: missing (output directory)")
 
+    from ..analyses.seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
+    from ..analyses.seismic.column import MAX_AFTERSHOCKS, MAX_SPHERES
     from ..io import check_replaceable
     from ..law import load_params
-    from ..seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
-    from ..seismic.column import MAX_AFTERSHOCKS, MAX_SPHERES
 
     check_replaceable(args.out, "seismic", overwrite=args.force)  # before the run, not after
 

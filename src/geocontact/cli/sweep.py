@@ -27,7 +27,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..sweeps import run_sweeps
+    from ..analyses.sweeps import run_sweeps
 
     check_workers(args.workers)
     if args.scheduler is not None:

@@ -1,6 +1,10 @@
-"""Seismic and aftershock loading of a column of hysteretic contacts (SPEC section 8).
+"""Moved to ``geocontact.analyses.seismic``; this name (and its modules: ``records``,
+``analysis``, ``column``, ``classify``, ``figures``) keeps working for a while."""
 
-``records`` (acceleration records in) -> ``column`` (velocity-Verlet column of spheres on a moving
-base, the law at every contact) -> ``classify`` (rainflow loading-history class, shakedown state,
-the paper's peak-time-fraction rule) -> ``analysis`` (events, outputs, figures).
-"""
+import sys
+
+from ..analyses import seismic as _moved
+from ..analyses.seismic import analysis, classify, column, figures, records  # noqa: F401
+
+for _name in ("analysis", "classify", "column", "figures", "records"):
+    sys.modules[f"{__name__}.{_name}"] = getattr(_moved, _name)

@@ -40,8 +40,8 @@ from typing import Any
 import numpy as np
 from scipy.constants import g as STANDARD_GRAVITY
 
-from ..errors import ConvergenceError, InputError
-from ..material import finite_number
+from ...errors import ConvergenceError, InputError
+from ...material import finite_number
 
 ContactFactory = Callable[[int], Any]  # n -> an object with the ContactArrays interface
 # The paper's column has 5 spheres. The histories keep 4 values per contact and sample (force,
@@ -61,14 +61,14 @@ MAX_STEPS_PER_RUN = 10**8
 
 def law_contacts(params) -> ContactFactory:
     """Contacts of the hysteretic law of ``params`` (a :class:`~geocontact.law.LawParams`)."""
-    from ..law import ContactArrays
+    from ...law import ContactArrays
 
     return lambda n: ContactArrays(params, n)
 
 
 def hertz_contacts(material) -> ContactFactory:
     """Purely elastic Hertz contacts of ``material`` (no dissipation)."""
-    from ..law import ContactArrays
+    from ...law import ContactArrays
 
     return lambda n: ContactArrays.hertz(material, n)
 

@@ -21,8 +21,8 @@ classified:
 
 :func:`shakedown_state` reads what the law did rather than what the force did: the growth of the
 residual approach and of the dissipated energy in the second half of the significant cycles,
-relative to their growth over the whole history, by the rule of ``geocontact.cycles``
-(:func:`geocontact.cycles.shakedown_rule`; SPEC section 6: elastic shakedown when both stop,
+relative to their growth over the whole history, by the rule of ``geocontact.cyclic_fit``
+(:func:`geocontact.cyclic_fit.shakedown_rule`; SPEC section 6: elastic shakedown when both stop,
 plastic shakedown when only the residual approach stops, ratchetting when it keeps growing).
 """
 
@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from ...errors import InputError
+
 # The shakedown states and their rule are shared with the cyclic-history analysis.
 from ..cycles import (  # noqa: F401  (the states are re-exported for the seismic callers)
     ELASTIC,
@@ -41,7 +43,6 @@ from ..cycles import (  # noqa: F401  (the states are re-exported for the seismi
     RATCHETTING,
     shakedown_rule,
 )
-from ..errors import InputError
 
 DECREASING = "extended monotonically decreasing"
 REPEATED = "repeated"
