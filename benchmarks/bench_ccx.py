@@ -2,10 +2,10 @@
 
 Both codes get the same gmsh mesh (``fem.run.history_mesh``) and the same cycle: our FE is
 force-controlled 0 -> F -> 0 (F = 30 Fy); CalculiX is displacement-controlled 0 -> the largest
-approach our FE reached on that mesh -> 0 (``fem.ccx``: at F = 0 its penalty contact leaves the
-body free, so it cannot be force-controlled). Compared: the force-approach curve (loading and
-unloading branches, force difference at equal approach / F), the residual approach, wall and
-CPU time.
+approach our FE reached on that mesh -> 0 (``verification.ccx``: at F = 0 its penalty contact
+leaves the body free, so it cannot be force-controlled). Compared: the force-approach curve
+(loading and unloading branches, force difference at equal approach / F), the residual approach,
+wall and CPU time.
 
 "Equal accuracy": each code is also run on the next finer mesh preset, and its discretisation
 error on the coarser one is measured against its own finer run by the same two numbers (largest
@@ -21,10 +21,10 @@ import time
 import numpy as np
 from common import record
 
-from geocontact.fem.ccx import PENALTY_DEFAULT, AxisymmetricMesh, run_ccx
 from geocontact.fem.run import history_mesh, run_history
 from geocontact.hertz import incipient_yield
 from geocontact.material import preset
+from geocontact.verification.ccx import PENALTY_DEFAULT, AxisymmetricMesh, run_ccx
 
 FORCE_OVER_FY = 30.0
 INCREMENTS = 24  # CalculiX increments per step (loading, unloading): our default's steps/segment

@@ -4,8 +4,8 @@ SPEC section 5 verification: an elastic-perfectly plastic sphere (beta = 0, E/si
 nu = 0.3, the ``von-mises`` preset) pressed by a rigid flat from 1 to 50 critical interferences.
 The FE half model is exactly the fits' problem (one deformable sphere, rigid frictionless flat);
 its interference is the ball-wall one, omega = approach / 2. Each fit is normalised by its own
-critical interference and load (geocontact.fem.published_fits); the figure and the table use
-the Jackson-Green normalisation, the Kogut-Etsion curve is converted to it.
+critical interference and load (geocontact.verification.published_fits); the figure and the
+table use the Jackson-Green normalisation, the Kogut-Etsion curve is converted to it.
 
     PYTHONPATH=src .venv/bin/python scripts/verify_von_mises.py [--mesh default] [--steps 40]
 
@@ -20,11 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from geocontact.fem import published_fits as fits
 from geocontact.fem.run import run_history
 from geocontact.hertz import incipient_yield
 from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
 from geocontact.material import preset
+from geocontact.verification import published_fits as fits
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
 TABLE_AT = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0)  # omega / omega_c of the table

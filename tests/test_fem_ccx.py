@@ -1,4 +1,4 @@
-"""The CalculiX peer model (geocontact.fem.ccx): deck, .dat reader, residual approach; one
+"""The CalculiX peer model (geocontact.verification.ccx): deck, .dat reader, residual approach; one
 coarse ccx run when the ``ccx`` executable is installed (``make ccx``)."""
 
 import numpy as np
@@ -6,7 +6,9 @@ import pytest
 
 from geocontact import hertz
 from geocontact.errors import InputError
-from geocontact.fem.ccx import (
+from geocontact.fem.run import history_mesh
+from geocontact.material import preset
+from geocontact.verification.ccx import (
     SECTORS,
     AxisymmetricMesh,
     ccx_executable,
@@ -16,8 +18,6 @@ from geocontact.fem.ccx import (
     sphere_faces,
     write_deck,
 )
-from geocontact.fem.run import history_mesh
-from geocontact.material import preset
 
 VON_MISES = preset("von-mises")
 

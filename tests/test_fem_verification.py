@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from geocontact import hertz
-from geocontact.fem import published_fits as fits
 from geocontact.fem.run import FULLY_PLASTIC_FRACTION, fully_plastic_onset, run_history
 from geocontact.material import Material, preset
+from geocontact.verification import published_fits as fits
 
 
 def _drucker_prager(beta_deg):

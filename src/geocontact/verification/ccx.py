@@ -135,7 +135,8 @@ def write_deck(path: str | Path, material: Material, mesh: AxisymmetricMesh,
     eflat = len(tri) + 1
 
     hardening = material.hardening_modulus
-    lines = ["** geocontact.fem.ccx: hemisphere on a rigid frictionless flat (axisymmetric)",
+    lines = ["** geocontact.verification.ccx: hemisphere on a rigid frictionless flat "
+             "(axisymmetric)",
              "*NODE, NSET=NALL"]
     lines += [f"{i + 1}, {_num(x)}, {_num(y)}" for i, (x, y) in enumerate(points)]
     lines += [f"{k + 1}, {_num(x)}, {_num(y)}" for k, (x, y) in zip(flat, flat_xy, strict=True)]
