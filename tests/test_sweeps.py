@@ -39,7 +39,7 @@ def test_hardening_sweep_on_fe(tmp_path):
     assert verdicts[("peak_over_yield", "constant")]["agrees"]
     assert verdicts[("peak_over_yield", "constant")]["spread"] == pytest.approx(0.0, abs=1e-12)
     on_disk = json.loads((tmp_path / "sw" / "summary.json").read_text())
-    assert on_disk["schema"] == "geocontact.analyses.sweeps/1"
+    assert on_disk["schema"] == "geocontact.sweeps/1"
     assert on_disk["provenance"]["inputs"]["peak_force_N"] == 60.0
     assert (tmp_path / "sw" / "curves_m.csv").read_text().startswith("approach_over_max@0")
     assert main(["report", str(tmp_path / "sw")]) == 0

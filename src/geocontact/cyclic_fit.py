@@ -383,7 +383,7 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
     }
     prov = copy.deepcopy(params.provenance)
     prov["cyclic"] = {
-        "source": f"{analysis.source} cycles analysed by geocontact.analyses.cycles",
+        "source": f"{analysis.source} cycles analysed by geocontact.cycles",
         "cycles": len(analysis.cycles),
         "max_force_N": max(c["max_force_N"] for c in analysis.cycles),
         "critical_cycles": analysis.critical_cycles,

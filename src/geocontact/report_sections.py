@@ -6,7 +6,7 @@ Recognised, in DIR itself and in its immediate sub-directories:
 * an FE run (``curve.csv`` + ``summary.json`` with ``cycles``): force-approach curve, energies;
 * law parameters (``*.json`` with ``"schema": "geocontact.law/1"``): the law's curves, residual
   approach and plastic work against depth with the FE points it was fitted to;
-* material sweeps (``summary.json`` with ``"schema": "geocontact.analyses.sweeps/1"``);
+* material sweeps (``summary.json`` with ``"schema": "geocontact.sweeps/1"``);
 * a seismic run (``summary.json`` with ``events``; its own figures are embedded);
 * a cyclic-history run (``geocontact cycles``: ``summary.json`` with ``analyses``): the ratios of
   cycle N to cycle 1 with their power laws, the shakedown states and critical cycles.
@@ -314,7 +314,7 @@ def acceptance_section(report: Report, path: Path, root: Path) -> None:
 
 def is_sweeps(directory: Path) -> bool:
     s = _summary(directory)
-    return bool(s) and s.get("schema") == "geocontact.analyses.sweeps/1"
+    return bool(s) and s.get("schema") == "geocontact.sweeps/1"
 
 
 def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -> None:

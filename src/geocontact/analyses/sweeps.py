@@ -33,7 +33,7 @@ from ..hertz import incipient_yield
 from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
 from ..material import Material, preset
 
-SCHEMA = "geocontact.analyses.sweeps/1"
+SCHEMA = "geocontact.sweeps/1"
 QUANTITIES = ("secant_stiffness", "normalised_stiffness", "peak_over_yield", "residual_ratio",
               "plastic_work_ratio")
 TRENDS = ("increasing", "decreasing", "constant", "varies")
