@@ -15,7 +15,14 @@ $(PY):
 # nanobind, incrementally in build/python); a change of any of its sources reinstalls.
 CORE_SOURCES := CMakeLists.txt src/geocontact/law/_core.cpp $(wildcard plugins/lammps/include/geocontact/*.hpp)
 
-$(STAMP): pyproject.toml $(CORE_SOURCES) | $(PY)
+# The editable install maps the package's modules where it found them: a module added, moved or
+# turned into a package needs a reinstall. PY_FILES holds the list of them and changes (so the
+# stamp is stale) only when that list does.
+PY_FILES := $(VENV)/.python-files
+$(shell mkdir -p $(VENV) && find src/geocontact -name '*.py' | LC_ALL=C sort > $(PY_FILES).now \
+  && (cmp -s $(PY_FILES).now $(PY_FILES) || mv $(PY_FILES).now $(PY_FILES)); rm -f $(PY_FILES).now)
+
+$(STAMP): pyproject.toml $(CORE_SOURCES) $(PY_FILES) | $(PY)
 	$(PY) -m pip install -q -e ".[fem,campaign,seismic,test]"
 	touch $(STAMP)
 

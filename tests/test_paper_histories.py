@@ -223,7 +223,7 @@ def test_report_leaves_out_statements_whose_runs_are_missing(paper_like, tmp_pat
     runs decide, and one line names the runs (and the command) the other statements need."""
     from geocontact.analyses.paper_histories import write_study
     from geocontact.io import provenance
-    from geocontact.report_sections import build_report
+    from geocontact.report import build_report
 
     runs = {k: v for k, v in paper_like.items() if k.endswith("10MPa")}
     write_study(tmp_path, runs, provenance("test", {}))

@@ -82,7 +82,7 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
     from .analyses.sweeps import run_sweeps
     from .calibrate.workflow import calibrate_to_file
     from .fem.run import run_history
-    from .report_sections import build_report
+    from .report import build_report
 
     started = time.perf_counter()
     timings: dict[str, float] = {}

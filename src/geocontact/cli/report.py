@@ -20,7 +20,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..report_sections import build_report
+    from ..report import build_report
 
     path = build_report(args.directory, title=args.title, overwrite=args.force)
     print(f"report: {path}")

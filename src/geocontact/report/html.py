@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .io import atomic_path, write_csv  # noqa: E402
+from ..io import atomic_path, write_csv  # noqa: E402
 
 
 @dataclass
@@ -63,7 +63,7 @@ def render_html(report: Report, directory: Path, figures: Path | None = None) ->
     """The report as one self-contained HTML page. Images are read from ``directory`` (paths
     relative to it); those under ``figures/`` from ``figures`` when given (the figures folder
     being written beside it)."""
-    from . import __version__
+    from .. import __version__
 
     def image(rel: str) -> Path:
         head, _, rest = rel.partition("/")

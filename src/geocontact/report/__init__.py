@@ -1,0 +1,21 @@
+"""Self-contained HTML reports of run directories (``geocontact report DIR``): ``html`` (the page,
+its figures embedded, each figure's data as CSV beside it), one module per section (``fe``,
+``law``, ``sweeps``, ``seismic``, ``cycles``, ``paper_histories``) and ``build`` (which section
+each result gets)."""
+
+from .html import (  # noqa: F401
+    GENERATOR,
+    Figure,
+    Report,
+    is_our_report,
+    render_html,
+    save_figure,
+    table,
+)
+
+
+def build_report(*args, **kwargs):
+    """``report.build.build_report`` (imported on use: the sections need the analyses)."""
+    from .build import build_report as build
+
+    return build(*args, **kwargs)
