@@ -20,6 +20,7 @@ Writes docs/verification/mesh_resolution.{csv,md,json}.
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
@@ -98,7 +99,8 @@ def history_run(forces, mesh) -> dict:
             "warnings": result.summary["warnings"]}
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args(argv)  # --help
     started = time.perf_counter()
     rows = [row for preset in PRESETS for row in elastic_sweep(preset)]
     tables = {preset: binned([r for r in rows if r["preset"] == preset]) for preset in PRESETS}
