@@ -291,3 +291,21 @@ def test_sigterm_exits_143_and_keeps_the_checkpoint(tmp_path):
     assert main(cmd[3:] + ["--resume"]) == 0
     assert (out / "summary.json").exists() and not checkpoint.exists()
     assert json.loads((out / "summary.json").read_text())["cycles"][1]["max_force_N"] == 300.0
+
+
+def test_pending_fields_cleanup_touches_only_the_runs_files(tmp_path):
+    from geocontact.fem.checkpoint import remove_checkpoint
+
+    checkpoint = tmp_path / "run.checkpoint.npz"
+    checkpoint.write_bytes(b"x")
+    pending = tmp_path / "run.checkpoint.fields"
+    pending.mkdir()
+    (pending / "step_00007.vtu").write_text("ours")
+    (pending / f".step_00010.vtu.tmp-{_dead_pid()}-ab12.vtu").write_text("ours, half")
+    remove_checkpoint(checkpoint)
+    assert not checkpoint.exists() and not pending.exists()
+    pending.mkdir()
+    (pending / "step_00007.vtu").write_text("ours")
+    (pending / "my-notes.txt").write_text("the user's")
+    remove_checkpoint(checkpoint)
+    assert sorted(p.name for p in pending.iterdir()) == ["my-notes.txt"]

@@ -13,7 +13,7 @@ format, another run's) is reported in one line and the run starts over.
 from __future__ import annotations
 
 import json
-import shutil
+import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,10 +44,30 @@ def fields_beside(checkpoint: str | Path) -> Path:
     return checkpoint.with_name(checkpoint.name.removesuffix(".npz") + ".fields")
 
 
+def remove_pending_fields(folder: str | Path) -> None:
+    """Remove the pending ParaView files a run wrote (``step_NNNNN.vtu`` and their hidden
+    temporaries), and the folder if nothing else is left in it: a file the program did not
+    write there is never touched."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return
+    for entry in folder.iterdir():
+        if entry.is_file() and (_FIELD.match(entry.name) or _FIELD_TEMP.match(entry.name)):
+            entry.unlink(missing_ok=True)
+    try:
+        folder.rmdir()
+    except OSError:  # not empty: something of someone else's is in it
+        pass
+
+
 def remove_checkpoint(checkpoint: str | Path) -> None:
     """Remove a checkpoint and its pending ParaView files (once the result has landed)."""
     Path(checkpoint).unlink(missing_ok=True)
-    shutil.rmtree(fields_beside(checkpoint), ignore_errors=True)
+    remove_pending_fields(fields_beside(checkpoint))
+
+
+_FIELD = re.compile(r"^step_\d{5,}\.vtu$")
+_FIELD_TEMP = re.compile(r"^\.step_\d{5,}\.vtu\.tmp-\d+-\w+\.vtu$")
 
 
 def field_name(step: int) -> str:

@@ -41,6 +41,7 @@ from .checkpoint import (
     pending_fields_path,  # noqa: F401  (re-exported)
     read_checkpoint,
     remove_checkpoint,
+    remove_pending_fields,
     save_checkpoint,
     warn_checkpoint,
 )
@@ -443,7 +444,7 @@ def run_history(
                                min_force=smallest_resolved_force(material, sized_history, steps))
         solver = _solver(material, fe_mesh, identity)
         if pending is not None:
-            shutil.rmtree(pending, ignore_errors=True)  # files of an earlier, other run
+            remove_pending_fields(pending)  # files of an earlier, other run
     fe_mesh = solver.mesh
     run = _Run(solver, material)
 
