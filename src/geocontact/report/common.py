@@ -16,7 +16,7 @@ FIGURES = "figures"
 REPORT_HTML = "report.html"
 
 
-def _summary(directory: Path) -> dict | None:
+def read_summary(directory: Path) -> dict | None:
     path = directory / "summary.json"
     if not path.is_file():
         return None
@@ -26,7 +26,7 @@ def _summary(directory: Path) -> dict | None:
         raise InputError(f"{path}: malformed JSON: {exc}") from None
 
 
-def _save(fig, figures: Path, figure: Figure) -> Figure:
+def save_to_figures(fig, figures: Path, figure: Figure) -> Figure:
     """Save into DIR/figures/ and point the figure at it (paths relative to DIR)."""
     save_figure(fig, figures, figure)
     figure.image = f"{FIGURES}/{figure.name}.png"
@@ -35,7 +35,7 @@ def _save(fig, figures: Path, figure: Figure) -> Figure:
     return figure
 
 
-def _rel(directory: Path, root: Path) -> str:
+def relative_dir(directory: Path, root: Path) -> str:
     rel = directory.relative_to(root).as_posix()
     return "" if rel == "." else rel + "/"
 
@@ -67,7 +67,7 @@ def readable_log_ticks(ax) -> None:
             axis.set_minor_formatter(NullFormatter())
 
 
-def _toward(start: float, end: float, points: int, floor: float) -> np.ndarray:
+def toward(start: float, end: float, points: int, floor: float) -> np.ndarray:
     """From ``start`` to ``end``, dense on a log scale of the distance to ``end``
     (down to ``floor`` of the span): an unloading branch that vanishes at the residual
     approach as a power of the distance is then resolved to its end."""

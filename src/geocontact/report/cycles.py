@@ -11,9 +11,9 @@ from matplotlib.ticker import NullFormatter, ScalarFormatter
 
 from ..cyclic_fit import ROUND_OFF
 from .common import (
-    _rel,
-    _save,
-    _summary,
+    read_summary,
+    relative_dir,
+    save_to_figures,
 )
 from .html import Figure, Report, table
 
@@ -21,14 +21,14 @@ from .html import Figure, Report, table
 
 
 def is_cycles(directory: Path) -> bool:
-    s = _summary(directory)
+    s = read_summary(directory)
     return bool(s) and isinstance(s.get("analyses"), dict) and "fe" in s["analyses"]
 
 
 def cycles_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
     """Ratios of cycle N to cycle 1 on log axes with the fitted power laws, and the states."""
-    s = _summary(directory)
-    tag = (_rel(directory, root).strip("/").replace("/", "_") or "cycles") + "_cycles"
+    s = read_summary(directory)
+    tag = (relative_dir(directory, root).strip("/").replace("/", "_") or "cycles") + "_cycles"
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
     data: dict[str, np.ndarray] = {}
     rows = []
@@ -66,7 +66,7 @@ def cycles_section(report: Report, directory: Path, root: Path, figures: Path) -
     figure = Figure(f"{tag}_ratios", "Cycle N over cycle 1",
                     "Markers: measured (ratios below round-off, 1e-10, not shown); lines: "
                     "fitted power laws c N^-p; dotted: the tolerance.", data)
-    _save(fig, figures, figure)
-    report.add(f"Cyclic history {_rel(directory, root) or '.'}",
+    save_to_figures(fig, figures, figure)
+    report.add(f"Cyclic history {relative_dir(directory, root) or '.'}",
                table(["source", "cycles", "state", "eventual state", "Nc measured",
                       "Nc fitted", "tolerance"], rows), figure)

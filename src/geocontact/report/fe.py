@@ -14,9 +14,9 @@ from ..io import (
 from ..resolution import clean_fe_cycles, fe_summary_resolutions
 from ..resolution import note as resolution_note
 from .common import (
-    _rel,
-    _save,
-    _summary,
+    read_summary,
+    relative_dir,
+    save_to_figures,
 )
 from .html import Figure, Report, table
 
@@ -24,25 +24,26 @@ from .html import Figure, Report, table
 
 
 def is_fe_run(directory: Path) -> bool:
-    s = _summary(directory)
+    s = read_summary(directory)
     return bool(s) and "cycles" in s and "mesh" in s and (directory / "curve.csv").is_file()
 
 
 def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
-    s = _summary(directory)
+    s = read_summary(directory)
     col = {c: read_csv_column(directory / "curve.csv", c) for c in
            ("force_N", "approach_m", "work_J", "elastic_energy_J", "plastic_dissipation_J",
             "contact_radius_m")}
-    tag = _rel(directory, root).strip("/").replace("/", "_") or "fe"
+    tag = relative_dir(directory, root).strip("/").replace("/", "_") or "fe"
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(col["approach_m"] * 1e3, col["force_N"], lw=1.2)
     ax.set_xlabel("ball–ball approach (mm)")
     ax.set_ylabel("force (N)")
-    f1 = Figure(f"{tag}_force_approach", f"FE force–approach ({_rel(directory, root) or '.'})",
+    where = relative_dir(directory, root) or "."
+    f1 = Figure(f"{tag}_force_approach", f"FE force–approach ({where})",
                 f"{len(s['cycles'])} cycle(s), mesh {s['mesh'].get('preset', '?')} "
                 f"({s['mesh']['elements']} elements).",
                 {"approach_m": col["approach_m"], "force_N": col["force_N"]})
-    _save(fig, figures, f1)
+    save_to_figures(fig, figures, f1)
     fig, ax = plt.subplots(figsize=(6, 4))
     step = np.arange(len(col["work_J"]))
     balance = col["elastic_energy_J"] + col["plastic_dissipation_J"]
@@ -56,7 +57,7 @@ def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> No
                 "The work of the force against stored plus dissipated energy, step by step.",
                 {"step": step, "work_J": col["work_J"], "elastic_J": col["elastic_energy_J"],
                  "plastic_J": col["plastic_dissipation_J"]})
-    _save(fig, figures, f2)
+    save_to_figures(fig, figures, f2)
     resolutions = fe_summary_resolutions(s)
     cycles = clean_fe_cycles(s["cycles"], resolutions)
     rows = [[i + 1, c["max_force_N"], c["max_approach_m"] * 1e6,
@@ -64,7 +65,7 @@ def fe_section(report: Report, directory: Path, root: Path, figures: Path) -> No
              c["plastic_work_J"]] for i, c in enumerate(cycles)]
     fy, fp = s.get("first_yield_force_N"), s.get("fully_plastic_force_N")
     report.add(
-        f"FE run {_rel(directory, root) or '.'}",
+        f"FE run {relative_dir(directory, root) or '.'}",
         f"<p>First yield {'not reached' if fy is None else f'{fy:.4g} N'}; fully plastic "
         f"{'not reached' if fp is None else f'{fp:.4g} N'}; wall time "
         f"{s['wall_time_s']:.1f} s; version {s.get('version')}.</p>",

@@ -14,9 +14,9 @@ from ..errors import InputError
 from .common import (
     LOG_FLOOR,
     LOG_POINTS,
-    _save,
-    _toward,
     positive,
+    save_to_figures,
+    toward,
 )
 from .html import Figure, Report, table
 
@@ -53,10 +53,10 @@ def law_curves(params, depths) -> list[tuple]:
         fu = np.array([c.update(d)[0] for d in up])
         dres = c.state.residual_approach
         floor = min(1e-4, LOG_FLOOR * dy / dmax)
-        down = _toward(dmax, dres, LOG_POINTS, floor)
+        down = toward(dmax, dres, LOG_POINTS, floor)
         fd = np.array([c.update(d)[0] for d in down])
         c.update(dres)
-        again = np.concatenate([_toward(dmax, dres, LOG_POINTS, floor)[::-1],
+        again = np.concatenate([toward(dmax, dres, LOG_POINTS, floor)[::-1],
                                 np.geomspace(dmax, 1.2 * dmax, 40)[1:]])
         fr = np.array([c.update(d)[0] for d in again])
         curves.append((depth, up, fu, down, fd, again, fr))
@@ -96,7 +96,7 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
                 "(dotted)", "From several peak depths; reloading rejoins the virgin curve. "
                 "Every branch sampled on a log grid (loading from 0.001 δy: Hertz, slope 3/2, "
                 "below yield); points at zero force are not drawn on the log axes.", data)
-    _save(fig, figures, f1)
+    save_to_figures(fig, figures, f1)
 
     x = np.geomspace(1, max(1000.0, 1.5 * depth_max), 200)
     law_wp = params.envelope_plastic_work(x * dy) / params.virgin_work(x * dy)
@@ -120,7 +120,7 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
     f2 = Figure(f"{tag}_residual_work", "Residual approach and plastic work against depth",
                 "The law's forms" + (" against the FE levels they were fitted to." if per_level
                                      else " (no FE levels recorded in this file)."), data)
-    _save(fig, figures, f2)
+    save_to_figures(fig, figures, f2)
     rows = [[k, v] for k, v in (
         ("label", params.label), ("Fy (N)", fy), ("δy (µm)", dy * 1e6),
         ("n1", params.elastic_plastic_exponent), ("δp/δy", params.fully_plastic_approach_ratio),

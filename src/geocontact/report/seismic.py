@@ -7,8 +7,8 @@ from pathlib import Path
 
 from ..resolution import Resolution
 from .common import (
-    _rel,
-    _summary,
+    read_summary,
+    relative_dir,
 )
 from .html import Figure, Report, table
 
@@ -16,13 +16,13 @@ from .html import Figure, Report, table
 
 
 def is_seismic(directory: Path) -> bool:
-    s = _summary(directory)
+    s = read_summary(directory)
     return bool(s) and bool(s.get("events")) and "record" in s["events"][0]
 
 
 def seismic_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
-    s = _summary(directory)
-    rel = _rel(directory, root)
+    s = read_summary(directory)
+    rel = relative_dir(directory, root)
     items: list = []
     energy = (Resolution.from_dict(s["resolution"]["energy"]) if "resolution" in s
               else None)  # (a summary written before resolutions were recorded)

@@ -10,10 +10,10 @@ from ..io import (
     read_csv_column,
 )
 from .common import (
-    _save,
-    _summary,
     positive,
+    read_summary,
     readable_log_ticks,
+    save_to_figures,
 )
 from .html import Figure, Report, table
 
@@ -21,12 +21,12 @@ from .html import Figure, Report, table
 
 
 def is_sweeps(directory: Path) -> bool:
-    s = _summary(directory)
+    s = read_summary(directory)
     return bool(s) and s.get("schema") == "geocontact.sweeps/1"
 
 
 def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
-    s = _summary(directory)
+    s = read_summary(directory)
     items: list = [f"<p>One FE run 0 → {s['peak_force_N']:g} N → 0 per point, mesh "
                    f"<code>{s['mesh']}</code>, base material <code>{s['base']}</code>.</p>"]
     rows = []
@@ -59,7 +59,7 @@ def sweeps_section(report: Report, directory: Path, root: Path, figures: Path) -
                           "(left) and by incipient yield (right, log axes: the FE points with "
                           "δ > 0 and F > 0, so not the start of loading nor the end of "
                           "unloading).", data)
-        _save(fig, figures, fig_item)
+        save_to_figures(fig, figures, fig_item)
         items.append(fig_item)
         for st in entry["statements"]:
             rows.append([name, st["statement"], st["quantity"],
