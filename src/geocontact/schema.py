@@ -96,8 +96,11 @@ def check_number(where: str, value: Any, spec: dict[str, Any], scale: float = 1.
     bad_lo = lo is not None and (number <= lo if lo_open else number < lo)
     bad_hi = hi is not None and (number >= hi if hi_open else number > hi)
     if bad_lo or bad_hi:
-        rng = (f"{'(' if lo_open else '['}{'-inf' if lo is None else format(lo, 'g')}, "
-               f"{'inf' if hi is None else format(hi, 'g')}{')' if hi_open else ']'}")
+        # an unbounded side reads as open: (0, inf)
+        rng = (f"{'(' if lo_open or lo is None else '['}"
+               f"{'-inf' if lo is None else format(lo, 'g')}, "
+               f"{'inf' if hi is None else format(hi, 'g')}"
+               f"{')' if hi_open or hi is None else ']'}")
         unit = f" {spec['unit']}" if "unit" in spec else ""
         if "relative_to" in spec:
             low, _, high, _ = bounds(spec)

@@ -414,6 +414,4 @@ def load_params(path: str | Path) -> LawParams:
         ) from None
     except RecursionError:
         raise InputError(f"params: malformed JSON in {path}: nested too deeply") from None
-    if not isinstance(data, dict):
-        raise InputError(f"params: {path} must hold a JSON object")
     return LawParams.from_dict(data, source="params")

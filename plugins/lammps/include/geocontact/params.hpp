@@ -131,9 +131,10 @@ inline double check_number(const std::string &where, const json::Value &value,
     if (has(spec, "relative_to"))
       unit += " (" + bound_text(lo, 1.0, "-inf") + " to " + bound_text(hi, 1.0, "inf") + " x " +
               last_part(text_of(spec, "relative_to")) + ")";
-    throw InputError(where + ": must be in " + (lo_open ? "(" : "[") +
+    // an unbounded side reads as open: (0, inf)
+    throw InputError(where + ": must be in " + (lo_open || !lo ? "(" : "[") +
                      bound_text(lo, scale, "-inf") + ", " + bound_text(hi, scale, "inf") +
-                     (hi_open ? ")" : "]") + unit + ", got " + format_g(x));
+                     (hi_open || !hi ? ")" : "]") + unit + ", got " + format_g(x));
   }
   return x;
 }
