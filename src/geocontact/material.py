@@ -17,7 +17,6 @@ Presets live in ``geocontact/data/presets/*.toml`` (data, not code).
 from __future__ import annotations
 
 import math
-import numbers
 import tomllib
 from dataclasses import asdict, dataclass, replace
 from importlib import resources
@@ -27,6 +26,7 @@ from typing import Any
 from . import schema
 from .errors import InputError
 from .io import read_text_input
+from .schema import finite_number  # noqa: F401  (its home was here: the old name works)
 
 MATERIAL_KEYS = (
     "youngs_modulus",
@@ -38,21 +38,6 @@ MATERIAL_KEYS = (
 GEOMETRY_KEYS = ("radius",)
 # The allowed ranges (and why) are those of the law's parameter file, data/law-schema.json:
 # E in [1e3, 1e13] Pa, sigma_c / E in [1e-8, 1e6], tan(beta) < 3, R in [1e-9, 1e3] m.
-
-
-def finite_number(field: str, value: Any) -> float:
-    """``value`` as a float, or a one-line InputError naming ``field``: the one check of a
-    number read from a file (material, history, law parameters). A TOML/JSON ``true`` is not
-    a number (Python's bool is an int: it would silently read as 1)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{field}: expected a number, got {value!r}"[:200])
-    try:
-        number = float(value)
-    except OverflowError:  # an integer of hundreds of digits
-        number = math.inf
-    if not math.isfinite(number):
-        raise InputError(f"{field}: must be a finite number, got {number}")
-    return number
 
 
 @dataclass(frozen=True)

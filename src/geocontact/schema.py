@@ -81,17 +81,28 @@ def bounds(spec: dict[str, Any], scale: float = 1.0) -> tuple[float | None, bool
             hi_open)
 
 
-def check_number(where: str, value: Any, spec: dict[str, Any], scale: float = 1.0) -> float:
-    """``value`` as a float inside the field's range, or the one-line InputError naming
-    ``where``. ``scale``: the value of the field's ``relative_to`` field, if it has one."""
+def finite_number(field: str, value: Any) -> float:
+    """``value`` as a float, or a one-line InputError naming ``field``: the one check of a
+    number read from a file (material, history, law parameters). A TOML/JSON ``true`` is not
+    a number (Python's bool is an int: it would silently read as 1)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{where}: expected a number, got {kind_name(value)}")
+        raise InputError(f"{field}: expected a number, got {value!r}"[:200])
     try:
         number = float(value)
     except OverflowError:  # an integer of hundreds of digits
         number = math.inf
     if not math.isfinite(number):
-        raise InputError(f"{where}: must be a finite number, got {number}")
+        raise InputError(f"{field}: must be a finite number, got {number}")
+    return number
+
+
+def check_number(where: str, value: Any, spec: dict[str, Any], scale: float = 1.0) -> float:
+    """``value`` as a float inside the field's range, or the one-line InputError naming
+    ``where``. ``scale``: the value of the field's ``relative_to`` field, if it has one."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        # what the value is rather than its repr: the C++ reader says the same
+        raise InputError(f"{where}: expected a number, got {kind_name(value)}")
+    number = finite_number(where, value)
     lo, lo_open, hi, hi_open = bounds(spec, scale)
     bad_lo = lo is not None and (number <= lo if lo_open else number < lo)
     bad_hi = hi is not None and (number >= hi if hi_open else number > hi)
