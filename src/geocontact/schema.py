@@ -45,10 +45,10 @@ def default(spec: dict[str, Any]) -> Any:
     return math.inf if value == "inf" else value
 
 
-def _children(path: str) -> list[dict[str, Any]]:
-    depth = path.count(".") + 1 if path else 0
-    return [f for p, f in fields().items()
-            if p.count(".") == depth and (not path or p.startswith(path + "."))]
+@cache
+def _children(path: str) -> tuple[dict[str, Any], ...]:
+    """The fields one level below ``path`` ("" for the document), in schema order."""
+    return tuple(f for p, f in fields().items() if p.rpartition(".")[0] == path)
 
 
 def _key(spec: dict[str, Any]) -> str:
