@@ -13,7 +13,8 @@ $(PY):
 
 # The editable install builds the law's compiled core (CMakeLists.txt: the C++ header bound with
 # nanobind, incrementally in build/python); a change of any of its sources reinstalls.
-CORE_SOURCES := CMakeLists.txt src/geocontact/law/_core.cpp $(wildcard plugins/lammps/include/geocontact/*.hpp)
+CORE_SOURCES := CMakeLists.txt src/geocontact/law/_core.cpp $(wildcard plugins/lammps/include/geocontact/*.hpp) \
+  src/geocontact/data/law-schema.json $(wildcard plugins/lammps/cmake/*)
 
 # The editable install maps the package's modules where it found them: a module added, moved or
 # turned into a package needs a reinstall. PY_FILES holds the list of them and changes (so the

@@ -422,7 +422,9 @@ def test_compiled_core_is_built_from_these_sources():
 
     root = Path(__file__).resolve().parents[1]
     sources = ["src/geocontact/law/_core.cpp", "plugins/lammps/include/geocontact/law.hpp",
-               "plugins/lammps/include/geocontact/arrays.hpp"]
+               "plugins/lammps/include/geocontact/arrays.hpp",
+               "plugins/lammps/include/geocontact/params.hpp",
+               "plugins/lammps/include/geocontact/json.hpp", "src/geocontact/data/law-schema.json"]
     if not all((root / s).exists() for s in sources):
         pytest.skip("not a source tree")
     hashes = ";".join(hashlib.sha256((root / s).read_bytes()).hexdigest() for s in sources)

@@ -81,3 +81,27 @@ def load_history(path: str | Path) -> list[float]:
     except RecursionError:
         raise InputError(f"history: malformed TOML in {path}: nested too deeply") from None
     return history_from_dict(data)
+
+
+def cycle_windows(forces, marks, *, close_open_end: bool = True) -> list[tuple[int, int]]:
+    """The one segmentation of a force history into load/unload cycles (FE, law and analyses).
+
+    ``forces`` are the waypoints of the history (``forces[0] = 0``) and ``marks[i]`` where
+    waypoint i lies along the driven path (a step number or a row index; ``marks[0]`` the
+    start). A cycle runs from a zero-force waypoint through its peak to the next zero-force
+    one; a history that does not end at zero closes its last cycle at its last waypoint when
+    ``close_open_end``. Returns each cycle's (start mark, end mark); windows with nothing in
+    between (a 0 -> 0 segment) are not cycles."""
+    if len(marks) != len(forces):
+        raise ValueError(f"marks: one per force waypoint ({len(forces)}), got {len(marks)}")
+    ends = [marks[0]] + [m for f, m in zip(forces[1:], marks[1:], strict=True) if f == 0.0]
+    if close_open_end and forces[-1] != 0.0:
+        ends.append(marks[-1])
+    return [(a, b) for a, b in zip(ends[:-1], ends[1:], strict=False) if b > a]
+
+
+def cycle_peak(force, approach, window: tuple[int, int]) -> tuple[float, float]:
+    """(largest force, approach there) of a cycle window [start, end] of a path."""
+    a, b = window
+    k = a + int(np.argmax(np.asarray(force[a:b + 1])))
+    return float(force[k]), float(approach[k])

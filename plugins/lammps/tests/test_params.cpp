@@ -1,5 +1,7 @@
-// The parameter reader: the example file loads, and each kind of bad input is rejected with a
-// one-line message naming the field (the same rules as src/geocontact/law/params.py).
+// The parameter reader: the example file loads, each kind of bad input is rejected with a
+// one-line message naming the field, and every bad document of the corpus
+// tests/data/bad-law-params/ (generated from the schema by geocontact.law.bad_documents) gives
+// exactly the message the Python loader gives.
 #include "geocontact/params.hpp"
 
 #include <cmath>
@@ -37,11 +39,40 @@ std::string replace(std::string text, const std::string &from, const std::string
   return text.replace(at, from.size(), to);
 }
 
+// Every case of the corpus index: the C++ reader's message equals the Python loader's.
+int replay_corpus(const std::string &dir)
+{
+  const geocontact::json::Value index =
+      geocontact::json::parse(geocontact::read_text_file(dir + "/index.json"), "index.json");
+  int cases = 0;
+  for (const geocontact::json::Value &c : index.find("cases")->array) {
+    const std::string file = dir + "/" + c.find("file")->string;
+    const std::string expected = c.find("message")->string;
+    ++cases;
+    try {
+      geocontact::load_params(file);
+      std::fprintf(stderr, "FAIL %s: accepted\n", file.c_str());
+      ++failures;
+    } catch (const geocontact::InputError &e) {
+      if (expected != e.what()) {
+        std::fprintf(stderr, "FAIL %s:\n  C++:    %s\n  Python: %s\n", file.c_str(), e.what(),
+                     expected.c_str());
+        ++failures;
+      }
+    }
+  }
+  geocontact::load_params(dir + "/base.json");  // the document every case changes is valid
+  return cases;
+}
+
 }  // namespace
 
 int main(int argc, char **argv)
 {
-  if (argc != 2) return 2;
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: test_params GOOD.json BAD_DOCUMENTS_DIR\n");
+    return 2;
+  }
   const std::string good = geocontact::read_text_file(argv[1]);
   const geocontact::LawParams p = geocontact::parse_params(good, argv[1]);
   if (!(p.yield_approach > 0.0 && p.hertz_coefficient > 0.0 && p.material.radius == 0.1)) {
@@ -77,7 +108,7 @@ int main(int argc, char **argv)
                "yield.force_N", "yield force disagrees");
   expect_error(replace(good, "\"elastic_plastic_exponent\": 1.3", "\"elastic_plastic_exponent\": 2.9"),
                "creates energy", "energy check");
-  expect_error(replace(good, "\"unloading\"", "\"unloadin\""), "params.unloadin: unknown key",
+  expect_error(replace(good, "\"unloading\"", "\"unloadin\""), "unloadin: unknown key",
                "misspelt section");
   expect_error(replace(good, "\"enabled\": false", "\"enabled\": 0"), "cyclic.enabled",
                "cyclic flag type");
@@ -91,6 +122,7 @@ int main(int argc, char **argv)
   }
   expect_error(replace(good, "\"coefficient\": 0.3,", "\"coefficient\": 3.0,"),
                "cyclic.residual_ratio: the cycle-2 ratio", "cycle-2 ratio above 1");
-  std::printf("params: %d failures\n", failures);
+  const int cases = replay_corpus(argv[2]);
+  std::printf("params: %d bad documents replayed, %d failures\n", cases, failures);
   return failures == 0 ? 0 : 1;
 }

@@ -43,6 +43,7 @@ from ..cyclic_fit import (  # noqa: F401  (re-exported: the analysis API of this
     with_cyclic,
 )
 from ..errors import InputError
+from ..force_history import cycle_peak
 from ..io import atomic_directory, provenance, write_csv, write_json_atomic
 
 
@@ -57,7 +58,8 @@ def law_cycles_by_force(params, forces) -> tuple[list[dict], dict[str, np.ndarra
 
 def law_cycles_along_path(params, approach, windows) -> tuple[list[dict], dict[str, np.ndarray]]:
     """The law driven along an approach path (the FE's), with cycles cut at the given
-    ``windows`` [(start index, end index)] of the path (the FE's cycles).
+    ``windows`` [(start index, end index)] of the path (the FE's cycles, from the one
+    segmentation ``force_history.cycle_windows``: ``fe_cycle_windows``).
 
     Per cycle: the largest force and approach, the law's residual approach at the end of the
     window (its envelope's, plus any ratchet), and the loop area (work of the force over the
@@ -78,11 +80,10 @@ def law_cycles_along_path(params, approach, windows) -> tuple[list[dict], dict[s
         residual[i] = s.residual_approach + s.ratchet_shift
     cycles = []
     for a, b in windows:
-        sl = slice(a, b + 1)
-        k = a + int(np.argmax(force[sl]))
+        max_force, max_approach = cycle_peak(force, approach, (a, b))
         cycles.append({
-            "max_force_N": float(force[k]),
-            "max_approach_m": float(approach[k]),
+            "max_force_N": max_force,
+            "max_approach_m": max_approach,
             "residual_approach_m": float(residual[b]),
             "plastic_work_J": float(work[b] - work[a]),
             "loop_work_J": float(work[b] - work[a]),

@@ -14,7 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..force_history import PRESETS, load_history, preset_history  # noqa: F401
+from ..force_history import (  # noqa: F401  (re-exported)
+    PRESETS,
+    cycle_peak,
+    cycle_windows,
+    load_history,
+    preset_history,
+)
 from ..law import Contact, LawParams
 from ..law.reference import RATCHET
 
@@ -52,12 +58,13 @@ def _probe(contact: Contact, approach: float) -> float:
 def drive_by_force(params: LawParams, forces: list[float], points: int = 60) -> LawRun:
     """The law under a piecewise-linear force history (each segment monotone in force).
 
-    Returns the approach-force path and per cycle (each return to zero force) the maximum
-    force and approach, the residual approach and the plastic work dissipated in the cycle."""
+    Returns the approach-force path and per cycle (each return to zero force,
+    ``force_history.cycle_windows``) the maximum force and approach, the residual approach and
+    the plastic work dissipated in the cycle."""
     contact = Contact(params)
     path_d, path_f = [0.0], [0.0]
-    cycles: list[dict] = []
-    cycle_start_dissipation, cycle_max_f, cycle_max_d = 0.0, 0.0, 0.0
+    # at each waypoint: its row in the path, the residual approach and the dissipated energy
+    marks, residual, dissipated = [0], [0.0], [0.0]
     guess = params.yield_approach
     for f0, f1 in zip(forces[:-1], forces[1:], strict=True):
         if f1 > f0:
@@ -74,8 +81,6 @@ def drive_by_force(params: LawParams, forces: list[float], points: int = 60) -> 
                     contact.update(d)
                     path_d.append(d)
                     path_f.append(contact.state.force)
-            cycle_max_f = max(cycle_max_f, contact.state.force)
-            cycle_max_d = max(cycle_max_d, contact.state.approach)
         elif f1 < f0:
             # unloading: the force falls monotonically with the approach; bisect downwards
             for ft in np.linspace(f0, f1, points + 1)[1:]:
@@ -96,14 +101,17 @@ def drive_by_force(params: LawParams, forces: list[float], points: int = 60) -> 
                 contact.update(d)
                 path_d.append(d)
                 path_f.append(contact.state.force)
-            if f1 == 0.0:
-                dissipated = contact.dissipated_energy
-                cycles.append({
-                    "max_force_N": cycle_max_f,
-                    "max_approach_m": cycle_max_d,
-                    "residual_approach_m": contact.state.residual_approach
-                    + contact.state.ratchet_shift,
-                    "plastic_work_J": dissipated - cycle_start_dissipation,
-                })
-                cycle_start_dissipation, cycle_max_f, cycle_max_d = dissipated, 0.0, 0.0
+        marks.append(len(path_d) - 1)
+        residual.append(contact.state.residual_approach + contact.state.ratchet_shift)
+        dissipated.append(contact.dissipated_energy)
+    row = {m: i for i, m in enumerate(marks)}  # the last waypoint at each row
+    cycles = []
+    for a, b in cycle_windows(forces, marks, close_open_end=False):
+        max_force, max_approach = cycle_peak(path_f, path_d, (a, b))
+        cycles.append({
+            "max_force_N": max_force,
+            "max_approach_m": max_approach,
+            "residual_approach_m": residual[row[b]],
+            "plastic_work_J": dissipated[row[b]] - dissipated[row[a]],
+        })
     return LawRun(np.array(path_d), np.array(path_f), cycles)

@@ -26,6 +26,8 @@ import numpy as np
 from .. import resolution
 from ..errors import ConvergenceError
 from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
+    cycle_peak,
+    cycle_windows,
     history_from_dict,
     load_history,
     preset_history,
@@ -333,25 +335,20 @@ class _Run:
 
 
 def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int]) -> list[dict]:
-    """A cycle runs from a zero-force waypoint through its peak to the next zero-force one."""
-    steps = curve["step"]
-    index = {int(s): i for i, s in enumerate(steps)}
-    zero_marks = [0] + [m for f, m in zip(forces[1:], marks, strict=True) if f == 0.0]
-    if forces[-1] != 0.0:
-        zero_marks.append(marks[-1])
+    """Per cycle (``force_history.cycle_windows``, over the step numbers of the waypoints):
+    peak, residual approach (None for an open last cycle), plastic work and energies."""
+    index = {int(s): i for i, s in enumerate(curve["step"])}
     cycles = []
-    for a, b in zip(zero_marks[:-1], zero_marks[1:], strict=True):
-        if b <= a or a not in index or b not in index:
+    for a, b in cycle_windows(forces, [0, *marks]):
+        if a not in index or b not in index:
             continue
-        sl = slice(index[a], index[b] + 1)
-        f = curve["force_N"][sl]
-        d = curve["approach_m"][sl]
-        k = int(np.argmax(f))
+        window = (index[a], index[b])
+        max_force, max_approach = cycle_peak(curve["force_N"], curve["approach_m"], window)
         closed = curve["force_N"][index[b]] == 0.0
         cycles.append({
-            "max_force_N": float(f[k]),
-            "max_approach_m": float(d[k]),
-            "residual_approach_m": float(d[-1]) if closed else None,
+            "max_force_N": max_force,
+            "max_approach_m": max_approach,
+            "residual_approach_m": float(curve["approach_m"][index[b]]) if closed else None,
             "plastic_work_J": float(curve["plastic_dissipation_J"][index[b]]
                                     - curve["plastic_dissipation_J"][index[a]]),
             "loop_work_J": float(curve["work_J"][index[b]] - curve["work_J"][index[a]]),

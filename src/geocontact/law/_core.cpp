@@ -3,6 +3,7 @@
 // moves parameters in and exposes the state arrays, owned here, as numpy views by name.
 #include "geocontact/arrays.hpp"
 #include "geocontact/law.hpp"
+#include "geocontact/params.hpp"
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -129,6 +130,12 @@ NB_MODULE(_core, m)
       .def_ro("fully_plastic_force", &LawParams::fully_plastic_force)
       .def_ro("deep_plastic_approach", &LawParams::deep_plastic_approach)
       .def_ro("deep_plastic_force", &LawParams::deep_plastic_force);
+
+  // The C++ reader of the parameter file, so Python can hold it to the same messages as
+  // geocontact.law.params (tests/test_law_schema.py replays the bad-document corpus).
+  nb::exception<geocontact::InputError>(m, "InputError", PyExc_ValueError);
+  m.def("parse_params", &geocontact::parse_params, "text"_a, "source"_a = "parameters",
+        "A `geocontact.law/1` document read and validated by params.hpp.");
 
   auto contacts = nb::class_<Contacts>(m, "Contacts");
   contacts

@@ -27,12 +27,13 @@ from typing import Any
 
 import numpy as np
 
+from .. import schema
 from ..errors import InputError
 from ..hertz import hertz_coefficient
 from ..io import read_text_input, write_text_atomic
-from ..material import Material, finite_number
+from ..material import Material
 
-SCHEMA = "geocontact.law/1"
+SCHEMA = schema.law_schema()["schema"]
 HERTZ_EXPONENT = 1.5
 # Grid of plastic depths on which a parameter set is checked for energy consistency.
 # 1e7 covers the deepest calibrations (sigma_c = 1 MPa at 6000 N reaches x ~ 2e5).
@@ -53,49 +54,6 @@ def saturating_ratio(depth, limit: float, power: float, transition: float = 1.0,
     if log_power != 1.0:
         lx = lx**log_power
     return -limit * np.expm1(-power * lx)
-
-
-def _number(where: str, data: dict[str, Any], key: str, lo=None, hi=None, lo_open=False,
-            hi_open=False) -> float:
-    if key not in data:
-        raise InputError(f"{where}.{key}: missing")
-    value = finite_number(f"{where}.{key}", data[key])
-    bad_lo = lo is not None and (value <= lo if lo_open else value < lo)
-    bad_hi = hi is not None and (value >= hi if hi_open else value > hi)
-    if bad_lo or bad_hi:
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
-        low = "-inf" if lo is None else f"{lo:g}"
-        high = "inf" if hi is None else f"{hi:g}"
-        rng = f"{left}{low}, {high}{right}"
-        raise InputError(f"{where}.{key}: must be in {rng}, got {value:g}")
-    return value
-
-
-def _check_keys(where: str, data: Any, allowed: set[str] | None) -> dict[str, Any]:
-    """``data`` as a JSON object with keys from ``allowed`` (None: any key)."""
-    if not isinstance(data, dict):
-        raise InputError(f"{where}: must be a JSON object {{...}}, got {_short(data)}")
-    unknown = sorted(set(data) - allowed) if allowed is not None else []
-    if unknown:
-        names = ", ".join(sorted(allowed))
-        raise InputError(f"{where}.{unknown[0]}: unknown key (allowed: {names})")
-    return data
-
-
-def _short(value: Any) -> str:
-    """A value as it reads in the JSON file, cut to stay on one line."""
-    try:
-        text = json.dumps(value)
-    except (TypeError, ValueError):
-        text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _label(value: Any) -> str:
-    if not isinstance(value, str):
-        raise InputError(f"label: must be a string, got {_short(value)}")
-    return value
 
 
 def power_law_critical_cycle(coefficient: float, power: float, tolerance: float) -> int | None:
@@ -149,37 +107,14 @@ class CyclicLaw:
             "tolerance": self.tolerance,
         }
 
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> CyclicLaw:
-        w = "cyclic"
-        _check_keys(w, data, {"enabled", "residual_ratio", "plastic_work_ratio", "tolerance",
-                              "critical_cycle"})
-        enabled = data.get("enabled", False)
-        if not isinstance(enabled, bool):
-            raise InputError(f"cyclic.enabled: must be true or false, got {enabled!r}")
-        rr = _check_keys(f"{w}.residual_ratio", data.get("residual_ratio", {}),
-                         {"coefficient", "power"})
-        pw = _check_keys(f"{w}.plastic_work_ratio", data.get("plastic_work_ratio", {}),
-                         {"coefficient", "power"})
-        values = {}
-        for key, table in (("residual_ratio", rr), ("plastic_work_ratio", pw)):
-            where = f"{w}.{key}"
-            coefficient = _number(where, table, "coefficient", 0, None)
-            power = _number(where, table, "power", 0, None, lo_open=True)
-            # The ratio applies from cycle 2 on: c N^-p may exceed 1 only before cycle 2.
-            second = coefficient * 2.0 ** (-power)
+    def check_second_cycle(self) -> None:
+        """The ratios c N^-p apply from cycle 2 on: c may exceed 1 only while c 2^-p <= 1."""
+        for key in ("residual_ratio", "plastic_work_ratio"):
+            second = (getattr(self, f"{key}_coefficient")
+                      * 2.0 ** (-getattr(self, f"{key}_power")))
             if second > 1.0:
-                raise InputError(f"{where}: the cycle-2 ratio coefficient * 2^-power must be in "
-                                 f"[0, 1], got {second:g}")
-            values[key] = (coefficient, power)
-        return cls(
-            enabled=enabled,
-            residual_ratio_coefficient=values["residual_ratio"][0],
-            residual_ratio_power=values["residual_ratio"][1],
-            plastic_work_ratio_coefficient=values["plastic_work_ratio"][0],
-            plastic_work_ratio_power=values["plastic_work_ratio"][1],
-            tolerance=_number(w, data, "tolerance", 0, 1, lo_open=True),
-        )
+                raise InputError(f"cyclic.{key}: the cycle-2 ratio coefficient * 2^-power must "
+                                 f"be in [0, 1], got {second:g}")
 
 
 # Powers of the scale s = r / R of a quantity, by the unit suffix of its key (SPEC 10).
@@ -428,63 +363,27 @@ class LawParams:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], *, source: str = "parameters") -> LawParams:
-        top = {"schema", "label", "material", "yield", "loading", "unloading", "reloading",
-               "residual_approach", "plastic_work", "cyclic", "provenance", "fit_errors"}
-        _check_keys(source, data, top)
-        if data.get("schema") != SCHEMA:
-            raise InputError(f"schema: expected {SCHEMA!r}, got {data.get('schema')!r}")
-        for key in ("material", "yield", "loading", "unloading", "reloading", "residual_approach"):
-            if key not in data:
-                raise InputError(f"{key}: missing")
-        material = Material.from_dict(_check_keys("material", data["material"], None),
-                                      source="material")
-        yd = _check_keys("yield", data["yield"], None)
-        yield_approach = _number("yield", yd, "approach_m", 0, None, lo_open=True)
-        ld = _check_keys("loading", data["loading"], {
-            "elastic_plastic_exponent", "fully_plastic_approach_ratio", "fully_plastic_exponent",
-            "fully_plastic_approach_m", "fully_plastic_force_N", "deep_plastic_approach_ratio",
-            "deep_plastic_exponent", "deep_plastic_approach_m", "deep_plastic_force_N"})
-        ud = _check_keys("unloading", data["unloading"], {"exponent_power"})
-        rd = _check_keys("reloading", data["reloading"], {"exponent_power"})
-        sd = _check_keys("residual_approach", data["residual_approach"],
-                         {"limit", "power", "transition_depth", "log_power"})
-        pw = _check_keys("plastic_work", data.get("plastic_work", {"limit": 0.0, "power": 1.0}),
-                         {"limit", "power", "transition_depth", "log_power"})
-        ratio_p = _number("loading", ld, "fully_plastic_approach_ratio", 1, None)
-        deep = {}
-        if "deep_plastic_approach_ratio" in ld or "deep_plastic_exponent" in ld:
-            deep = {"deep_plastic_approach_ratio": _number(
-                        "loading", ld, "deep_plastic_approach_ratio", ratio_p, None,
-                        lo_open=True),
-                    "deep_plastic_exponent": _number("loading", ld, "deep_plastic_exponent", 0,
-                                                     3, lo_open=True)}
-        params = cls(
-            material=material,
-            yield_approach=yield_approach,
-            elastic_plastic_exponent=_number("loading", ld, "elastic_plastic_exponent", 0, 3,
-                                             lo_open=True),
-            fully_plastic_approach_ratio=ratio_p,
-            **deep,
-            fully_plastic_exponent=_number("loading", ld, "fully_plastic_exponent", 0, 3,
-                                           lo_open=True),
-            unloading_power=_number("unloading", ud, "exponent_power", -1, 1),
-            reloading_power=_number("reloading", rd, "exponent_power", -1, 1),
-            residual_limit=_number("residual_approach", sd, "limit", 0, 1, hi_open=True),
-            residual_power=_number("residual_approach", sd, "power", 0, 10, lo_open=True),
-            plastic_work_limit=_number("plastic_work", pw, "limit", 0, 1),
-            plastic_work_power=_number("plastic_work", pw, "power", 0, 10, lo_open=True),
-            residual_transition=_transition("residual_approach", sd),
-            plastic_work_transition=_transition("plastic_work", pw),
-            residual_log_power=_log_power("residual_approach", sd),
-            plastic_work_log_power=_log_power("plastic_work", pw),
-            cyclic=CyclicLaw.from_dict(data.get("cyclic", {"tolerance": 0.01})),
-            yield_extra={k: v for k, v in yd.items() if k not in ("approach_m", "force_N")},
-            provenance=dict(_check_keys("provenance", data.get("provenance", {}), None)),
-            fit_errors=dict(_check_keys("fit_errors", data.get("fit_errors", {}), None)),
-            label=_label(data.get("label", "")),
-        )
-        if "force_N" in yd:
-            given = _number("yield", yd, "force_N", 0, None, lo_open=True)
+        """From a parsed ``geocontact.law/1`` document: every field checked against the schema
+        (``geocontact.schema``, the same table and messages as the C++ reader), then the rules
+        between fields. ``source`` is kept for callers; messages name the fields."""
+        values = schema.validate(data)
+        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}}
+        top: dict[str, Any] = {}
+        for name, value in schema.named_values(values).items():
+            group, _, attribute = name.rpartition(".")
+            (groups[group] if group else top)[attribute] = value
+        ratio_p = top["fully_plastic_approach_ratio"]
+        if top["deep_plastic_approach_ratio"] <= ratio_p:
+            raise InputError(
+                "loading.deep_plastic_approach_ratio: must be above "
+                f"loading.fully_plastic_approach_ratio ({ratio_p:g}), got "
+                f"{top['deep_plastic_approach_ratio']:g}")
+        cyclic = CyclicLaw(**groups["cyclic"])
+        cyclic.check_second_cycle()
+        params = cls(material=Material(**groups["material"]), cyclic=cyclic,
+                     yield_extra=values["yield.*"], **top)
+        if "yield.force_N" in values:
+            given = values["yield.force_N"]
             if abs(given - params.yield_force) > 1e-6 * params.yield_force:
                 raise InputError(
                     f"yield.force_N: {given:.6g} N disagrees with Hertz at yield.approach_m "
@@ -505,18 +404,6 @@ def _saturating_dict(limit: float, power: float, transition: float,
     return out
 
 
-def _log_power(where: str, data: dict[str, Any]) -> float:
-    if "log_power" not in data:
-        return 1.0
-    return _number(where, data, "log_power", 0.2, 5)
-
-
-def _transition(where: str, data: dict[str, Any]) -> float:
-    if "transition_depth" not in data:
-        return 1.0
-    return _number(where, data, "transition_depth", 0, 1e6, lo_open=True)
-
-
 def load_params(path: str | Path) -> LawParams:
     """Read and validate a ``geocontact.law/1`` parameter file."""
     try:
@@ -527,6 +414,4 @@ def load_params(path: str | Path) -> LawParams:
         ) from None
     except RecursionError:
         raise InputError(f"params: malformed JSON in {path}: nested too deeply") from None
-    if not isinstance(data, dict):
-        raise InputError(f"params: {path} must hold a JSON object")
     return LawParams.from_dict(data, source="params")

