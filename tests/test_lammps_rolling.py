@@ -332,3 +332,33 @@ def test_bad_rolling_or_twisting_arguments_are_one_line_lammps_errors(keywords, 
         lmp.command(command)
     assert re.search(message, str(error.value).splitlines()[0])  # the ERROR line itself
     lmp.close()
+
+
+# --- MPI: 1 and 2 ranks, restart across rank counts ---------------------------------------------
+
+def test_rolling_layer_gives_the_same_spins_on_1_and_2_ranks_and_after_a_restart(tmp_path):
+    """The `rolling` scenario (lammps_scenarios.py): 16 spinning grains on a floor, pair and
+    wall contacts with rolling and twisting resistance, split over 2 ranks (contacts across the
+    rank boundary, each rank holding its grain's copy of the rolling history); a restart written
+    on 2 ranks, continued on 1."""
+    restart = tmp_path / "rolling.restart"
+    serial = scenarios.run_scenario(1, "rolling")
+    parallel = scenarios.run_scenario(2, "rolling", "--restart-out", str(restart))
+    resumed = scenarios.run_scenario(1, "rolling", "--resume", str(restart))
+    assert (serial["ranks"], parallel["ranks"], resumed["ranks"]) == (1, 2, 1)
+
+    def table(run, key):
+        return np.array([c[key] for c in run["chunks"]])
+
+    torque = table(serial, "torque")
+    omega = table(serial, "omega")
+    assert np.abs(torque).max() > 0
+    # the spins changed: the resistance acted (rolling and twisting springs, friction)
+    assert np.abs(omega[-1] - omega[0]).max() > 0.1 * np.abs(omega[0]).max()
+    after = scenarios.ROLLING_RESTART_AFTER
+    for key in ("omega", "torque"):
+        a, b, c = table(serial, key), table(parallel, key), table(resumed, key)
+        scale = np.abs(a).max()
+        # the same arithmetic up to the order of force sums: measured difference 0
+        assert np.abs(b - a).max() <= 1e-12 * scale
+        assert np.abs(c - a[after:]).max() <= 1e-12 * scale
