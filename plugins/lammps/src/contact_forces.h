@@ -67,14 +67,28 @@ struct ContactStiffness {
   double radius;      // contact radius a, m
 };
 
+// The material's part of the stiffnesses, computed once per law (divisions off the force loop):
+// a = S / (2 E*), k_t = 8 G* a.
+struct StiffnessConstants {
+  double radius_per_stiffness;  // 1 / (2 E*): a per unit of S
+  double mindlin_modulus;       // 8 G*
+};
+
+inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law)
+{
+  return {1.0 / (2.0 * law.material.effective_modulus()),
+          8.0 * law.material.effective_shear_modulus()};
+}
+
 // Two grains whose law is the calibrated one scaled by s (SPEC 10).
 inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
+                                          const StiffnessConstants &constants,
                                           const geocontact::ContactState &state, double scale)
 {
   // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
   const double normal = scale * geocontact::unloading_stiffness(law, state);
-  const double a = normal / (2.0 * law.material.effective_modulus());
-  return {normal, 8.0 * law.material.effective_shear_modulus() * a, a};
+  const double a = normal * constants.radius_per_stiffness;
+  return {normal, constants.mindlin_modulus * a, a};
 }
 
 // A grain on a rigid flat wall, the FE half model of the pair (SPEC 10): at interference w it
@@ -84,10 +98,11 @@ inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
 // sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
 // G*_wall = G / (2 - nu) = 2 G* (a rigid wall adds no compliance).
 inline ContactStiffness wall_contact_stiffness(const geocontact::LawParams &law,
+                                               const StiffnessConstants &constants,
                                                const geocontact::ContactState &state,
                                                double scale)
 {
-  const ContactStiffness pair = contact_stiffness(law, state, scale);
+  const ContactStiffness pair = contact_stiffness(law, constants, state, scale);
   return {2.0 * pair.normal, 2.0 * pair.tangential, pair.radius};
 }
 

@@ -297,6 +297,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   const double dt = update->dt;
   const double skin = neighbor->skin;
   const double calibrated_radius = law_.material.radius;
+  const StiffnessConstants constants = stiffness_constants(law_);
 
   double wall_velocity = 0.0;
   const double shift = wall_displacement(wall_velocity);
@@ -390,7 +391,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
       if (law_force > 0.0) {
         const ContactFrame frame = contact_frame(n, v[i], vw, omega[i], no_spin, radius[i], 0.0);
-        const ContactStiffness stiffness = wall_contact_stiffness(law_, rec.law, scale);
+        const ContactStiffness stiffness = wall_contact_stiffness(law_, constants, rec.law, scale);
         const Damping damping = damping_coefficients(damping_, rmass[i], stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
         if (friction_ > 0.0)

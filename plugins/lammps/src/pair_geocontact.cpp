@@ -123,6 +123,7 @@ int PairGeocontact::add_law(const std::string &text, const std::string &source)
   for (size_t k = 0; k < law_texts_.size(); ++k)
     if (law_texts_[k] == text) return static_cast<int>(k);
   laws_.push_back(parse_law(lmp, text, source, "pair_coeff geocontact"));
+  stiffness_constants_.push_back(stiffness_constants(laws_.back()));
   law_texts_.push_back(text);
   return static_cast<int>(laws_.size()) - 1;
 }
@@ -449,10 +450,10 @@ void PairGeocontact::compute(int eflag, int vflag)
       const geocontact::LawParams &law = laws_[tp.law];
       const double scale = similarity_scale(radi, radius[j], law.material.radius);
 
-      ContactRecord rec;
-      if (known) {
-        rec = pair_records_[k];
-      } else {
+      // the record itself when the step commits (most calls), a scratch copy in setup
+      ContactRecord scratch;
+      ContactRecord &rec = commit ? pair_records_[k] : (scratch = pair_records_[k]);
+      if (!known) {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
@@ -469,7 +470,8 @@ void PairGeocontact::compute(int eflag, int vflag)
         const double rinv = 1.0 / r;
         const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
         frame = contact_frame(n, v[i], v[j], omega[i], omega[j], radi, radius[j]);
-        const ContactStiffness stiffness = contact_stiffness(law, rec.law, scale);
+        const ContactStiffness stiffness =
+            contact_stiffness(law, stiffness_constants_[tp.law], rec.law, scale);
         const double meff = reduced_mass(rmass[i], rmass[j]);
         const Damping damping = damping_coefficients(tp.damping, meff, stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
@@ -494,7 +496,6 @@ void PairGeocontact::compute(int eflag, int vflag)
       }
 
       if (commit) {
-        pair_records_[k] = rec;
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }

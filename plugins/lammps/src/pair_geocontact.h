@@ -78,6 +78,7 @@ class PairGeocontact : public Pair {
 
   FixGeocontactHistory *history_;
   std::vector<geocontact::LawParams> laws_;
+  std::vector<geocontact_forces::StiffnessConstants> stiffness_constants_;  // per law
   std::vector<std::string> law_texts_;  // the parameter documents, for restart files
   TypePairLaw **coeffs_;
   double *type_max_radius_;             // largest radius of each type's atoms (m): cutoffs
