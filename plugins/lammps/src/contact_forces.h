@@ -12,8 +12,10 @@
 #include "comm.h"
 #include "error.h"
 #include "lammps.h"
+#include "utils.h"
 
 #include <cmath>
+#include <cstring>
 #include <mpi.h>
 #include <string>
 
@@ -23,6 +25,13 @@ namespace geocontact_forces {
 inline double dot3(const double *a, const double *b)
 {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+inline void cross3(const double *a, const double *b, double *c)
+{
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
 // Where the bodies touch and how the contact point moves: the unit normal n (towards body i),
@@ -55,16 +64,31 @@ inline ContactFrame contact_frame(const double *n, const double *vi, const doubl
 struct ContactStiffness {
   double normal;      // S, N/m
   double tangential;  // k_t, N/m
+  double radius;      // contact radius a, m
 };
+
+// The material's part of the stiffnesses, computed once per law (divisions off the force loop):
+// a = S / (2 E*), k_t = 8 G* a.
+struct StiffnessConstants {
+  double radius_per_stiffness;  // 1 / (2 E*): a per unit of S
+  double mindlin_modulus;       // 8 G*
+};
+
+inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law)
+{
+  return {1.0 / (2.0 * law.material.effective_modulus()),
+          8.0 * law.material.effective_shear_modulus()};
+}
 
 // Two grains whose law is the calibrated one scaled by s (SPEC 10).
 inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
+                                          const StiffnessConstants &constants,
                                           const geocontact::ContactState &state, double scale)
 {
   // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
   const double normal = scale * geocontact::unloading_stiffness(law, state);
-  const double a = normal / (2.0 * law.material.effective_modulus());
-  return {normal, 8.0 * law.material.effective_shear_modulus() * a};
+  const double a = normal * constants.radius_per_stiffness;
+  return {normal, constants.mindlin_modulus * a, a};
 }
 
 // A grain on a rigid flat wall, the FE half model of the pair (SPEC 10): at interference w it
@@ -74,11 +98,12 @@ inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
 // sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
 // G*_wall = G / (2 - nu) = 2 G* (a rigid wall adds no compliance).
 inline ContactStiffness wall_contact_stiffness(const geocontact::LawParams &law,
+                                               const StiffnessConstants &constants,
                                                const geocontact::ContactState &state,
                                                double scale)
 {
-  const ContactStiffness pair = contact_stiffness(law, state, scale);
-  return {2.0 * pair.normal, 2.0 * pair.tangential};
+  const ContactStiffness pair = contact_stiffness(law, constants, state, scale);
+  return {2.0 * pair.normal, 2.0 * pair.tangential, pair.radius};
 }
 
 inline double reduced_mass(double mi, double mj)
@@ -136,6 +161,142 @@ inline void tangential_force(double *fs, double *ft, const ContactFrame &c, doub
       fs[k] = ft[k];
     }
   }
+}
+
+// --- rolling and twisting resistance --------------------------------------------------------
+//
+// The models of LAMMPS's pair granular `rolling sds` and `twisting marshall`, with our normal
+// force as the Coulomb reference. Unlike the tangential force, both keep a displacement
+// (rolling: a vector in the tangent plane; twisting: an angle), and the stored value is the same
+// from either grain's side of the contact: swapping i and j reverses both n and w_i - w_j, so the
+// rolling velocity R* (w_i - w_j) x n and the twist rate (w_i - w_j) . n are unchanged.
+
+struct RollingCoeffs {
+  double stiffness;  // k_roll, N/m
+  double damping;    // gamma_roll, N s/m
+  double friction;   // mu_roll: the rolling force is capped by mu_roll F_n
+  bool rolling;      // rolling sds given
+  bool twisting;     // twisting marshall given
+};
+
+// The keywords `rolling sds k_roll gamma_roll mu_roll` and `twisting marshall` at arg[iarg]
+// (the pair_coeff and fix wall/geocontact syntax of LAMMPS's granular models): false if
+// arg[iarg] is neither, else the coefficients set and iarg moved past them. Bad values stop
+// with a one-line error naming the argument; `who` opens it.
+inline bool parse_resistance(LAMMPS *lmp, int &iarg, int narg, char **arg, RollingCoeffs &c,
+                             const std::string &who)
+{
+  const std::string key = arg[iarg];
+  if (key == "rolling") {
+    if (iarg + 1 >= narg || strcmp(arg[iarg + 1], "sds") != 0)
+      lmp->error->all(FLERR, "{}: rolling takes the model sds (rolling sds k_roll gamma_roll "
+                             "mu_roll), got '{}'", who, iarg + 1 < narg ? arg[iarg + 1] : "");
+    const char *names[3] = {"k_roll", "gamma_roll", "mu_roll"};
+    double values[3];
+    for (int k = 0; k < 3; ++k) {
+      if (iarg + 2 + k >= narg)
+        lmp->error->all(FLERR, "{}: rolling sds needs k_roll gamma_roll mu_roll; {} is missing",
+                        who, names[k]);
+      const char *text = arg[iarg + 2 + k];
+      if (!utils::is_double(text))
+        lmp->error->all(FLERR, "{}: rolling sds {} must be a number, got '{}'", who, names[k],
+                        text);
+      values[k] = utils::numeric(FLERR, text, false, lmp);
+    }
+    if (!(values[0] > 0.0))
+      lmp->error->all(FLERR, "{}: rolling sds k_roll must be > 0, got {}", who, values[0]);
+    for (int k = 1; k < 3; ++k)
+      if (!(values[k] >= 0.0))
+        lmp->error->all(FLERR, "{}: rolling sds {} must be >= 0, got {}", who, names[k],
+                        values[k]);
+    c.stiffness = values[0];
+    c.damping = values[1];
+    c.friction = values[2];
+    c.rolling = true;
+    iarg += 5;
+    return true;
+  }
+  if (key == "twisting") {
+    if (iarg + 1 >= narg || strcmp(arg[iarg + 1], "marshall") != 0)
+      lmp->error->all(FLERR, "{}: twisting takes the model marshall (twisting marshall), got "
+                             "'{}'", who, iarg + 1 < narg ? arg[iarg + 1] : "");
+    c.twisting = true;
+    iarg += 2;
+    return true;
+  }
+  return false;
+}
+
+// Rolling resistance, spring-dashpot-slider (LAMMPS's `rolling sds`): the rolling displacement
+// xi (history) is first rotated into the current tangent plane keeping its magnitude, then
+// advanced by v_roll dt, v_roll = R* (w_i - w_j) x n (Wang et al. 2015, eq. 31); the rolling
+// force -k xi - gamma v_roll is capped by mu_roll fn, where sliding makes xi the spring length
+// of the capped force. The torque on i is R* n x F_roll. `advance` false (setup): xi neither
+// rotated nor advanced nor stored, as LAMMPS's history_update.
+inline void rolling_torque(double *xi, double *torque, const RollingCoeffs &c, const double *n,
+                           const double *wi, const double *wj, double reff, double fn,
+                           double dt, bool advance)
+{
+  const double relrot[3] = {wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2]};
+  double vroll[3];
+  cross3(relrot, n, vroll);
+  for (int k = 0; k < 3; ++k) vroll[k] *= reff;
+  const double limit = c.friction * fn;
+  double h[3] = {xi[0], xi[1], xi[2]};
+  if (advance) {
+    const double hn = dot3(h, n);
+    // LAMMPS's threshold: a rotation whose force change is below 1e-10 of the limit is skipped
+    if (std::fabs(hn) * c.stiffness > 1e-10 * limit) {
+      const double before = std::sqrt(dot3(h, h));
+      for (int k = 0; k < 3; ++k) h[k] -= hn * n[k];
+      const double after = std::sqrt(dot3(h, h));
+      const double scale = after > 0.0 ? before / after : 0.0;
+      for (int k = 0; k < 3; ++k) h[k] *= scale;
+    }
+    for (int k = 0; k < 3; ++k) h[k] += vroll[k] * dt;
+  }
+  double fr[3];
+  for (int k = 0; k < 3; ++k) fr[k] = -c.stiffness * h[k] - c.damping * vroll[k];
+  const double mag = std::sqrt(dot3(fr, fr));
+  if (mag > limit) {
+    if (dot3(h, h) > 0.0) {
+      const double scale = limit / mag;
+      for (int k = 0; k < 3; ++k) {
+        fr[k] *= scale;
+        h[k] = -(fr[k] + c.damping * vroll[k]) / c.stiffness;
+      }
+    } else {
+      fr[0] = fr[1] = fr[2] = 0.0;
+    }
+  }
+  if (advance)
+    for (int k = 0; k < 3; ++k) xi[k] = h[k];
+  cross3(n, fr, torque);
+  for (int k = 0; k < 3; ++k) torque[k] *= reff;
+}
+
+// Twisting resistance (LAMMPS's `twisting marshall`, Marshall 2009): the twist angle phi
+// (history) advances by the twist rate (w_i - w_j) . n; the torque -k_tw phi - g_tw rate along
+// n, capped by mu_tw fn, with the coefficients of the tangential model spread over the contact
+// disc of radius a: k_tw = k_t a^2 / 2, g_tw = g_t a^2 / 2 and mu_tw = 2/3 mu a (here k_t is
+// the Mindlin stiffness 8 G* a in N/m; LAMMPS's mindlin passes 8 G* instead).
+inline void twisting_torque(double &phi, double *torque, const double *n, const double *wi,
+                            const double *wj, double kt, double damping_t, double friction,
+                            double a, double fn, double dt, bool advance)
+{
+  const double rate = (wi[0] - wj[0]) * n[0] + (wi[1] - wj[1]) * n[1] + (wi[2] - wj[2]) * n[2];
+  const double k = 0.5 * kt * a * a;
+  const double g = 0.5 * damping_t * a * a;
+  const double limit = (2.0 / 3.0) * friction * a * fn;
+  double angle = advance ? phi + rate * dt : phi;
+  double mt = -k * angle - g * rate;
+  if (std::fabs(mt) > limit) {
+    const double sign = (rate > 0.0) - (rate < 0.0);
+    mt = -limit * sign;
+    angle = k > 0.0 ? (limit * sign - g * rate) / k : 0.0;
+  }
+  if (advance) phi = angle;
+  for (int k3 = 0; k3 < 3; ++k3) torque[k3] = mt * n[k3];
 }
 
 // --- a law state as doubles (history tables, exchange and restart buffers) ------------------

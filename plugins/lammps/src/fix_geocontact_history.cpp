@@ -81,7 +81,7 @@ void FixGeocontactHistory::set_arrays(int i)
   tables[i].clear();
 }
 
-// Layout: [count, (partner, 13 law slots, 3 tangential) x count]
+// Layout: [count, (partner, 13 law slots, 3 tangential, 3 rolling, twist) x count]
 int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, double *buf)
 {
   int m = 0;
@@ -92,11 +92,14 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = r.tangential[0];
     buf[m++] = r.tangential[1];
     buf[m++] = r.tangential[2];
+    for (int k = 0; k < 3; ++k) buf[m++] = r.rolling[k];
+    buf[m++] = r.twist;
   }
   return m;
 }
 
-int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const double *buf)
+int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const double *buf,
+                                       bool with_rolling)
 {
   int m = 0;
   const int n = static_cast<int>(buf[m++]);
@@ -107,6 +110,8 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     r.tangential[0] = buf[m++];
     r.tangential[1] = buf[m++];
     r.tangential[2] = buf[m++];
+    for (int k = 0; k < 3; ++k) r.rolling[k] = with_rolling ? buf[m++] : 0.0;
+    r.twist = with_rolling ? buf[m++] : 0.0;
   }
   return m;
 }
@@ -136,6 +141,7 @@ int FixGeocontactHistory::pack_restart(int i, double *buf)
 
 // A record of another layout (an older plugin's file has the count where the tag is now) is
 // never unpacked: the atom is left without history, and init() refuses the run on every rank.
+// Layout version 1 (no rolling and twist slots) is read with both at zero.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -145,20 +151,23 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
   const double *record = &extra[nlocal][m];
   const int64_t tag = ubuf(record[1]).i;
   const int length = static_cast<int>(record[0]);
-  const int count = tag == kRestartTag ? static_cast<int>(record[2]) : -1;
-  if (count < 0 || length != kRestartHeader + count * kRecordSize) {
+  constexpr int64_t kTagV1 = kRestartTagBase | 1;
+  const bool v1 = tag == kTagV1;
+  const int count = tag == kRestartTag || v1 ? static_cast<int>(record[2]) : -1;
+  if (count < 0 || length != kRestartHeader + count * (v1 ? kRecordSizeV1 : kRecordSize)) {
     if (!unreadable_restart_) unreadable_tag_ = tag;
     unreadable_restart_ = true;
     tables[nlocal].clear();
     return;
   }
-  unpack_table(tables[nlocal], record + 2);
+  unpack_table(tables[nlocal], record + 2, !v1);
 }
 
 // What a restart record's tag says, for the error message.
 static std::string describe_tag(int64_t tag)
 {
-  if (tag == FixGeocontactHistory::kRestartTag)
+  if (tag == FixGeocontactHistory::kRestartTag ||
+      tag == (FixGeocontactHistory::kRestartTagBase | 1))
     return "the right layout tag but a record length that does not match its contact count";
   if ((tag & ~int64_t(0xffffffff)) == FixGeocontactHistory::kRestartTagBase)
     return fmt::format("contact-history layout version {}", tag & 0xffffffff);
@@ -176,7 +185,7 @@ void FixGeocontactHistory::init()
   int64_t tag = unreadable_tag_;
   MPI_Bcast(&tag, 1, MPI_INT64_T, first, world);
   error->all(FLERR, "Fix geocontact/history: the restart file's per-atom contact history has {}; "
-                    "this plugin reads contact-history layout version {} only (re-create the "
+                    "this plugin reads contact-history layout versions 1 to {} only (re-create the "
                     "restart with this plugin)",
              describe_tag(tag), kRestartLayoutVersion);
 }

@@ -9,8 +9,9 @@
 // (pack/unpack_restart). The pair style creates this fix; users do not.
 //
 // Restart layout of one atom: [length, layout tag, count, record x count]. The tag (the bytes
-// "GCHS" and a layout version) lets a file of another layout be refused instead of misread; the
-// fix writes no global restart data (everything it keeps is per atom).
+// "GCHS" and a layout version) lets a file of another layout be refused instead of misread
+// (version 1, before rolling and twisting, is read with both at zero); the fix writes no
+// global restart data (everything it keeps is per atom).
 #ifdef FIX_CLASS
 // clang-format off
 FixStyle(geocontact/history,FixGeocontactHistory);
@@ -33,14 +34,20 @@ struct ContactRecord {
   tagint partner;                // atom ID of the other grain
   geocontact::ContactState law;  // normal law state (docs/law.md)
   double tangential[3];          // accumulated tangential force on this atom (N)
+  double rolling[3];             // rolling displacement (m), the same on both atoms
+  double twist;                  // twist angle (rad), the same on both atoms
 };
 
 class FixGeocontactHistory : public Fix {
  public:
-  // doubles per record when packed: partner ID, 13 law slots, 3 tangential components
-  static constexpr int kRecordSize = 17;
-  // Per-atom restart layout: bumped whenever the packed record changes.
-  static constexpr int kRestartLayoutVersion = 1;
+  // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
+  // rolling components, the twist angle
+  static constexpr int kRecordSize = 21;
+  // Per-atom restart layout: bumped whenever the packed record changes. Version 1 (records
+  // without rolling and twist, kRecordSizeV1 doubles) is still read, as contacts that have not
+  // rolled or twisted yet.
+  static constexpr int kRestartLayoutVersion = 2;
+  static constexpr int kRecordSizeV1 = 17;
   // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
   // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
   // it travels as the bit pattern of a (normal, finite) double.
@@ -112,7 +119,8 @@ class FixGeocontactHistory : public Fix {
   int64_t unreadable_tag_ = 0;
   void update_maxexchange();
   static int pack_table(const std::vector<ContactRecord> &table, double *buf);
-  static int unpack_table(std::vector<ContactRecord> &table, const double *buf);
+  static int unpack_table(std::vector<ContactRecord> &table, const double *buf,
+                          bool with_rolling = true);
 };
 
 }  // namespace LAMMPS_NS

@@ -30,13 +30,15 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
 constexpr const char *kUsage =
     "fix ID group wall/geocontact P.json [friction mu] [damping beta] "
+    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] "
     "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
     "position v_name]";
 
 }  // namespace
 
 FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), friction_(kDefaultFriction), damping_(0.0), wallstyle_(ZPLANE),
+    Fix(lmp, narg, arg), friction_(kDefaultFriction), damping_(0.0), resistance_{},
+    wallstyle_(ZPLANE),
     lo_(0.0), hi_(0.0), cylinder_radius_(0.0), motion_(STATIC), wiggle_axis_(2),
     amplitude_(0.0), angular_frequency_(0.0), velocity_(0.0), ivariable_(-1),
     last_position_(0.0), position_velocity_(0.0), last_position_step_(-1),
@@ -53,8 +55,9 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
                    "Fix wall/geocontact");
 
   int iarg = 4;
-  while (iarg < narg && (strcmp(arg[iarg], "friction") == 0 ||
-                         strcmp(arg[iarg], "damping") == 0)) {
+  while (iarg < narg) {
+    if (parse_resistance(lmp, iarg, narg, arg, resistance_, "Fix wall/geocontact")) continue;
+    if (strcmp(arg[iarg], "friction") != 0 && strcmp(arg[iarg], "damping") != 0) break;
     if (iarg + 1 >= narg)
       error->all(FLERR, "Fix wall/geocontact: keyword '{}' needs a value", arg[iarg]);
     const double value = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
@@ -137,7 +140,7 @@ void FixWallGeocontact::parse_wall(int &iarg, int narg, char **arg)
     iarg += 2;
   } else {
     error->all(FLERR, "Fix wall/geocontact: unknown keyword '{}' (allowed: friction, damping, "
-                      "xplane, yplane, zplane, zcylinder)", style);
+                      "rolling, twisting, xplane, yplane, zplane, zcylinder)", style);
   }
 }
 
@@ -216,10 +219,10 @@ void FixWallGeocontact::init()
     if ((tag & ~int64_t(0xffffffff)) != kAtomTagBase)
       error->all(FLERR, "Fix wall/geocontact: the restart file's per-atom wall contacts have no "
                         "wall/geocontact layout tag (0x{:016x}); this fix reads wall layout "
-                        "version {} only", static_cast<uint64_t>(tag), kRestartLayoutVersion);
-    if (tag != kAtomTag)
+                        "versions 1 to {} only", static_cast<uint64_t>(tag), kRestartLayoutVersion);
+    if (tag != kAtomTag && tag != kAtomTagV1)
       error->all(FLERR, "Fix wall/geocontact: the restart file's per-atom wall contacts have wall "
-                        "layout version {}; this fix reads wall layout version {} only",
+                        "layout version {}; this fix reads wall layout versions 1 to {} only",
                  tag & 0xffffffff, kRestartLayoutVersion);
     error->all(FLERR, "Fix wall/geocontact: the restart file's wall contacts are for {} wall(s), "
                       "this fix {} has {}", walls, id, sides_.size());
@@ -294,6 +297,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   const double dt = update->dt;
   const double skin = neighbor->skin;
   const double calibrated_radius = law_.material.radius;
+  const StiffnessConstants constants = stiffness_constants(law_);
 
   double wall_velocity = 0.0;
   const double shift = wall_displacement(wall_velocity);
@@ -377,22 +381,36 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       if (!rec.active) {
         rec.law = geocontact::ContactState();
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
+        rec.twist = 0.0;
         rec.active = 1;
       }
       const geocontact::StepResult res =
           geocontact::step(law_, rec.law, 2.0 * interference / scale);
       const double law_force = scale * scale * res.force;
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0};
+      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
       if (law_force > 0.0) {
         const ContactFrame frame = contact_frame(n, v[i], vw, omega[i], no_spin, radius[i], 0.0);
-        const ContactStiffness stiffness = wall_contact_stiffness(law_, rec.law, scale);
+        const ContactStiffness stiffness = wall_contact_stiffness(law_, constants, rec.law, scale);
         const Damping damping = damping_coefficients(damping_, rmass[i], stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
         if (friction_ > 0.0)
           tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
                            friction_, fn, dt);
+        // the wall as body j: no spin, flat (R* = r)
+        if (resistance_.rolling)
+          rolling_torque(rec.rolling, extra, resistance_, n, omega[i], no_spin, radius[i], fn,
+                         dt, commit);
+        if (resistance_.twisting) {
+          double twist[3];
+          twisting_torque(rec.twist, twist, n, omega[i], no_spin, stiffness.tangential,
+                          damping.tangential, friction_, stiffness.radius, fn, dt, commit);
+          for (int c = 0; c < 3; ++c) extra[c] += twist[c];
+        }
       } else {
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
+        rec.twist = 0.0;
       }
 
       const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
@@ -400,7 +418,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
                              n[0] * ft[1] - n[1] * ft[0]};
       for (int c = 0; c < 3; ++c) {
         f[i][c] += fc[c];
-        torque[i][c] -= radius[i] * tor[c];
+        torque[i][c] += extra[c] - radius[i] * tor[c];
         tally_[GF_X + c] -= fc[c];  // the grain pushes the wall the other way
       }
       const geocontact::ContactState &st = rec.law;
@@ -453,6 +471,8 @@ void FixWallGeocontact::set_arrays(int i)
     WallRecord &r = records_[i * nwalls + w];
     r.law = geocontact::ContactState();
     r.tangential[0] = r.tangential[1] = r.tangential[2] = 0.0;
+    r.rolling[0] = r.rolling[1] = r.rolling[2] = 0.0;
+    r.twist = 0.0;
     r.active = 0;
   }
   for (int c = 0; c < size_peratom_cols; ++c) array_atom[i][c] = 0.0;
@@ -465,16 +485,20 @@ int FixWallGeocontact::pack_record(const WallRecord &r, double *buf)
   buf[m++] = r.tangential[1];
   buf[m++] = r.tangential[2];
   buf[m++] = r.active;
+  for (int k = 0; k < 3; ++k) buf[m++] = r.rolling[k];
+  buf[m++] = r.twist;
   return m;
 }
 
-int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf)
+int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, bool with_rolling)
 {
   int m = unpack_state(r.law, buf);
   r.tangential[0] = buf[m++];
   r.tangential[1] = buf[m++];
   r.tangential[2] = buf[m++];
   r.active = static_cast<int>(buf[m++]);
+  for (int k = 0; k < 3; ++k) r.rolling[k] = with_rolling ? buf[m++] : 0.0;
+  r.twist = with_rolling ? buf[m++] : 0.0;
   return m;
 }
 
@@ -507,7 +531,8 @@ int FixWallGeocontact::pack_restart(int i, double *buf)
 }
 
 // A record of another layout or wall count is never unpacked: the atom is left without wall
-// contacts and init() refuses the run on every rank.
+// contacts and init() refuses the run on every rank. Layout version 1 (no rolling and twist)
+// is read with both at zero.
 void FixWallGeocontact::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -517,9 +542,12 @@ void FixWallGeocontact::unpack_restart(int nlocal, int nth)
   set_arrays(nlocal);
   const double *record = &extra[nlocal][m];
   const int64_t tag = ubuf(record[1]).i;
-  const int walls = tag == kAtomTag ? static_cast<int>(record[2]) : -1;
+  const bool v1 = tag == kAtomTagV1;
+  const int walls = tag == kAtomTag || v1 ? static_cast<int>(record[2]) : -1;
   const int length = static_cast<int>(record[0]);
-  if (walls != static_cast<int>(sides_.size()) || length != size_restart(nlocal)) {
+  const int expected = kAtomHeader + static_cast<int>(sides_.size()) *
+      (v1 ? kRecordSizeV1 : kRecordSize);
+  if (walls != static_cast<int>(sides_.size()) || length != expected) {
     if (!unreadable_restart_) {
       unreadable_tag_ = tag;
       unreadable_walls_ = walls;
@@ -527,7 +555,9 @@ void FixWallGeocontact::unpack_restart(int nlocal, int nth)
     unreadable_restart_ = true;
     return;
   }
-  unpack_exchange(nlocal, const_cast<double *>(record + kAtomHeader));
+  const size_t nwalls = sides_.size();
+  const double *buf = record + kAtomHeader;
+  for (size_t w = 0; w < nwalls; ++w) buf += unpack_record(records_[nlocal * nwalls + w], buf, !v1);
 }
 
 int FixWallGeocontact::size_restart(int /*i*/)
@@ -564,9 +594,9 @@ void FixWallGeocontact::restart(char *buf)
   double data[kGlobalSize];
   memcpy(data, buf, sizeof(data));
   const int64_t tag = ubuf(data[0]).i;
-  if (tag != kGlobalTag)
+  if (tag != kGlobalTag && tag != (kGlobalTagBase | 1))  // the global layout of version 1
     error->all(FLERR, "Fix wall/geocontact: the restart file's global wall data has {} (tag "
-                      "0x{:016x}); this fix reads wall layout version {} only",
+                      "0x{:016x}); this fix reads wall layout versions 1 to {} only",
                (tag & ~int64_t(0xffffffff)) == (kGlobalTag & ~int64_t(0xffffffff))
                    ? "another layout version" : "no wall/geocontact layout tag",
                static_cast<uint64_t>(tag), kRestartLayoutVersion);

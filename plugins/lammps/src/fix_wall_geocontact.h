@@ -1,7 +1,8 @@
 // fix wall/geocontact: rigid walls for grains with the geocontact law, in the manner of LAMMPS's
 // fix wall/gran (examples/lammps/README.md "Walls").
 //
-//   fix ID group wall/geocontact P.json [friction mu] [damping beta] wallstyle args [motion]
+//   fix ID group wall/geocontact P.json [friction mu] [damping beta]
+//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] wallstyle args [motion]
 //     wallstyle: xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
 //     motion:    wiggle dim A period | velocity v | position v_name
 //
@@ -9,8 +10,11 @@
 // law of the FE half model (SPEC 10): F = s^2 F_R(2 w / s), the pair law of two identical
 // spheres of radius r at approach d = 2 w, with all its history rules; the same Mindlin-Coulomb
 // tangential force and damping as the pair style (contact_forces.h), with the sphere-flat
-// stiffnesses (twice the pair's, the same contact radius). One contact record per wall per atom
-// (law state, tangential force) travels with the atom between ranks and into restart files.
+// stiffnesses (twice the pair's, the same contact radius). Rolling and twisting resistance as
+// LAMMPS's fix wall/gran: the wall neither spins nor is curved for them (R* = r, the grain's
+// radius, also for the zcylinder), the same coefficients as the pair's keywords. One contact
+// record per wall per atom (law state, tangential force, rolling displacement, twist angle)
+// travels with the atom between ranks and into restart files.
 //
 // Output: global vector [1-3] force of the grains on the wall (N), [4] energy the law dissipated
 // at the wall (J, contacts since the fix was defined), [5] stored elastic energy (J), [6] number
@@ -26,6 +30,7 @@ FixStyle(wall/geocontact,FixWallGeocontact);
 #ifndef LMP_FIX_WALL_GEOCONTACT_H
 #define LMP_FIX_WALL_GEOCONTACT_H
 
+#include "contact_forces.h"
 #include "fix.h"
 #include "geocontact/law.hpp"
 
@@ -37,18 +42,23 @@ namespace LAMMPS_NS {
 
 class FixWallGeocontact : public Fix {
  public:
-  // doubles per wall record: 13 law slots, 3 tangential components, the active flag
-  static constexpr int kRecordSize = 17;
+  // doubles per wall record: 13 law slots, 3 tangential components, the active flag, 3 rolling
+  // components, the twist angle (layout version 1: the first 17 of them)
+  static constexpr int kRecordSize = 21;
+  static constexpr int kRecordSizeV1 = 17;
   static constexpr int kOutputColumns = 6;
   // Restart layouts, bumped whenever a packed record changes: per atom [length, tag, walls,
   // records], the tag "GCWA" in the high and the version in the low 32 bits; global [tag
   // "GCWG" + version, time origin, wall position and velocity of the position variable and its
-  // step, dissipated energy of forgotten contacts, walls].
-  static constexpr int kRestartLayoutVersion = 1;
+  // step, dissipated energy of forgotten contacts, walls]. Version 2 adds rolling and twist to
+  // the per-atom records (the global layout is unchanged); version 1 is still read, with them
+  // at zero.
+  static constexpr int kRestartLayoutVersion = 2;
   static constexpr int64_t kAtomTagBase = static_cast<int64_t>(0x41574347) << 32;
   static constexpr int64_t kAtomTag = kAtomTagBase | kRestartLayoutVersion;
-  static constexpr int64_t kGlobalTag = (static_cast<int64_t>(0x47574347) << 32) |
-      kRestartLayoutVersion;
+  static constexpr int64_t kAtomTagV1 = kAtomTagBase | 1;
+  static constexpr int64_t kGlobalTagBase = static_cast<int64_t>(0x47574347) << 32;
+  static constexpr int64_t kGlobalTag = kGlobalTagBase | kRestartLayoutVersion;
   static constexpr int kAtomHeader = 3;
   static constexpr int kGlobalSize = 7;
 
@@ -83,6 +93,8 @@ class FixWallGeocontact : public Fix {
     geocontact::ContactState law;  // in the calibrated spheres' units, at d = 2 w / s
     double tangential[3];          // accumulated tangential force on the atom (N)
     int active;                    // 1 while the atom is within the skin of the wall
+    double rolling[3];             // rolling displacement (m)
+    double twist;                  // twist angle (rad)
   };
 
   void parse_wall(int &iarg, int narg, char **arg);
@@ -90,10 +102,11 @@ class FixWallGeocontact : public Fix {
   double wall_displacement(double &velocity);
   void check_atoms();
   static int pack_record(const WallRecord &r, double *buf);
-  static int unpack_record(WallRecord &r, const double *buf);
+  static int unpack_record(WallRecord &r, const double *buf, bool with_rolling = true);
 
   geocontact::LawParams law_;
   double friction_, damping_;
+  geocontact_forces::RollingCoeffs resistance_;
   int wallstyle_;
   double lo_, hi_, cylinder_radius_;
   std::vector<int> sides_;  // the walls of this fix: LO, HI (planes) or CYLINDER

@@ -32,7 +32,9 @@ constexpr double kDefaultFriction = 0.5;
 // version come first, so a file of another layout is refused instead of misread. Bump the
 // version whenever write_restart changes.
 constexpr int kRestartTag = 0x53504347;
-constexpr int kRestartLayoutVersion = 1;
+// Version 2 adds the rolling and twisting coefficients of each type pair; version 1 is read
+// without them.
+constexpr int kRestartLayoutVersion = 2;
 
 // Grains of any size by similarity (SPEC 10): two spheres of radii ri, rj behave as two
 // identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
@@ -95,7 +97,7 @@ void PairGeocontact::allocate()
     type_max_radius_[i] = 0.0;
     for (int j = 0; j < n; ++j) {
       setflag[i][j] = 0;
-      coeffs_[i][j] = {-1, kDefaultFriction, 0.0};
+      coeffs_[i][j] = {-1, kDefaultFriction, 0.0, RollingCoeffs{}};
     }
   }
 }
@@ -121,6 +123,7 @@ int PairGeocontact::add_law(const std::string &text, const std::string &source)
   for (size_t k = 0; k < law_texts_.size(); ++k)
     if (law_texts_[k] == text) return static_cast<int>(k);
   laws_.push_back(parse_law(lmp, text, source, "pair_coeff geocontact"));
+  stiffness_constants_.push_back(stiffness_constants(laws_.back()));
   law_texts_.push_back(text);
   return static_cast<int>(laws_.size()) - 1;
 }
@@ -129,7 +132,8 @@ void PairGeocontact::coeff(int narg, char **arg)
 {
   if (narg < 3)
     error->all(FLERR, "Incorrect args for pair coefficients: pair_coeff I J P.json "
-                      "[friction mu] [damping beta]");
+                      "[friction mu] [damping beta] [rolling sds k_roll gamma_roll mu_roll] "
+                      "[twisting marshall]");
   require_sphere(atom, error);
   if (!allocated) allocate();
   int ilo, ihi, jlo, jhi;
@@ -142,7 +146,9 @@ void PairGeocontact::coeff(int narg, char **arg)
   const int law = add_law(text, path);
 
   double friction = kDefaultFriction, damping = 0.0;
-  for (int iarg = 3; iarg < narg; iarg += 2) {
+  RollingCoeffs resistance{};
+  for (int iarg = 3; iarg < narg;) {
+    if (parse_resistance(lmp, iarg, narg, arg, resistance, "pair_coeff geocontact")) continue;
     if (iarg + 1 >= narg)
       error->all(FLERR, "pair_coeff geocontact: keyword '{}' needs a value", arg[iarg]);
     if (strcmp(arg[iarg], "friction") == 0) {
@@ -155,14 +161,15 @@ void PairGeocontact::coeff(int narg, char **arg)
         error->all(FLERR, "pair_coeff geocontact: damping must be >= 0, got {}", damping);
     } else {
       error->all(FLERR, "pair_coeff geocontact: unknown keyword '{}' (allowed: friction, "
-                        "damping)", arg[iarg]);
+                        "damping, rolling, twisting)", arg[iarg]);
     }
+    iarg += 2;
   }
 
   int count = 0;
   for (int i = ilo; i <= ihi; ++i) {
     for (int j = std::max(jlo, i); j <= jhi; ++j) {
-      coeffs_[i][j] = {law, friction, damping};
+      coeffs_[i][j] = {law, friction, damping, resistance};
       setflag[i][j] = 1;
       ++count;
     }
@@ -233,7 +240,15 @@ double PairGeocontact::init_one(int i, int j)
     if (a.law != b.law)
       error->all(FLERR, "Pair geocontact: types {} and {} use different parameter files; give "
                         "pair_coeff {} {} explicitly", i, j, i, j);
-    coeffs_[i][j] = {a.law, 0.5 * (a.friction + b.friction), 0.5 * (a.damping + b.damping)};
+    const RollingCoeffs &ra = a.resistance, &rb = b.resistance;
+    if (ra.rolling != rb.rolling || ra.twisting != rb.twisting)
+      error->all(FLERR, "Pair geocontact: types {} and {} differ in rolling or twisting "
+                        "resistance; give pair_coeff {} {} explicitly", i, j, i, j);
+    const RollingCoeffs mixed{0.5 * (ra.stiffness + rb.stiffness),
+                              0.5 * (ra.damping + rb.damping),
+                              0.5 * (ra.friction + rb.friction), ra.rolling, ra.twisting};
+    coeffs_[i][j] = {a.law, 0.5 * (a.friction + b.friction), 0.5 * (a.damping + b.damping),
+                     mixed};
   }
   coeffs_[j][i] = coeffs_[i][j];
   // grains touch when their centres are closer than the sum of their radii: the largest pair
@@ -359,9 +374,11 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
 }
 
 // Normal and tangential force on grain i (and the opposite on j if owned here), with the
-// torques of the tangential force about each centre, -r (n x Ft).
+// torques of the tangential force about each centre, -r (n x Ft), and the rolling and twisting
+// torque on i (the opposite on j).
 void PairGeocontact::apply_contact_force(int i, int j, double fn, const double *ft,
-                                         const double *n, const double *del, double energy)
+                                         const double *n, const double *del, double energy,
+                                         const double *extra_torque)
 {
   double **f = atom->f;
   double **torque = atom->torque;
@@ -373,12 +390,12 @@ void PairGeocontact::apply_contact_force(int i, int j, double fn, const double *
   f[i][0] += fx;
   f[i][1] += fy;
   f[i][2] += fz;
-  for (int k = 0; k < 3; ++k) torque[i][k] -= radius[i] * tor[k];
+  for (int k = 0; k < 3; ++k) torque[i][k] += extra_torque[k] - radius[i] * tor[k];
   if (j < nlocal) {
     f[j][0] -= fx;
     f[j][1] -= fy;
     f[j][2] -= fz;
-    for (int k = 0; k < 3; ++k) torque[j][k] -= radius[j] * tor[k];
+    for (int k = 0; k < 3; ++k) torque[j][k] -= extra_torque[k] + radius[j] * tor[k];
   }
   if (evflag) ev_tally_xyz(i, j, nlocal, 0, energy, 0.0, fx, fy, fz, del[0], del[1], del[2]);
 }
@@ -433,37 +450,52 @@ void PairGeocontact::compute(int eflag, int vflag)
       const geocontact::LawParams &law = laws_[tp.law];
       const double scale = similarity_scale(radi, radius[j], law.material.radius);
 
-      ContactRecord rec;
-      if (known) {
-        rec = pair_records_[k];
-      } else {
+      // the record itself when the step commits (most calls), a scratch copy in setup
+      ContactRecord scratch;
+      ContactRecord &rec = commit ? pair_records_[k] : (scratch = pair_records_[k]);
+      if (!known) {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
+        rec.twist = 0.0;
       }
       const double r = std::sqrt(rsq);
       const geocontact::StepResult res = geocontact::step(law, rec.law, (radsum - r) / scale);
       const double law_force = scale * scale * res.force;
 
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0};
+      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
       ContactFrame frame{};
       if (law_force > 0.0) {
         const double rinv = 1.0 / r;
         const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
         frame = contact_frame(n, v[i], v[j], omega[i], omega[j], radi, radius[j]);
-        const ContactStiffness stiffness = contact_stiffness(law, rec.law, scale);
+        const ContactStiffness stiffness =
+            contact_stiffness(law, stiffness_constants_[tp.law], rec.law, scale);
         const double meff = reduced_mass(rmass[i], rmass[j]);
         const Damping damping = damping_coefficients(tp.damping, meff, stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
         if (tp.friction > 0.0)
           tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
                            tp.friction, fn, dt);
+        const RollingCoeffs &rc = tp.resistance;
+        if (rc.rolling) {
+          const double reff = radi * radius[j] / radsum;
+          rolling_torque(rec.rolling, extra, rc, n, omega[i], omega[j], reff, fn, dt, commit);
+        }
+        if (rc.twisting) {
+          double twist[3];
+          twisting_torque(rec.twist, twist, n, omega[i], omega[j], stiffness.tangential,
+                          damping.tangential, tp.friction, stiffness.radius, fn, dt, commit);
+          for (int c = 0; c < 3; ++c) extra[c] += twist[c];
+        }
       } else {
         rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
+        rec.twist = 0.0;
       }
 
       if (commit) {
-        pair_records_[k] = rec;
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }
@@ -471,7 +503,7 @@ void PairGeocontact::compute(int eflag, int vflag)
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
       const double energy =
           eflag ? scale * scale * scale * geocontact::elastic_energy(law, rec.law) : 0.0;
-      apply_contact_force(i, j, fn, ft, frame.n, del, energy);
+      apply_contact_force(i, j, fn, ft, frame.n, del, energy, extra);
     }
   }
 }
@@ -507,7 +539,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 }
 
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so
-// a restart is self-contained, then per type pair the law index, friction and damping.
+// a restart is self-contained, then per type pair the law index, friction and damping, and
+// (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -527,6 +560,10 @@ void PairGeocontact::write_restart(FILE *fp)
         fwrite(&coeffs_[i][j].law, sizeof(int), 1, fp);
         fwrite(&coeffs_[i][j].friction, sizeof(double), 1, fp);
         fwrite(&coeffs_[i][j].damping, sizeof(double), 1, fp);
+        const RollingCoeffs &rc = coeffs_[i][j].resistance;
+        const double resistance[5] = {rc.rolling ? 1.0 : 0.0, rc.stiffness, rc.damping,
+                                      rc.friction, rc.twisting ? 1.0 : 0.0};
+        fwrite(resistance, sizeof(double), 5, fp);
       }
     }
 }
@@ -542,15 +579,16 @@ void PairGeocontact::read_restart(FILE *fp)
   if (layout[0] != kRestartTag)
     error->all(FLERR, "Pair geocontact: the restart file's pair section has no geocontact layout "
                       "tag (0x{:08x} where the tag 0x{:08x} belongs: an older plugin's or a "
-                      "foreign layout); this plugin reads pair layout version {} only (re-create "
-                      "the restart with this plugin)",
+                      "foreign layout); this plugin reads pair layout versions 1 to {} only "
+                      "(re-create the restart with this plugin)",
                static_cast<unsigned>(layout[0]), static_cast<unsigned>(kRestartTag),
                kRestartLayoutVersion);
-  if (layout[1] != kRestartLayoutVersion)
+  if (layout[1] < 1 || layout[1] > kRestartLayoutVersion)
     error->all(FLERR, "Pair geocontact: the restart file's pair section has layout version {}; "
-                      "this plugin reads pair layout version {} only (re-create the restart with "
-                      "this plugin)",
+                      "this plugin reads pair layout versions 1 to {} only (re-create the "
+                      "restart with this plugin)",
                layout[1], kRestartLayoutVersion);
+  const bool with_resistance = layout[1] >= 2;
   int nlaws = 0;
   if (me == 0) utils::sfread(FLERR, &nlaws, sizeof(int), 1, fp, nullptr, error);
   MPI_Bcast(&nlaws, 1, MPI_INT, 0, world);
@@ -577,6 +615,12 @@ void PairGeocontact::read_restart(FILE *fp)
         MPI_Bcast(&c.law, 1, MPI_INT, 0, world);
         MPI_Bcast(&c.friction, 1, MPI_DOUBLE, 0, world);
         MPI_Bcast(&c.damping, 1, MPI_DOUBLE, 0, world);
+        double resistance[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+        if (with_resistance && me == 0)
+          utils::sfread(FLERR, resistance, sizeof(double), 5, fp, nullptr, error);
+        MPI_Bcast(resistance, 5, MPI_DOUBLE, 0, world);
+        c.resistance = {resistance[1], resistance[2], resistance[3], resistance[0] != 0.0,
+                        resistance[4] != 0.0};
       }
     }
 }

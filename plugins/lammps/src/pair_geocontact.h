@@ -2,14 +2,16 @@
 // (docs/law.md) with a Mindlin-Coulomb tangential force, for atom style sphere.
 //
 //   pair_style geocontact
-//   pair_coeff * * P.json [friction mu] [damping beta]
+//   pair_coeff * * P.json [friction mu] [damping beta] [rolling sds k g mu_r]
+//              [twisting marshall]
 //
 // Normal force: the law for each contact, state per contact kept across neighbor-list rebuilds,
 // migrations and restarts (fix geocontact/history). Tangential force: the accumulated
 // tangential force (not displacement) is stored; its increment is -k_t v_t dt with the Mindlin
 // no-slip stiffness k_t = 8 G* a of the current contact radius a, capped by mu times the normal
 // force (Coulomb). Optional viscous damping: ratio beta of the critical damping of the contact's
-// unloading (normal) and Mindlin (tangential) stiffness.
+// unloading (normal) and Mindlin (tangential) stiffness. Optional rolling and twisting
+// resistance as LAMMPS's pair granular `rolling sds` and `twisting marshall` (contact_forces.h).
 #ifdef PAIR_CLASS
 // clang-format off
 PairStyle(geocontact,PairGeocontact);
@@ -21,6 +23,7 @@ PairStyle(geocontact,PairGeocontact);
 
 #include "pair.h"
 #include "fix_geocontact_history.h"
+#include "contact_forces.h"
 #include "geocontact/law.hpp"
 
 #include <string>
@@ -28,6 +31,7 @@ PairStyle(geocontact,PairGeocontact);
 
 namespace LAMMPS_NS {
 
+using geocontact_forces::RollingCoeffs;
 class FixGeocontactHistory;
 
 class PairGeocontact : public Pair {
@@ -59,6 +63,7 @@ class PairGeocontact : public Pair {
     int law;                // index into laws_
     double friction;        // Coulomb coefficient mu
     double damping;         // fraction of critical damping beta
+    RollingCoeffs resistance;  // rolling sds and twisting marshall
   };
 
   void allocate();
@@ -69,10 +74,11 @@ class PairGeocontact : public Pair {
   void tally_contact(const geocontact::LawParams &law, const geocontact::ContactState &state,
                      double scale, bool owned_pair);
   void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
-                           const double *del, double energy);
+                           const double *del, double energy, const double *extra_torque);
 
   FixGeocontactHistory *history_;
   std::vector<geocontact::LawParams> laws_;
+  std::vector<geocontact_forces::StiffnessConstants> stiffness_constants_;  // per law
   std::vector<std::string> law_texts_;  // the parameter documents, for restart files
   TypePairLaw **coeffs_;
   double *type_max_radius_;             // largest radius of each type's atoms (m): cutoffs
