@@ -111,9 +111,20 @@ def power_law_critical_cycle(coefficient: float, power: float, tolerance: float)
     return max(2, math.ceil(math.exp(log_n)))
 
 
+# Forms of the cyclic extension (docs/law.md, "Repeated cycles"). TRUNCATED, the original (files
+# without ``cyclic.form``): increments c N^-p, zero once below the tolerance; every closed cycle
+# loops along the fitted n_r(x). SHAKEDOWN: increments c N^-p in every cycle (their sum
+# converges for p > 1), and the dissipation of closed cycle N is the plastic-work ratio law
+# c_w N^-p_w times cycle 1's, through the main reloading exponent (it tends to n_u: the loop
+# closes, elastic shakedown as in the FE).
+TRUNCATED, SHAKEDOWN = "truncated", "shakedown"
+CYCLIC_FORMS = (TRUNCATED, SHAKEDOWN)
+
+
 @dataclass(frozen=True)
 class CyclicLaw:
-    """Optional ratchetting extension (SPEC 6): per-cycle residual-approach increments."""
+    """Optional ratchetting and shakedown extension (SPEC 6): per-cycle residual-approach
+    increments and, in the shakedown form, per-cycle loop dissipation."""
 
     enabled: bool = False
     residual_ratio_coefficient: float = 0.0
@@ -121,13 +132,24 @@ class CyclicLaw:
     plastic_work_ratio_coefficient: float = 0.0
     plastic_work_ratio_power: float = 1.0
     tolerance: float = 0.01
+    form: str = TRUNCATED
+
+    @property
+    def shakedown(self) -> bool:
+        return self.enabled and self.form == SHAKEDOWN
 
     def residual_ratio(self, cycle: float) -> float:
         """Increment of residual approach in cycle N (N >= 2) over the first cycle's residual."""
         if cycle < 2.0:
             return 0.0
         ratio = self.residual_ratio_coefficient * cycle ** (-self.residual_ratio_power)
-        return ratio if ratio >= self.tolerance else 0.0
+        return ratio if self.form == SHAKEDOWN or ratio >= self.tolerance else 0.0
+
+    def plastic_work_ratio(self, cycle: float) -> float:
+        """Dissipation of closed cycle N (N >= 2) over cycle 1's (the shakedown form's loops)."""
+        if cycle < 2.0:
+            return 1.0
+        return self.plastic_work_ratio_coefficient * cycle ** (-self.plastic_work_ratio_power)
 
     def critical_cycle(self) -> int | None:
         """First cycle whose residual-approach increment ratio is below the tolerance."""
@@ -147,13 +169,18 @@ class CyclicLaw:
             "plastic_work_ratio": {"coefficient": self.plastic_work_ratio_coefficient,
                                    "power": self.plastic_work_ratio_power},
             "tolerance": self.tolerance,
+            "form": self.form,
         }
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> CyclicLaw:
         w = "cyclic"
         _check_keys(w, data, {"enabled", "residual_ratio", "plastic_work_ratio", "tolerance",
-                              "critical_cycle"})
+                              "critical_cycle", "form"})
+        form = data.get("form", TRUNCATED)
+        if form not in CYCLIC_FORMS:  # the same message as params.hpp
+            got = f'"{form}"' if isinstance(form, str) else "a non-string value"
+            raise InputError(f"cyclic.form: must be one of {', '.join(CYCLIC_FORMS)}, got {got}")
         enabled = data.get("enabled", False)
         if not isinstance(enabled, bool):
             raise InputError(f"cyclic.enabled: must be true or false, got {enabled!r}")
@@ -179,6 +206,7 @@ class CyclicLaw:
             plastic_work_ratio_coefficient=values["plastic_work_ratio"][0],
             plastic_work_ratio_power=values["plastic_work_ratio"][1],
             tolerance=_number(w, data, "tolerance", 0, 1, lo_open=True),
+            form=form,
         )
 
 

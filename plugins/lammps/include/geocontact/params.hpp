@@ -107,7 +107,15 @@ inline CyclicLaw parse_cyclic(const json::Value *c)
   CyclicLaw cyc;
   if (!c) return cyc;
   check_keys(*c, "cyclic",
-             {"enabled", "residual_ratio", "plastic_work_ratio", "tolerance", "critical_cycle"});
+             {"enabled", "residual_ratio", "plastic_work_ratio", "tolerance", "critical_cycle",
+              "form"});
+  if (const json::Value *f = c->find("form")) {
+    // same message as geocontact.law.params.CyclicLaw.from_dict
+    if (f->kind != json::Value::STRING || (f->string != "truncated" && f->string != "shakedown"))
+      throw InputError("cyclic.form: must be one of truncated, shakedown, got " +
+                       (f->kind == json::Value::STRING ? "\"" + f->string + "\"" : "a non-string value"));
+    cyc.shakedown = f->string == "shakedown";
+  }
   if (const json::Value *e = c->find("enabled")) {
     if (e->kind != json::Value::BOOL) throw InputError("cyclic.enabled: must be true or false");
     cyc.enabled = e->boolean;
