@@ -384,6 +384,21 @@ class LawParams:
                 ),
             )
 
+    def virgin_approach(self, force: float) -> float:
+        """Inverse of the virgin loading curve: the approach at which it carries ``force``."""
+        f = float(force)
+        if f <= 0.0:
+            return 0.0
+        if f <= self.yield_force:
+            return (f / self.hertz_coefficient) ** (1.0 / HERTZ_EXPONENT)
+        if f <= self.fully_plastic_force:
+            return self.yield_approach * (f / self.yield_force) ** (1.0 / self.elastic_plastic_exponent)
+        if f <= self.deep_plastic_force:
+            return self.fully_plastic_approach * (
+                f / self.fully_plastic_force) ** (1.0 / self.fully_plastic_exponent)
+        return self.deep_plastic_approach * (
+            f / self.deep_plastic_force) ** (1.0 / self.deep_plastic_exponent)
+
     def envelope_plastic_work(self, max_approach):
         """Plastic work of a full load-unload cycle to delta_max, as the law computes it:
         the virgin work minus what the unloading curve gives back, Fmax (dmax - dres)/(n_u + 1)."""
