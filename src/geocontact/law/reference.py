@@ -14,6 +14,8 @@ Branches and the partial-reversal rule (docs/law.md derives why it never creates
             force exactly at d_res, so the residual approach is that of the envelope.
 * RELOADING f = t^k, through the reversal point and (d_max, F_max): k = ln f_rev / ln t_rev,
             which lies in [n_r, n_u]; from full unloading k = n_r (the main reloading curve).
+            In the shakedown form (cyclic.form) from full unloading k = k_N, the exponent that
+            makes closed cycle N dissipate the fitted plastic-work ratio of N; k_N -> n_u.
 * RATCHET   (cyclic extension only) a reload that reaches the envelope band, t >= 1 - tol
             (tol = cyclic.tolerance), creeps at the force it has there by the cycle's
             increment of residual approach (the shift s grows, d' stays), then goes on along
