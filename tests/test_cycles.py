@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geocontact.analyses import cycles as cy
 from geocontact import cyclic_fit
+from geocontact.analyses import cycles as cy
 from geocontact.errors import InputError
 from geocontact.law import load_params
 

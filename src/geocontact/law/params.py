@@ -392,7 +392,8 @@ class LawParams:
         if f <= self.yield_force:
             return (f / self.hertz_coefficient) ** (1.0 / HERTZ_EXPONENT)
         if f <= self.fully_plastic_force:
-            return self.yield_approach * (f / self.yield_force) ** (1.0 / self.elastic_plastic_exponent)
+            return self.yield_approach * (
+                f / self.yield_force) ** (1.0 / self.elastic_plastic_exponent)
         if f <= self.deep_plastic_force:
             return self.fully_plastic_approach * (
                 f / self.fully_plastic_force) ** (1.0 / self.fully_plastic_exponent)

@@ -153,7 +153,8 @@ class Contact:
         s, p = self.state, self.params
         n_u, span = s.unloading_exponent, s.max_approach - s.residual_approach
         cycles = max(cycles, 2.0)
-        target = float(p.envelope_plastic_work(s.max_approach)) * p.cyclic.plastic_work_ratio(cycles)
+        first = float(p.envelope_plastic_work(s.max_approach))  # cycle 1's dissipation
+        target = first * p.cyclic.plastic_work_ratio(cycles)
         ratchet = p.cyclic.residual_ratio(cycles) * s.residual_approach
         k = n_u
         # the creep happens at the band's force F_max (1 - tol)^k: two fixed-point passes
