@@ -169,7 +169,8 @@ class CyclicLaw:
             "plastic_work_ratio": {"coefficient": self.plastic_work_ratio_coefficient,
                                    "power": self.plastic_work_ratio_power},
             "tolerance": self.tolerance,
-            "form": self.form,
+            # optional key, written when not the default (files without it are truncated)
+            **({"form": self.form} if self.form != TRUNCATED else {}),
         }
 
     @classmethod
