@@ -240,7 +240,11 @@ def test_calibration_fits_the_cyclic_laws_to_its_repeated_fe_run(calibrated):
     assert cyclic["status"] in ("fitted", "not fitted", "not needed")
     if cyclic["status"] == "fitted":
         assert doc["cyclic"]["enabled"] is True
-        assert doc["fit_errors"]["cyclic"]["residual_increment_ratio"]["cycles_used"]
+        assert doc["cyclic"]["form"] == "shakedown"
+        errors = doc["fit_errors"]["cyclic"]
+        for name in ("residual_increment_ratio", "plastic_work_ratio"):
+            assert [c["cycle"] for c in errors[name]["per_cycle"]]
+            assert errors[name]["max_log10"] >= 0.0
     else:
         assert doc["cyclic"]["enabled"] is False and cyclic["reason"]
 
@@ -263,7 +267,10 @@ def test_fit_cyclic_accepts_a_steep_decay_with_coefficient_above_one():
     params = make_params()
     job = cyclic_job(preset("reference"), 300.0, "coarse", 4)
     n = np.arange(1, 11)
-    inc = np.where(n == 1, 1e-4, 1e-4 * 2.3 * n**-4.0)
+    from geocontact.cyclic_fit import law_first_cycle
+
+    residual_1, _ = law_first_cycle(params, 3000.0)  # the law's own cycle 1 (the fit's unit)
+    inc = np.where(n == 1, residual_1, residual_1 * 2.3 * n**-4.0)
     fitted = fit_cyclic(params, job, _cycles_result(inc, inc * 1e3))
     assert fitted.cyclic.enabled
     assert fitted.cyclic.residual_ratio_coefficient == pytest.approx(2.3, rel=1e-6)

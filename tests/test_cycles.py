@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from geocontact import cyclic_fit
 from geocontact.analyses import cycles as cy
 from geocontact.errors import InputError
 from geocontact.law import load_params
@@ -170,27 +171,51 @@ def test_law_along_its_own_force_path_gives_the_same_cycles(params):
 
 
 def test_with_cyclic_fills_the_law_and_round_trips(params, tmp_path):
+    """The fit lands the law's cycle N on the FE's in metres and joules: coefficients over the
+    law's own cycle 1 at the FE's peak force (closed form), powers exact on a power series."""
     n = 10
+    fmax = 200 * params.yield_force
     res = power_sequence(1e-5, 0.3, 1.5, n)
     wp = power_sequence(0.5, 0.2, 1.2, n)
-    analysis = cy.analyse(synthetic(res, wp), tolerance=0.01)
+    analysis = cy.analyse(synthetic(res, wp, max_force=fmax), tolerance=0.01)
     fitted = cy.with_cyclic(params, analysis, provenance={"note": "synthetic"})
-    assert fitted.cyclic.enabled
-    assert fitted.cyclic.residual_ratio_coefficient == pytest.approx(0.3, rel=1e-9)
+    dmax = params.virgin_approach(fmax)
+    residual_1 = float(params.residual_ratio(dmax / params.yield_approach)) * dmax
+    work_1 = float(params.envelope_plastic_work(dmax))
+    assert fitted.cyclic.enabled and fitted.cyclic.form == "shakedown"
+    assert fitted.cyclic.residual_ratio_coefficient == pytest.approx(0.3 * 1e-5 / residual_1,
+                                                                     rel=1e-9)
     assert fitted.cyclic.residual_ratio_power == pytest.approx(1.5, rel=1e-9)
+    assert fitted.cyclic.plastic_work_ratio_coefficient == pytest.approx(0.2 * 0.5 / work_1,
+                                                                         rel=1e-9)
     assert fitted.cyclic.plastic_work_ratio_power == pytest.approx(1.2, rel=1e-9)
-    assert fitted.cyclic.critical_cycle() == math.ceil(30 ** (1 / 1.5))
     assert fitted.provenance["cyclic"]["note"] == "synthetic"
-    assert fitted.fit_errors["cyclic"]["residual_increment_ratio"]["cycles_used"] == list(
-        range(2, n + 1))
+    errors = fitted.fit_errors["cyclic"]["residual_increment_ratio"]
+    assert [c["cycle"] for c in errors["per_cycle"]] == list(range(2, n + 1))
+    assert errors["max_log10"] < 1e-9
     fitted.save(tmp_path / "p.json")
     again = load_params(tmp_path / "p.json")
     assert again.cyclic == fitted.cyclic
-    # the law with the fitted extension ratchets by the fitted ratio in cycle 2
-    fmax = 200 * params.yield_force
-    law, _ = cy.law_cycles_by_force(again, [0.0] + [fmax, 0.0] * 3)
+    # the law with the fitted extension ratchets by the FE's increments in metres and
+    # dissipates the FE's plastic work in joules, cycle by cycle
+    law, _ = cy.law_cycles_by_force(again, [0.0] + [fmax, 0.0] * 4)
     rows = cy.cycle_table(law)
-    assert rows[1]["residual_increment_ratio"] == pytest.approx(0.3 * 2**-1.5, rel=1e-6)
+    for k in (2, 3, 4):
+        assert rows[k - 1]["residual_approach_increment_m"] == pytest.approx(res[k - 1], rel=1e-6)
+        assert rows[k - 1]["plastic_work_J"] == pytest.approx(wp[k - 1], rel=1e-6)
+
+
+def test_minimax_fit_bounds_the_worst_cycle():
+    """A curved series (local log-slope rising, as the FE's is): the minimax power law's worst
+    factor is below the least-squares one's."""
+    n = np.arange(1, 11)
+    series = np.exp(-0.5 * n) * n**-2.0
+    minimax = cyclic_fit.fit_power_law_minimax(n, series, 1.0)
+    least = cy.fit_power_law(n, series)
+    worst_least = np.max(np.abs(np.log10(least(n[1:]) / series[1:])))
+    assert minimax.max_log10_error < worst_least
+    assert minimax.max_log10_error == pytest.approx(
+        max(abs(math.log10(c["law_over_fe"])) for c in minimax.per_cycle), rel=1e-9)
 
 
 def test_with_cyclic_refuses_a_ratchetting_history(params):

@@ -24,7 +24,11 @@ def test_golden_vectors_cover_every_branch_and_every_parameter_variant():
     branches = {b for case in golden["cases"] for b in case["branches"]}
     assert branches == {0, 1, 2, 3, 4}  # apart, virgin, unloading, reloading, ratchet
     assert {case["params"] for case in golden["cases"]} == {"cyclic_on", "cyclic_off",
-                                                            "transition", "deep"}
+                                                            "transition", "deep", "shakedown"}
+    # the shakedown form: its histories reload from zero force after the first cycle (k_N)
+    assert golden["params"]["shakedown"]["cyclic"]["form"] == "shakedown"
+    assert any(3 in c["branches"] and c["final_state"]["cycles"] >= 3.0
+               for c in golden["cases"] if c["params"] == "shakedown")
     # the transition variant really exercises the residual form with x0 != 1
     assert golden["params"]["transition"]["residual_approach"]["transition_depth"] != 1.0
     # the deep variant: a third loading regime that the histories reach, and log power b != 1

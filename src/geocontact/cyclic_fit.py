@@ -347,39 +347,102 @@ def _eventual(last_ratio: float | None, fit: PowerLaw | None, tolerance: float,
 # --- the law on the same history ---------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class CyclicFit:
+    """A power law ``c N^-p`` of what the law's cycle N adds, fitted in the quantity itself:
+    the FE's per-cycle value (metres of residual approach, joules of plastic work) over the
+    *law's own* cycle 1 at the same peak force, so that c absorbs the law's cycle-1 error and
+    the law's cycle N lands on the FE's in metres and joules. Minimax in log-log (the worst
+    cycle's factor as small as a power law allows), with the factor per cycle."""
+
+    coefficient: float
+    power: float
+    max_log10_error: float
+    per_cycle: list[dict[str, float]]
+
+    def __call__(self, cycle):
+        return self.coefficient * np.asarray(cycle, dtype=float) ** (-self.power)
+
+
+def fit_power_law_minimax(cycles, values, reference: float) -> CyclicFit | None:
+    """Minimax fit of ln(value / reference) = ln c - p ln N over N >= 2 with a value above
+    ``ROUND_OFF`` x reference (a linear programme, scipy's HiGHS); None with fewer than two."""
+    from scipy.optimize import linprog
+
+    n = np.asarray(cycles, dtype=float)
+    ratio = np.asarray(values, dtype=float) / reference
+    use = (n >= 2) & np.isfinite(ratio) & (ratio > ROUND_OFF)
+    if np.count_nonzero(use) < 2:
+        return None
+    x, y = np.log(n[use]), np.log(ratio[use])
+    # unknowns (ln c, p, t): minimise t with |y - ln c + p x| <= t
+    ones = np.ones_like(x)
+    a_ub = np.vstack([np.column_stack([-ones, x, -ones]), np.column_stack([ones, -x, -ones])])
+    b_ub = np.concatenate([-y, y])
+    solution = linprog([0.0, 0.0, 1.0], A_ub=a_ub, b_ub=b_ub,
+                       bounds=[(None, None), (None, None), (0.0, None)], method="highs")
+    if not solution.success:  # pragma: no cover - a feasible bounded LP by construction
+        raise InputError(f"fit-params: minimax power-law fit failed ({solution.message})")
+    log_c, power, _ = (float(v) for v in solution.x)
+    fit = np.exp(log_c - power * x)
+    per_cycle = [{"cycle": int(k), "fe": float(r), "law": float(f), "law_over_fe": float(f / r)}
+                 for k, r, f in zip(n[use], ratio[use], fit, strict=True)]
+    return CyclicFit(coefficient=math.exp(log_c), power=power,
+                     max_log10_error=float(np.max(np.abs(np.log10(fit / ratio[use])))),
+                     per_cycle=per_cycle)
+
+
+def law_first_cycle(params, peak_force: float) -> tuple[float, float]:
+    """The law's cycle 1 to ``peak_force`` and back: (residual approach m, dissipation J)."""
+    dmax = params.virgin_approach(peak_force)
+    residual = float(params.residual_ratio(dmax / params.yield_approach)) * dmax
+    return residual, float(params.envelope_plastic_work(dmax))
+
+
 def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | None = None):
-    """``params`` with ``cyclic`` filled from an analysis of repeated loading (SPEC 6, 7).
+    """``params`` with ``cyclic`` filled from an analysis of repeated loading (SPEC 6, 7), in
+    the shakedown form (docs/law.md): cycle N's residual increment and plastic work, in metres
+    and joules, over the law's own cycle 1 at the FE's peak force (:class:`CyclicFit`), become
+    the law's ratio laws; the analysis tolerance its tolerance (the envelope band); the fit
+    errors per cycle and where they came from are recorded."""
+    from .law import SHAKEDOWN, CyclicLaw
 
-    The residual-increment and plastic-work power laws become the law's ratio laws, the
-    analysis tolerance its tolerance; the fit errors and where they came from are recorded."""
-    from .law import CyclicLaw
-
-    missing = [name for name, fit in (("residual_increment_ratio", analysis.residual_fit),
-                                      ("plastic_work_ratio", analysis.plastic_work_fit))
-               if fit is None]
+    rows = analysis.cycles
+    residual_1, dissipation_1 = law_first_cycle(params, rows[0]["max_force_N"])
+    n = [r["cycle"] for r in rows]
+    fits = {
+        "residual_increment_ratio": fit_power_law_minimax(
+            n, [r["residual_approach_increment_m"] for r in rows], residual_1),
+        "plastic_work_ratio": fit_power_law_minimax(
+            n, [r["plastic_work_J"] for r in rows], dissipation_1),
+    }
+    missing = [name for name, fit in fits.items() if fit is None]
     if missing:
         raise InputError(f"fit-params: no power law for {missing[0]} (need at least two cycles "
                          "after the first with a positive ratio)")
-    for name, fit in (("residual_increment_ratio", analysis.residual_fit),
-                      ("plastic_work_ratio", analysis.plastic_work_fit)):
+    for name, fit in fits.items():
         if fit.power <= 0.0:
             raise InputError(f"fit-params: {name} does not decay with N (power "
                              f"{fit.power:.3g}): the history ratchets, no cyclic law to fit")
         if fit(2.0) > 1.0:
             raise InputError(f"fit-params: {name} fitted cycle-2 ratio {float(fit(2.0)):.3g} > 1 "
                              "(the law bounds cycle N's increment by cycle 1's)")
+    residual_fit, work_fit = fits["residual_increment_ratio"], fits["plastic_work_ratio"]
     cyclic = CyclicLaw(
         enabled=True,
-        residual_ratio_coefficient=analysis.residual_fit.coefficient,
-        residual_ratio_power=analysis.residual_fit.power,
-        plastic_work_ratio_coefficient=analysis.plastic_work_fit.coefficient,
-        plastic_work_ratio_power=analysis.plastic_work_fit.power,
+        residual_ratio_coefficient=residual_fit.coefficient,
+        residual_ratio_power=residual_fit.power,
+        plastic_work_ratio_coefficient=work_fit.coefficient,
+        plastic_work_ratio_power=work_fit.power,
         tolerance=analysis.tolerance,
+        form=SHAKEDOWN,
     )
     fit_errors = copy.deepcopy(params.fit_errors)
     fit_errors["cyclic"] = {
-        "residual_increment_ratio": _fit_error(analysis.residual_fit),
-        "plastic_work_ratio": _fit_error(analysis.plastic_work_fit),
+        "form": "value_N / law's cycle 1 = coefficient N^-power, minimax in log-log over N >= 2",
+        "law_cycle_1": {"residual_approach_m": residual_1, "dissipation_J": dissipation_1},
+        **{name: {"max_log10": fit.max_log10_error, "per_cycle": fit.per_cycle}
+           for name, fit in fits.items()},
     }
     prov = copy.deepcopy(params.provenance)
     prov["cyclic"] = {
@@ -393,11 +456,3 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
     label = f"{params.label} | cyclic: fitted to {analysis.source} ({len(analysis.cycles)} cycles)"
     return replace(params, cyclic=cyclic, fit_errors=fit_errors, provenance=prov,
                    label=label.lstrip(" |"))
-
-
-def _fit_error(fit: PowerLaw) -> dict[str, Any]:
-    return {"rms_log10": fit.rms_log10_error, "max_relative": fit.max_relative_error,
-            "power_standard_error": fit.power_standard_error, "cycles_used": fit.cycles_used}
-
-
-# --- reloading stiffness ---------------------------------------------------------------------

@@ -177,6 +177,9 @@ def _check_field(spec: dict[str, Any], parent: dict[str, Any] | None, present: b
             raise InputError(f"{path}: must be a string, got {kind_name(value)}")
         if "const" in spec and value != spec["const"]:
             raise InputError(f"{path}: expected {spec['const']!r}, got {_short(value)}")
+        if "enum" in spec and value not in spec["enum"]:
+            raise InputError(f"{path}: must be one of {', '.join(spec['enum'])}, "
+                             f"got {_short(value)}")
         values[path] = value
     elif kind == "object":
         if not isinstance(value, dict):

@@ -2,12 +2,14 @@
 and the vectorised many-contact kernel."""
 
 from .kernel import ContactArrays
-from .params import SCHEMA, CyclicLaw, LawParams, load_params
+from .params import SCHEMA, SHAKEDOWN, TRUNCATED, CyclicLaw, LawParams, load_params
 from .reference import BRANCH_NAMES, Contact, ContactState, force_history
 
 __all__ = [
     "BRANCH_NAMES",
     "SCHEMA",
+    "SHAKEDOWN",
+    "TRUNCATED",
     "Contact",
     "ContactArrays",
     "ContactState",

@@ -102,7 +102,8 @@ NB_MODULE(_core, m)
       .def_rw("residual_ratio_power", &CyclicLaw::residual_ratio_power)
       .def_rw("plastic_work_ratio_coefficient", &CyclicLaw::plastic_work_ratio_coefficient)
       .def_rw("plastic_work_ratio_power", &CyclicLaw::plastic_work_ratio_power)
-      .def_rw("tolerance", &CyclicLaw::tolerance);
+      .def_rw("tolerance", &CyclicLaw::tolerance)
+      .def_rw("shakedown", &CyclicLaw::shakedown);
   nb::class_<LawParams>(m, "LawParams")
       .def(nb::init<>())
       .def_rw("material", &LawParams::material)

@@ -96,6 +96,8 @@ def _field_cases(base: dict) -> list[tuple[str, str, Any]]:
             if spec.get("keys") == "closed":
                 cases.append((f"{slug}--unknown-key", f"{path}.colour",
                               _with(base, f"{path}.colour", 1)))
+        if "enum" in spec:
+            cases.append((f"{slug}--not-allowed", path, _with(base, path, "bogus")))
         if "const" in spec:
             cases.append((f"{slug}--other-version", path, _with(base, path, "geocontact.law/9")))
             cases.append((f"{slug}--long-non-ascii", path,

@@ -144,6 +144,9 @@ FAMILIES = {
 }
 
 
+VARIANTS = ("cyclic_on", "cyclic_off", "transition", "deep", "shakedown")
+
+
 def _variants(params: LawParams) -> dict[str, dict]:
     """The parameter document as given, and with the cyclic extension switched on and off."""
     base = params.to_dict()
@@ -166,7 +169,14 @@ def _variants(params: LawParams) -> dict[str, dict]:
     deep["loading"]["deep_plastic_exponent"] = 1.0
     deep["residual_approach"]["log_power"] = 1.6
     deep["cyclic"]["enabled"] = True
-    return {"cyclic_on": on, "cyclic_off": off, "transition": transition, "deep": deep}
+    # the shakedown form of the cyclic extension: increments in every cycle, loops that close
+    shakedown = copy.deepcopy(transition)
+    shakedown["cyclic"].update(enabled=True, form="shakedown",
+                               plastic_work_ratio={"coefficient": 0.3, "power": 1.5})
+    out = {"cyclic_on": on, "cyclic_off": off, "transition": transition, "deep": deep,
+           "shakedown": shakedown}
+    assert tuple(out) == VARIANTS
+    return out
 
 
 def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dict:
@@ -213,13 +223,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--params", default=str(DEFAULT_PARAMS),
                         help="geocontact.law/1 parameter file (default: %(default)s)")
     parser.add_argument("--per-family", type=int, default=50,
-                        help="histories per family, split over the 4 parameter variants")
+                        help="histories per family, split over the parameter variants")
     parser.add_argument("--seed", type=int, default=SEED)
 
     def run() -> int:
         args = parser.parse_args(argv)
         check_output_file(args.out, "--out")
-        variants = 4  # _variants: cyclic on, off, transition, deep
+        variants = len(VARIANTS)
         if not variants <= args.per_family <= MAX_PER_FAMILY:
             raise InputError(f"--per-family: must be in [{variants}, {MAX_PER_FAMILY}] "
                              f"(split over {variants} parameter variants), got {args.per_family}")

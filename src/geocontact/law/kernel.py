@@ -19,7 +19,7 @@ from ..errors import InputError
 from ..hertz import hertz_coefficient
 from ..material import Material
 from . import _core
-from .params import HERTZ_EXPONENT, LawParams
+from .params import HERTZ_EXPONENT, SHAKEDOWN, LawParams
 
 # The per-contact state (docs/law.md "State per contact"), in the order of ContactState.
 STATE_FIELDS = ("approach", "force", "max_approach", "max_force", "residual_approach",
@@ -70,6 +70,7 @@ def core_params(params: LawParams) -> _core.LawParams:
     for name in ("enabled", "residual_ratio_coefficient", "residual_ratio_power",
                  "plastic_work_ratio_coefficient", "plastic_work_ratio_power", "tolerance"):
         setattr(cyclic, name, getattr(params.cyclic, name))
+    cyclic.shakedown = params.cyclic.form == SHAKEDOWN
     p.cyclic = cyclic
     p.derive()
     return p

@@ -69,9 +69,20 @@ def power_law_critical_cycle(coefficient: float, power: float, tolerance: float)
     return max(2, math.ceil(math.exp(log_n)))
 
 
+# Forms of the cyclic extension (docs/law.md, "Repeated cycles"). TRUNCATED, the original (files
+# without ``cyclic.form``): increments c N^-p, zero once below the tolerance; every closed cycle
+# loops along the fitted n_r(x). SHAKEDOWN: increments c N^-p in every cycle (their sum
+# converges for p > 1), and the dissipation of closed cycle N is the plastic-work ratio law
+# c_w N^-p_w times cycle 1's, through the main reloading exponent (it tends to n_u: the loop
+# closes, elastic shakedown as in the FE).
+TRUNCATED, SHAKEDOWN = "truncated", "shakedown"
+CYCLIC_FORMS = (TRUNCATED, SHAKEDOWN)
+
+
 @dataclass(frozen=True)
 class CyclicLaw:
-    """Optional ratchetting extension (SPEC 6): per-cycle residual-approach increments."""
+    """Optional ratchetting and shakedown extension (SPEC 6): per-cycle residual-approach
+    increments and, in the shakedown form, per-cycle loop dissipation."""
 
     enabled: bool = False
     residual_ratio_coefficient: float = 0.0
@@ -79,13 +90,24 @@ class CyclicLaw:
     plastic_work_ratio_coefficient: float = 0.0
     plastic_work_ratio_power: float = 1.0
     tolerance: float = 0.01
+    form: str = TRUNCATED
+
+    @property
+    def shakedown(self) -> bool:
+        return self.enabled and self.form == SHAKEDOWN
 
     def residual_ratio(self, cycle: float) -> float:
         """Increment of residual approach in cycle N (N >= 2) over the first cycle's residual."""
         if cycle < 2.0:
             return 0.0
         ratio = self.residual_ratio_coefficient * cycle ** (-self.residual_ratio_power)
-        return ratio if ratio >= self.tolerance else 0.0
+        return ratio if self.form == SHAKEDOWN or ratio >= self.tolerance else 0.0
+
+    def plastic_work_ratio(self, cycle: float) -> float:
+        """Dissipation of closed cycle N (N >= 2) over cycle 1's (the shakedown form's loops)."""
+        if cycle < 2.0:
+            return 1.0
+        return self.plastic_work_ratio_coefficient * cycle ** (-self.plastic_work_ratio_power)
 
     def critical_cycle(self) -> int | None:
         """First cycle whose residual-approach increment ratio is below the tolerance."""
@@ -105,6 +127,8 @@ class CyclicLaw:
             "plastic_work_ratio": {"coefficient": self.plastic_work_ratio_coefficient,
                                    "power": self.plastic_work_ratio_power},
             "tolerance": self.tolerance,
+            # optional key, written when not the default (files without it are truncated)
+            **({"form": self.form} if self.form != TRUNCATED else {}),
         }
 
     def check_second_cycle(self) -> None:
@@ -290,6 +314,22 @@ class LawParams:
                              deep),
                 ),
             )
+
+    def virgin_approach(self, force: float) -> float:
+        """Inverse of the virgin loading curve: the approach at which it carries ``force``."""
+        f = float(force)
+        if f <= 0.0:
+            return 0.0
+        if f <= self.yield_force:
+            return (f / self.hertz_coefficient) ** (1.0 / HERTZ_EXPONENT)
+        if f <= self.fully_plastic_force:
+            return self.yield_approach * (
+                f / self.yield_force) ** (1.0 / self.elastic_plastic_exponent)
+        if f <= self.deep_plastic_force:
+            return self.fully_plastic_approach * (
+                f / self.fully_plastic_force) ** (1.0 / self.fully_plastic_exponent)
+        return self.deep_plastic_approach * (
+            f / self.deep_plastic_force) ** (1.0 / self.deep_plastic_exponent)
 
     def envelope_plastic_work(self, max_approach):
         """Plastic work of a full load-unload cycle to delta_max, as the law computes it:

@@ -14,6 +14,8 @@ Branches and the partial-reversal rule (docs/law.md derives why it never creates
             force exactly at d_res, so the residual approach is that of the envelope.
 * RELOADING f = t^k, through the reversal point and (d_max, F_max): k = ln f_rev / ln t_rev,
             which lies in [n_r, n_u]; from full unloading k = n_r (the main reloading curve).
+            In the shakedown form (cyclic.form) from full unloading k = k_N, the exponent that
+            makes closed cycle N dissipate the fitted plastic-work ratio of N; k_N -> n_u.
 * RATCHET   (cyclic extension only) a reload that reaches the envelope band, t >= 1 - tol
             (tol = cyclic.tolerance), creeps at the force it has there by the cycle's
             increment of residual approach (the shift s grows, d' stays), then goes on along
@@ -137,23 +139,55 @@ class Contact:
         s.reloading_exponent = float(p.reloading_exponent(x))
 
     # --- reversals ------------------------------------------------------------------------
+    def _shakedown_reloading_exponent(self, cycles: float) -> float:
+        """Main reloading exponent k_N of closed cycle N in the shakedown form.
+
+        Cycle N (from zero force to the envelope and back) dissipates its ratchet creep
+        F_max ds_N plus the loop between the reloading curve t^k and the unloading curve t^n_u,
+        F_max (d_max - d_res) (n_u - k) / ((k + 1)(n_u + 1)). k_N makes the sum equal to the
+        fitted ``c_w N^-p_w`` times cycle 1's dissipation, the envelope's plastic work: as the
+        ratio decays, k_N -> n_u and the loop closes (elastic shakedown). The creep happens in
+        the envelope band, at F_max (1 - tol)^k, solved by fixed-point passes. Bounded to
+        [min(1, n_u), n_u]: k <= n_u keeps every step's dissipation >= 0 (docs/law.md), k >= 1
+        a contact stiffness that grows with the approach, as a growing contact area gives."""
+        s, p = self.state, self.params
+        n_u, span = s.unloading_exponent, s.max_approach - s.residual_approach
+        cycles = max(cycles, 2.0)
+        first = float(p.envelope_plastic_work(s.max_approach))  # cycle 1's dissipation
+        target = first * p.cyclic.plastic_work_ratio(cycles)
+        ratchet = p.cyclic.residual_ratio(cycles) * s.residual_approach
+        k = n_u
+        # the creep happens at the band's force F_max (1 - tol)^k: two fixed-point passes
+        # (the creep's share of d(dissipation)/dk is ~tol ds/(d_max - d_res) of the loop's)
+        for _ in range(2):
+            creep = s.max_force * (1.0 - p.cyclic.tolerance) ** k * ratchet
+            a = max(target - creep, 0.0) / (s.max_force * span) * (n_u + 1.0)
+            k = min(max((n_u - a) / (1.0 + a), min(1.0, n_u)), n_u)
+        return k
+
     def _start_reloading(self, d: float) -> None:
         """Reversal from unloading (or re-contact): the reloading curve through this point."""
         s = self.state
+        cyclic = self.params.cyclic
         if self._elastic():
             depth, exponent = 0.0, HERTZ_EXPONENT  # no cycle to count, nothing to ratchet
         else:
             t = self._normalised(d)
             f = s.force / s.max_force
-            if t <= 0.0 or f <= 0.0:
-                depth, exponent = 1.0, s.reloading_exponent
+            full = t <= 0.0 or f <= 0.0
+            depth = 1.0 if full else 1.0 - f
+            if cyclic.shakedown:
+                # from zero force the cycle's own k_N; from a partial reversal the curve through
+                # the reversal point (its exponent lies in [k of the last reload, n_u])
+                exponent = (self._shakedown_reloading_exponent(s.cycles + depth) if full
+                            else min(math.log(f) / math.log(t), s.unloading_exponent))
+            elif full:
+                exponent = s.reloading_exponent
             else:
-                depth = 1.0 - f
                 exponent = min(max(math.log(f) / math.log(t), s.reloading_exponent),
                                s.unloading_exponent)
         s.branch, s.branch_value = RELOADING, exponent
         s.cycles += depth
-        cyclic = self.params.cyclic
         s.pending_ratchet = (depth * cyclic.residual_ratio(s.cycles) * s.residual_approach
                              if cyclic.enabled else 0.0)
 

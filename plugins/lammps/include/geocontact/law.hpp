@@ -72,13 +72,23 @@ struct CyclicLaw {
   double plastic_work_ratio_coefficient = 0.0;
   double plastic_work_ratio_power = 1.0;
   double tolerance = 0.01;
+  // cyclic.form "shakedown" (false: "truncated", the original form): increments in every cycle,
+  // and closed cycle N dissipates plastic_work_ratio(N) x cycle 1's (docs/law.md)
+  bool shakedown = false;
 
   // Increment of residual approach in cycle N (N >= 2) over the first cycle's residual.
   double residual_ratio(double cycle) const
   {
     if (cycle < 2.0) return 0.0;
     const double ratio = residual_ratio_coefficient * std::pow(cycle, -residual_ratio_power);
-    return ratio >= tolerance ? ratio : 0.0;
+    return shakedown || ratio >= tolerance ? ratio : 0.0;
+  }
+
+  // Dissipation of closed cycle N (N >= 2) over cycle 1's (the shakedown form's loops).
+  double plastic_work_ratio(double cycle) const
+  {
+    if (cycle < 2.0) return 1.0;
+    return plastic_work_ratio_coefficient * std::pow(cycle, -plastic_work_ratio_power);
   }
 };
 
@@ -254,10 +264,29 @@ namespace detail {
 inline double pending_ratchet(const LawParams &p, double depth, double cycles,
                               double residual_approach)
 {
-  if (!p.cyclic.enabled || cycles < 2.0) return 0.0;
-  const double ratio = p.cyclic.residual_ratio_coefficient *
-      std::pow(cycles, -p.cyclic.residual_ratio_power);
-  return ratio >= p.cyclic.tolerance ? depth * ratio * residual_approach : 0.0;
+  if (!p.cyclic.enabled) return 0.0;
+  return depth * p.cyclic.residual_ratio(cycles) * residual_approach;
+}
+
+// Main reloading exponent k_N of closed cycle N in the shakedown form (law/reference.py
+// `_shakedown_reloading_exponent`): the ratchet creep Fmax ds_N plus the loop
+// Fmax (dmax - dres) (n_u - k) / ((k + 1)(n_u + 1)) equal the fitted plastic-work ratio of
+// cycle N times cycle 1's dissipation, the creep at the band's force; bounded to
+// [min(1, n_u), n_u].
+inline double shakedown_reloading_exponent(const LawParams &p, double cycles, double dmax,
+                                           double fmax, double dres, double nu)
+{
+  cycles = std::max(cycles, 2.0);
+  const double target = p.envelope_plastic_work(dmax) * p.cyclic.plastic_work_ratio(cycles);
+  const double ratchet = p.cyclic.residual_ratio(cycles) * dres;
+  double k = nu;
+  // the creep happens at the band's force Fmax (1 - tol)^k: two fixed-point passes
+  for (int pass = 0; pass < 2; ++pass) {
+    const double creep = fmax * std::pow(1.0 - p.cyclic.tolerance, k) * ratchet;
+    const double a = std::max(target - creep, 0.0) / (fmax * (dmax - dres)) * (nu + 1.0);
+    k = std::min(std::max((nu - a) / (1.0 + a), std::min(1.0, nu)), nu);
+  }
+  return k;
 }
 
 // Width of the envelope band, tol (d_max - d_res): approaches closer to d_max are the envelope
@@ -304,7 +333,10 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
         // re-contact: reload from full unloading (depth 1) along the main reloading curve
         force = 0.0;
         b = RELOADING;
-        bval = elastic ? kHertzExponent : nr;
+        bval = elastic ? kHertzExponent
+               : p.cyclic.enabled && p.cyclic.shakedown
+                   ? detail::shakedown_reloading_exponent(p, cycles + 1.0, dmax, fmax, dres, nu)
+                   : nr;
         if (!elastic) cycles += 1.0;  // an elastic envelope has no cycle to count
         pending = detail::pending_ratchet(p, 1.0, cycles, dres);
       }
@@ -375,12 +407,18 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       } else {
         const double t = (d - dres) / (dmax - dres);
         const double f = force / fmax;
+        const bool shakedown = p.cyclic.enabled && p.cyclic.shakedown;
         if (t <= 0.0 || f <= 0.0) {
           depth = 1.0;
-          expo = nr;
+          expo = shakedown ? detail::shakedown_reloading_exponent(p, cycles + 1.0, dmax, fmax,
+                                                                  dres, nu)
+                           : nr;
         } else {
           depth = 1.0 - f;
-          expo = std::min(std::max(std::log(f) / std::log(t), nr), nu);
+          // shakedown form: the curve through the reversal point (its exponent lies in
+          // [k of the last reload, n_u]); truncated form: bounded below by n_r as before
+          const double through = std::log(f) / std::log(t);
+          expo = std::min(shakedown ? through : std::max(through, nr), nu);
         }
       }
       b = RELOADING;

@@ -174,6 +174,17 @@ inline void check_field(const json::Value &spec, const json::Value *parent, Valu
     if (has(spec, "const") && value->string != text_of(spec, "const"))
       throw InputError(path + ": expected '" + text_of(spec, "const") + "', got " +
                        short_string(value->string));
+    if (const json::Value *allowed = spec.find("enum")) {
+      std::string list;
+      bool found = false;
+      for (const json::Value &a : allowed->array) {
+        list += (list.empty() ? "" : ", ") + a.string;
+        found = found || a.string == value->string;
+      }
+      if (!found)
+        throw InputError(path + ": must be one of " + list + ", got " +
+                         short_string(value->string));
+    }
     values.strings[path] = value->string;
   } else if (kind == "object") {
     if (!value->is_object())
@@ -270,6 +281,8 @@ inline void fill(LawParams &p, const Values &values)
       p.cyclic.enabled = values.bools.at(path);
     } else if (name == "label") {
       p.label = values.strings.at(path);
+    } else if (name == "cyclic.form") {
+      p.cyclic.shakedown = values.strings.at(path) == "shakedown";
     } else {
       throw std::logic_error("law-schema.json: " + path + " (" + name +
                              ") has no member in params.hpp fill");
