@@ -399,23 +399,25 @@ def law_first_cycle(params, peak_force: float) -> tuple[float, float]:
     return residual, float(params.envelope_plastic_work(dmax))
 
 
-def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | None = None):
+def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | None = None,
+                ratchet: bool = True):
     """``params`` with ``cyclic`` filled from an analysis of repeated loading (SPEC 6, 7), in
     the shakedown form (docs/law.md): cycle N's residual increment and plastic work, in metres
     and joules, over the law's own cycle 1 at the FE's peak force (:class:`CyclicFit`), become
     the law's ratio laws; the analysis tolerance its tolerance (the envelope band); the fit
-    errors per cycle and where they came from are recorded."""
+    errors per cycle and where they came from are recorded. With ``ratchet=False`` (the FE's
+    residual approach stops at cycle 1, within its resolution) only the loops are fitted and the
+    residual ratio is zero."""
     from .law import SHAKEDOWN, CyclicLaw
 
     rows = analysis.cycles
     residual_1, dissipation_1 = law_first_cycle(params, rows[0]["max_force_N"])
     n = [r["cycle"] for r in rows]
-    fits = {
-        "residual_increment_ratio": fit_power_law_minimax(
-            n, [r["residual_approach_increment_m"] for r in rows], residual_1),
-        "plastic_work_ratio": fit_power_law_minimax(
-            n, [r["plastic_work_J"] for r in rows], dissipation_1),
-    }
+    fits = {"plastic_work_ratio": fit_power_law_minimax(
+        n, [r["plastic_work_J"] for r in rows], dissipation_1)}
+    if ratchet:
+        fits["residual_increment_ratio"] = fit_power_law_minimax(
+            n, [r["residual_approach_increment_m"] for r in rows], residual_1)
     missing = [name for name, fit in fits.items() if fit is None]
     if missing:
         raise InputError(f"fit-params: no power law for {missing[0]} (need at least two cycles "
@@ -427,11 +429,11 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
         if fit(2.0) > 1.0:
             raise InputError(f"fit-params: {name} fitted cycle-2 ratio {float(fit(2.0)):.3g} > 1 "
                              "(the law bounds cycle N's increment by cycle 1's)")
-    residual_fit, work_fit = fits["residual_increment_ratio"], fits["plastic_work_ratio"]
+    residual_fit, work_fit = fits.get("residual_increment_ratio"), fits["plastic_work_ratio"]
     cyclic = CyclicLaw(
         enabled=True,
-        residual_ratio_coefficient=residual_fit.coefficient,
-        residual_ratio_power=residual_fit.power,
+        residual_ratio_coefficient=residual_fit.coefficient if residual_fit else 0.0,
+        residual_ratio_power=residual_fit.power if residual_fit else 1.0,
         plastic_work_ratio_coefficient=work_fit.coefficient,
         plastic_work_ratio_power=work_fit.power,
         tolerance=analysis.tolerance,

@@ -246,11 +246,19 @@ def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
             "state": analysis.state, "critical_cycles": analysis.critical_cycles}
     if len(analysis.cycles) > 1 and ratchetting_cycles(analysis) == 0:
         second = analysis.cycles[1]["residual_increment_ratio"]
-        return replace(params, provenance={**params.provenance, "cyclic": {
-            **info, "status": "not needed",
-            "reason": f"elastic shakedown from cycle 2 (cycle-2 residual increment {second:.2g} "
-                      "of cycle 1's residual approach): the law without the extension already "
-                      "repeats the first unloading-reloading curve"}})
+        no_ratchet = (f"the residual approach stops at cycle 1 (cycle-2 residual increment "
+                      f"{second:.2g} of cycle 1's, within the FE's resolution)")
+        try:  # the loops may still shake down (sigma_c = 1 MPa): fit them, no ratchet
+            fitted = with_cyclic(params, analysis, provenance=info, ratchet=False)
+        except InputError:
+            return replace(params, provenance={**params.provenance, "cyclic": {
+                **info, "status": "not needed",
+                "reason": f"elastic shakedown from cycle 2: {no_ratchet}, and no decaying loop "
+                          "work: the law without the extension already repeats the first "
+                          "unloading-reloading curve"}})
+        return replace(fitted, provenance={**fitted.provenance, "cyclic": {
+            **fitted.provenance["cyclic"], "status": "fitted",
+            "reason": f"loops only: {no_ratchet}, residual ratio zero"}})
     try:
         fitted = with_cyclic(params, analysis, provenance=info)
     except InputError as exc:
