@@ -452,6 +452,11 @@ double FixWallGeocontact::compute_vector(int n)
 void FixWallGeocontact::grow_arrays(int nmax)
 {
   const size_t nwalls = sides_.size();
+  // only ever grows: unpack_exchange/unpack_restart ask for nlocal + 1, which is below the
+  // atom arrays' nmax that copy_arrays and the output may index (memory->grow reallocates to
+  // exactly the size asked, so growing to nlocal + 1 would shrink array_atom)
+  if (nmax <= capacity_) return;
+  capacity_ = nmax;
   if (records_.size() < static_cast<size_t>(nmax) * nwalls)
     records_.resize(static_cast<size_t>(nmax) * nwalls);
   memory->grow(array_atom, nmax, size_peratom_cols, "wall/geocontact:array_atom");

@@ -122,6 +122,7 @@ class FixWallGeocontact : public Fix {
   bigint last_position_step_;
 
   std::vector<WallRecord> records_;  // sides_.size() per atom, local index major
+  int capacity_ = 0;                  // atoms array_atom and records_ are sized for
   double forgotten_dissipated_;      // this rank's share: contacts dropped beyond the skin
   double tally_[G_COUNT];            // this rank's sums at the last post_force
   double totals_[G_COUNT];
