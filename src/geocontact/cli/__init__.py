@@ -11,7 +11,7 @@ import sys
 
 from ..errors import ArgumentParser, run_reporting_errors
 
-COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "report",
+COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "dem", "report",
             "presets"]
 
 
