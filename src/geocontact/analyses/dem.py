@@ -52,6 +52,7 @@ class Settings:
     friction: float = 0.5
     damping: float = 0.5
     seed: int = 4821
+    walls: str | None = None  # the walls' law (geocontact or granular); None: the contact's
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
 
     def check(self) -> None:
@@ -76,7 +77,9 @@ class Settings:
             if not a > b:
                 raise InputError(f"targets: each cycle's peak ratio must exceed its valley, "
                                  f"got {a:g} then {b:g}")
-        if not 0 <= self.seed < 2**31 - 1 or self.seed == 0:
+        if self.walls is not None and self.walls not in CONTACTS:
+            raise InputError(f"walls: must be geocontact or granular, got {self.walls!r}")
+        if not 0 < self.seed < 2**31 - 1:
             raise InputError(f"seed: must be in [1, {2**31 - 2}], got {self.seed}")
 
 
@@ -105,13 +108,18 @@ def lammps_command(ranks: int) -> list[str]:
     return [str(mpiexec), "-n", str(ranks), str(lmp)]
 
 
-def script_variables(settings: Settings, law: Path, contact: str, out: Path) -> list[str]:
+def script_variables(settings: Settings, law: Path, contact: str, out: Path,
+                     ranks: int) -> list[str]:
     values = {"N": settings.grains, "rmed": repr(settings.radius),
               "spread": repr(settings.spread), "stress": repr(settings.stress),
               "smax": repr(max(settings.targets + (1.0,))), "inertia": repr(settings.inertia),
               "friction": repr(settings.friction), "damping": repr(settings.damping),
               "seed": settings.seed, "params": str(law), "contact": contact,
-              "plugin": str(plugin_path()), "out": str(out), **settings.extra}
+              "plugin": str(plugin_path()), "out": str(out),
+              # compute pair/local of pair geocontact stops LAMMPS on more than one rank
+              # (docs/dem.md): the per-contact snapshot is taken on one rank only
+              "dumpcontacts": "yes" if ranks == 1 else "no",
+              "walls": settings.walls or contact, **settings.extra}
     args: list[str] = []
     for name, value in values.items():
         args += ["-var", name, str(value)]
@@ -125,8 +133,8 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
     as LAMMPS finishes them; an interrupt (Ctrl-C, SIGTERM) stops LAMMPS before it propagates."""
     script = find_script(test)
     command = [*lammps_command(ranks), "-nocite", "-log", str(out.parent / f"{out.name}.log"),
-               "-screen", "none", "-in", str(script), *script_variables(settings, law, contact,
-                                                                          out)]
+               "-screen", "none", "-in", str(script),
+               *script_variables(settings, law, contact, out, ranks)]
     env = dict(os.environ)
     env["LD_LIBRARY_PATH"] = os.pathsep.join(
         p for p in (str(mpi_library_dir()), env.get("LD_LIBRARY_PATH", "")) if p)
@@ -270,6 +278,7 @@ def parse_run(folder: Path, settings: Settings) -> dict:
     low = min(settings.targets) * settings.stress
     summary = {
         "contact": run["contact"],
+        "walls": run["walls"],
         "grains": int(run["grains"]),
         "steps": int(run["steps_total"]),
         "timestep_s": float(run["timestep_s"]),

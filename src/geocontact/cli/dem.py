@@ -29,6 +29,9 @@ def register(sub) -> None:
     p.add_argument("--contact", default="geocontact", choices=[*CONTACTS, "both"],
                    help="contact model: geocontact, granular (pair granular hertz/material + "
                         "fix wall/gran) or both (default geocontact)")
+    p.add_argument("--walls", default=None, choices=CONTACTS,
+                   help="the walls' law alone: geocontact (fix wall/geocontact) or granular "
+                        "(fix wall/gran); default: that of --contact")
     p.add_argument("--stress", type=float, default=None,
                    help="vertical stress before the cycles, Pa (default 5000)")
     p.add_argument("--radius", type=float, default=None,
@@ -59,7 +62,7 @@ def run(args) -> int:
     if args.out is None:
         raise InputError("--out: missing (output directory)")
     settings = Settings(grains=args.grains)
-    for name in ("stress", "radius", "spread", "inertia", "seed"):
+    for name in ("stress", "radius", "spread", "inertia", "seed", "walls"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
     if args.targets is not None:
