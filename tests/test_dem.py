@@ -97,7 +97,9 @@ def test_one_and_two_ranks_agree_statistically(tmp_path):
         assert run["cycles"][0]["wall_work_J"] > 0 and run["cycles"][0]["law_dissipated_J"] > 0
     z1, z2 = one["contacts_per_grain_at_stress"], two["contacts_per_grain_at_stress"]
     assert abs(z1 - z2) < 0.5
-    assert "residual_approach" in one and "residual_approach" not in two  # pair/local: 1 rank
+    for run in (one, two):  # most loaded contacts dented, on either rank count
+        ra = run["residual_approach"]
+        assert ra["plastic"] > 0.5 * ra["in_contact"] > 0
 
 
 @pytest.mark.xfail(strict=True, reason="fix wall/geocontact on 2 ranks: LAMMPS segfaults in "

@@ -116,9 +116,6 @@ def script_variables(settings: Settings, law: Path, contact: str, out: Path,
               "friction": repr(settings.friction), "damping": repr(settings.damping),
               "seed": settings.seed, "params": str(law), "contact": contact,
               "plugin": str(plugin_path()), "out": str(out),
-              # compute pair/local of pair geocontact stops LAMMPS on more than one rank
-              # (docs/dem.md): the per-contact snapshot is taken on one rank only
-              "dumpcontacts": "yes" if ranks == 1 else "no",
               "walls": settings.walls or contact, **settings.extra}
     args: list[str] = []
     for name, value in values.items():
