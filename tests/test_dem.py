@@ -119,6 +119,10 @@ def test_bad_arguments_one_line(tmp_path, capsys):
                  "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "--targets:" in err
+    assert main(["dem", "oedometer", "--law", str(tmp_path / "none.json"),
+                 "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.startswith("error: --law: file not found")
     assert not (tmp_path / "x").exists()
 
 

@@ -47,7 +47,8 @@ CLI_FLAGS = {"max_force": "--max-force", "levels": "--levels", "peaks": "--peak-
              "scheduler": "--scheduler", "unit": "--unit", "out": "--out",
              "grains": "--grains", "ranks": "--ranks", "contact": "--contact",
              "stress": "--stress", "radius": "--radius", "spread": "--spread",
-             "inertia": "--inertia", "targets": "--targets", "seed": "--seed"}
+             "inertia": "--inertia", "targets": "--targets", "seed": "--seed",
+             "walls": "--walls", "law": "--law"}
 
 
 def for_the_command_line(message: str) -> str:

@@ -157,7 +157,8 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
     _report_legs(out / "legs.txt", reported, contact, progress)
     if process.returncode != 0:
         log = out.parent / f"{out.name}.log"
-        message = _lammps_error(log, stderr) or f"exit code {process.returncode}"
+        message = _lammps_error(log, stderr)
+        message = f"exit code {process.returncode}" + (f": {message}" if message else "")
         raise GeocontactError(f"LAMMPS ({contact}, {ranks} rank(s)): {message}")
     return time.perf_counter() - start
 
@@ -168,7 +169,8 @@ def _lammps_error(log: Path, stderr: str) -> str:
     for line in lines:
         if line.startswith("ERROR") or line.startswith("in."):
             return line.strip()
-    return ""
+    last = next((line.strip() for line in reversed(lines) if line.strip()), "")
+    return f"stopped without an error message (a crash?); last output: {last!r}" if last else ""
 
 
 def _report_legs(path: Path, reported: int, contact: str,
@@ -337,7 +339,10 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
         raise InputError(f"ranks: must be in [1, {MAX_RANKS}], got {ranks}")
     settings.check()
     law = Path(law).resolve()
-    params = load_params(law)
+    try:
+        params = load_params(law)
+    except InputError as exc:  # named by this function's parameter
+        raise InputError(f"law: {str(exc).removeprefix('params: ')}") from None
     # the granular model and the time step use the law file's elastic constants
     settings.extra.setdefault("E", repr(params.material.youngs_modulus))
     settings.extra.setdefault("nu", repr(params.material.poissons_ratio))
