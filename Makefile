@@ -53,7 +53,7 @@ test-plugin: plugin
 test: $(STAMP) lint test-plugin
 	$(VENV)/bin/pytest -q
 
-demo: $(STAMP)
+demo: $(STAMP) plugin
 	$(VENV)/bin/geocontact demo --out out/demo
 
 # CalculiX, the FE peer of `benchmarks/run.py ccx` (Debian/Ubuntu package; not needed by `test`)
@@ -70,7 +70,7 @@ chromium:
 # Every figure of a report looked at in a real browser (docs/analyses.md "Checking the figures"):
 # the quick demo, then each <img> decoded and not blank, and a full-page screenshot.
 CHECK_FIGURES_OUT ?= out/demo-quick
-check-figures: $(STAMP) chromium
+check-figures: $(STAMP) plugin chromium
 	$(VENV)/bin/geocontact demo --quick --out $(CHECK_FIGURES_OUT)
 	$(PY) scripts/check_report_figures.py $(CHECK_FIGURES_OUT)/report.html
 

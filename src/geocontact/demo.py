@@ -9,7 +9,9 @@
 5. the material sweeps of E, beta, sigma_c, m at 6000 N (coarse);
 6. the paper's three load histories through the calibrated law;
 7. a seismic record (Kobe 1995) with an aftershock through the calibrated law;
-8. ``geocontact report`` of the whole directory -> ``report.html``.
+8. a small DEM oedometer in LAMMPS (``geocontact dem``: 2000 grains, three repeated cycles, the
+   calibrated law beside granular Hertz-Mindlin; needs ``make plugin``);
+9. ``geocontact report`` of the whole directory -> ``report.html``.
 
 Every FE run goes through the cached campaign (``fem.campaign``) or, for the reference cycle and
 the cyclic history (which keep their ParaView fields), is carried over from the previous demo in
@@ -56,13 +58,18 @@ class Plan:
     sweeps: tuple[str, ...] = ("E", "beta", "sigma_c", "m")
     sweep_force: float | None = None  # None: the sweeps file's (6000 N)
     sweep_mesh: str = "coarse"
+    # the DEM oedometer (examples/lammps/in.oedometer): grains, inertia number of the cycles,
+    # target stress ratios (peak, valley, ...)
+    dem_grains: int = 2000
+    dem_inertia: float = 3e-3
+    dem_targets: tuple[float, ...] = (1.5, 0.5, 1.5, 0.5, 1.5, 0.5)
 
 
 FULL = Plan()
 QUICK = Plan(calibration_levels=3, calibration_max_force=300.0, steps=4, reference_force=100.0,
              reference_mesh="coarse", cyclic_peak=100.0, cyclic_count=3, paper_runs=(),
              sweeps=("m",),
-             sweep_force=60.0)
+             sweep_force=60.0, dem_grains=300, dem_inertia=1e-2, dem_targets=(1.5, 0.5))
 
 
 def run_demo(out: str | Path, progress=print, *, quick: bool = False,
@@ -153,6 +160,9 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
     summary["seismic"] = _seismic(params, work / "seismic", progress)
     done("seismic")
 
+    _dem(work / "calibration" / "P.json", work / "dem-oedometer", plan, progress)
+    done("DEM oedometer")
+
     summary["timings_s"] = timings
     write_json_atomic(work / "summary.json", {**summary, "provenance": provenance(
         "demo", {"out": str(out), "quick": plan is QUICK})})
@@ -161,7 +171,8 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                         "MPa, β = 30°, m = 0, R = 0.1 m): the FE virtual experiment, the law "
                         "calibrated from it (fit errors and held-out acceptance below), the "
                         "paper's loading histories and shakedown, the material sweeps and a "
-                        "seismic record. Every figure's data is a CSV beside the report."
+                        "seismic record, and a DEM oedometer sample in LAMMPS. Every figure's "
+                        "data is a CSV beside the report."
                         + (" <b>Quick mode: tiny loads and few FE steps (a test run), not the "
                            "reference results.</b>" if plan is QUICK else "")),
                  preface=preface)
@@ -225,3 +236,14 @@ def _seismic(params, directory: Path, progress) -> dict:
     summary = write_outputs(result, directory)
     main = summary["events"][0] if "events" in summary else {}
     return {"main_shock": main, "contacts": summary.get("contacts")}
+
+
+def _dem(law: Path, directory: Path, plan: Plan, progress) -> None:
+    """A small oedometer sample in LAMMPS with the calibrated law and with granular Hertz
+    (``geocontact dem oedometer``)."""
+    from .analyses.dem import CONTACTS, Settings, run_dem
+
+    settings = Settings(grains=plan.dem_grains, inertia=plan.dem_inertia,
+                        targets=plan.dem_targets)
+    run_dem("oedometer", law, settings, contacts=CONTACTS, ranks=1, out=directory,
+            progress=lambda m: progress(f"dem: {m}"))

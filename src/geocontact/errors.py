@@ -44,7 +44,11 @@ def _on_sigterm(signum, frame):
 # error names the flag that set it. A message starting with one of these names is shown with
 # the flag instead, and the API's ``overwrite=True`` hint as ``--force``.
 CLI_FLAGS = {"max_force": "--max-force", "levels": "--levels", "peaks": "--peak-forces",
-             "scheduler": "--scheduler", "unit": "--unit", "out": "--out"}
+             "scheduler": "--scheduler", "unit": "--unit", "out": "--out",
+             "grains": "--grains", "ranks": "--ranks", "contact": "--contact",
+             "stress": "--stress", "radius": "--radius", "spread": "--spread",
+             "inertia": "--inertia", "targets": "--targets", "seed": "--seed",
+             "walls": "--walls", "law": "--law"}
 
 
 def for_the_command_line(message: str) -> str:

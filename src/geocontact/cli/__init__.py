@@ -11,8 +11,8 @@ import sys
 
 from ..errors import ArgumentParser, run_reporting_errors
 
-COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "report",
-            "presets"]
+COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "dem",
+            "report", "presets"]
 
 
 def build_parser() -> ArgumentParser:

@@ -11,7 +11,8 @@ Recognised, in DIR itself and in its immediate sub-directories:
 * a seismic run (``summary.json`` with ``events``; its own figures are embedded);
 * a cyclic-history run (``geocontact cycles``: ``summary.json`` with ``analyses``): the ratios of
   cycle N to cycle 1 with their power laws, the shakedown states and critical cycles;
-* the paper's loading-history study (``findings.json``).
+* the paper's loading-history study (``findings.json``);
+* a DEM run (``geocontact dem``: ``summary.json`` with ``"schema": "geocontact.dem/1"``).
 
 Sections for other result kinds register themselves in ``SECTIONS`` (first match wins).
 """
@@ -33,6 +34,7 @@ from .common import (
     REPORT_HTML,
 )
 from .cycles import cycles_section, is_cycles
+from .dem import dem_section, is_dem
 from .fe import fe_section, is_fe_run
 from .html import Report, is_our_report, render_html
 from .law import law_files, law_section
@@ -45,6 +47,7 @@ SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
     (is_sweeps, sweeps_section),
     (is_seismic, seismic_section),
     (is_cycles, cycles_section),
+    (is_dem, dem_section),
     (is_fe_run, fe_section),
 ]
 
@@ -85,7 +88,7 @@ def build_report(directory: str | Path, title: str | None = None, intro: str = "
         if not found:
             raise InputError(f"report: no geocontact results found in {directory} (looked for "
                              "FE runs, law parameter files, sweeps, seismic runs, cyclic "
-                             "histories)")
+                             "histories, DEM runs)")
         text = render_html(report, root, figures)
     write_text_atomic(html_path, text)
     add_to_manifest(root, [REPORT_HTML])

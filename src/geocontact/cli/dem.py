@@ -1,0 +1,88 @@
+"""``geocontact dem``: a DEM sample in LAMMPS (examples/lammps/in.TEST) -> cycles, contacts."""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import InputError
+from .common import add_force_flag, print_json
+
+
+def register(sub) -> None:
+    from ..analyses.dem import CONTACTS, TESTS
+
+    p = sub.add_parser(
+        "dem",
+        help="a DEM sample in LAMMPS (oedometer): stress-strain loops, residual strain and "
+             "dissipation per cycle, coordination, per-contact residual approach",
+        description=(
+            "Run examples/lammps/in.TEST (from the checkout, after `make plugin`) with the law "
+            "file on --ranks MPI ranks, for the geocontact law and/or LAMMPS's granular "
+            "hertz/material + Mindlin, and write the time series, the per-cycle numbers and the "
+            "per-contact residual approach as CSVs with a summary.json (docs/dem.md)."
+        ),
+    )
+    p.add_argument("test", choices=TESTS, metavar="TEST", help="the test: oedometer")
+    p.add_argument("--law", required=False, help="law parameters (geocontact.law/1 JSON)")
+    p.add_argument("--grains", type=int, default=2000, help="number of grains (default 2000)")
+    p.add_argument("--ranks", type=int, default=1, help="MPI ranks (default 1)")
+    p.add_argument("--contact", default="geocontact", choices=[*CONTACTS, "both"],
+                   help="contact model: geocontact, granular (pair granular hertz/material + "
+                        "fix wall/gran) or both (default geocontact)")
+    p.add_argument("--walls", default=None, choices=CONTACTS,
+                   help="the walls' law alone: geocontact (fix wall/geocontact) or granular "
+                        "(fix wall/gran); default: that of --contact")
+    p.add_argument("--stress", type=float, default=None,
+                   help="vertical stress before the cycles, Pa (default 5000)")
+    p.add_argument("--radius", type=float, default=None,
+                   help="median grain radius, m (default 1e-3)")
+    p.add_argument("--spread", type=float, default=None,
+                   help="standard deviation of ln(radius) (default 0.3)")
+    p.add_argument("--inertia", type=float, default=None,
+                   help="inertia number of the cycles (default 1e-3)")
+    p.add_argument("--targets", type=float, nargs="+", default=None, metavar="RATIO",
+                   help="peak and valley stresses of the cycles as multiples of --stress "
+                        "(default: 3 repeated, 3 increasing, 3 decreasing cycles)")
+    p.add_argument("--seed", type=int, default=None, help="random seed of the sample")
+    p.add_argument("--out", help="output directory (written as one unit)")
+    add_force_flag(p)
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
+    p.set_defaults(run=run)
+
+
+def _progress(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def run(args) -> int:
+    from ..analyses.dem import CONTACTS, Settings, run_dem
+
+    if args.law is None:
+        raise InputError("--law: missing (law parameters, geocontact.law/1 JSON)")
+    if args.out is None:
+        raise InputError("--out: missing (output directory)")
+    settings = Settings(grains=args.grains)
+    for name in ("stress", "radius", "spread", "inertia", "seed", "walls"):
+        if getattr(args, name) is not None:
+            setattr(settings, name, getattr(args, name))
+    if args.targets is not None:
+        settings.targets = tuple(args.targets)
+    contacts = CONTACTS if args.contact == "both" else (args.contact,)
+    document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
+                       out=args.out, overwrite=args.force, progress=_progress)
+    if args.json:
+        print_json(document)
+        return 0
+    for contact, s in document["runs"].items():
+        print(f"{contact}: {s['grains']} grains, {s['steps']} steps in {s['runtime_s']:.1f} s "
+              f"(dt {s['timestep_s']:.3g} s), packing fraction {s['packing_fraction']:.3f}, "
+              f"{s['contacts_per_grain_at_stress']:.2f} contacts/grain at "
+              f"{s['reference_stress_Pa']:.4g} Pa, inertia number "
+              f"{s['inertia_number']['at_lowest_target']:.2g}")
+        for c in s["cycles"]:
+            print(f"  cycle {c['cycle']} {c['history']:10s} {c['valley_stress_Pa']:9.4g}-"
+                  f"{c['peak_stress_Pa']:9.4g} Pa: residual strain {c['residual_strain']:+.3e}, "
+                  f"wall work {c['wall_work_J']:.3e} J, law dissipation "
+                  f"{c['law_dissipated_J']:.3e} J")
+    print(f"wrote {args.out}")
+    return 0

@@ -1,0 +1,118 @@
+"""Report section of a DEM run (``geocontact dem``): stress-strain loops, residual strain and
+work per cycle for the geocontact law beside LAMMPS's granular Hertz-Mindlin, coordination
+number, and the distribution of the per-contact residual approach."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ..io import read_csv_column
+from .common import read_summary, relative_dir, save_to_figures
+from .html import Figure, Report, table
+
+SCHEMA = "geocontact.dem/1"
+COLOURS = {"geocontact": "C0", "granular": "C1"}
+
+
+def is_dem(directory: Path) -> bool:
+    s = read_summary(directory)
+    return bool(s) and s.get("schema") == SCHEMA
+
+
+def _series(directory: Path, contact: str) -> dict[str, np.ndarray]:
+    path = directory / contact / "series.csv"
+    return {k: read_csv_column(path, k) for k in ("step", "strain", "stress_Pa",
+                                                  "contacts_per_grain")}
+
+
+def dem_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
+    s = read_summary(directory)
+    rel = relative_dir(directory, root)
+    tag = "_".join(filter(None, (rel.strip("/").replace("/", "_"), "dem")))
+    runs = s["runs"]
+    rows = []
+    for contact, r in runs.items():
+        rows.append([contact, r["grains"], r["ranks"], r["steps"], r["runtime_s"],
+                     r["timestep_s"], r["packing_fraction"], r["contacts_per_grain_at_stress"],
+                     r["inertia_number"]["at_lowest_target"], r["total_residual_strain"]])
+    items: list = [table(["contact", "grains", "ranks", "steps", "runtime (s)", "dt (s)",
+                          "packing fraction", "contacts/grain at σ0", "inertia number (max)",
+                          "residual strain after the cycles"], rows)]
+
+    # stress-strain loops of the cycles
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    data: dict[str, np.ndarray] = {}
+    for contact, r in runs.items():
+        t = _series(directory, contact)
+        keep = t["step"] >= r["cycle_start_step"]
+        ax.plot(t["strain"][keep] * 1e3, t["stress_Pa"][keep] / 1e3, lw=0.8, label=contact,
+                color=COLOURS[contact])
+        data[f"{contact}_strain"] = t["strain"][keep]
+        data[f"{contact}_stress_Pa"] = t["stress_Pa"][keep]
+    ax.set_xlabel("vertical strain (‰, from the height at σ0)")
+    ax.set_ylabel("vertical stress (kPa)")
+    ax.legend(fontsize=8)
+    items.append(save_to_figures(fig, figures, Figure(
+        f"{tag}_loops", "Stress–strain loops of the oedometer cycles",
+        f"{s['test']} of {next(iter(runs.values()))['grains']} grains, law {s['law_label']}; "
+        "stress: contact virial over the sample volume; strain from the top wall's position.",
+        data)))
+
+    # per cycle: residual strain, work of the top wall, law dissipation, coordination
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    data = {}
+    for contact, r in runs.items():
+        n = np.array([c["cycle"] for c in r["cycles"]], dtype=float)
+        res = np.array([c["residual_strain"] for c in r["cycles"]])
+        work = np.array([c["wall_work_J"] for c in r["cycles"]])
+        coord = np.array([c["contacts_per_grain"] for c in r["cycles"]])
+        colour = COLOURS[contact]
+        axes[0].plot(n, res * 1e3, "o-", ms=4, label=contact, color=colour)
+        axes[1].plot(n, work * 1e3, "o-", ms=4, label=f"{contact}: wall work", color=colour)
+        if contact == "geocontact":
+            law = np.array([c["law_dissipated_J"] for c in r["cycles"]])
+            axes[1].plot(n, law * 1e3, "s--", ms=4, label="geocontact: law dissipation",
+                         color=colour, alpha=0.6)
+            data[f"{contact}_law_dissipated_J"] = law
+        axes[2].plot(n, coord, "o-", ms=4, label=contact, color=colour)
+        data[f"{contact}_cycle"] = n
+        data[f"{contact}_residual_strain"] = res
+        data[f"{contact}_wall_work_J"] = work
+        data[f"{contact}_contacts_per_grain"] = coord
+    axes[0].set_ylabel("residual strain of the cycle (‰)")
+    axes[1].set_ylabel("energy per cycle (mJ)")
+    axes[2].set_ylabel("contacts per grain (at the valley)")
+    for ax in axes:
+        ax.set_xlabel("cycle")
+        ax.xaxis.get_major_locator().set_params(integer=True)
+        ax.axhline(0, color="0.7", lw=0.6)
+        ax.legend(fontsize=7)
+    items.append(save_to_figures(fig, figures, Figure(
+        f"{tag}_cycles", "Residual strain, energy and coordination per cycle",
+        "Wall work: ∮ σ dε V, the work of the top wall from valley to valley (in a closed cycle "
+        "the energy dissipated by the law, friction and damping); law dissipation: the normal "
+        "law's own (pair and walls). Cycles 1–3 repeated, 4–6 increasing, 7–9 decreasing "
+        "amplitude (default targets).", data)))
+
+    g = runs.get("geocontact")
+    contacts_csv = directory / "geocontact" / "residual_approach.csv"
+    if g and contacts_csv.is_file():
+        res = read_csv_column(contacts_csv, "residual_approach_m")
+        top = read_csv_column(contacts_csv, "max_approach_m")
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+        axes[0].hist(res * 1e9, bins=40, color="C0")
+        axes[0].set_xlabel("residual approach δres (nm)")
+        axes[0].set_ylabel("contacts")
+        axes[1].hist(res / top, bins=40, range=(0, 1), color="C1")
+        axes[1].set_xlabel("δres / δmax")
+        ra = g["residual_approach"]
+        items.append(save_to_figures(fig, figures, Figure(
+            f"{tag}_residual_approach", "Per-contact residual approach at the end",
+            f"geocontact, {ra['contacts']} contacts that ever touched ({ra['in_contact']} in "
+            f"contact at the end, {ra['plastic']} with δres > 0); median "
+            f"{ra['median_m'] * 1e9:.3g} nm. Granular Hertz has none (elastic).",
+            {"residual_approach_m": res, "max_approach_m": top})))
+    report.add(f"DEM {s['test']} {rel or '.'}", *items)

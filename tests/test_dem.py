@@ -1,0 +1,136 @@
+"""``geocontact dem oedometer`` (examples/lammps/in.oedometer through the driver; plugin built by
+`make plugin`): a small polydisperse sample generated in LAMMPS, compressed to the stress and
+cycled, for the geocontact law and LAMMPS's granular Hertz-Mindlin, on 1 and 2 ranks."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geocontact.analyses.dem import Settings, run_dem
+from geocontact.cli import main
+from geocontact.io import read_csv_column, verify_manifest
+
+LAW = Path("examples/params-reference.json")
+# the smallest sample that jams: 300 grains, a fast quasi-static rate, one cycle
+SMALL = {"grains": 300, "inertia": 1e-2, "targets": (1.5, 0.5)}
+
+
+@pytest.fixture(scope="module")
+def both(tmp_path_factory) -> tuple[Path, dict]:
+    out = tmp_path_factory.mktemp("dem") / "oedometer"
+    return out, run_dem("oedometer", LAW, Settings(**SMALL), contacts=("geocontact", "granular"),
+                        ranks=1, out=out)
+
+
+def test_stress_reached_and_outputs_parsed(both):
+    out, doc = both
+    assert verify_manifest(out) == []
+    assert json.loads((out / "summary.json").read_text())["schema"] == "geocontact.dem/1"
+    for contact, run in doc["runs"].items():
+        assert run["grains"] == SMALL["grains"]
+        # the stress before the cycles and each reversal: reached, within a few % past it
+        assert 5e3 <= run["reference_stress_Pa"] < 1.05 * 5e3
+        (cycle,) = run["cycles"]
+        assert 7.5e3 <= cycle["peak_stress_Pa"] < 1.1 * 7.5e3
+        assert 0.9 * 2.5e3 < cycle["valley_stress_Pa"] <= 2.5e3
+        # a jammed sample: packing fraction of a loose polydisperse packing, contacts
+        assert 0.55 < run["packing_fraction"] < 0.72
+        assert run["contacts_per_grain_at_stress"] > 1.5
+        # the cycle dissipates: positive work of the top wall around the loop
+        assert cycle["wall_work_J"] > 0
+        assert run["timestep_s"] < 0.25 * run["hertz_time_s"]
+        strain = read_csv_column(out / contact / "series.csv", "strain")
+        stress = read_csv_column(out / contact / "series.csv", "stress_Pa")
+        assert len(strain) == len(stress) > 50
+        assert read_csv_column(out / contact / "cycles.csv", "cycle").tolist() == [1]
+
+
+def test_geocontact_dents_granular_does_not(both):
+    out, doc = both
+    g, h = doc["runs"]["geocontact"], doc["runs"]["granular"]
+    # 5 kPa on mm grains: contact forces far above the yield force (2.8e-4 N at r = 1 mm), so
+    # most contacts that carried load keep a residual approach, and the law dissipates
+    ra = g["residual_approach"]
+    assert ra["plastic"] > 0.5 * ra["in_contact"] > 0
+    res = read_csv_column(out / "geocontact" / "residual_approach.csv", "residual_approach_m")
+    top = read_csv_column(out / "geocontact" / "residual_approach.csv", "max_approach_m")
+    assert np.all(res >= 0) and np.all(res <= top)
+    assert g["cycles"][0]["law_dissipated_J"] > 0
+    assert h["cycles"][0]["law_dissipated_J"] == 0
+    assert "residual_approach" not in h
+    assert not (out / "granular" / "residual_approach.csv").exists()
+
+
+def test_report_section(both, tmp_path):
+    out, _ = both
+    from geocontact.report import build_report
+
+    html = build_report(out)
+    text = html.read_text()
+    assert "DEM oedometer" in text
+    for name in ("dem_loops", "dem_cycles", "dem_residual_approach"):
+        assert (out / "figures" / f"{name}.png").stat().st_size > 1000
+
+
+def test_one_and_two_ranks_agree_statistically(tmp_path):
+    """The geocontact law on 1 and 2 ranks (walls: fix wall/gran; fix wall/geocontact crashes
+    on 2 ranks more often than not, docs/dem.md). Same seed,
+    same positions, but LAMMPS's per-rank random streams give the grains other radii on 2 ranks
+    (and force sums run in another order, which a granular packing amplifies), so the two are
+    different realisations of the sample: compared statistically, at the scatter of a
+    300-grain sample."""
+    settings = {**SMALL, "walls": "granular"}
+    one, two = (run_dem("oedometer", LAW, Settings(**settings), contacts=("geocontact",),
+                        ranks=ranks, out=tmp_path / f"r{ranks}")["runs"]["geocontact"]
+                for ranks in (1, 2))
+    assert (one["ranks"], two["ranks"]) == (1, 2)
+    assert abs(two["packing_fraction"] - one["packing_fraction"]) < 0.03
+    for run in (one, two):
+        assert 5e3 <= run["reference_stress_Pa"] < 1.05 * 5e3
+        assert run["cycles"][0]["wall_work_J"] > 0 and run["cycles"][0]["law_dissipated_J"] > 0
+    z1, z2 = one["contacts_per_grain_at_stress"], two["contacts_per_grain_at_stress"]
+    assert abs(z1 - z2) < 0.5
+    for run in (one, two):  # most loaded contacts dented, on either rank count
+        ra = run["residual_approach"]
+        assert ra["plastic"] > 0.5 * ra["in_contact"] > 0
+
+
+def test_bad_arguments_one_line(tmp_path, capsys):
+    assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "10",
+                 "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--grains: must be in [50, 200000]" in err
+    assert main(["dem", "oedometer", "--law", str(LAW), "--targets", "0.5", "1.5",
+                 "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--targets:" in err
+    assert main(["dem", "oedometer", "--law", str(tmp_path / "none.json"),
+                 "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.startswith("error: --law: file not found")
+    assert not (tmp_path / "x").exists()
+
+
+def test_sigterm_stops_lammps_and_leaves_nothing(tmp_path):
+    out = tmp_path / "run"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "geocontact.cli", "dem", "oedometer", "--law", str(LAW),
+         "--grains", "300", "--out", str(out)], stderr=subprocess.PIPE, text=True)
+    line = process.stderr.readline()  # the first progress line: LAMMPS is starting
+    assert "geocontact: 300 grains" in line
+    time.sleep(1.0)
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=30) == 143
+    assert not out.exists()
+    assert [p for p in tmp_path.iterdir()] == []  # the temporary folder removed too
+    ps = subprocess.run(["ps", "-o", "pid=", "--ppid", str(process.pid)], capture_output=True,
+                        text=True)
+    assert ps.stdout.strip() == ""
