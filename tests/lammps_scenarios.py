@@ -250,7 +250,7 @@ CYCLED_PAIRS = (
     {"types": (1, 3), "file": CYCLED_FILES[2], "y": 0.0, "z": 0.3, "shuttle": None},
 )
 # approach legs (end in yield approaches of the pair's file, steps); -1 is a separation
-CYCLE_LEGS = ((30, 10), (-1, 10), (30.3, 10), (33, 5), (10, 5), (36, 8), (-1, 6), (38, 8))
+CYCLE_LEGS = ((30, 10), (-1, 10), (30.15, 10), (33, 5), (10, 5), (36, 8), (-1, 6), (38, 8))
 # steps before the restart: pair 1 is on its ratchet creep (branch 4), across x = 0
 CYCLE_RESTART_AFTER = 30
 SHUTTLE_KNOTS = ((0, -0.4), (CYCLE_RESTART_AFTER - 1, 0.0), (45, 0.4), (61, -0.1))
