@@ -116,6 +116,7 @@ class _Reduced:
     indices: np.ndarray
     indptr: np.ndarray
     nnz: int
+    symbolic: object = None  # CHOLMOD's symbolic analysis (ordering, supernodes) of the pattern
 
 
 LINEAR_SOLVERS = ("fast", "reference")
@@ -467,7 +468,7 @@ class ContactSolver:
             factor = factors[key]
         else:
             self.factorisations += 1
-            factor = factorise(self._bordered_system(local, reduced))
+            factor = factorise(self._bordered_system(local, reduced), reduced)
             if tangent is None and factor is not None:
                 factors[key] = factor
                 if len(factors) > ELASTIC_FACTOR_CACHE:
@@ -612,18 +613,29 @@ def solve_linear(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
         return np.full_like(rhs, np.nan)
 
 
-def factorise(matrix: sp.csc_matrix):
+def factorise(matrix: sp.csc_matrix, reduced: _Reduced | None = None):
     """A solve function for the symmetric positive definite bordered system, or None.
 
-    CHOLMOD (scikit-sparse, supernodal Cholesky with AMD/METIS ordering) when installed; else,
-    or if CHOLMOD finds the matrix not positive definite, SuperLU as in :func:`solve_linear`.
+    CHOLMOD (scikit-sparse, supernodal Cholesky) when installed, its symbolic analysis done once
+    per contact set (``reduced``) and reused by every numeric factorisation of that pattern;
+    else, or if CHOLMOD finds the matrix not positive definite, SuperLU as in
+    :func:`solve_linear`.
     """
     cholmod = _cholmod()
     if cholmod is not None:
+        analyze, errors = cholmod
         try:
-            factor = cholmod(matrix)
-            return lambda rhs: factor(rhs)
-        except Exception:  # not positive definite (e.g. a softening point): LU below
+            if reduced is None:
+                symbolic = analyze(matrix)
+            else:
+                if reduced.symbolic is None:
+                    reduced.symbolic = analyze(matrix)
+                symbolic = reduced.symbolic
+            factor = symbolic.cholesky(matrix)
+            probe = factor.solve_A(np.ones(matrix.shape[0]))
+            if np.all(np.isfinite(probe)):
+                return factor.solve_A
+        except errors:  # not positive definite (e.g. a softening point): LU below
             pass
     for kwargs in ({"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
                     "options": {"SymmetricMode": True}}, {"permc_spec": "COLAMD"}):
@@ -638,9 +650,9 @@ def factorise(matrix: sp.csc_matrix):
 
 
 def _cholmod():
-    """sksparse.cholmod.cholesky, or None when scikit-sparse is not installed."""
+    """(sksparse.cholmod.analyze, its error class), or None without scikit-sparse."""
     try:
-        from sksparse.cholmod import cholesky
+        from sksparse.cholmod import CholmodError, analyze
     except ImportError:
         return None
-    return cholesky
+    return analyze, CholmodError
