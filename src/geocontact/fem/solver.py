@@ -25,7 +25,8 @@ straight from the element matrices through index maps cached per contact set, ke
 constant elastic factorisation of the predictor per contact set, and factorises with CHOLMOD
 (scikit-sparse; the system is symmetric positive definite: associated flow, B-bar) when it is
 installed, else SuperLU; "reference" is the earlier path (global CSR, slicing, SuperLU every
-iteration), kept to compare the two side by side (docs/benchmarks.md, scripts/compare_fe_solvers.py).
+iteration), kept to compare the two side by side (docs/benchmarks.md,
+scripts/compare_fe_solvers.py).
 """
 
 from __future__ import annotations
