@@ -23,9 +23,9 @@ Boundary conditions:
 Linear systems (``linear_solver``): "fast" (default) assembles the reduced, bordered system
 straight from the element matrices through index maps cached per contact set, keeps the
 constant elastic factorisation of the predictor per contact set, and factorises with CHOLMOD
-(scikit-sparse; the system is symmetric positive definite: associated flow, B-bar) when it is
-installed, else SuperLU; "reference" is the earlier path (global CSR, slicing, SuperLU every
-iteration), kept to compare the two side by side (docs/benchmarks.md,
+(scikit-sparse, simplicial LDL^T, symbolic analysis reused; the system is symmetric: associated
+flow, B-bar) when it is installed, else SuperLU; "reference" is the earlier path (global CSR,
+slicing, SuperLU every iteration), kept to compare the two side by side (docs/benchmarks.md,
 scripts/compare_fe_solvers.py).
 """
 
@@ -617,27 +617,39 @@ def solve_linear(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
 def factorise(matrix: sp.csc_matrix, reduced: _Reduced | None = None):
     """A solve function for the symmetric positive definite bordered system, or None.
 
-    CHOLMOD (scikit-sparse, supernodal Cholesky) when installed, its symbolic analysis done once
-    per contact set (``reduced``) and reused by every numeric factorisation of that pattern;
-    else, or if CHOLMOD finds the matrix not positive definite, SuperLU as in
-    :func:`solve_linear`.
+    CHOLMOD (scikit-sparse) when installed: simplicial LDL^T with AMD ordering, measured the
+    fastest here (docs/benchmarks.md; the supernodal mode leans on BLAS and is slower on these
+    2-D systems), its symbolic analysis done once per contact set (``reduced``) and reused by
+    every numeric factorisation of that pattern. Without CHOLMOD, if it fails, or if its
+    solution is not finite: SuperLU (:func:`_lu`).
     """
     cholmod = _cholmod()
-    if cholmod is not None:
-        analyze, errors = cholmod
-        try:
-            if reduced is None:
-                symbolic = analyze(matrix)
-            else:
-                if reduced.symbolic is None:
-                    reduced.symbolic = analyze(matrix)
-                symbolic = reduced.symbolic
-            factor = symbolic.cholesky(matrix)
-            probe = factor.solve_A(np.ones(matrix.shape[0]))
-            if np.all(np.isfinite(probe)):
-                return factor.solve_A
-        except errors:  # not positive definite (e.g. a softening point): LU below
-            pass
+    if cholmod is None:
+        return _lu(matrix)
+    analyze, errors = cholmod
+    try:
+        if reduced is None or reduced.symbolic is None:
+            symbolic = analyze(matrix, mode="simplicial", ordering_method="amd")
+            if reduced is not None:
+                reduced.symbolic = symbolic
+        else:
+            symbolic = reduced.symbolic
+        factor = symbolic.cholesky(matrix)
+    except errors:  # e.g. a zero pivot: LU below
+        return _lu(matrix)
+
+    def solve(rhs: np.ndarray) -> np.ndarray:
+        x = factor.solve_A(rhs)
+        if np.all(np.isfinite(x)):
+            return x
+        lu = _lu(matrix)
+        return lu(rhs) if lu is not None else x
+
+    return solve
+
+
+def _lu(matrix: sp.csc_matrix):
+    """SuperLU as in :func:`solve_linear` (symmetric mode, then COLAMD with partial pivoting)."""
     for kwargs in ({"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
                     "options": {"SymmetricMode": True}}, {"permc_spec": "COLAMD"}):
         try:

@@ -33,10 +33,11 @@ def compare_linear_solvers(material: Material, forces, mesh: str = "coarse",
     :func:`geocontact.fem.run.run_history` (``write_fields`` is off)."""
     runs = {}
     for name in ("reference", "fast"):
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.process_time()
         result = run_history(material, forces, mesh=mesh, write_fields=False,
                              linear_solver=name, **run_options)
         runs[name] = {"result": result, "wall_time_s": time.perf_counter() - started,
+                      "cpu_time_s": time.process_time() - cpu, "summary": result.summary,
                       "factorisations": result.solver.factorisations,
                       "newton_iterations": result.summary["newton_iterations"],
                       "steps": result.summary["steps"]}
