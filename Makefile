@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
 .PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
-	test-plugin ccx chromium check-figures
+	test-plugin ccx chromium check-figures cholmod
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -25,7 +25,19 @@ $(shell mkdir -p $(VENV) && find src/geocontact -name '*.py' | LC_ALL=C sort > $
 
 $(STAMP): pyproject.toml $(CORE_SOURCES) $(PY_FILES) | $(PY)
 	$(PY) -m pip install -q -e ".[fem,campaign,seismic,test]"
+	$(MAKE) --no-print-directory cholmod
 	touch $(STAMP)
+
+# CHOLMOD (SuiteSparse), the FE's factorisation (docs/benchmarks.md), through scikit-sparse built
+# on the Debian/Ubuntu libsuitesparse-dev (the 0.4 line: 0.5 needs SuiteSparse 7). Without it the
+# FE falls back to SuperLU: same results, slower.
+cholmod: | $(PY)
+	$(PY) -c "import sksparse.cholmod" 2>/dev/null || ( \
+	  (test -f /usr/include/suitesparse/cholmod.h \
+	    || (apt-get update && apt-get install -y libsuitesparse-dev) \
+	    || (sudo apt-get update && sudo apt-get install -y libsuitesparse-dev)) \
+	  && $(PY) -m pip install -q "scikit-sparse>=0.4.12,<0.5" ) \
+	  || echo "note: CHOLMOD not installed; the FE factorises with SuperLU (same results, slower)"
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks

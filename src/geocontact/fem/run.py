@@ -359,10 +359,11 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
 
 
 # --- the run -----------------------------------------------------------------------------------
-def _solver(material: Material, fe_mesh, identity) -> ContactSolver:
+def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> ContactSolver:
     bbar, order = VOLUMETRIC[identity.volumetric]
     return ContactSolver(material, fe_mesh, force_scale=max(identity.forces),
-                         tolerance=identity.tolerance, bbar=bbar, volumetric_order=order)
+                         tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
+                         linear_solver=linear_solver)
 
 
 def run_history(
@@ -381,6 +382,7 @@ def run_history(
     mesh_force: float | None = None,
     overwrite: bool = False,
     checkpoint: str | Path | None = None,
+    linear_solver: str = "fast",
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -399,6 +401,9 @@ def run_history(
     and the run starts over. ``write_fields`` and ``progress`` do not change the result.
     Raises ConvergenceError (one line, naming the step and load) if a step fails after
     ``MAX_CUTBACKS`` halvings; the checkpoint then holds the last converged state.
+    ``linear_solver``: "fast" (default) or "reference", the earlier linear-algebra path kept for
+    side-by-side comparison (``ContactSolver``); both give the same result within the Newton
+    tolerance, so it is not part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 
@@ -426,7 +431,7 @@ def run_history(
     saved = (read_checkpoint(ckpt, identity, len(CURVE_COLUMNS))
              if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
-        solver = _solver(material, saved.mesh, identity)
+        solver = _solver(material, saved.mesh, identity, linear_solver)
         targets, marks = load_schedule(forces, steps, saved.yield_force)
         problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
                                 write_fields)
@@ -439,7 +444,7 @@ def run_history(
         sized_history = forces if mesh_force is None else [0.0, identity.mesh_force]
         fe_mesh = history_mesh(material, identity.mesh_force, mesh,
                                min_force=smallest_resolved_force(material, sized_history, steps))
-        solver = _solver(material, fe_mesh, identity)
+        solver = _solver(material, fe_mesh, identity, linear_solver)
         if pending is not None:
             remove_pending_fields(pending)  # files of an earlier, other run
     fe_mesh = solver.mesh

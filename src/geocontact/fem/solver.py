@@ -20,12 +20,19 @@ Boundary conditions:
   the plasticity: active nodes are prescribed u_z = -z0, the others are free; a node enters the
   set when it penetrates and leaves when its reaction turns tensile.
 
-The linear systems are solved with scipy's SuperLU (see docs/fem.md for the measurement).
+Linear systems (``linear_solver``): "fast" (default) assembles the reduced, bordered system
+straight from the element matrices through index maps cached per contact set, keeps the
+constant elastic factorisation of the predictor per contact set, and factorises with CHOLMOD
+(scikit-sparse, simplicial LDL^T, symbolic analysis reused; the system is symmetric: associated
+flow, B-bar) when it is installed, else SuperLU; "reference" is the earlier path (global CSR,
+slicing, SuperLU every iteration), kept to compare the two side by side (docs/benchmarks.md,
+scripts/compare_fe_solvers.py).
 """
 
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -99,6 +106,26 @@ class _Assembly:
 
 
 @dataclass
+class _Reduced:
+    """Maps of the global pattern into the bordered system of one contact set."""
+
+    free: np.ndarray  # free global dofs, in reduced order
+    n: int  # free unknowns; unknown n is w
+    keep: np.ndarray  # global CSR entries that enter the reduced system
+    slot: np.ndarray  # their position in the reduced CSC data
+    weight: np.ndarray  # +-1: u_top = -w
+    indices: np.ndarray
+    indptr: np.ndarray
+    nnz: int
+    symbolic: object = None  # CHOLMOD's symbolic analysis (ordering, supernodes) of the pattern
+
+
+LINEAR_SOLVERS = ("fast", "reference")
+REDUCED_CACHE = 8  # contact sets whose index maps are kept
+ELASTIC_FACTOR_CACHE = 4  # contact sets whose elastic factorisation is kept
+
+
+@dataclass
 class ContactSolver:
     """Newton / active-set solver of the hemisphere-on-flat problem for one material and mesh."""
 
@@ -110,10 +137,15 @@ class ContactSolver:
     tolerance: float = 1e-8  # relative residual (to the force scale)
     max_iterations: int = 40
     force_scale: float = 1.0  # N, the history's largest force
+    linear_solver: str = "fast"  # "fast" | "reference" (see the module docstring)
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         from skfem import Basis, ElementTriP2, ElementVector
+
+        if self.linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"linear_solver must be one of {', '.join(LINEAR_SOLVERS)}, "
+                             f"got {self.linear_solver!r}")
 
         self.model = DruckerPrager.from_material(self.material)
         basis = Basis(self.mesh, ElementVector(ElementTriP2()), intorder=4)
@@ -143,6 +175,11 @@ class ContactSolver:
         self.candidate_dofs = dofs_z[cand]
         self.candidate_area = self._tributary_areas(cand)
         self.elastic_matrix = self.model.elastic_matrix()
+        # fast path: B per point as (elements, points, 12, 4) for batched matrix products
+        self._B_eq = np.ascontiguousarray(self.B.transpose(2, 3, 0, 1))
+        self._reduced_maps: OrderedDict = OrderedDict()  # contact set -> _Reduced
+        self._elastic_factors: OrderedDict = OrderedDict()  # contact set -> factor
+        self.factorisations = 0  # linear systems factorised (both paths)
 
     # --- set-up -----------------------------------------------------------------------------
     def _strain_matrices(self, basis, r: np.ndarray) -> np.ndarray:
@@ -231,6 +268,69 @@ class ContactSolver:
         data = np.bincount(a.slot, weights=local.ravel(), minlength=len(a.indices))
         return sp.csr_matrix((data, a.indices, a.indptr), shape=(self.ndofs, self.ndofs))
 
+    def element_matrices(self, tangent: np.ndarray | None) -> np.ndarray:
+        """Element stiffness matrices (elements, 12, 12): sum over points of B^T D B dV."""
+        if tangent is None:
+            if "elastic_local" not in self._cache:
+                self._cache["elastic_local"] = self.element_matrices(
+                    np.broadcast_to(self.elastic_matrix[:, :, None, None],
+                                    (4, 4, *self.dvolume.shape)))
+            return self._cache["elastic_local"]
+        d = np.ascontiguousarray(tangent.transpose(2, 3, 0, 1)) * self.dvolume[:, :, None, None]
+        b = self._B_eq  # (e, q, 12, 4)
+        return np.einsum("eqjc,eqkc->ejk", b, np.matmul(b, d), optimize=True)
+
+    def _reduced(self, active: np.ndarray) -> _Reduced:
+        """Index maps of the bordered system [u_free, w] for one contact set (LRU cache)."""
+        key = active.tobytes()
+        maps = self._reduced_maps
+        if key in maps:
+            maps.move_to_end(key)
+            return maps[key]
+        free_mask = np.ones(self.ndofs, dtype=bool)
+        free_mask[self.axis_dofs] = False
+        free_mask[self.top_dofs] = False
+        free_mask[self.candidate_dofs[active]] = False
+        free = np.nonzero(free_mask)[0]
+        n = len(free)
+        index = np.full(self.ndofs, -1, dtype=np.int64)  # global dof -> reduced unknown
+        index[free] = np.arange(n)
+        index[self.top_dofs] = n  # u_top = -w
+        sign = np.ones(self.ndofs)
+        sign[self.top_dofs] = -1.0
+        a = self._assembly
+        grows = np.repeat(np.arange(self.ndofs), np.diff(a.indptr))
+        gcols = a.indices
+        rr, rc = index[grows], index[gcols]
+        keep = np.nonzero((rr >= 0) & (rc >= 0))[0]
+        # CSC of the symmetric bordered matrix: key column-major
+        rkey = rc[keep] * (n + 1) + rr[keep]
+        unique, slot = np.unique(rkey, return_inverse=True)
+        indptr = np.zeros(n + 2, dtype=np.int64)
+        np.add.at(indptr, unique // (n + 1) + 1, 1)
+        reduced = _Reduced(free=free, n=n, keep=keep, slot=slot,
+                           weight=sign[grows[keep]] * sign[gcols[keep]],
+                           indices=(unique % (n + 1)).astype(np.int32),
+                           indptr=np.cumsum(indptr), nnz=len(unique))
+        maps[key] = reduced
+        if len(maps) > REDUCED_CACHE:
+            maps.popitem(last=False)
+        return reduced
+
+    def _bordered_system(self, local: np.ndarray, reduced: _Reduced) -> sp.csc_matrix:
+        a = self._assembly
+        data = np.bincount(a.slot, weights=local.ravel(), minlength=len(a.indices))
+        rdata = np.bincount(reduced.slot, weights=data[reduced.keep] * reduced.weight,
+                            minlength=reduced.nnz)
+        size = reduced.n + 1
+        return sp.csc_matrix((rdata, reduced.indices, reduced.indptr), shape=(size, size))
+
+    def _local_product(self, local: np.ndarray, vector: np.ndarray) -> np.ndarray:
+        """K @ vector from the element matrices, without the global matrix."""
+        product = np.einsum("ejk,ke->je", local, vector[self.element_dofs], optimize=True)
+        return np.bincount(self.element_dofs.ravel(), weights=product.ravel(),
+                           minlength=self.ndofs)
+
     # --- states -----------------------------------------------------------------------------
     def initial_state(self) -> State:
         shape = self.dvolume.shape
@@ -316,6 +416,15 @@ class ContactSolver:
                 return u, w, active, self._finish(old, u, w, stress, strain, eqps, status,
                                                   active, force, iteration)
 
+            if self.linear_solver == "fast":
+                step = self._fast_step(tangent, active, prescribed, r_free, r_top, elastic)
+                n = len(free)
+                if not np.all(np.isfinite(step)):
+                    break
+                u[free] += step[:n]
+                u[cdofs[active]] = -z0[active]
+                w += step[n]
+                continue
             K = self.stiffness(tangent)
             # Extended unknowns [u_free, w]: u_top = -w couples the top column.
             k_free = K[free]
@@ -330,6 +439,7 @@ class ContactSolver:
                          [sp.csr_matrix(k_ft[None, :]), sp.csr_matrix([[k_tt]])]],
                         format="csc")
             rhs = np.concatenate([-r_free - k_pre, [-r_top - k_tpre]])
+            self.factorisations += 1
             step = solve_linear(A, rhs)
             if not np.all(np.isfinite(step)):
                 break
@@ -342,6 +452,31 @@ class ContactSolver:
             f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
             f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
         )
+
+    def _fast_step(self, tangent, active, prescribed, r_free, r_top, elastic) -> np.ndarray:
+        """Newton correction [du_free, dw] on the fast path (see the module docstring)."""
+        reduced = self._reduced(active)
+        local = self.element_matrices(tangent)
+        rhs = np.concatenate([-r_free, [-r_top]])
+        if np.any(prescribed != 0.0):
+            k_pre = self._local_product(local, prescribed)
+            rhs[:-1] -= k_pre[reduced.free]
+            rhs[-1] += float(np.sum(k_pre[self.top_dofs]))
+        factors = self._elastic_factors
+        key = active.tobytes()
+        if tangent is None and key in factors:  # the elastic matrix is one per contact set
+            factors.move_to_end(key)
+            factor = factors[key]
+        else:
+            self.factorisations += 1
+            factor = factorise(self._bordered_system(local, reduced), reduced)
+            if tangent is None and factor is not None:
+                factors[key] = factor
+                if len(factors) > ELASTIC_FACTOR_CACHE:
+                    factors.popitem(last=False)
+        if factor is None:
+            return np.full_like(rhs, np.nan)
+        return factor(rhs)
 
     def _finish(self, old, u, w, stress, strain, eqps, status, active, force,
                 iterations) -> State:
@@ -477,3 +612,60 @@ def solve_linear(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
         return splu(matrix, permc_spec="COLAMD").solve(rhs)
     except RuntimeError:
         return np.full_like(rhs, np.nan)
+
+
+def factorise(matrix: sp.csc_matrix, reduced: _Reduced | None = None):
+    """A solve function for the symmetric positive definite bordered system, or None.
+
+    CHOLMOD (scikit-sparse) when installed: simplicial LDL^T with AMD ordering, measured the
+    fastest here (docs/benchmarks.md; the supernodal mode leans on BLAS and is slower on these
+    2-D systems), its symbolic analysis done once per contact set (``reduced``) and reused by
+    every numeric factorisation of that pattern. Without CHOLMOD, if it fails, or if its
+    solution is not finite: SuperLU (:func:`_lu`).
+    """
+    cholmod = _cholmod()
+    if cholmod is None:
+        return _lu(matrix)
+    analyze, errors = cholmod
+    try:
+        if reduced is None or reduced.symbolic is None:
+            symbolic = analyze(matrix, mode="simplicial", ordering_method="amd")
+            if reduced is not None:
+                reduced.symbolic = symbolic
+        else:
+            symbolic = reduced.symbolic
+        factor = symbolic.cholesky(matrix)
+    except errors:  # e.g. a zero pivot: LU below
+        return _lu(matrix)
+
+    def solve(rhs: np.ndarray) -> np.ndarray:
+        x = factor.solve_A(rhs)
+        if np.all(np.isfinite(x)):
+            return x
+        lu = _lu(matrix)
+        return lu(rhs) if lu is not None else x
+
+    return solve
+
+
+def _lu(matrix: sp.csc_matrix):
+    """SuperLU as in :func:`solve_linear` (symmetric mode, then COLAMD with partial pivoting)."""
+    for kwargs in ({"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
+                    "options": {"SymmetricMode": True}}, {"permc_spec": "COLAMD"}):
+        try:
+            lu = splu(matrix, **kwargs)
+        except RuntimeError:
+            continue
+        probe = lu.solve(np.ones(matrix.shape[0]))
+        if np.all(np.isfinite(probe)):
+            return lu.solve
+    return None
+
+
+def _cholmod():
+    """(sksparse.cholmod.analyze, its error class), or None without scikit-sparse."""
+    try:
+        from sksparse.cholmod import CholmodError, analyze
+    except ImportError:
+        return None
+    return analyze, CholmodError
