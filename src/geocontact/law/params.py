@@ -76,7 +76,6 @@ def power_law_critical_cycle(coefficient: float, power: float, tolerance: float)
 # c_w N^-p_w times cycle 1's, through the main reloading exponent (it tends to n_u: the loop
 # closes, elastic shakedown as in the FE).
 TRUNCATED, SHAKEDOWN = "truncated", "shakedown"
-CYCLIC_FORMS = (TRUNCATED, SHAKEDOWN)
 
 
 @dataclass(frozen=True)
