@@ -29,6 +29,7 @@ from geocontact.analyses.cycles import run_cycles
 from geocontact.analyses.force_driven import drive_by_force
 from geocontact.cyclic_fit import analyse, with_cyclic
 from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
+from geocontact.io import check_output_file, write_text_atomic
 from geocontact.law import load_params
 from geocontact.material import preset
 
@@ -116,6 +117,8 @@ def main(argv=None) -> int:
 
     def run() -> int:
         args = parser.parse_args(argv)
+        if args.json:
+            check_output_file(args.json, "--json")  # before the FE work, not after
         forces = [0.0] + [PEAK, 0.0] * CYCLES
         report = {}
         for name in args.material:
@@ -148,7 +151,7 @@ def main(argv=None) -> int:
                 entry = compare(fe, shipped, refit, forces)
                 report[f"{name}/{mesh}"] = entry
         if args.json:
-            Path(args.json).write_text(json.dumps(report, indent=1) + "\n")
+            write_text_atomic(args.json, json.dumps(report, indent=1) + "\n")
         return 0
 
     return run_reporting_errors(run)

@@ -212,3 +212,29 @@ def test_the_lammps_plugin_says_the_same(case):
         assert f"pair_coeff geocontact: {case['message']}" in str(error.value)
     finally:
         lmp.close()
+
+
+def test_corpus_writer_never_touches_a_folder_it_did_not_write(tmp_path, capsys):
+    """A folder with someone's files (no corpus index), or with an index of another kind, is
+    refused before anything is written or removed; an index naming paths outside the folder
+    removes nothing there."""
+    from geocontact.law import bad_documents
+
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "notes.json").write_text("{}")
+    assert bad_documents.main(["--out", str(user)]) == 2
+    assert "refusing" in capsys.readouterr().err
+    assert sorted(p.name for p in user.iterdir()) == ["notes.json"]
+    (user / "index.json").write_text(json.dumps({"cases": [{"file": "notes.json"}]}))
+    assert bad_documents.main(["--out", str(user)]) == 2
+    assert (user / "notes.json").exists()
+    corpus = tmp_path / "corpus"
+    bad_documents.write(corpus)
+    outside = tmp_path / "outside.json"
+    outside.write_text("{}")
+    index = json.loads((corpus / "index.json").read_text())
+    index["cases"].append({"file": "../outside.json"})
+    (corpus / "index.json").write_text(json.dumps(index))
+    bad_documents.write(corpus)
+    assert outside.exists()

@@ -166,18 +166,43 @@ def generate(base_path: str | Path = DEFAULT_BASE) -> dict[str, str]:
     return files
 
 
+def _earlier_corpus(out: Path) -> list[dict]:
+    """The cases of the corpus already in ``out`` (none for a new or empty folder). A folder
+    holding anything else is not ours to write into: refused."""
+    if not out.exists():
+        return []
+    if not out.is_dir():
+        raise InputError(f"--out: {out} is a file; expected a corpus folder")
+    index = out / INDEX
+    if not index.is_file():
+        if any(out.iterdir()):
+            raise InputError(f"--out: {out} holds files but no {INDEX} of a bad-document "
+                             "corpus; refusing to write into it: choose another folder")
+        return []
+    try:
+        doc = json.loads(index.read_text())
+    except (OSError, ValueError):
+        doc = None
+    if not isinstance(doc, dict) or doc.get("schema") != CORPUS_SCHEMA:
+        raise InputError(f"--out: {index} is not the index of a bad-document corpus "
+                         f"({CORPUS_SCHEMA}); refusing to write into {out}")
+    return [c for c in doc.get("cases", []) if isinstance(c, dict)]
+
+
 def write(out: str | Path, base_path: str | Path = DEFAULT_BASE) -> int:
     """Write the corpus into ``out``; a case file of an earlier corpus (named in its index)
     that is no longer generated is removed, any other file is left alone."""
     out = Path(out)
     files = generate(base_path)
+    earlier = _earlier_corpus(out)
     out.mkdir(parents=True, exist_ok=True)
-    old = out / INDEX
-    if old.exists():
-        for case in json.loads(old.read_text()).get("cases", []):
-            stale = out / case["file"]
-            if case["file"] not in files and stale.exists():
-                stale.unlink()
+    for case in earlier:
+        # only plain file names of an index this generator wrote: never a path elsewhere
+        name = str(case.get("file", ""))
+        stale = out / name
+        if (name not in files and Path(name).name == name and name.endswith(".json")
+                and stale.is_file()):
+            stale.unlink()
     for name, text in files.items():
         write_text_atomic(out / name, text)
     return len(files) - 2
