@@ -67,7 +67,13 @@ from .run import (
     tip_contact_radius,
     write_result,
 )
-from .solver import ContactSolver, State
+from .solver import (
+    ELASTIC_FACTOR_CACHE,
+    REDUCED_CACHE,
+    ContactSolver,
+    State,
+    factorise,
+)
 
 SCHEMA = "geocontact.fe-pair-identity/1"
 # Slave nodes: sphere 1's surface nodes out to this fraction of the smaller radius (the half
@@ -136,8 +142,8 @@ class PairSolver(ContactSolver):
 
     ``material``: the common material with ``radius`` = r1 (sphere 1, the slave, whose far face
     carries the load); ``radius_2``: r2; ``body_1_elements``: the first elements of ``mesh`` that
-    belong to sphere 1 (:func:`pair_mesh`). Always on the "reference" linear-algebra path (the
-    fast path assembles the half model's element matrices straight into its reduced system).
+    belong to sphere 1 (:func:`pair_mesh`). ``linear_solver``: "fast" factorises with CHOLMOD
+    (:meth:`_fast_step`), "reference" is the half model's SuperLU path; both solve T^T K T.
     """
 
     radius_2: float = 0.0
@@ -145,7 +151,6 @@ class PairSolver(ContactSolver):
     _transform: Any = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-        self.linear_solver = "reference"
         super().__post_init__()
         basis = self.basis
         x, z = self.mesh.doflocs
@@ -213,10 +218,67 @@ class PairSolver(ContactSolver):
         return self._transform_t @ super().internal_force(stress)
 
     def stiffness(self, tangent: np.ndarray | None) -> sp.csr_matrix:
-        return (self._transform_t @ super().stiffness(tangent) @ self._transform).tocsr()
+        """T^T K T, K assembled from the batched element matrices (``element_matrices``)."""
+        if tangent is None and "pair_elastic" in self._cache:
+            return self._cache["pair_elastic"]
+        a = self._assembly
+        data = np.bincount(a.slot, weights=self.element_matrices(tangent).ravel(),
+                           minlength=len(a.indices))
+        k = sp.csr_matrix((data, a.indices, a.indptr), shape=(self.ndofs, self.ndofs))
+        k = (self._transform_t @ k @ self._transform).tocsr()
+        if tangent is None:
+            self._cache["pair_elastic"] = k
+        return k
 
-    def element_matrices(self, tangent):  # the fast path is not transformed
-        raise NotImplementedError("PairSolver uses the reference linear-algebra path")
+    def _fast_step(self, tangent, active, prescribed, r_free, r_top, elastic) -> np.ndarray:
+        """Newton correction [du_free, dw]: the bordered system of ``ContactSolver``'s reference
+        path (unknowns [v_free, w], v_top = -w) from the transformed tangent, factorised as on
+        its fast path (``solver.factorise``: CHOLMOD, symbolic analysis and the elastic factor
+        kept per contact set)."""
+        key = active.tobytes()
+        maps = self._reduced_maps
+        if key not in maps:
+            fixed = np.concatenate([self.axis_dofs, self.top_dofs, self.candidate_dofs[active]])
+            free = np.setdiff1d(np.arange(self.ndofs), fixed)
+            n = len(free)
+            rows = np.concatenate([free, self.top_dofs])
+            cols = np.concatenate([np.arange(n), np.full(len(self.top_dofs), n)])
+            vals = np.concatenate([np.ones(n), -np.ones(len(self.top_dofs))])
+            border = sp.csr_matrix((vals, (rows, cols)), shape=(self.ndofs, n + 1))
+            maps[key] = _Bordered(border, border.T.tocsr())
+            if len(maps) > REDUCED_CACHE:
+                maps.popitem(last=False)
+        maps.move_to_end(key)
+        system = maps[key]
+        k = self.stiffness(tangent)
+        rhs = np.concatenate([-r_free, [-r_top]])
+        if np.any(prescribed != 0.0):
+            rhs -= system.border_t @ (k @ prescribed)
+        factors = self._elastic_factors
+        if tangent is None and key in factors:
+            factors.move_to_end(key)
+            return factors[key](rhs)
+        self.factorisations += 1
+        matrix = (system.border_t @ k @ system.border).tocsc()
+        matrix.sort_indices()
+        factor = factorise(matrix, system)
+        if factor is None:
+            return np.full_like(rhs, np.nan)
+        if tangent is None:
+            factors[key] = factor
+            if len(factors) > ELASTIC_FACTOR_CACHE:
+                factors.popitem(last=False)
+        return factor(rhs)
+
+
+@dataclass
+class _Bordered:
+    """The map of one contact set's unknowns [v_free, w] into v (v_top = -w), and CHOLMOD's
+    symbolic analysis of its system (``solver.factorise``)."""
+
+    border: sp.csr_matrix
+    border_t: sp.csr_matrix
+    symbolic: object = None
 
 
 # --- identity ----------------------------------------------------------------------------------
