@@ -157,7 +157,6 @@ class PairSolver(ContactSolver):
         r1, r2 = self.material.radius, self.radius_2
         body1 = np.zeros(self.ndofs, dtype=bool)
         body1[self.element_dofs[:, :self.body_1_elements].ravel()] = True
-        dofs_r = np.concatenate([basis.nodal_dofs[0], basis.facet_dofs[0]])
         dofs_z = np.concatenate([basis.nodal_dofs[1], basis.facet_dofs[1]])
         # Sphere 2's far face z = -r2 is held in z: add it to the fixed dofs of the half model
         # (``axis_dofs`` is the set held at zero; u_r = 0 on the axis is there already).
