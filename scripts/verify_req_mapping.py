@@ -57,12 +57,12 @@ def radii(ratio: float) -> tuple[float, float]:
     return r1, r1 / ratio
 
 
-def history(material) -> tuple[list[float], float]:
+def history(material, levels=LEVELS) -> tuple[list[float], float]:
     from geocontact import hertz
 
     fy = float(hertz.incipient_yield(material).force)
     forces = [0.0]
-    for level in LEVELS:
+    for level in levels:
         forces += [level * fy, 0.0]
     return forces, fy
 
@@ -97,7 +97,8 @@ def law_run(forces: list[float]):
     return drive_by_force(params, forces, points=200)
 
 
-def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool) -> list[dict]:
+def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool,
+            ratios=RATIOS, levels=LEVELS) -> list[dict]:
     from geocontact.fem.pair import run_pair_history
     from geocontact.fem.run import run_history
     from geocontact.material import preset
@@ -105,11 +106,13 @@ def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool)
     material = preset("reference")
     if abs(material.radius - R_EQ) > 1e-12:
         raise SystemExit(f"the reference preset's radius is {material.radius} m, not {R_EQ} m")
-    forces, fy = history(material)
+    forces, fy = history(material, levels)
+    tag = "" if tuple(levels) == LEVELS else "-" + "-".join(f"{x:g}" for x in levels)
     started = time.perf_counter()
-    half = run_history(material, forces, mesh=mesh, out=work / mesh / "half-model",
+    half = run_history(material, forces, mesh=mesh, out=work / mesh / f"half-model{tag}",
                        resume=True, write_fields=False, progress=True)
-    provenance_runs.append({"run": f"{mesh}/half-model", "key": half.summary["identity"]["key"],
+    provenance_runs.append({"run": f"{mesh}/half-model{tag}",
+                            "key": half.summary["identity"]["key"],
                             "wall_time_s": half.summary["wall_time_s"],
                             "steps": half.summary["steps"],
                             "elements": half.summary["mesh"]["elements"]})
@@ -118,13 +121,13 @@ def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool)
     law_d, law_f = np.asarray(law.approach), np.asarray(law.force)
     law_marks = [0] + [int(i) for i in np.nonzero(law_f <= 1e-9 * law_f.max())[0] if i > 0]
     rows = []
-    for ratio in RATIOS:
+    for ratio in ratios:
         r1, r2 = radii(ratio)
         started = time.perf_counter()
         pair = run_pair_history(material, r1, r2, forces, mesh=mesh,
-                                out=work / mesh / f"pair-{ratio:g}", resume=True,
+                                out=work / mesh / f"pair-{ratio:g}{tag}", resume=True,
                                 progress=True)
-        provenance_runs.append({"run": f"{mesh}/pair-{ratio:g}",
+        provenance_runs.append({"run": f"{mesh}/pair-{ratio:g}{tag}",
                                 "key": pair.summary["identity"]["key"],
                                 "wall_time_s": pair.summary["wall_time_s"],
                                 "steps": pair.summary["steps"],
@@ -135,12 +138,13 @@ def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool)
         swapped = None
         if swap and ratio != 1.0:  # the same pair with the other sphere loaded and slave
             swapped = run_pair_history(material, r2, r1, forces, mesh=mesh,
-                                       out=work / mesh / f"pair-{ratio:g}-swapped", resume=True,
+                                       out=work / mesh / f"pair-{ratio:g}{tag}-swapped",
+                                       resume=True,
                                        progress=True)
-            provenance_runs.append({"run": f"{mesh}/pair-{ratio:g}-swapped",
+            provenance_runs.append({"run": f"{mesh}/pair-{ratio:g}{tag}-swapped",
                                     "key": swapped.summary["identity"]["key"],
                                     "wall_time_s": swapped.summary["wall_time_s"]})
-        for k, level in enumerate(LEVELS):
+        for k, level in enumerate(levels):
             pc, hc = pair.summary["cycles"][k], half.summary["cycles"][k]
             lc = law.cycles[k]
             f = pc["max_force_N"]
@@ -237,35 +241,52 @@ def main(argv=None) -> int:
     parser.add_argument("--work", type=Path, default=ROOT / "out" / "req_mapping",
                         help="cache of the FE runs (reused when their identity matches)")
     parser.add_argument("--out", type=Path, default=OUT, help="folder of req_mapping.*")
+    parser.add_argument("--ratios", nargs="+", type=float, default=list(RATIOS),
+                        help="r1/r2 of the pairs (r_eq = 0.1 m; r2 -> r_eq/2 as r1/r2 grows)")
+    parser.add_argument("--levels", nargs="+", type=float, default=list(LEVELS),
+                        help="peak forces of the cycles, in Fy of the r_eq pair")
+    parser.add_argument("--name", default="req_mapping",
+                        help="stem of the result files in --out (NAME.csv, .json, .md)")
     parser.add_argument("--swap", action="store_true",
                         help="also run each unequal pair with the other sphere loaded and slave")
     parser.add_argument("--table-only", action="store_true",
                         help="rewrite req_mapping.md from req_mapping.csv, without FE")
     args = parser.parse_args(argv)
+    bad = [r for r in args.ratios if not (math.isfinite(r) and r >= 1.0)]
+    if bad:
+        parser.error(f"--ratios: r1/r2 must be finite and >= 1, got {bad[0]:g}")
+    bad = [x for x in args.levels if not (math.isfinite(x) and x > 0.0)]
+    if bad:
+        parser.error(f"--levels: F/Fy must be finite and > 0, got {bad[0]:g}")
+    if not args.name.replace("_", "").replace("-", "").isalnum():
+        parser.error(f"--name: letters, digits, '_' and '-' only, got {args.name!r}")
     from geocontact.io import provenance, write_json_atomic, write_text_atomic
 
-    csv_path = args.out / "req_mapping.csv"
+    csv_path = args.out / f"{args.name}.csv"
     if args.table_only:
         rows = read_csv(csv_path)
     else:
         from geocontact.material import preset
 
-        forces, fy = history(preset("reference"))
+        forces, fy = history(preset("reference"), args.levels)
         law = law_run(forces)
         runs: list[dict] = []
         rows = []
         for mesh in args.mesh:
-            rows += measure(mesh, args.work, law, runs, args.swap)
+            rows += measure(mesh, args.work, law, runs, args.swap, args.ratios, args.levels)
         write_csv(csv_path, rows)
-        command = "scripts/verify_req_mapping.py --mesh " + " ".join(args.mesh)
+        command = ("scripts/verify_req_mapping.py --mesh " + " ".join(args.mesh)
+                   + " --ratios " + " ".join(f"{r:g}" for r in args.ratios)
+                   + " --levels " + " ".join(f"{x:g}" for x in args.levels)
+                   + (f" --name {args.name}" if args.name != "req_mapping" else ""))
         record = provenance(command + (" --swap" if args.swap else ""), {
             "material": preset("reference").to_dict(), "equivalent_radius_m": R_EQ,
-            "ratios": list(RATIOS), "F_over_Fy": list(LEVELS), "Fy_N": fy,
+            "ratios": list(args.ratios), "F_over_Fy": list(args.levels), "Fy_N": fy,
             "history_N": forces, "law": str(LAW.relative_to(ROOT))})
         record["fe_runs"] = runs
         record["errors"] = "r_eq prediction / two-sphere FE - 1 (see the script's docstring)"
-        write_json_atomic(args.out / "req_mapping.json", record)
-    write_text_atomic(args.out / "req_mapping.md", table(rows) + "\n")
+        write_json_atomic(args.out / f"{args.name}.json", record)
+    write_text_atomic(args.out / f"{args.name}.md", table(rows) + "\n")
     print(table(rows))
     return 0
 
