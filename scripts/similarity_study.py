@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from geocontact.calibrate import similarity as sim
-from geocontact.errors import ArgumentParser, run_reporting_errors
+from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
 from geocontact.fem.campaign import DEFAULT_CACHE, fe_code_hash, run_campaign
 from geocontact.io import atomic_directory, atomic_path, provenance, write_csv
 
@@ -179,8 +179,10 @@ def figures(rows: list[dict], curves: list[dict], fit: dict, data: dict, folder:
                             cmap="plasma", s=9 if quantity == "force" else 28, zorder=3)
         f = fit["fits"][quantity]
         theta = [f["parameters"][n] for n in sim.PARAMETERS]
-        s_line = np.geomspace(1e-7, sim.FIT_MAX_APPROACH, 200)
         for depth in (3.0, 30.0, 300.0):
+            # where the study has grains: delta / R up to x delta_y / R of E / sigma_c = 10^2
+            top = min(sim.FIT_MAX_APPROACH, depth * f["yield_approach_over_radius_max"])
+            s_line = np.geomspace(1e-7, top, 200)
             ax.plot(s_line, sim.finite_size_model(theta, s_line, depth), "-",
                     color=plt.cm.plasma(norm(depth)), lw=1.4, label=f"fit, x = {depth:g}")
         ax.axvline(sim.FIT_MAX_APPROACH, color="grey", ls=":", lw=1)
@@ -193,9 +195,15 @@ def figures(rows: list[dict], curves: list[dict], fit: dict, data: dict, folder:
         ax.legend(fontsize=7, loc="lower left" if quantity == "force" else "upper left")
         if quantity == "force":
             ax.set_ylim(-0.4, 0.1)
-    fig.colorbar(points, ax=list(grid.flat), label=r"$x = \delta/\delta_y$", shrink=0.6)
+    legend = grid.flat[-1]
+    fig.colorbar(points, cax=legend.inset_axes([0.05, 0.1, 0.06, 0.8]),
+                 label=r"$x = \delta/\delta_y$")
+    legend.text(0.3, 0.5, "deviation = e √s + p s^k x^q,\ns = δ/R, x = δ/δy;\nhalf-space: "
+                f"a < {sim.HALF_SPACE_BELOW:g} R\n(force: E/σc = 10^4)", transform=legend.transAxes,
+                va="center", fontsize=9)
     fig.suptitle("Finite size: the deviation from the half-space curve and its fit up to "
                  f"δ/R = {sim.FIT_MAX_APPROACH:g} (dotted)", fontsize=10)
+    fig.tight_layout()
     names.append(save(fig, folder, "similarity-finite-size.png"))
 
     axes_config = sim.settings().get("axes")
@@ -254,6 +262,30 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def correction_table(fit: dict) -> str:
+    """The fitted deviation on a grid of E / sigma_c and x: F / F_hs - 1 (%) and the shift of
+    delta_res / delta_max and of n_u; "-" outside the fit's domain."""
+    depths = (2.0, 10.0, 30.0, 100.0, 300.0, 900.0)
+    lines = ["| E/σc | " + " | ".join(f"x = {x:g}" for x in depths) + " |",
+             "|---|" + "---|" * len(depths)]
+    for exponent in sim.settings()["study"]["modulus_ratio_exponents"]:
+        yield_approach = sim._yield_approach_over_radius(10.0 ** exponent)
+        cells = []
+        for x in depths:
+            try:
+                force = sim.finite_size_factor(x, x * yield_approach, fits=fit) - 1.0
+                residual = sim.finite_size_factor(x, x * yield_approach,
+                                                  quantity="residual_ratio", fits=fit)
+                n_u = sim.finite_size_factor(x, x * yield_approach,
+                                             quantity="unloading_exponent", fits=fit)
+            except InputError:
+                cells.append("–")
+                continue
+            cells.append(f"{100 * force:+.1f} % / {residual:+.3f} / {n_u:+.3f}")
+        lines.append(f"| 10^{exponent:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     fit, data = fits(rows, curves)
     document = {**provenance(COMMAND, inputs), "settings": sim.settings(),
@@ -265,6 +297,7 @@ def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     write_csv(folder / sim.CURVES, columns(curves, CURVE_KEYS))
     (folder / sim.PROVENANCE).write_text(json.dumps(document, indent=2) + "\n")
     (folder / "table.md").write_text(table(rows))
+    (folder / "correction-table.md").write_text(correction_table(fit))
     figures(rows, curves, fit, data, folder)
     return document
 
@@ -295,19 +328,22 @@ def main(argv=None) -> int:
                           inputs={"from_data": args.from_data}) as folder:
         document = analyse(rows, curves, folder, inputs)
         if args.publish:
-            publish(folder)
+            publish(folder, data=not args.from_data)
     print(json.dumps(document["finite_size"], indent=1))
     print(f"similarity: {len(rows)} runs, FE wall {document['total_fe_wall_time_s']:.0f} s, "
           f"this command {time.time() - start:.0f} s; result in {args.out}", file=sys.stderr)
     return 0
 
 
-def publish(folder: Path) -> None:
-    """The dataset into the package's data (the finite-size factor reads it) and the figures
-    into the docs; each file written atomically."""
+def publish(folder: Path, data: bool = True) -> None:
+    """The dataset into the package's data (the finite-size factor reads it; not when it came
+    from there, ``data`` False) and the figures and tables into the docs; each file written
+    atomically."""
     DOCS.mkdir(parents=True, exist_ok=True)
-    targets = [(name, DATA) for name in (sim.DATASET, sim.CURVES, sim.PROVENANCE)]
-    targets += [(p.name, DOCS) for p in sorted(folder.glob("*.png"))] + [("table.md", DOCS)]
+    targets = [(name, DATA) for name in (sim.DATASET, sim.CURVES, sim.PROVENANCE)] if data \
+        else []
+    targets += [(p.name, DOCS) for p in sorted(folder.glob("*.png"))]
+    targets += [("table.md", DOCS), ("correction-table.md", DOCS)]
     for name, where in targets:
         with atomic_path(where / name) as tmp:
             shutil.copyfile(folder / name, tmp)

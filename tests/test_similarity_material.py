@@ -61,19 +61,22 @@ def test_modulus_ratio_drops_out_of_small_contacts(runs):
 
 
 def test_finite_size_correction_predicts_a_large_contact(runs):
-    """E / sigma_c = 10^2 (a = 0.09 R): its force at the same x lies above the small-contact
-    grain's by what the committed fit says (the elastic term, first order in a / R, wins at
-    x = 10), well past the scatter."""
-    (big, big_curve), (_, _), (small, small_curve) = runs
+    """E / sigma_c = 10^2 (a = 0.09 R) carries more force at the same x than the small-contact
+    grain, by what the committed fit says (its elastic term, first order in a / R, wins at
+    x = 10), well past the FE's scatter (0.43 % RMS)."""
+    (big, _), (_, _), (small, small_curve) = runs
+    # both runs peak at the same F / Fy: the force ratio at the same x follows from their
+    # depths and the local slope n = dln F / dln x of the loading curve there
+    n = np.diff(np.log(small_curve["force_over_yield"][-2:]))[0] / np.diff(
+        np.log(small_curve["depth"][-2:]))[0]
+    measured = (small["depth"] / big["depth"]) ** n
     x = big["depth"]
-    f_small = np.exp(np.interp(np.log(x), np.log(small_curve["depth"][1:]),
-                               np.log(small_curve["force_over_yield"][1:])))
-    measured = big["peak_over_yield"] / f_small
     predicted = sim.finite_size_factor(x, big["approach_over_radius"]) \
         / sim.finite_size_factor(x, x * small["approach_over_radius"] / small["depth"])
-    assert measured - 1.0 > 0.02  # a finite-size effect, not scatter (0.43 % RMS)
-    # the fit's RMS residual is 0.9 % of F; its scatter over such points ~1 %
-    assert measured == pytest.approx(predicted, abs=0.012)
+    assert measured - 1.0 > 0.02  # measured 3.8 %: a finite-size effect, not scatter
+    # predicted 2.9 %; the fit's RMS residual is 0.9 % of F, 1.1 % at this point of the committed
+    # (12-step) data: the tolerance is twice the RMS plus the scatter of the two new runs
+    assert measured == pytest.approx(predicted, abs=0.025)
 
 
 # --- the committed dataset and its fit -----------------------------------------------------------
@@ -100,16 +103,34 @@ def test_committed_fit_reproduces(committed):
 
 
 def test_small_contacts_collapse_in_committed_data(committed):
+    """The claim on the committed study: at the same peak in F / Fy, grains of E / sigma_c from
+    10^2.5 to 10^4 whose contact stays below 0.02 R agree to the FE's scatter (measured: x to
+    1.0 %, delta_res / delta_max to 0.003, Wp / Wt to 0.008, n_u and n_r to 0.005); at 0.1 R
+    and beyond they do not (the finite size, docs/similarity.md)."""
     rows, _ = committed
-    coarse = [r for r in rows if r["mesh"] == "coarse"]
-    for peak in {r["peak_over_yield"] for r in coarse}:
-        small = [r for r in coarse if r["peak_over_yield"] == peak
-                 and r["contact_radius_over_radius"] < 0.02]
+    axis = [r for r in rows if sim.on_ratio_axis(r)]
+    peaks = sorted({round(r["peak_over_yield"], 6) for r in axis})
+    compared = 0
+    for peak in peaks:
+        same = [r for r in axis if round(r["peak_over_yield"], 6) == peak]
+        small = [r for r in same if r["contact_radius_over_radius"] < 0.02]
         if len(small) < 2:
             continue
+        compared += 1
         depth = [r["depth"] for r in small]
-        assert np.ptp(depth) / np.mean(depth) < 5e-3
-        assert np.ptp([r["residual_ratio"] for r in small]) < 5e-3
+        assert np.ptp(depth) / np.mean(depth) < 0.015
+        assert np.ptp([r["residual_ratio"] for r in small]) < 0.005
+        assert np.ptp([r["plastic_work_ratio"] for r in small]) < 0.01
+        for key in ("unloading_exponent", "reloading_exponent"):
+            assert np.ptp([r[key] for r in small]) < 0.006
+    assert compared >= 5
+    # ... and the largest contact of the study's credible range sets itself apart
+    big = [r for r in axis if 0.1 < r["contact_radius_over_radius"] < 0.2]
+    assert big
+    for r in big:
+        same = [s for s in axis if round(s["peak_over_yield"], 6) == round(
+            r["peak_over_yield"], 6) and s["contact_radius_over_radius"] < 0.02]
+        assert abs(r["residual_ratio"] - np.mean([s["residual_ratio"] for s in same])) > 0.02
 
 
 def test_finite_size_factor():

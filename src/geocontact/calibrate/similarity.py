@@ -247,6 +247,7 @@ class FiniteSizeFit:
     points: int
     approach_range: tuple[float, float]
     depth_range: tuple[float, float]
+    yield_approach_max: float  # the largest delta_y / R among the fitted points (s / x)
 
     def deviation(self, approach_over_radius, depth) -> np.ndarray:
         theta = [self.parameters[name] for name in PARAMETERS]
@@ -259,7 +260,8 @@ class FiniteSizeFit:
                 "parameters": self.parameters, "errors": self.errors, "rms": self.rms,
                 "max_residual": self.max_residual, "points": self.points,
                 "approach_over_radius_range": list(self.approach_range),
-                "depth_range": list(self.depth_range)}
+                "depth_range": list(self.depth_range),
+                "yield_approach_over_radius_max": self.yield_approach_max}
 
 
 def half_space_interpolant(depth, values):
@@ -376,7 +378,8 @@ def fit_finite_size(data: dict[str, Any], quantity: str,
         quantity, FITTED[quantity], dict(zip(names, map(float, theta), strict=True)),
         dict(zip(names, map(float, np.sqrt(np.diag(cov))), strict=True)),
         float(np.sqrt(np.mean(residual ** 2))), float(np.max(np.abs(residual))),
-        int(use.sum()), (float(s.min()), float(s.max())), (float(x.min()), float(x.max())))
+        int(use.sum()), (float(s.min()), float(s.max())), (float(x.min()), float(x.max())),
+        float(np.max(s / x)))
 
 
 # --- the committed dataset ---------------------------------------------------------------------
@@ -405,15 +408,18 @@ def shipped_fit() -> dict[str, Any]:
     return json.loads(_data_file(PROVENANCE).read_text())["finite_size"]
 
 
-def finite_size_factor(depth, approach_over_radius, *, quantity: str = "force"):
+def finite_size_factor(depth, approach_over_radius, *, quantity: str = "force",
+                       fits: dict[str, Any] | None = None):
     """The finite-size correction of the study, fitted to the committed FE dataset
     (docs/similarity.md) for the reference (nu, beta, m) = (0.25, 30 deg, 0): at depth
     x = delta / delta_y and s = delta / R, the force's F / F_half-space (a factor near 1), or for
     the other quantities (``residual_ratio``, ``plastic_work_ratio``, ``unloading_exponent``,
     ``reloading_exponent``) the shift q - q_half-space.
 
-    Outside the study's range of s and x (``shipped_fit()[...]``) it is refused."""
-    fits = shipped_fit()
+    Outside the study's range of s and x (``shipped_fit()["fits"][quantity]``), or at a
+    delta_y / R = s / x beyond its grains' (E / sigma_c < 10^2), it is refused. ``fits``: the
+    "finite_size" record of another fit of the study (default: the shipped one)."""
+    fits = shipped_fit() if fits is None else fits
     if quantity not in fits.get("fits", {}):
         raise InputError(f"quantity: {quantity!r} has no fitted finite-size correction "
                          f"(allowed: {', '.join(sorted(fits.get('fits', {})))})")
@@ -428,6 +434,10 @@ def finite_size_factor(depth, approach_over_radius, *, quantity: str = "force"):
     if np.any(~np.isfinite(x)) or np.any(x <= 0) or np.any(x > high_x):
         raise InputError(f"depth: x = delta/delta_y must be in (0, {high_x:.4g}] (the study's "
                          f"range), got {depth!r}")
+    if np.any(s > x * fit["yield_approach_over_radius_max"] * (1.0 + 1e-9)):
+        raise InputError(f"approach_over_radius: delta / R / x = delta_y / R must be at most "
+                         f"{fit['yield_approach_over_radius_max']:.3g} (the study's grains, "
+                         f"E / sigma_c >= 10^2), got {approach_over_radius!r} at x = {depth!r}")
     theta = [fit["parameters"][name] for name in PARAMETERS]
     deviation = finite_size_model(theta, s, x)
     out = 1.0 + deviation if fit["kind"] == "ratio" else deviation
