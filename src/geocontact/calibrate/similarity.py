@@ -383,19 +383,14 @@ def fit_finite_size(data: dict[str, Any], quantity: str,
 
 
 # --- the committed dataset ---------------------------------------------------------------------
+TEXT_COLUMNS = ("mesh", "cache_key")  # the dataset's columns that are not numbers
+
+
 def read_rows(path) -> list[dict[str, Any]]:
-    """Rows of a CSV written by the study: numbers as floats, the rest as text."""
+    """Rows of a CSV written by the study: the TEXT_COLUMNS as text, the rest as floats."""
     with open(path, newline="") as handle:
-        out = []
-        for row in csv.DictReader(handle):
-            parsed = {}
-            for key, value in row.items():
-                try:
-                    parsed[key] = float(value)
-                except ValueError:
-                    parsed[key] = value
-            out.append(parsed)
-    return out
+        return [{key: value if key in TEXT_COLUMNS else float(value)
+                 for key, value in row.items()} for row in csv.DictReader(handle)]
 
 
 def _data_file(name: str):
