@@ -308,6 +308,56 @@ def mesh_check_table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def deep_check_table(rows: list[dict], curves: list[dict], fit: dict) -> str:
+    """The fitted force correction against the deviation each mesh measures at the peaks with a
+    default-mesh twin: F / F_hs - 1 at the grain's x, from its x and the half-space grain's
+    (largest E / sigma_c) x at the same peak force on the same mesh, F_hs ~ x^n with n the local
+    slope of the half-space loading curve."""
+    reference = max(r["modulus_ratio"] for r in rows)
+    ref_curve = [c for c in curves if math.isclose(c["modulus_ratio"], reference)]
+    slope = sim.half_space_interpolant(
+        [c["depth"] for c in ref_curve], [c["force_over_yield"] for c in ref_curve])
+    top = max(c["depth"] for c in ref_curve)
+    study_mesh = sim.settings()["study"]["mesh"]
+
+    def twin(mesh, ratio, peak):
+        return next((r for r in rows if r["mesh"] == mesh and sim.on_ratio_axis(
+            {**r, "mesh": study_mesh}) and math.isclose(r["modulus_ratio"], ratio)
+            and math.isclose(r["peak_over_yield"], peak, rel_tol=1e-6)), None)
+
+    lines = ["| E/σc | F/Fy | δ/R | x (default) | F/F_hs − 1, coarse | default | fit |",
+             "|---|---|---|---|---|---|---|"]
+    checks = sorted((r for r in rows if r["mesh"] != study_mesh
+                     and not math.isclose(r["modulus_ratio"], reference)),
+                    key=lambda r: (r["peak_over_yield"], r["modulus_ratio"]))
+    for check in checks:
+        cells = []
+        for mesh in (study_mesh, check["mesh"]):
+            grain = twin(mesh, check["modulus_ratio"], check["peak_over_yield"])
+            half = twin(mesh, reference, check["peak_over_yield"])
+            if grain is None or half is None:
+                cells.append(None)
+                continue
+            x, x_hs = grain["depth"], half["depth"]
+            at = min(x_hs, top / 1.06)  # the local slope between the two, inside the curve
+            n = math.log(slope(1.05 * at) / slope(at / 1.05)) / math.log(1.05 ** 2)
+            cells.append((x_hs / x) ** n - 1.0)
+        if cells[1] is None:
+            continue
+        try:
+            predicted = sim.finite_size_factor(check["depth"], check["approach_over_radius"],
+                                               fits=fit) - 1.0
+            predicted_text = f"{100 * predicted:+.1f} %"
+        except InputError:
+            predicted_text = "outside the fit"
+        coarse_text = "–" if cells[0] is None else f"{100 * cells[0]:+.1f} %"
+        lines.append(f"| 10^{math.log10(check['modulus_ratio']):.1f} | "
+                     f"{check['peak_over_yield']:.4g} | {check['approach_over_radius']:.3g} | "
+                     f"{check['depth']:.4g} | {coarse_text} | {100 * cells[1]:+.1f} % | "
+                     f"{predicted_text} |")
+    return "\n".join(lines) + "\n"
+
+
 def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     fit, data = fits(rows, curves)
     document = {**provenance(COMMAND, inputs), "settings": sim.settings(),
@@ -321,6 +371,7 @@ def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     (folder / "table.md").write_text(table(rows))
     (folder / "correction-table.md").write_text(correction_table(fit))
     (folder / "mesh-check.md").write_text(mesh_check_table(rows))
+    (folder / "deep-check.md").write_text(deep_check_table(rows, curves, fit))
     figures(rows, curves, fit, data, folder)
     return document
 
@@ -364,7 +415,8 @@ def publish(folder: Path, data: bool = True) -> None:
     targets = [(name, DATA) for name in (sim.DATASET, sim.CURVES, sim.PROVENANCE)] if data \
         else []
     targets += [(p.name, DOCS) for p in sorted(folder.glob("*.png"))]
-    targets += [(name, DOCS) for name in ("table.md", "correction-table.md", "mesh-check.md")]
+    targets += [(name, DOCS) for name in ("table.md", "correction-table.md", "mesh-check.md",
+                                           "deep-check.md")]
     for name, where in targets:
         with atomic_path(where / name) as tmp:
             shutil.copyfile(folder / name, tmp)
