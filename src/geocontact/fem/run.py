@@ -80,6 +80,9 @@ PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC se
 # fine one; with 0.8 a it is 23 % off, and over the whole contact area it does not converge.
 FULLY_PLASTIC_FRACTION = 0.95
 FULLY_PLASTIC_CORE = 0.7
+# The "contact" mesh rule refines the surface from the contact radius at this multiple of the
+# first-yield force on (contact_band_radius).
+CONTACT_BAND_FORCE_RATIO = 10.0
 
 
 # --- sizing ------------------------------------------------------------------------------------
@@ -136,19 +139,30 @@ def tip_contact_radius(material: Material, min_force: float, mesh: str) -> float
     return min(yield_contact_radius_estimate(material), first_step)
 
 
+def contact_band_radius(material: Material) -> float:
+    """Where the "contact" mesh rule's surface band starts (``mesh.MESH_RULES``): the contact
+    radius at CONTACT_BAND_FORCE_RATIO x the analytic first-yield force, where the contact is
+    flattened plastically and the node-by-node growth of the contact shows in the force."""
+    return largest_contact_radius_estimate(
+        material, CONTACT_BAND_FORCE_RATIO * float(incipient_yield(material).force)) / 1.2
+
+
 def history_mesh(material: Material, max_force: float, mesh: str = "default",
-                 min_force: float | None = None):
+                 min_force: float | None = None, rule: str = "yield"):
     """The mesh of a history whose largest force is ``max_force`` and smallest load step
     ``min_force``: it resolves every contact radius from the smallest (``tip_contact_radius``)
     to the largest one (``mesh.build_mesh``).
 
     ``min_force`` None: the first step of a ramp 0 -> ``max_force`` with the preset's steps.
+    ``rule``: "yield" (the verified meshes) or "contact" (``mesh.MESH_RULES``; its surface band
+    from ``contact_band_radius`` to the largest contact radius).
     """
     if min_force is None:
         min_force = smallest_resolved_force(material, [0.0, max_force], STEPS_PER_SEGMENT[mesh])
     a_min = tip_contact_radius(material, min_force, mesh)
     a_max = max(largest_contact_radius_estimate(material, max_force), 2.0 * a_min)
-    return build_mesh(material.radius, a_min, a_max, mesh)
+    return build_mesh(material.radius, a_min, a_max, mesh, rule=rule,
+                      a_band=max(contact_band_radius(material), a_min))
 
 
 def contact_resolution(material: Material, fe_mesh, curve: dict[str, np.ndarray],
@@ -383,6 +397,8 @@ def run_history(
     overwrite: bool = False,
     checkpoint: str | Path | None = None,
     linear_solver: str = "fast",
+    mesh_rule: str = "yield",
+    kinematics: str = "small",
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -404,13 +420,18 @@ def run_history(
     ``linear_solver``: "fast" (default) or "reference", the earlier linear-algebra path kept for
     side-by-side comparison (``ContactSolver``); both give the same result within the Newton
     tolerance, so it is not part of the run's identity.
+    ``mesh_rule``: "yield" (default, the verified meshes) or "contact" (a surface band of small
+    elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
+    loading curve of a weak grain). ``kinematics``: "small" (default) or "finite" (finite-strain
+    elastoplasticity, ``fem.finite_strain``). Both are part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 
     started = time.perf_counter()
     identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
                                 tolerance=tolerance, volumetric=volumetric,
-                                mesh_force=mesh_force)
+                                mesh_force=mesh_force, mesh_rule=mesh_rule,
+                                kinematics=kinematics)
     forces, steps = list(identity.forces), identity.steps_per_segment
     if resume and out is not None and not keep_states:
         why: list[str] = []
@@ -443,7 +464,8 @@ def run_history(
         # run sharing it; a history starting lower is then checked (contact_resolution)
         sized_history = forces if mesh_force is None else [0.0, identity.mesh_force]
         fe_mesh = history_mesh(material, identity.mesh_force, mesh,
-                               min_force=smallest_resolved_force(material, sized_history, steps))
+                               min_force=smallest_resolved_force(material, sized_history, steps),
+                               rule=identity.mesh_rule)
         solver = _solver(material, fe_mesh, identity, linear_solver)
         if pending is not None:
             remove_pending_fields(pending)  # files of an earlier, other run
