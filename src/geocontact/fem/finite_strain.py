@@ -37,7 +37,7 @@ current configuration (r = R + u_r of the surface nodes).
 
 Outputs: ``State.stress`` is the Kirchhoff stress (its yield ratio and elastic energy
 psi = tau : D^-1 : tau / 2 per reference volume are those of the Hencky model);
-``State.strain`` holds ``C_p^-1`` as ``[rr, zz, tt, rz]``. Plastic dissipation per step:
+``State.strain`` holds ``C_p^-1 - I`` as ``[rr, zz, tt, rz]`` (zero in the virgin state). Plastic dissipation per step:
 sum of (tau_n + tau_n+1) / 2 : (eps_e^trial - eps_e) dV0 (the logarithmic plastic strain
 increment of the exponential map).
 """
@@ -112,19 +112,30 @@ def _matrix_function(m: np.ndarray, fn) -> np.ndarray:
 
 
 class FiniteUpdate:
-    """The constitutive update at every point for deformation gradients ``F`` (5, ...) with the
-    plastic metric ``cp_inv`` (4, ...) and eqps of the last converged state."""
+    """The constitutive update at every point for displacement gradients ``H = F - I``
+    (5, ...) with the plastic metric ``cp = C_p^-1 - I`` (4, ...) and eqps of the last converged
+    state.
 
-    def __init__(self, model: DruckerPrager, F: np.ndarray, cp_inv: np.ndarray,
+    Everything is carried as a difference from the identity (``b - I`` by ``log1p`` of its
+    eigenvalues, ``C_p^-1 - I`` from ``expm1``), so that the stress of a small strain is as
+    exact as the small-strain engine's: formed from F and ln(b) directly, the stress would carry
+    a round-off of E x 1e-16 whatever the load, a residual floor far above the Newton tolerance
+    at small forces."""
+
+    def __init__(self, model: DruckerPrager, H: np.ndarray, cp: np.ndarray,
                  eqps_old: np.ndarray, *, plastic: bool = True, tangent: bool = True):
-        fm, ft = block(F), F[TT]
-        gm, gt = sym_block(cp_inv), cp_inv[2]
-        b = fm @ gm @ np.swapaxes(fm, -1, -2)  # b_e^trial, in-plane
-        bt = ft**2 * gt
-        lam, vec = _eig(b)
-        self.b, self.bt, self.lam, self.vec = b, bt, lam, vec
-        eps = np.einsum("...ia,...a,...ja->...ij", vec, 0.5 * np.log(lam), vec)
-        trial_strain = sym_unblock(eps, 0.5 * np.log(bt))
+        hm, ht = block(H), H[TT]
+        gm, gt = sym_block(cp), cp[2]
+        eye = np.eye(2)
+        # b - I = (G - I) + H G + G H^T + H G H^T, G = I + cp
+        g_full = eye + gm
+        hg = hm @ g_full
+        b_minus = gm + hg + np.swapaxes(hg, -1, -2) + hg @ np.swapaxes(hm, -1, -2)
+        bt_minus = gt + ht * (2.0 + ht) * (1.0 + gt)
+        mu, vec = _eig(b_minus)
+        self.b, self.bt, self.lam, self.vec = eye + b_minus, 1.0 + bt_minus, 1.0 + mu, vec
+        eps = np.einsum("...ia,...a,...ja->...ij", vec, 0.5 * np.log1p(mu), vec)
+        trial_strain = sym_unblock(eps, 0.5 * np.log1p(bt_minus))
         trial_strain[3] *= 2.0  # engineering shear
         self.trial_strain = trial_strain
         d_el = model.elastic_matrix()
@@ -140,13 +151,18 @@ class FiniteUpdate:
                                    (4, 4) + trial.shape[1:]) if tangent else None
         self.elastic_strain = elastic_strain(model, self.stress)
         self.d_ep = d_ep
-        # exponential map: b_e = exp(2 eps_e), C_p^-1 = F^-1 b_e F^-T
+        # exponential map: b_e = exp(2 eps_e), C_p^-1 = F^-1 b_e F^-T; with K = F^-1 - I:
+        # C_p^-1 - I = K + K^T + K K^T + F^-1 (b_e - I) F^-T
         e = sym_block(self.elastic_strain * np.array([1.0, 1.0, 1.0, 0.5]).reshape(
             (4,) + (1,) * (trial.ndim - 1)))
-        be = _matrix_function(e, lambda x: np.exp(2.0 * x))
-        finv = np.linalg.inv(fm)
-        cp_new = finv @ be @ np.swapaxes(finv, -1, -2)
-        self.cp_inv = sym_unblock(cp_new, np.exp(2.0 * self.elastic_strain[2]) / ft**2)
+        be_minus = _matrix_function(e, lambda x: np.expm1(2.0 * x))
+        finv = np.linalg.inv(eye + hm)
+        k = -hm @ finv
+        cp_new = (k + np.swapaxes(k, -1, -2) + k @ np.swapaxes(k, -1, -2)
+                  + finv @ be_minus @ np.swapaxes(finv, -1, -2))
+        # hoop: exp(2 e_tt) / F_tt^2 - 1
+        cp_t = np.expm1(2.0 * self.elastic_strain[2] - 2.0 * np.log1p(ht))
+        self.cp = sym_unblock(cp_new, cp_t)
 
     def material_tangent(self) -> np.ndarray:
         """d tau / d h (4, 5, ...): the change of the Kirchhoff stress [rr, zz, tt, rz] with the
@@ -202,7 +218,7 @@ class FiniteStrainSolver(ContactSolver):
             rows.append(np.stack([f.grad[0, 0], f.grad[1, 1], np.asarray(f)[0] / r,
                                   f.grad[0, 1], f.grad[1, 0]]))
         self.G0 = np.ascontiguousarray(np.stack(rows))  # (12, 5, e, q) Grad N_j
-        self._last = None
+        self._predictor = None  # internal force of the last converged state while predicting
 
     # --- kinematics -----------------------------------------------------------------------
     def _project(self, field: np.ndarray) -> np.ndarray:
@@ -212,37 +228,31 @@ class FiniteStrainSolver(ContactSolver):
         return self._project_volumetric(field[None])[0]
 
     def kinematics(self, displacement: np.ndarray):
-        """F (5, e, q), F_bar, and the spatial test gradients g (12, 5, e, q) and g_bar."""
-        grad = np.einsum("jkeq,je->keq", self.G0, displacement[self.element_dofs],
-                         optimize=True)
-        F = grad.copy()
-        F[RR] += 1.0
-        F[ZZ] += 1.0
-        F[TT] += 1.0
-        fm = block(F)
-        log_j = np.log(np.linalg.det(fm) * F[TT])
-        scale = np.exp((self._project(log_j) - log_j) / 3.0)
-        f_bar = F * scale[None]
-        finv = np.linalg.inv(fm)  # (e, q, 2, 2)
+        """H = F - I (5, e, q), H_bar = F_bar - I, and the spatial test gradients
+        g (12, 5, e, q) and g_bar."""
+        H = np.einsum("jkeq,je->keq", self.G0, displacement[self.element_dofs], optimize=True)
+        # ln J = ln det(F_in-plane) + ln F_tt, without forming 1 + small
+        log_j = (np.log1p(H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR])
+                 + np.log1p(H[TT]))
+        scale_minus = np.expm1((self._project(log_j) - log_j) / 3.0)  # (J_bar / J)^(1/3) - 1
+        h_bar = H * (1.0 + scale_minus)[None]
+        for c in (RR, ZZ, TT):
+            h_bar[c] += scale_minus
+        finv = np.linalg.inv(np.eye(2) + block(H))  # (e, q, 2, 2)
         g_in = block(self.G0.transpose(1, 0, 2, 3)) @ finv[None]  # (12, e, q, 2, 2)
-        g = np.moveaxis(unblock(g_in, self.G0[:, TT] / F[TT][None]), 0, 1)  # (12, 5, e, q)
+        g = np.moveaxis(unblock(g_in, self.G0[:, TT] / (1.0 + H[TT])[None]), 0, 1)
         trace = g[:, RR] + g[:, ZZ] + g[:, TT]
         shift = ((self._project_volumetric(trace) if self.bbar else trace) - trace) / 3.0
         g_bar = g.copy()
         for c in (RR, ZZ, TT):
             g_bar[:, c] += shift
-        return F, f_bar, g, g_bar
+        return H, h_bar, g, g_bar
 
     # --- the solver's hooks ---------------------------------------------------------------
-    def initial_state(self) -> State:
-        state = super().initial_state()
-        state.strain[:3] = 1.0  # C_p^-1 = I
-        return state
-
     def _evaluate(self, old: State, u: np.ndarray, *, elastic: bool, tangent: bool = True):
         """Stress, C_p^-1, eqps, status, internal force and element matrices at ``u``."""
-        F, f_bar, g, g_bar = self.kinematics(u)
-        update = FiniteUpdate(self.model, f_bar, old.strain, old.eqps,
+        _, h_bar, g, g_bar = self.kinematics(u)
+        update = FiniteUpdate(self.model, h_bar, old.strain, old.eqps,
                               plastic=self.plastic and not elastic, tangent=tangent)
         stress = update.stress
         f_int = self._force(g_bar, stress)
@@ -254,20 +264,10 @@ class FiniteStrainSolver(ContactSolver):
             dv = self.dvolume
             local = (np.einsum("jceq,cdeq,kdeq,eq->ejk", g_bar, a_mat, g_bar, dv, optimize=True)
                      + np.einsum("jceq,cdeq,kdeq,eq->ejk", g, a_geo, g, dv, optimize=True))
-        self._last = update
         return update, f_int, local
 
-    def element_matrices(self, tangent):
-        return tangent  # _evaluate assembled them
-
-    def stiffness(self, tangent):
-        import scipy.sparse as sp
-
-        a = self._assembly
-        data = np.bincount(a.slot, weights=tangent.ravel(), minlength=len(a.indices))
-        return sp.csr_matrix((data, a.indices, a.indptr), shape=(self.ndofs, self.ndofs))
-
     def _force(self, g_bar: np.ndarray, stress: np.ndarray) -> np.ndarray:
+        """Nodal internal forces: integral of tau : g_bar dV0."""
         local = np.einsum("jceq,ceq,eq->je", g_bar, np.einsum("cd,d...->c...", SYM.T, stress),
                           self.dvolume, optimize=True)
         return np.bincount(self.element_dofs.ravel(), weights=local.ravel(),
@@ -276,19 +276,49 @@ class FiniteStrainSolver(ContactSolver):
     def state_internal_force(self, state: State) -> np.ndarray:
         return self._force(self.kinematics(state.displacement)[3], state.stress)
 
+    def element_matrices(self, tangent):
+        if tangent is None or tangent.ndim == 4:  # the linear predictor: B^T D B
+            return super().element_matrices(tangent)
+        return tangent  # (elements, 12, 12): _evaluate assembled them
+
+    def stiffness(self, tangent):
+        import scipy.sparse as sp
+
+        if tangent is None:
+            return super().stiffness(None)
+        a = self._assembly
+        data = np.bincount(a.slot, weights=tangent.ravel(), minlength=len(a.indices))
+        return sp.csr_matrix((data, a.indices, a.indptr), shape=(self.ndofs, self.ndofs))
+
     def _response(self, old: State, u: np.ndarray, *, elastic: bool):
+        if self._predictor is not None:
+            # the linear predictor: the equilibrium of ``old`` plus the small-strain elastic
+            # stiffness of the reference configuration times the increment
+            d_strain = self.strain(u - old.displacement)
+            d_stress = np.einsum("cd,deq->ceq", self.elastic_matrix, d_strain)
+            f_int = self._predictor + ContactSolver.internal_force(self, d_stress)
+            return old.stress, old.strain, old.eqps, old.status, f_int, None
         update, f_int, local = self._evaluate(old, u, elastic=elastic)
-        return update.stress, update.cp_inv, update.eqps, update.status, f_int, local
+        return update.stress, update.cp, update.eqps, update.status, f_int, local
 
     def solve_step(self, old: State, force: float, *, label: str = "") -> State:
-        """Newton with the consistent tangent straight from ``old`` (no linear predictor: the
-        small-strain elastic matrix is not the tangent of a deformed configuration)."""
-        _, _, _, result = self._iterate(old, force, old.displacement.copy(),
-                                        old.top_displacement, old.active.copy(),
-                                        elastic=not self.plastic, label=label, final=True)
+        """A linear elastic predictor on the reference configuration (iterating only on the
+        contact set: it gets the contact set and the displacement close), then Newton with the
+        consistent finite-strain tangent."""
+        self._predictor = self.state_internal_force(old)
+        try:
+            u, w, active, _ = self._iterate(old, force, old.displacement.copy(),
+                                            old.top_displacement, old.active.copy(),
+                                            elastic=True, label=label)
+        finally:
+            self._predictor = None
+        _, _, _, result = self._iterate(old, force, u, w, active, elastic=not self.plastic,
+                                        label=label, final=True)
         return result
 
     def _factor(self, local, reduced):
+        if local is self._cache.get("elastic_local"):
+            return super()._factor(local, reduced)  # symmetric: CHOLMOD
         self.factorisations += 1
         return _lu(self._bordered_system(local, reduced))
 

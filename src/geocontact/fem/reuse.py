@@ -48,7 +48,7 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/result.py",
+FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/plasticity.py", "fem/result.py",
               "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py", "material.py",
               "resolution.py")
 

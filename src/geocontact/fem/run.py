@@ -375,9 +375,12 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
 # --- the run -----------------------------------------------------------------------------------
 def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> ContactSolver:
     bbar, order = VOLUMETRIC[identity.volumetric]
-    return ContactSolver(material, fe_mesh, force_scale=max(identity.forces),
-                         tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
-                         linear_solver=linear_solver)
+    kind = ContactSolver
+    if identity.kinematics == "finite":
+        from .finite_strain import FiniteStrainSolver as kind
+    return kind(material, fe_mesh, force_scale=max(identity.forces),
+                tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
+                linear_solver=linear_solver)
 
 
 def run_history(
@@ -547,7 +550,10 @@ def run_history(
         "cycles": resolution.clean_fe_cycles(_cycles(curve, forces, marks), resolutions),
         "resolution": resolution.fe_summary_record(resolutions),
         "mesh": {"elements": int(fe_mesh.t.shape[1]), "nodes": int(fe_mesh.doflocs.shape[1]),
-                 "preset": mesh, "element": f"P2 triangle (6-node, isoparametric), {volumetric}"},
+                 "preset": mesh, "rule": identity.mesh_rule,
+                 "element": f"P2 triangle (6-node, isoparametric), {volumetric}"
+                            + (" (F-bar)" if identity.kinematics == "finite" else "")},
+        "kinematics": identity.kinematics,
         "contact_resolution": contact,
         "warnings": warnings,
         "steps": int(len(targets)),
