@@ -80,6 +80,8 @@ def test_key_changes_with_every_input_and_library(material, monkeypatch):
         "tolerance": FemJob(material, (0.0, 100.0, 0.0), tolerance=1e-9),
         "volumetric": FemJob(material, (0.0, 100.0, 0.0), volumetric="full"),
         "mesh_force": FemJob(material, (0.0, 100.0, 0.0), mesh_force=200.0),
+        "kinematics": FemJob(material, (0.0, 100.0, 0.0), kinematics="finite"),
+        "mesh_rule": FemJob(material, (0.0, 100.0, 0.0), mesh_rule="contact"),
     }
     for name in (*MATERIAL_KEYS, "radius"):
         value = getattr(material, name)
