@@ -109,6 +109,7 @@ def main() -> None:
     ap.add_argument("--material", default="reference-weak")
     ap.add_argument("--mesh", default="coarse")
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
+    ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
     ap.add_argument("--steps", type=int, nargs="+", default=[24, 48])
     ap.add_argument("--force", type=float, default=FORCE)
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
@@ -121,11 +122,11 @@ def main() -> None:
     curves, runs = {}, {}
     fy = None
     for n in args.steps:
-        name = f"{args.mesh}-{args.mesh_rule}-{n}"
+        name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
         started = time.perf_counter()
         result = run_history(material, [0.0, args.force], args.mesh, out / name,
                              steps_per_segment=n, resume=True, write_fields=False,
-                             mesh_rule=args.mesh_rule)
+                             mesh_rule=args.mesh_rule, step_rule=args.step_rule)
         curves[f"{n} steps"] = result.curve
         fy = fy or result.summary["first_yield_force_N"]
         runs[f"{n} steps"] = {"elements": result.summary["mesh"]["elements"],
@@ -135,8 +136,10 @@ def main() -> None:
                               "contact_resolution": result.summary["contact_resolution"]}
     measures = staircase_measures(curves, fy, args.floor)
     measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
+                     "step_rule": args.step_rule,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
-    write_json_atomic(out / f"staircase-{args.mesh}-{args.mesh_rule}.json", measures)
+    write_json_atomic(out / f"staircase-{args.mesh}-{args.mesh_rule}-{args.step_rule}.json",
+                      measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))
     for name, r in runs.items():
         print(f"{name}: {r['elements']} elements, {r['wall_time_s']:.0f} s")

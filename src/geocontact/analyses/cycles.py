@@ -202,8 +202,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 
 def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segment, tolerance,
-                  kinematics, mesh_rule, resume, fit_params, progress, inputs, previous_fe: Path, checkpoint: Path
-                  ) -> dict[str, Any]:
+                  kinematics, mesh_rule, resume, fit_params, progress, inputs,
+                  previous_fe: Path, checkpoint: Path) -> dict[str, Any]:
     """The body of ``run_cycles``, writing into the (temporary) folder ``out``."""
     from ..fem.run import run_history  # the FE is an optional extra: imported when used
 

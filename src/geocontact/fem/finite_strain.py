@@ -37,9 +37,9 @@ current configuration (r = R + u_r of the surface nodes).
 
 Outputs: ``State.stress`` is the Kirchhoff stress (its yield ratio and elastic energy
 psi = tau : D^-1 : tau / 2 per reference volume are those of the Hencky model);
-``State.strain`` holds ``C_p^-1 - I`` as ``[rr, zz, tt, rz]`` (zero in the virgin state). Plastic dissipation per step:
-sum of (tau_n + tau_n+1) / 2 : (eps_e^trial - eps_e) dV0 (the logarithmic plastic strain
-increment of the exponential map).
+``State.strain`` holds ``C_p^-1 - I`` as ``[rr, zz, tt, rz]`` (zero in the virgin state).
+Plastic dissipation per step: sum of (tau_n + tau_n+1) / 2 : (eps_e^trial - eps_e) dV0 (the
+logarithmic plastic strain increment of the exponential map).
 """
 
 from __future__ import annotations

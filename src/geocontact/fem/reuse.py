@@ -35,6 +35,7 @@ from .mesh import MESH_RULES, mesh_preset
 from .result import (
     CURVE_COLUMNS,
     KINEMATICS,
+    STEP_RULES,
     STEPS_PER_SEGMENT,
     TOLERANCE,
     VOLUMETRIC,
@@ -48,9 +49,9 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/plasticity.py", "fem/result.py",
-              "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py", "material.py",
-              "resolution.py")
+FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/plasticity.py",
+              "fem/result.py", "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py",
+              "material.py", "resolution.py")
 
 
 @functools.cache
@@ -93,12 +94,14 @@ class FeRunIdentity:
     mesh_force: float
     mesh_rule: str = "yield"
     kinematics: str = "small"
+    step_rule: str = "segment"
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse", *,
            steps_per_segment: int | None = None, tolerance: float = TOLERANCE,
            volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
-           mesh_rule: str = "yield", kinematics: str = "small") -> FeRunIdentity:
+           mesh_rule: str = "yield", kinematics: str = "small",
+           step_rule: str = "segment") -> FeRunIdentity:
         """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
         an input the FE would refuse."""
         forces = tuple(validate_forces(list(forces)))
@@ -118,6 +121,9 @@ class FeRunIdentity:
         if kinematics not in KINEMATICS:
             raise InputError(f"kinematics: unknown {kinematics!r} (allowed: "
                              f"{', '.join(KINEMATICS)})")
+        if step_rule not in STEP_RULES:
+            raise InputError(f"step_rule: unknown {step_rule!r} (allowed: "
+                             f"{', '.join(STEP_RULES)})")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax
@@ -126,7 +132,7 @@ class FeRunIdentity:
             raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, "
                              f"got {mesh_force!r}")
         return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
-                   float(mesh_force), mesh_rule, kinematics)
+                   float(mesh_force), mesh_rule, kinematics, step_rule)
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
@@ -143,6 +149,8 @@ class FeRunIdentity:
             extra["mesh_rule"] = self.mesh_rule
         if self.kinematics != "small":
             extra["kinematics"] = self.kinematics
+        if self.step_rule != "segment":
+            extra["step_rule"] = self.step_rule
         return extra
 
     def to_dict(self) -> dict[str, Any]:
@@ -171,6 +179,8 @@ class FeRunIdentity:
             settings.append(f"mesh rule {self.mesh_rule}")
         if self.kinematics != "small":
             settings.append(f"{self.kinematics} strain")
+        if self.step_rule != "segment":
+            settings.append(f"step rule {self.step_rule}")
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "

@@ -58,6 +58,7 @@ from .mesh import (
 from .plasticity import APEX, ELASTIC
 from .result import (  # noqa: F401  (re-exported: the FE run's settings and result)
     CURVE_COLUMNS,
+    STEP_RULES,
     STEPS_PER_SEGMENT,
     TOLERANCE,
     VOLUMETRIC,
@@ -108,13 +109,14 @@ def hertz_contact_radius(material: Material, force: float) -> float:
     return float(contact_radius(material, hertz_approach(material, force)))
 
 
-def smallest_resolved_force(material: Material, forces, steps_per_segment: int) -> float:
+def smallest_resolved_force(material: Material, forces, steps_per_segment: int,
+                            step_rule: str = "segment") -> float:
     """The smallest positive load step of the history ``forces`` with ``steps_per_segment``
     steps per segment (``load_schedule`` with the analytic first-yield force; the run's own
     schedule uses the FE-probed one, a few per cent away): the smallest load whose contact the
     mesh must resolve."""
     targets, _ = load_schedule(list(forces), steps_per_segment,
-                               float(incipient_yield(material).force))
+                               float(incipient_yield(material).force), step_rule)
     return min(f for f in targets if f > 0.0)
 
 
@@ -216,19 +218,22 @@ def _hertz_force(material: Material, contact_radius: float) -> float:
 
 
 # --- load schedule ---------------------------------------------------------------------------
-def _segment(start: float, end: float, n: int, yield_force: float) -> list[float]:
+def _segment(start: float, end: float, n: int, yield_force: float,
+             per_decade: float = 0.0) -> list[float]:
     """Targets of one monotonic segment (excluding ``start``, including ``end``).
 
     Uniform in F^(2/3) (about uniform in approach); on loading, also geometric from near the
     yield force (the elastic-plastic transition spans decades of F / Fy) with points just below
-    the predicted first yield.
+    the predicted first yield; the geometric part has ``n`` points, or ``per_decade`` points
+    per decade of force if that is more (the "decade" step rule).
     """
     u = np.linspace(start ** (2 / 3), end ** (2 / 3), n + 1)[1:] ** 1.5
     points = list(u)
     if end > start:
         lo = max(start, 0.5 * yield_force)
         if end > lo * 1.05:
-            points += list(np.geomspace(lo, end, n + 1)[1:])
+            count = max(n, math.ceil(per_decade * math.log10(end / lo)))
+            points += list(np.geomspace(lo, end, count + 1)[1:])
         points += [f for f in (0.8 * yield_force, 0.95 * yield_force) if start < f < end]
     points = sorted(set(points), reverse=end < start)
     out: list[float] = []
@@ -249,13 +254,23 @@ def _segment(start: float, end: float, n: int, yield_force: float) -> list[float
     return out
 
 
-def load_schedule(forces: list[float], n: int, yield_force: float) -> tuple[list[float], list[int]]:
-    """Step targets and, for each waypoint of ``forces`` after the first, its step index."""
+def load_schedule(forces: list[float], n: int, yield_force: float,
+                  step_rule: str = "segment") -> tuple[list[float], list[int]]:
+    """Step targets and, for each waypoint of ``forces`` after the first, its step index.
+
+    ``step_rule``: "segment" (``n`` steps per monotonic segment and ``n`` geometric ones on
+    loading, the verified schedule) or "decade" (the geometric loading steps at least
+    ``n / 2`` per decade of force: a weak grain's loading spans 6-7 decades of F / Fy, where
+    ``n`` steps alone are a factor ~2 apart and the perfectly plastic contact depends on that
+    step by several per cent, docs/fem.md "The staircase of a growing contact")."""
+    if step_rule not in STEP_RULES:
+        raise ValueError(f"step_rule must be one of {', '.join(STEP_RULES)}, got {step_rule!r}")
+    per_decade = 0.5 * n if step_rule == "decade" else 0.0
     targets: list[float] = []
     marks: list[int] = []
     for a, b in zip(forces[:-1], forces[1:], strict=True):
         if b != a:
-            targets += _segment(a, b, n, yield_force)
+            targets += _segment(a, b, n, yield_force, per_decade)
         marks.append(len(targets))  # 1-based step number of the waypoint
     return targets, marks
 
@@ -402,6 +417,7 @@ def run_history(
     linear_solver: str = "fast",
     mesh_rule: str = "yield",
     kinematics: str = "small",
+    step_rule: str = "segment",
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -426,7 +442,8 @@ def run_history(
     ``mesh_rule``: "yield" (default, the verified meshes) or "contact" (a surface band of small
     elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
     loading curve of a weak grain). ``kinematics``: "small" (default) or "finite" (finite-strain
-    elastoplasticity, ``fem.finite_strain``). Both are part of the run's identity.
+    elastoplasticity, ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
+    (``load_schedule``). All three are part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 
@@ -434,7 +451,7 @@ def run_history(
     identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
                                 tolerance=tolerance, volumetric=volumetric,
                                 mesh_force=mesh_force, mesh_rule=mesh_rule,
-                                kinematics=kinematics)
+                                kinematics=kinematics, step_rule=step_rule)
     forces, steps = list(identity.forces), identity.steps_per_segment
     if resume and out is not None and not keep_states:
         why: list[str] = []
@@ -456,7 +473,7 @@ def run_history(
              if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
         solver = _solver(material, saved.mesh, identity, linear_solver)
-        targets, marks = load_schedule(forces, steps, saved.yield_force)
+        targets, marks = load_schedule(forces, steps, saved.yield_force, identity.step_rule)
         problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
                                 write_fields)
         if problem is not None:
@@ -467,7 +484,8 @@ def run_history(
         # run sharing it; a history starting lower is then checked (contact_resolution)
         sized_history = forces if mesh_force is None else [0.0, identity.mesh_force]
         fe_mesh = history_mesh(material, identity.mesh_force, mesh,
-                               min_force=smallest_resolved_force(material, sized_history, steps),
+                               min_force=smallest_resolved_force(material, sized_history, steps,
+                                                                 identity.step_rule),
                                rule=identity.mesh_rule)
         solver = _solver(material, fe_mesh, identity, linear_solver)
         if pending is not None:
@@ -490,7 +508,7 @@ def run_history(
         run.record(0, state)
         done = 0
         elapsed_before = 0.0
-    targets, marks = load_schedule(forces, steps, yield_force)
+    targets, marks = load_schedule(forces, steps, yield_force, identity.step_rule)
     # ParaView files of the waypoints, written to the pending folder as the run passes them
     field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
     record = json.dumps(identity.to_dict())
