@@ -6,7 +6,7 @@ between two engagements the flattened contact sits near its limit load (a platea
 the next node touches (a riser). Under force control the recorded points lie on the risers; a run
 with other load steps samples other risers, so two step counts disagree at the same approach.
 
-Measures (``staircase_measures``), on the loading curve above ``--floor`` x Fy:
+Measures (``geocontact.fem.staircase``), on the loading curve above ``--floor`` x Fy:
 
 - ``force_gap_max`` / ``force_gap_rms``: |F_a / F_b - 1| of two runs at the same approach
   (each curve interpolated linearly in ln F - ln delta at the approaches of the other, both
@@ -26,80 +26,15 @@ the table of measures is printed and written to ``<out>/staircase.json``.
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import time
 from pathlib import Path
 
-import numpy as np
-
+from geocontact.fem.staircase import staircase_measures
 from geocontact.io import write_json_atomic
 from geocontact.material import load_material
 
 FORCE = 6000.0
-
-
-def loading_branch(curve: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(approach, force) of the loading steps with F > 0 (monotonic part of the curve)."""
-    force, approach = np.asarray(curve["force_N"]), np.asarray(curve["approach_m"])
-    keep = [0]
-    for k in range(1, len(force)):
-        if force[k] > force[keep[-1]]:
-            keep.append(k)
-    keep = np.array(keep)
-    keep = keep[force[keep] > 0.0]
-    return approach[keep], force[keep]
-
-
-def log_slopes(approach: np.ndarray, force: np.ndarray) -> np.ndarray:
-    """Local log-slope d ln F / d ln delta between consecutive points."""
-    return np.diff(np.log(force)) / np.diff(np.log(approach))
-
-
-def _interp_loglog(x_new, x, y):
-    return np.exp(np.interp(np.log(x_new), np.log(x), np.log(y)))
-
-
-def force_gap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
-              floor_force: float) -> tuple[float, float]:
-    """(max, rms) of |F_a/F_b - 1| at the same approach, both ways, where both curves exist and
-    F > ``floor_force``."""
-    gaps = []
-    for (xa, fa), (xb, fb) in ((a, b), (b, a)):
-        lo, hi = max(xa[0], xb[0]), min(xa[-1], xb[-1])
-        sel = (xa >= lo) & (xa <= hi) & (fa > floor_force)
-        if np.any(sel):
-            gaps.append(fa[sel] / _interp_loglog(xa[sel], xb, fb) - 1.0)
-    if not gaps:
-        return float("nan"), float("nan")
-    g = np.concatenate(gaps)
-    return float(np.max(np.abs(g))), float(np.sqrt(np.mean(g**2)))
-
-
-def slope_measures(approach: np.ndarray, force: np.ndarray,
-                   floor_force: float) -> dict[str, float]:
-    sel = force > floor_force
-    x, f = approach[sel], force[sel]
-    if len(x) < 3:
-        return {"slope_jump_max": float("nan"), "slope_total_variation": float("nan"),
-                "slope_min": float("nan"), "slope_max": float("nan"), "points": int(len(x))}
-    s = log_slopes(x, f)
-    jumps = np.abs(np.diff(s))
-    return {"slope_jump_max": float(np.max(jumps)), "slope_total_variation": float(np.sum(jumps)),
-            "slope_min": float(np.min(s)), "slope_max": float(np.max(s)), "points": int(len(x))}
-
-
-def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float) -> dict:
-    """Per run: the log-slope measures; per pair of runs: the force gap."""
-    floor_force = floor * yield_force
-    branches = {name: loading_branch(c) for name, c in curves.items()}
-    out = {"floor_force_N": floor_force, "runs": {}, "pairs": {}}
-    for name, (x, f) in branches.items():
-        out["runs"][name] = slope_measures(x, f, floor_force)
-    for p, q in itertools.combinations(branches, 2):
-        gmax, grms = force_gap(branches[p], branches[q], floor_force)
-        out["pairs"][f"{p} vs {q}"] = {"force_gap_max": gmax, "force_gap_rms": grms}
-    return out
 
 
 def main() -> None:
