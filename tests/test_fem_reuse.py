@@ -82,6 +82,7 @@ def test_key_changes_with_every_input_and_library(material, monkeypatch):
         "mesh_force": FemJob(material, (0.0, 100.0, 0.0), mesh_force=200.0),
         "kinematics": FemJob(material, (0.0, 100.0, 0.0), kinematics="finite"),
         "mesh_rule": FemJob(material, (0.0, 100.0, 0.0), mesh_rule="contact"),
+        "step_rule": FemJob(material, (0.0, 100.0, 0.0), step_rule="decade"),
     }
     for name in (*MATERIAL_KEYS, "radius"):
         value = getattr(material, name)

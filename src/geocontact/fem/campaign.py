@@ -61,6 +61,7 @@ class FemJob:
     volumetric: str = VOLUMETRIC_DEFAULT
     kinematics: str = "small"  # "small" | "finite" (fem.finite_strain)
     mesh_rule: str = "yield"  # "yield" | "contact" (fem.mesh.MESH_RULES)
+    step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
@@ -71,7 +72,7 @@ class FemJob:
                                 steps_per_segment=self.steps_per_segment,
                                 tolerance=self.tolerance, volumetric=self.volumetric,
                                 mesh_force=self.mesh_force, kinematics=self.kinematics,
-                                mesh_rule=self.mesh_rule)
+                                mesh_rule=self.mesh_rule, step_rule=self.step_rule)
 
     def inputs(self) -> dict:
         """The identity record: inputs, FE code hash, library versions, key."""
@@ -110,6 +111,7 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
                          write_fields=False, mesh_force=job.mesh_force,
                          tolerance=job.tolerance, volumetric=job.volumetric,
                          kinematics=job.kinematics, mesh_rule=job.mesh_rule,
+                         step_rule=job.step_rule,
                          overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 
