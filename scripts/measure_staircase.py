@@ -37,10 +37,45 @@ from geocontact.material import load_material
 FORCE = 6000.0
 
 
+def figure(out: Path, names: list[str], path: Path) -> None:
+    """F(delta) and the local log-slope of the finished runs ``out/NAME`` (curve.csv)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from geocontact.fem.reuse import load_result
+    from geocontact.fem.staircase import loading_branch, log_slopes
+    from geocontact.io import atomic_path
+
+    fig, (ax, slope) = plt.subplots(1, 2, figsize=(12, 4.5))
+    for name in names:
+        x, f = loading_branch(load_result(out / name).curve)
+        ax.loglog(1e3 * x, f, ".-", ms=3, lw=0.8, label=name)
+        slope.semilogx(f[1:], log_slopes(x, f), ".-", ms=3, lw=0.8, label=name)
+    ax.set_xlabel("approach (mm)")
+    ax.set_ylabel("force (N)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    slope.set_xlabel("force (N)")
+    slope.set_ylabel("d ln F / d ln delta between steps")
+    slope.set_ylim(0.0, 6.0)
+    slope.set_xlim(10.0, None)
+    slope.grid(True, which="both", alpha=0.3)
+    slope.set_title("sigma_c = 1 MPa, 0 -> 6000 N, coarse")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format="png")
+    plt.close(fig)
+
+
 def main() -> None:
     from geocontact.fem.run import run_history
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--figure", type=Path, default=None,
+                    help="only draw the runs --runs of --out into this PNG")
+    ap.add_argument("--runs", nargs="*", default=[])
     ap.add_argument("--material", default="reference-weak")
     ap.add_argument("--mesh", default="coarse")
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
@@ -50,6 +85,9 @@ def main() -> None:
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
+    if args.figure is not None:
+        figure(Path(args.out), args.runs, args.figure)
+        return
 
     material = load_material(args.material)
     out = Path(args.out)
