@@ -112,18 +112,12 @@ class FeRunIdentity:
         if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
                 math.isfinite(tolerance) and tolerance > 0):
             raise InputError(f"tolerance: must be a positive number, got {tolerance!r}")
-        if volumetric not in VOLUMETRIC:
-            raise InputError(f"volumetric: unknown {volumetric!r} (allowed: "
-                             f"{', '.join(VOLUMETRIC)})")
-        if mesh_rule not in MESH_RULES:
-            raise InputError(f"mesh_rule: unknown {mesh_rule!r} (allowed: "
-                             f"{', '.join(MESH_RULES)})")
-        if kinematics not in KINEMATICS:
-            raise InputError(f"kinematics: unknown {kinematics!r} (allowed: "
-                             f"{', '.join(KINEMATICS)})")
-        if step_rule not in STEP_RULES:
-            raise InputError(f"step_rule: unknown {step_rule!r} (allowed: "
-                             f"{', '.join(STEP_RULES)})")
+        for name, value, allowed in (("volumetric", volumetric, VOLUMETRIC),
+                                     ("mesh_rule", mesh_rule, MESH_RULES),
+                                     ("kinematics", kinematics, KINEMATICS),
+                                     ("step_rule", step_rule, STEP_RULES)):
+            if value not in allowed:
+                raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax
