@@ -51,7 +51,8 @@ def main() -> None:
         for j in range(1, parts + 1):
             state = solver.solve_step(state, old.force + j * (target - old.force) / parts)
         change = state.top_displacement / one.top_displacement - 1
-        print(f"{parts} sub-step(s): approach {change:+.3f}, contact radius {solver.contact_radius(state) * 1e3:.3f} mm, "
+        radius = solver.contact_radius(state) * 1e3
+        print(f"{parts} sub-step(s): approach {change:+.3f}, contact radius {radius:.3f} mm, "
               f"{int(state.active.sum())} contact nodes, dissipation of the step "
               f"{2 * (state.plastic_dissipation - old.plastic_dissipation):.4f} J (pair)")
 
