@@ -310,6 +310,22 @@ inline double shakedown_reloading_exponent(const LawParams &p, double cycles, do
   return k;
 }
 
+// Force on a plastic envelope's unloading curve F = A Fmax t^n_u (bval = A) or reloading curve
+// F = Fmax t^k (bval = k), t = (d' - d_res) / (d_max - d_res); zero for t <= 0.
+GEOCONTACT_ALWAYS_INLINE double curve_force(bool unloading, double bval, double nu, double fmax,
+                                            double t)
+{
+  if (t <= 0.0) return 0.0;
+  return unloading ? bval * fmax * positive_pow(t, nu) : fmax * positive_pow(t, bval);
+}
+
+// Exact work of a power-law curve F = C (d - base)^n from (d, f) to (end, f_end).
+GEOCONTACT_ALWAYS_INLINE double curve_work(double f_end, double end, double f, double d,
+                                           double base, double n)
+{
+  return (f_end * (end - base) - f * (d - base)) / (n + 1.0);
+}
+
 // Width of the envelope band, tol (d_max - d_res): approaches closer to d_max are the envelope
 // point to the cyclic extension (docs/law.md, "Repeated cycles"); zero without the extension or
 // on an elastic envelope.
@@ -475,15 +491,9 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       f_end = end > 0.0 ? kh * end * std::sqrt(end) : 0.0;
     } else {
       expo = (b == UNLOADING) ? nu : bval;
-      const double t = (end - dres) / (dmax - dres);
-      if (t <= 0.0)
-        f_end = 0.0;
-      else if (b == UNLOADING)
-        f_end = bval * fmax * positive_pow(t, nu);
-      else
-        f_end = fmax * positive_pow(t, bval);
+      f_end = detail::curve_force(b == UNLOADING, bval, nu, fmax, (end - dres) / (dmax - dres));
     }
-    work += (f_end * (end - base) - force * (d - base)) / (expo + 1.0);
+    work += detail::curve_work(f_end, end, force, d, base, expo);
     force = f_end;
     if (ratchets && end >= band_start) {
       b = RATCHET;
@@ -575,11 +585,11 @@ GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double ap
     const bool unloading = s.branch == UNLOADING;
     const double top = s.pending_ratchet > 0.0 ? dmax - detail::envelope_band(p, dmax, dres) : dmax;
     if (unloading ? (target < d && target > dres) : (target > d && target < top)) {
-      const double fmax = s.max_force, t = (target - dres) / (dmax - dres);
-      const double expo = unloading ? s.unloading_exponent : s.branch_value;
-      const double f = unloading ? s.branch_value * fmax * positive_pow(t, expo)
-                                 : fmax * positive_pow(t, expo);
-      s.work += (f * (target - dres) - s.force * (d - dres)) / (expo + 1.0);
+      const double nu = s.unloading_exponent, bval = s.branch_value;
+      const double expo = unloading ? nu : bval;
+      const double f = detail::curve_force(unloading, bval, nu, s.max_force,
+                                           (target - dres) / (dmax - dres));
+      s.work += detail::curve_work(f, target, s.force, d, dres, expo);
       s.approach = approach_new;
       if (target <= 0.0) {
         s.force = 0.0;
