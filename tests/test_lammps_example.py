@@ -71,8 +71,8 @@ def test_packing_cycles_shake_down_with_exact_or_jittered_peaks(tmp_path):
     """Repeated cycles of one amplitude shake the packing down: the residual-strain increment
     and the law's dissipated energy per cycle fall from cycle to cycle, with the peaks repeated
     exactly or jittered by 1e-9 (as no DEM force repeats exactly): the same numbers, so nothing
-    depends on round-off. The shipped file's truncated form (the control) stops after cycle 2
-    instead: the measure sees which form the law is in."""
+    depends on round-off. The shipped file's truncated form (the control) stops ratchetting
+    after a few cycles instead: the measure sees which form the law is in."""
     truncated = json.loads((ROOT / "examples" / "params-reference.json").read_text())
     truncated["cyclic"]["form"] = "truncated"
     (tmp_path / "truncated.json").write_text(json.dumps(truncated))
@@ -95,7 +95,18 @@ def test_packing_cycles_shake_down_with_exact_or_jittered_peaks(tmp_path):
         assert dissipated[-1] < 1e-2 * dissipated[0] and residual[-1] < 1e-2 * residual[0]
         # cycle 2 against cycle 1 (the envelope): ~1e-2 of its dissipation
         assert 1e-3 < dissipated[0] / run[0, 6] < 0.1
-    np.testing.assert_allclose(jittered[:, 4], exact[:, 4], rtol=1e-4)
+    # the same increments: to 1e-4, or within what the jitter moves a strain of 3e-5 directly
+    # (1e-9 of it) where the increment itself is that small (cycle 6: 8e-12)
+    np.testing.assert_allclose(jittered[:, 4], exact[:, 4], rtol=1e-4, atol=3e-14)
     np.testing.assert_allclose(jittered[:, 6], exact[:, 6], rtol=1e-4)
-    # the truncated form: one ratchet at cycle 2, nothing after (no decay to see)
-    assert control[1, 6] > 0 and np.all(control[2:, 6] == 0) and np.all(control[2:, 4] == 0)
+    # the shakedown form's tail is a power of the cycle number: by cycles 5 -> 6 the decay per
+    # cycle has slowed to a factor below 5 (measured 2.9 for both increments) ...
+    for run in (exact, jittered):
+        for column in (4, 6):
+            assert 1.2 < run[-2, column] / run[-1, column] < 5.0, run[:, column]
+    # ... while the truncated form's ratchet stops once c N^-p < tol: what is left is the
+    # packing settling, falling 10x and more per cycle (measured 26x), 1e-3 of the shakedown
+    # form's by cycle 6
+    ratios = control[1:-1, 6] / control[2:, 6]
+    assert np.all(ratios > 10.0), ratios
+    assert control[-1, 6] < 1e-2 * exact[-1, 6] and control[-1, 4] < 1e-2 * exact[-1, 4]
