@@ -129,3 +129,29 @@ def test_elastic_run_reports_round_off_plastic_work_as_zero(tmp_path, capsys):
     with open(out / "curve.csv") as fh:
         raw = [float(r["plastic_dissipation_J"]) for r in csv.DictReader(fh)]
     assert max(abs(w) for w in raw) < energy["value"]  # raw round-off, kept as computed
+
+
+def test_fe_model_flags_reach_the_run(tmp_path, monkeypatch, capsys):
+    """--kinematics, --mesh-rule and --step-rule of ``geocontact fem`` and ``cycles`` are passed
+    to the FE run (captured here instead of running it); a bad value is a one-line error."""
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def capture(*args, **kwargs):
+        seen.append({k: kwargs.get(k) for k in ("kinematics", "mesh_rule", "step_rule")})
+        raise Stop
+
+    monkeypatch.setattr(fem_run, "run_history", capture)
+    history = str(_history(tmp_path))
+    flags = ["--kinematics", "finite", "--mesh-rule", "contact", "--step-rule", "decade"]
+    for command in ("fem", "cycles"):
+        with pytest.raises(Stop):
+            main([command, "--material", "reference", "--history", history, "--mesh", "coarse",
+                  "--out", str(tmp_path / command), *flags])
+    assert seen == [{"kinematics": "finite", "mesh_rule": "contact", "step_rule": "decade"}] * 2
+    code = main(["fem", "--material", "reference", "--history", history,
+                 "--out", str(tmp_path / "x"), "--kinematics", "large"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "--kinematics" in err

@@ -48,6 +48,14 @@ def _interrupt_at(monkeypatch, step):
     monkeypatch.setattr(fem_run, "_advance", advance)
 
 
+def _interrupted_run(monkeypatch, material, out, step=9, **kwargs):
+    """Start a run into ``out`` and stop it at load step ``step`` (its checkpoint stays)."""
+    with monkeypatch.context() as m:
+        _interrupt_at(m, step)
+        with pytest.raises(KeyboardInterrupt):
+            _run(material, out, **kwargs)
+
+
 def _count_steps(monkeypatch):
     """Count the load steps the FE solves from now on."""
     real, calls = fem_run._advance, []
@@ -80,6 +88,9 @@ def test_key_changes_with_every_input_and_library(material, monkeypatch):
         "tolerance": FemJob(material, (0.0, 100.0, 0.0), tolerance=1e-9),
         "volumetric": FemJob(material, (0.0, 100.0, 0.0), volumetric="full"),
         "mesh_force": FemJob(material, (0.0, 100.0, 0.0), mesh_force=200.0),
+        "kinematics": FemJob(material, (0.0, 100.0, 0.0), kinematics="finite"),
+        "mesh_rule": FemJob(material, (0.0, 100.0, 0.0), mesh_rule="contact"),
+        "step_rule": FemJob(material, (0.0, 100.0, 0.0), step_rule="decade"),
     }
     for name in (*MATERIAL_KEYS, "radius"):
         value = getattr(material, name)
@@ -262,3 +273,25 @@ def test_good_checkpoint_is_resumed(material, good_checkpoint, uninterrupted, tm
     result = _run(material, out, resume=True, write_fields=False)
     assert steps == [6, 7, 8, 9, 10] and capsys.readouterr().err == ""
     np.testing.assert_array_equal(result.curve["approach_m"], uninterrupted.curve["approach_m"])
+
+
+def test_finite_strain_run_resumes_to_the_uninterrupted_result(material, tmp_path, monkeypatch):
+    """The checkpoint of a finite-strain run carries its state (Kirchhoff stress, C_p^-1 - I):
+    a resumed run ends where an uninterrupted one does; a small-strain checkpoint is not taken
+    for it (other identity)."""
+    whole = _run(material, kinematics="finite", write_fields=False)
+    out = tmp_path / "finite"
+    _interrupted_run(monkeypatch, material, out, kinematics="finite", write_fields=False)
+    assert checkpoint_path(out).exists()
+    steps = _count_steps(monkeypatch)
+    resumed = _run(material, out, resume=True, kinematics="finite", write_fields=False)
+    assert steps == [9, 10]
+    for column in ("force_N", "approach_m", "plastic_dissipation_J", "elastic_energy_J"):
+        np.testing.assert_array_equal(resumed.curve[column], whole.curve[column])
+    assert resumed.summary["identity"]["inputs"]["kinematics"] == "finite"
+    # a small-strain checkpoint does not stand in for a finite-strain run
+    other = tmp_path / "small"
+    _interrupted_run(monkeypatch, material, other, write_fields=False)
+    steps.clear()
+    _run(material, other, resume=True, kinematics="finite", write_fields=False)
+    assert steps[0] == 1

@@ -167,7 +167,9 @@ def checkpoint_of(out: str | Path) -> Path:
 def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                resume: bool = False, fit_params=None, progress: bool = False,
-               inputs: dict[str, Any] | None = None, overwrite: bool = False) -> dict[str, Any]:
+               inputs: dict[str, Any] | None = None, overwrite: bool = False,
+               kinematics: str = "small", mesh_rule: str = "yield",
+               step_rule: str = "segment") -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With
@@ -191,6 +193,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
     with atomic_directory(out, "cycles", overwrite=overwrite) as work:
         summary = _write_cycles(work, material, forces, params=params, mesh=mesh,
                                 steps_per_segment=steps_per_segment, tolerance=tolerance,
+                                kinematics=kinematics, mesh_rule=mesh_rule,
+                                step_rule=step_rule,
                                 resume=resume, fit_params=fit_params, progress=progress,
                                 inputs=inputs, previous_fe=out / "fe", checkpoint=checkpoint)
     from ..fem.checkpoint import remove_checkpoint
@@ -200,8 +204,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 
 def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segment, tolerance,
-                  resume, fit_params, progress, inputs, previous_fe: Path, checkpoint: Path
-                  ) -> dict[str, Any]:
+                  kinematics, mesh_rule, step_rule, resume, fit_params, progress, inputs,
+                  previous_fe: Path, checkpoint: Path) -> dict[str, Any]:
     """The body of ``run_cycles``, writing into the (temporary) folder ``out``."""
     from ..fem.run import run_history  # the FE is an optional extra: imported when used
 
@@ -212,7 +216,9 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
     if resume:
         from ..fem.reuse import FeRunIdentity, finished_run
 
-        identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment)
+        identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
+                                    kinematics=kinematics, mesh_rule=mesh_rule,
+                                    step_rule=step_rule)
         why: list[str] = []
         result = finished_run(previous_fe, identity, fields=True, why=why)
         if why:
@@ -221,7 +227,9 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
     if result is None:
         result = run_history(material, forces, mesh=mesh, out=fe_dir,
                              steps_per_segment=steps_per_segment, resume=resume,
-                             progress=progress, write_fields=True, checkpoint=checkpoint)
+                             progress=progress, write_fields=True, checkpoint=checkpoint,
+                             kinematics=kinematics, mesh_rule=mesh_rule,
+                             step_rule=step_rule)
     else:
         shutil.copytree(previous_fe, fe_dir)
         if progress:

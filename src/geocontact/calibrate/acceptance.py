@@ -15,7 +15,7 @@ are compared the same way ("fitted": the law reproduces the curves it came from)
     comparisons = run_acceptance(params, material, mesh="default")
     table = acceptance_table(comparisons)          # JSON-ready
     write_comparison_data(comparisons, "P.acceptance")   # CSV per run
-    figures = draw_comparison_figures(comparisons, "P.acceptance")  # PNG per run (report.Figure)
+    figures = draw_comparison_figures(comparisons, "P.acceptance")  # PNG per run (figures.Figure)
 """
 
 from __future__ import annotations
@@ -192,10 +192,10 @@ def write_comparison_data(comparisons: list[Comparison], directory: str | Path) 
 
 
 def draw_comparison_figures(comparisons: list[Comparison], directory: str | Path) -> list:
-    """FE vs law force-approach, one PNG per run (and its CSV), as report.Figure records."""
+    """FE vs law force-approach, one PNG per run (and its CSV), as figures.Figure records."""
     import matplotlib.pyplot as plt
 
-    from ..report import Figure, save_figure
+    from ..figures import Figure, save_figure
 
     directory = Path(directory)
     figures = []

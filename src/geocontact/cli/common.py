@@ -68,3 +68,18 @@ def check_resolved_force(material, force: float | None, field: str) -> None:
             break
     raise InputError(f"{field}: must be <= {low:.4g} N for this material (the largest force "
                      f"whose contact radius the FE mesh resolves, a <= R/2), got {force:g}")
+
+
+def add_fe_model_flags(p) -> None:
+    """--kinematics, --mesh-rule and --step-rule of the FE engine (docs/fem.md)."""
+    p.add_argument("--kinematics", default="small", choices=["small", "finite"],
+                   help="FE kinematics: small strain (default) or finite strain (logarithmic "
+                        "elastic strain, exponential map, F-bar)")
+    p.add_argument("--mesh-rule", default="yield", choices=["yield", "contact"],
+                   help="FE mesh rule: 'yield' (default, the verified meshes) or 'contact' "
+                        "(small surface elements over the plastic range of contact radii: the "
+                        "contact edge of a weak grain moves in steps of ~1 %% of the radius)")
+    p.add_argument("--step-rule", default="segment", choices=["segment", "decade"],
+                   help="FE load steps: 'segment' (default, --steps per monotonic segment) or "
+                        "'decade' (also at least --steps/2 geometric loading steps per decade "
+                        "of force: for histories spanning many decades of F/Fy)")

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_force_flag, check_resolved_force, check_steps, print_json
+from .common import (
+    add_fe_model_flags,
+    add_force_flag,
+    check_resolved_force,
+    check_steps,
+    print_json,
+)
 
 
 def register(sub) -> None:
@@ -36,6 +42,7 @@ def register(sub) -> None:
                    help="reuse a finished FE run in DIR/fe of the same inputs, FE code and "
                         "libraries, or continue from DIR.fe.checkpoint.npz beside DIR")
     p.add_argument("--json", action="store_true", help="print summary.json on stdout")
+    add_fe_model_flags(p)
     p.set_defaults(run=run)
 
 
@@ -62,7 +69,8 @@ def run(args) -> int:
         progress=sys.stderr.isatty() or not args.json,
         inputs={"material": str(args.material), "history": str(args.history),
                 "params": args.params},
-        overwrite=args.force,
+        overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
+        step_rule=args.step_rule,
     )
     if args.json:
         print_json(summary)

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_force_flag, check_resolved_force, check_steps, print_json
+from .common import (
+    add_fe_model_flags,
+    add_force_flag,
+    check_resolved_force,
+    check_steps,
+    print_json,
+)
 
 
 def register(sub) -> None:
@@ -25,6 +31,7 @@ def register(sub) -> None:
                         "libraries, else continue from DIR.checkpoint.npz if it is one of them")
     p.add_argument("--steps", type=int, default=None,
                    help="load steps per monotonic segment (default: by mesh preset)")
+    add_fe_model_flags(p)
     p.add_argument("--json", action="store_true", help="print summary.json on stdout")
     p.set_defaults(run=run)
 
@@ -40,6 +47,8 @@ def run(args) -> int:
     check_resolved_force(material, max(forces), "history.forces")
     result = run_history(material, forces, mesh=args.mesh, out=args.out,
                          steps_per_segment=args.steps, resume=args.resume, overwrite=args.force,
+                         kinematics=args.kinematics, mesh_rule=args.mesh_rule,
+                         step_rule=args.step_rule,
                          progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:

@@ -59,6 +59,9 @@ class FemJob:
     mesh_force: float | None = None  # size the mesh for this force (default: the largest)
     tolerance: float = TOLERANCE
     volumetric: str = VOLUMETRIC_DEFAULT
+    kinematics: str = "small"  # "small" | "finite" (fem.finite_strain)
+    mesh_rule: str = "yield"  # "yield" | "contact" (fem.mesh.MESH_RULES)
+    step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
@@ -68,7 +71,8 @@ class FemJob:
         return FeRunIdentity.of(self.material, self.forces, self.mesh,
                                 steps_per_segment=self.steps_per_segment,
                                 tolerance=self.tolerance, volumetric=self.volumetric,
-                                mesh_force=self.mesh_force)
+                                mesh_force=self.mesh_force, kinematics=self.kinematics,
+                                mesh_rule=self.mesh_rule, step_rule=self.step_rule)
 
     def inputs(self) -> dict:
         """The identity record: inputs, FE code hash, library versions, key."""
@@ -106,6 +110,8 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
                          steps_per_segment=job.steps_per_segment, resume=True,
                          write_fields=False, mesh_force=job.mesh_force,
                          tolerance=job.tolerance, volumetric=job.volumetric,
+                         kinematics=job.kinematics, mesh_rule=job.mesh_rule,
+                         step_rule=job.step_rule,
                          overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 

@@ -58,6 +58,17 @@ MIN_ELEMENTS_ACROSS_CONTACT = 2.5
 # lengths (~1 % off the target) and for the run's schedule, whose first steps move with the
 # FE-probed first-yield force (a few per cent from the analytic one used for sizing).
 ELEMENTS_ACROSS_SMALLEST_CONTACT = 3.0
+# Mesh rules (``build_mesh(rule=...)``). "yield": the zones and grading above, the rule every
+# verified run was made with. "contact": the same mesh plus a band of small elements along the
+# sphere's surface over the contact radii of the plastic range, a_band ... a_max, where the surface
+# element edge is d / CONTACT_SURFACE_GRADING[preset] and the size grows with the depth s under
+# the surface as ``+ CONTACT_DEPTH_GROWTH * s``: the contact edge moves in steps of a small
+# fraction of the contact radius (the loading curve of a weak grain is no longer a staircase,
+# docs/fem.md, "The staircase of a growing contact"), at a cost linear in the grading, as only the
+# surface layer is refined.
+MESH_RULES = ("yield", "contact")
+CONTACT_SURFACE_GRADING = {"coarse": 40.0, "default": 60.0, "fine": 100.0}
+CONTACT_DEPTH_GROWTH = 0.3
 
 
 def mesh_preset(name: str) -> MeshPreset:
@@ -67,8 +78,12 @@ def mesh_preset(name: str) -> MeshPreset:
 
 
 def element_size(d: np.ndarray | float, radius: float, a_min: float, a_max: float,
-                 preset: MeshPreset) -> np.ndarray | float:
-    """Target element size at distance d from the tip."""
+                 preset: MeshPreset, *, depth: np.ndarray | float = 0.0,
+                 band: tuple[float, float] | None = None) -> np.ndarray | float:
+    """Target element size at distance d from the tip (``depth``: under the sphere's surface).
+
+    ``band`` (a_band, surface grading): the "contact" rule's surface band (``MESH_RULES``).
+    """
     h_tip = a_min / preset.per_tip_radius
     caps = [s * radius for s in preset.zone_sizes]
     cap = np.where(d < ZONE_LIMITS[0] * radius, caps[0],
@@ -76,7 +91,13 @@ def element_size(d: np.ndarray | float, radius: float, a_min: float, a_max: floa
     # Past the largest contact radius the grading may relax twice as fast.
     graded = np.where(d <= a_max, d / preset.grading,
                       a_max / preset.grading + 2.0 * (d - a_max) / preset.grading)
-    return np.maximum(h_tip, np.minimum(graded, cap))
+    h = np.maximum(h_tip, np.minimum(graded, cap))
+    if band is None:
+        return h
+    a_band, surface_grading = band
+    along = np.where(d <= a_max, np.maximum(d, a_band),
+                     a_max + 2.0 * (d - a_max)) / surface_grading
+    return np.minimum(h, np.maximum(along + CONTACT_DEPTH_GROWTH * depth, h_tip))
 
 
 def _restore_signal_handlers() -> None:
@@ -115,10 +136,13 @@ def elements_across(mesh, radius: float, contact_radius) -> float | np.ndarray:
     return float(count) if np.ndim(contact_radius) == 0 else count
 
 
-def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPreset = "default"):
+def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPreset = "default",
+               *, rule: str = "yield", a_band: float | None = None):
     """gmsh mesh of the hemisphere, returned as an isoparametric ``skfem.MeshTri2``.
 
     ``a_min`` / ``a_max``: the smallest and largest contact radius the run must resolve (m).
+    ``rule``: "yield" (default) or "contact" (``MESH_RULES``), whose surface band starts at the
+    contact radius ``a_band`` (default ``a_min``; needs a named preset).
     """
     import gmsh
     from skfem import MeshTri2
@@ -126,8 +150,15 @@ def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPres
     p = mesh_preset(preset) if isinstance(preset, str) else preset
     if not (0 < a_min <= a_max):
         raise InputError(f"mesh: need 0 < a_min <= a_max, got {a_min:g}, {a_max:g}")
+    if rule not in MESH_RULES:
+        raise InputError(f"mesh_rule: unknown {rule!r} (allowed: {', '.join(MESH_RULES)})")
     a_max = min(a_max, 0.5 * radius)
     a_min = min(a_min, a_max)
+    band = None
+    if rule == "contact":
+        if not isinstance(preset, str):
+            raise InputError("mesh: the contact rule needs a named preset")
+        band = (min(a_band or a_min, a_max), CONTACT_SURFACE_GRADING[preset])
 
     owns = not gmsh.isInitialized()
     if owns:
@@ -155,7 +186,9 @@ def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPres
         gmsh.option.setNumber("Mesh.HighOrderOptimize", 0)
 
         def size(dim, tag, x, y, z, lc):
-            return float(element_size(math.hypot(x, y), radius, a_min, a_max, p))
+            depth = max(radius - math.hypot(x, y - radius), 0.0)
+            return float(element_size(math.hypot(x, y), radius, a_min, a_max, p, depth=depth,
+                                      band=band))
 
         gmsh.model.mesh.setSizeCallback(size)
         gmsh.model.mesh.generate(2)

@@ -165,10 +165,9 @@ class PairSolver(ContactSolver):
         # Slaves: sphere 1's candidates (the half model's), out to CANDIDATE_RADIUS min(r1, r2).
         keep = body1[self.candidate_dofs] & (
             self.candidate_r <= CANDIDATE_RADIUS * min(r1, r2) * (1 + 1e-12))
-        self.candidate_r = self.candidate_r[keep]
-        self.candidate_z0 = self.candidate_z0[keep]
-        self.candidate_dofs = self.candidate_dofs[keep]
-        self.candidate_area = self.candidate_area[keep]
+        for name in ("candidate_r", "candidate_z0", "candidate_dofs", "candidate_dofs_r",
+                     "candidate_area"):
+            setattr(self, name, getattr(self, name)[keep])
         # Masters: sphere 2's surface edges, the three nodes of each (ends, middle).
         on2 = (~body1[dofs_z]) & (np.abs(np.hypot(x, z + r2) - r2) < 1e-7 * r2)
         facets = self.mesh.boundary_facets()

@@ -22,6 +22,8 @@ STEPS_PER_SEGMENT = {"coarse": 12, "default": 24, "fine": 40}
 # Treatment of the volumetric strain of the P2 element (B-bar projection per element).
 VOLUMETRIC = {"bbar-p1": (True, 1), "bbar-p0": (True, 0), "full": (False, 0)}
 VOLUMETRIC_DEFAULT = "bbar-p1"
+KINEMATICS = ("small", "finite")  # fem.solver.ContactSolver / fem.finite_strain
+STEP_RULES = ("segment", "decade")  # fem.run.load_schedule
 TOLERANCE = 1e-8  # Newton tolerance, relative to the force scale (ContactSolver)
 
 

@@ -31,9 +31,11 @@ import numpy as np
 from ..errors import InputError
 from ..force_history import validate_forces
 from ..material import Material
-from .mesh import mesh_preset
+from .mesh import MESH_RULES, mesh_preset
 from .result import (
     CURVE_COLUMNS,
+    KINEMATICS,
+    STEP_RULES,
     STEPS_PER_SEGMENT,
     TOLERANCE,
     VOLUMETRIC,
@@ -47,9 +49,9 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/mesh.py", "fem/plasticity.py", "fem/result.py",
-              "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py", "material.py",
-              "resolution.py")
+FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/plasticity.py",
+              "fem/result.py", "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py",
+              "material.py", "resolution.py")
 
 
 @functools.cache
@@ -90,12 +92,16 @@ class FeRunIdentity:
     tolerance: float
     volumetric: str
     mesh_force: float
+    mesh_rule: str = "yield"
+    kinematics: str = "small"
+    step_rule: str = "segment"
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse", *,
            steps_per_segment: int | None = None, tolerance: float = TOLERANCE,
-           volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None
-           ) -> FeRunIdentity:
+           volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
+           mesh_rule: str = "yield", kinematics: str = "small",
+           step_rule: str = "segment") -> FeRunIdentity:
         """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
         an input the FE would refuse."""
         forces = tuple(validate_forces(list(forces)))
@@ -106,9 +112,12 @@ class FeRunIdentity:
         if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
                 math.isfinite(tolerance) and tolerance > 0):
             raise InputError(f"tolerance: must be a positive number, got {tolerance!r}")
-        if volumetric not in VOLUMETRIC:
-            raise InputError(f"volumetric: unknown {volumetric!r} (allowed: "
-                             f"{', '.join(VOLUMETRIC)})")
+        for name, value, allowed in (("volumetric", volumetric, VOLUMETRIC),
+                                     ("mesh_rule", mesh_rule, MESH_RULES),
+                                     ("kinematics", kinematics, KINEMATICS),
+                                     ("step_rule", step_rule, STEP_RULES)):
+            if value not in allowed:
+                raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax
@@ -117,14 +126,26 @@ class FeRunIdentity:
             raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, "
                              f"got {mesh_force!r}")
         return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
-                   float(mesh_force))
+                   float(mesh_force), mesh_rule, kinematics, step_rule)
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
         return {"material": self.material.to_dict(), "forces_N": list(self.forces),
                 "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
                 "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
-                "volumetric": self.volumetric}
+                "volumetric": self.volumetric, **self._new_inputs()}
+
+    def _new_inputs(self) -> dict[str, str]:
+        """The inputs added after the first identity record: recorded only when not at their
+        default, so the keys (cache entries, checkpoints) of earlier runs stay valid."""
+        extra = {}
+        if self.mesh_rule != "yield":
+            extra["mesh_rule"] = self.mesh_rule
+        if self.kinematics != "small":
+            extra["kinematics"] = self.kinematics
+        if self.step_rule != "segment":
+            extra["step_rule"] = self.step_rule
+        return extra
 
     def to_dict(self) -> dict[str, Any]:
         """Inputs, FE source hash and library versions, and the key of them all."""
@@ -148,6 +169,12 @@ class FeRunIdentity:
             settings.append(f"tolerance {self.tolerance:g}")
         if self.volumetric != VOLUMETRIC_DEFAULT:
             settings.append(f"volumetric {self.volumetric}")
+        if self.mesh_rule != "yield":
+            settings.append(f"mesh rule {self.mesh_rule}")
+        if self.kinematics != "small":
+            settings.append(f"{self.kinematics} strain")
+        if self.step_rule != "segment":
+            settings.append(f"step rule {self.step_rule}")
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "

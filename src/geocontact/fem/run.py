@@ -58,6 +58,7 @@ from .mesh import (
 from .plasticity import APEX, ELASTIC
 from .result import (  # noqa: F401  (re-exported: the FE run's settings and result)
     CURVE_COLUMNS,
+    STEP_RULES,
     STEPS_PER_SEGMENT,
     TOLERANCE,
     VOLUMETRIC,
@@ -80,6 +81,9 @@ PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC se
 # fine one; with 0.8 a it is 23 % off, and over the whole contact area it does not converge.
 FULLY_PLASTIC_FRACTION = 0.95
 FULLY_PLASTIC_CORE = 0.7
+# The "contact" mesh rule refines the surface from the contact radius at this multiple of the
+# first-yield force on (contact_band_radius).
+CONTACT_BAND_FORCE_RATIO = 10.0
 
 
 # --- sizing ------------------------------------------------------------------------------------
@@ -105,13 +109,14 @@ def hertz_contact_radius(material: Material, force: float) -> float:
     return float(contact_radius(material, hertz_approach(material, force)))
 
 
-def smallest_resolved_force(material: Material, forces, steps_per_segment: int) -> float:
+def smallest_resolved_force(material: Material, forces, steps_per_segment: int,
+                            step_rule: str = "segment") -> float:
     """The smallest positive load step of the history ``forces`` with ``steps_per_segment``
     steps per segment (``load_schedule`` with the analytic first-yield force; the run's own
     schedule uses the FE-probed one, a few per cent away): the smallest load whose contact the
     mesh must resolve."""
     targets, _ = load_schedule(list(forces), steps_per_segment,
-                               float(incipient_yield(material).force))
+                               float(incipient_yield(material).force), step_rule)
     return min(f for f in targets if f > 0.0)
 
 
@@ -136,19 +141,30 @@ def tip_contact_radius(material: Material, min_force: float, mesh: str) -> float
     return min(yield_contact_radius_estimate(material), first_step)
 
 
+def contact_band_radius(material: Material) -> float:
+    """Where the "contact" mesh rule's surface band starts (``mesh.MESH_RULES``): the contact
+    radius at CONTACT_BAND_FORCE_RATIO x the analytic first-yield force, where the contact is
+    flattened plastically and the node-by-node growth of the contact shows in the force."""
+    return largest_contact_radius_estimate(
+        material, CONTACT_BAND_FORCE_RATIO * float(incipient_yield(material).force)) / 1.2
+
+
 def history_mesh(material: Material, max_force: float, mesh: str = "default",
-                 min_force: float | None = None):
+                 min_force: float | None = None, rule: str = "yield"):
     """The mesh of a history whose largest force is ``max_force`` and smallest load step
     ``min_force``: it resolves every contact radius from the smallest (``tip_contact_radius``)
     to the largest one (``mesh.build_mesh``).
 
     ``min_force`` None: the first step of a ramp 0 -> ``max_force`` with the preset's steps.
+    ``rule``: "yield" (the verified meshes) or "contact" (``mesh.MESH_RULES``; its surface band
+    from ``contact_band_radius`` to the largest contact radius).
     """
     if min_force is None:
         min_force = smallest_resolved_force(material, [0.0, max_force], STEPS_PER_SEGMENT[mesh])
     a_min = tip_contact_radius(material, min_force, mesh)
     a_max = max(largest_contact_radius_estimate(material, max_force), 2.0 * a_min)
-    return build_mesh(material.radius, a_min, a_max, mesh)
+    return build_mesh(material.radius, a_min, a_max, mesh, rule=rule,
+                      a_band=max(contact_band_radius(material), a_min))
 
 
 def contact_resolution(material: Material, fe_mesh, curve: dict[str, np.ndarray],
@@ -202,19 +218,22 @@ def _hertz_force(material: Material, contact_radius: float) -> float:
 
 
 # --- load schedule ---------------------------------------------------------------------------
-def _segment(start: float, end: float, n: int, yield_force: float) -> list[float]:
+def _segment(start: float, end: float, n: int, yield_force: float,
+             per_decade: float = 0.0) -> list[float]:
     """Targets of one monotonic segment (excluding ``start``, including ``end``).
 
     Uniform in F^(2/3) (about uniform in approach); on loading, also geometric from near the
     yield force (the elastic-plastic transition spans decades of F / Fy) with points just below
-    the predicted first yield.
+    the predicted first yield; the geometric part has ``n`` points, or ``per_decade`` points
+    per decade of force if that is more (the "decade" step rule).
     """
     u = np.linspace(start ** (2 / 3), end ** (2 / 3), n + 1)[1:] ** 1.5
     points = list(u)
     if end > start:
         lo = max(start, 0.5 * yield_force)
         if end > lo * 1.05:
-            points += list(np.geomspace(lo, end, n + 1)[1:])
+            count = max(n, math.ceil(per_decade * math.log10(end / lo)))
+            points += list(np.geomspace(lo, end, count + 1)[1:])
         points += [f for f in (0.8 * yield_force, 0.95 * yield_force) if start < f < end]
     points = sorted(set(points), reverse=end < start)
     out: list[float] = []
@@ -235,13 +254,23 @@ def _segment(start: float, end: float, n: int, yield_force: float) -> list[float
     return out
 
 
-def load_schedule(forces: list[float], n: int, yield_force: float) -> tuple[list[float], list[int]]:
-    """Step targets and, for each waypoint of ``forces`` after the first, its step index."""
+def load_schedule(forces: list[float], n: int, yield_force: float,
+                  step_rule: str = "segment") -> tuple[list[float], list[int]]:
+    """Step targets and, for each waypoint of ``forces`` after the first, its step index.
+
+    ``step_rule``: "segment" (``n`` steps per monotonic segment and ``n`` geometric ones on
+    loading, the verified schedule) or "decade" (the geometric loading steps at least
+    ``n / 2`` per decade of force: a weak grain's loading spans 6-7 decades of F / Fy, where
+    ``n`` steps alone are a factor ~2 apart and the perfectly plastic contact depends on that
+    step by several per cent, docs/fem.md "The staircase of a growing contact")."""
+    if step_rule not in STEP_RULES:
+        raise ValueError(f"step_rule must be one of {', '.join(STEP_RULES)}, got {step_rule!r}")
+    per_decade = 0.5 * n if step_rule == "decade" else 0.0
     targets: list[float] = []
     marks: list[int] = []
     for a, b in zip(forces[:-1], forces[1:], strict=True):
         if b != a:
-            targets += _segment(a, b, n, yield_force)
+            targets += _segment(a, b, n, yield_force, per_decade)
         marks.append(len(targets))  # 1-based step number of the waypoint
     return targets, marks
 
@@ -361,9 +390,12 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
 # --- the run -----------------------------------------------------------------------------------
 def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> ContactSolver:
     bbar, order = VOLUMETRIC[identity.volumetric]
-    return ContactSolver(material, fe_mesh, force_scale=max(identity.forces),
-                         tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
-                         linear_solver=linear_solver)
+    kind = ContactSolver
+    if identity.kinematics == "finite":
+        from .finite_strain import FiniteStrainSolver as kind
+    return kind(material, fe_mesh, force_scale=max(identity.forces),
+                tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
+                linear_solver=linear_solver)
 
 
 def run_history(
@@ -383,6 +415,9 @@ def run_history(
     overwrite: bool = False,
     checkpoint: str | Path | None = None,
     linear_solver: str = "fast",
+    mesh_rule: str = "yield",
+    kinematics: str = "small",
+    step_rule: str = "segment",
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -404,13 +439,19 @@ def run_history(
     ``linear_solver``: "fast" (default) or "reference", the earlier linear-algebra path kept for
     side-by-side comparison (``ContactSolver``); both give the same result within the Newton
     tolerance, so it is not part of the run's identity.
+    ``mesh_rule``: "yield" (default, the verified meshes) or "contact" (a surface band of small
+    elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
+    loading curve of a weak grain). ``kinematics``: "small" (default) or "finite" (finite-strain
+    elastoplasticity, ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
+    (``load_schedule``). All three are part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 
     started = time.perf_counter()
     identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
                                 tolerance=tolerance, volumetric=volumetric,
-                                mesh_force=mesh_force)
+                                mesh_force=mesh_force, mesh_rule=mesh_rule,
+                                kinematics=kinematics, step_rule=step_rule)
     forces, steps = list(identity.forces), identity.steps_per_segment
     if resume and out is not None and not keep_states:
         why: list[str] = []
@@ -432,7 +473,7 @@ def run_history(
              if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
         solver = _solver(material, saved.mesh, identity, linear_solver)
-        targets, marks = load_schedule(forces, steps, saved.yield_force)
+        targets, marks = load_schedule(forces, steps, saved.yield_force, identity.step_rule)
         problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
                                 write_fields)
         if problem is not None:
@@ -443,7 +484,9 @@ def run_history(
         # run sharing it; a history starting lower is then checked (contact_resolution)
         sized_history = forces if mesh_force is None else [0.0, identity.mesh_force]
         fe_mesh = history_mesh(material, identity.mesh_force, mesh,
-                               min_force=smallest_resolved_force(material, sized_history, steps))
+                               min_force=smallest_resolved_force(material, sized_history, steps,
+                                                                 identity.step_rule),
+                               rule=identity.mesh_rule)
         solver = _solver(material, fe_mesh, identity, linear_solver)
         if pending is not None:
             remove_pending_fields(pending)  # files of an earlier, other run
@@ -465,7 +508,7 @@ def run_history(
         run.record(0, state)
         done = 0
         elapsed_before = 0.0
-    targets, marks = load_schedule(forces, steps, yield_force)
+    targets, marks = load_schedule(forces, steps, yield_force, identity.step_rule)
     # ParaView files of the waypoints, written to the pending folder as the run passes them
     field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
     record = json.dumps(identity.to_dict())
@@ -525,7 +568,10 @@ def run_history(
         "cycles": resolution.clean_fe_cycles(_cycles(curve, forces, marks), resolutions),
         "resolution": resolution.fe_summary_record(resolutions),
         "mesh": {"elements": int(fe_mesh.t.shape[1]), "nodes": int(fe_mesh.doflocs.shape[1]),
-                 "preset": mesh, "element": f"P2 triangle (6-node, isoparametric), {volumetric}"},
+                 "preset": mesh, "rule": identity.mesh_rule,
+                 "element": f"P2 triangle (6-node, isoparametric), {volumetric}"
+                            + (" (F-bar)" if identity.kinematics == "finite" else "")},
+        "kinematics": identity.kinematics,
         "contact_resolution": contact,
         "warnings": warnings,
         "steps": int(len(targets)),

@@ -173,6 +173,7 @@ class ContactSolver:
         self.candidate_r = x[cand]
         self.candidate_z0 = z[cand]
         self.candidate_dofs = dofs_z[cand]
+        self.candidate_dofs_r = dofs_r[cand]
         self.candidate_area = self._tributary_areas(cand)
         self.elastic_matrix = self.model.elastic_matrix()
         # fast path: B per point as (elements, points, 12, 4) for batched matrix products
@@ -349,6 +350,18 @@ class ContactSolver:
         res = return_mapping(self.model, trial, old.eqps, tangent=tangent)
         return res.stress, res.eqps, res.status, res.tangent
 
+    def _response(self, old: State, u: np.ndarray, *, elastic: bool):
+        """Stress, strain, eqps, status, internal force and tangent at the displacement ``u``
+        (``elastic``: the linear elastic increment from ``old``, tangent None)."""
+        strain = self.strain(u)
+        if elastic:
+            stress = old.stress + np.einsum("cd,deq->ceq", self.elastic_matrix,
+                                            strain - old.strain)
+            eqps, status, tangent = old.eqps, np.zeros_like(old.status), None
+        else:
+            stress, eqps, status, tangent = self._constitutive(old, strain)
+        return stress, strain, eqps, status, self.internal_force(stress), tangent
+
     def gaps(self, displacement: np.ndarray) -> np.ndarray:
         return self.candidate_z0 + displacement[self.candidate_dofs]
 
@@ -381,14 +394,8 @@ class ContactSolver:
         residual_norm = math.inf
         for iteration in range(1, self.max_iterations + 1):
             u[top] = -w
-            strain = self.strain(u)
-            if elastic:
-                stress = old.stress + np.einsum("cd,deq->ceq", self.elastic_matrix,
-                                                strain - old.strain)
-                eqps, status, tangent = old.eqps, np.zeros_like(old.status), None
-            else:
-                stress, eqps, status, tangent = self._constitutive(old, strain)
-            f_int = self.internal_force(stress)
+            stress, strain, eqps, status, f_int, tangent = self._response(old, u,
+                                                                          elastic=elastic)
             reaction = f_int[cdofs]  # contact force on each candidate node (>0 compressive)
             gaps = z0 + u[cdofs]
             # Active-set update (primal-dual, complementarity lambda - c g with g = 0 or
@@ -468,8 +475,7 @@ class ContactSolver:
             factors.move_to_end(key)
             factor = factors[key]
         else:
-            self.factorisations += 1
-            factor = factorise(self._bordered_system(local, reduced), reduced)
+            factor = self._factor(local, reduced)
             if tangent is None and factor is not None:
                 factors[key] = factor
                 if len(factors) > ELASTIC_FACTOR_CACHE:
@@ -478,16 +484,22 @@ class ContactSolver:
             return np.full_like(rhs, np.nan)
         return factor(rhs)
 
-    def _finish(self, old, u, w, stress, strain, eqps, status, active, force,
-                iterations) -> State:
+    def _factor(self, local: np.ndarray, reduced: _Reduced):
+        self.factorisations += 1
+        return factorise(self._bordered_system(local, reduced), reduced)
+
+    def _dissipation(self, old: State, u: np.ndarray, stress: np.ndarray,
+                     strain: np.ndarray) -> float:
         # Plastic dissipation of the increment, trapezoidal in the stress:
         # 1/2 (sigma_n + sigma_n+1) : d(eps_p) keeps work = elastic energy + dissipation exact
         # for the discrete increments (see docs/fem.md).
         d_plastic = (strain - old.strain) - elastic_strain(self.model, stress - old.stress)
-        dissipation = 0.5 * np.sum(np.sum((old.stress + stress) * d_plastic, axis=0)
-                                   * self.dvolume)
-        if not self.plastic:
-            dissipation = 0.0
+        return float(0.5 * np.sum(np.sum((old.stress + stress) * d_plastic, axis=0)
+                                  * self.dvolume))
+
+    def _finish(self, old, u, w, stress, strain, eqps, status, active, force,
+                iterations) -> State:
+        dissipation = self._dissipation(old, u, stress, strain) if self.plastic else 0.0
         if old.force == 0.0 or force == 0.0:
             # A contact that closes from, or opens to, zero force follows a Hertz-like power
             # law F ~ (w - w0)^(3/2) (virgin loading, reloading from the residual shape, last
@@ -507,11 +519,19 @@ class ContactSolver:
     def elastic_energy(self, state: State) -> float:
         return float(np.sum(elastic_energy_density(self.model, state.stress) * self.dvolume))
 
+    def state_internal_force(self, state: State) -> np.ndarray:
+        """Nodal internal forces of a converged state."""
+        return self.internal_force(state.stress)
+
     def reaction_force(self, state: State) -> float:
-        return float(-np.sum(self.internal_force(state.stress)[self.top_dofs]))
+        return float(-np.sum(self.state_internal_force(state)[self.top_dofs]))
+
+    def candidate_radii(self, state: State) -> np.ndarray:
+        """Radii of the contact candidate nodes (in the configuration of ``state``)."""
+        return self.candidate_r
 
     def contact_forces(self, state: State) -> np.ndarray:
-        f = self.internal_force(state.stress)[self.candidate_dofs]
+        f = self.state_internal_force(state)[self.candidate_dofs]
         return np.where(state.active, f, 0.0)
 
     def contact_pressure(self, state: State) -> tuple[np.ndarray, np.ndarray]:
@@ -535,7 +555,7 @@ class ContactSolver:
         if not active.any():
             return 0.0
         last = int(np.nonzero(active)[0][-1])
-        r = self.candidate_r
+        r = self.candidate_radii(state)
         if last + 2 >= len(r):
             return float(r[last])
         g = self.gaps(state.displacement)

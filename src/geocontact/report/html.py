@@ -9,22 +9,8 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from ..io import atomic_path, write_csv  # noqa: E402
-
-
-@dataclass
-class Figure:
-    name: str
-    title: str
-    caption: str
-    data: dict = field(default_factory=dict)  # column name -> array, written as NAME.csv
-    image: str = ""  # path of an existing PNG relative to the report folder (default NAME.png)
-    data_file: str = ""  # path of an existing CSV holding the figure's data, if not ``data``
+# the figure record and its writer live below calibrate (geocontact.figures); re-exported here
+from ..figures import Figure, save_figure  # noqa: F401
 
 
 @dataclass
@@ -36,15 +22,6 @@ class Report:
 
     def add(self, heading: str, *items) -> None:
         self.sections.append((heading, list(items)))
-
-
-def save_figure(fig, directory: Path, figure: Figure) -> None:
-    directory.mkdir(parents=True, exist_ok=True)
-    with atomic_path(directory / f"{figure.name}.png") as tmp:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    if figure.data:
-        write_csv(directory / f"{figure.name}.csv", figure.data)
 
 
 GENERATOR = "geocontact"  # the <meta name="generator"> of every report we write

@@ -58,6 +58,25 @@ struct StateArrays {
   }
 };
 
+// The data pointers of StateArrays, taken once per block of contacts. A loop that indexes the
+// vectors themselves reloads their pointers after every store to the int8 branch array (a char
+// type may alias anything, the vectors' own pointers included); a local copy cannot be aliased.
+struct StatePointers {
+  double *approach, *force, *max_approach, *max_force, *residual_approach, *unloading_exponent,
+      *reloading_exponent, *branch_value, *ratchet_shift, *pending_ratchet, *cycles, *work;
+  std::int8_t *branch;
+
+  explicit StatePointers(StateArrays &a)
+      : approach(a.approach.data()), force(a.force.data()), max_approach(a.max_approach.data()),
+        max_force(a.max_force.data()), residual_approach(a.residual_approach.data()),
+        unloading_exponent(a.unloading_exponent.data()),
+        reloading_exponent(a.reloading_exponent.data()), branch_value(a.branch_value.data()),
+        ratchet_shift(a.ratchet_shift.data()), pending_ratchet(a.pending_ratchet.data()),
+        cycles(a.cycles.data()), work(a.work.data()), branch(a.branch.data())
+  {
+  }
+};
+
 // One contact of StateArrays, read and written in place by law.hpp's step(): a field is loaded
 // where the law reads it and stored where the law writes it (the fast paths touch four or five
 // of the thirteen), with no copy of the state in between.
@@ -66,7 +85,7 @@ struct ContactRef {
       &reloading_exponent, &branch_value, &ratchet_shift, &pending_ratchet, &cycles, &work;
   std::int8_t &branch;
 
-  ContactRef(StateArrays &a, std::size_t i)
+  ContactRef(const StatePointers &a, std::size_t i)
       : approach(a.approach[i]), force(a.force[i]), max_approach(a.max_approach[i]),
         max_force(a.max_force[i]), residual_approach(a.residual_approach[i]),
         unloading_exponent(a.unloading_exponent[i]),
@@ -75,6 +94,7 @@ struct ContactRef {
         cycles(a.cycles[i]), work(a.work[i]), branch(a.branch[i])
   {
   }
+  ContactRef(StateArrays &a, std::size_t i) : ContactRef(StatePointers(a), i) {}
 };
 
 // Bytes a step moves per contact, counted from the layout: the state read and written back
@@ -91,8 +111,9 @@ namespace detail {
 inline void step_block(const LawParams &p, StateArrays &a, const double *approach,
                        double *force, double *stiffness, std::size_t begin, std::size_t end)
 {
+  const StatePointers pointers(a);
   for (std::size_t i = begin; i < end; ++i) {
-    ContactRef s(a, i);
+    ContactRef s(pointers, i);
     const StepResult r = step(p, s, approach[i]);
     force[i] = r.force;
     stiffness[i] = r.stiffness;

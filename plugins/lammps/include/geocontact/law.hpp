@@ -33,6 +33,15 @@ constexpr double kHertzExponent = 1.5;
 // Iterations of one step: a step crosses at most a few branch ends (the reference's bound too).
 constexpr int kMaxMovesPerStep = 16;
 
+// x^y for x > 0 as exp(y log x): what every power of the step is (ratios t in (0, 1], depths,
+// cycle counts), cheaper than std::pow's general path (special cases, exactness checks) and
+// accurate to a few ulp for the |y log x| the law meets (checked against the reference by the
+// golden vectors at 1e-11). x <= 0 gives 0 (the limit for y > 0).
+GEOCONTACT_ALWAYS_INLINE double positive_pow(double x, double y)
+{
+  return x > 0.0 ? std::exp(y * std::log(x)) : 0.0;
+}
+
 enum Branch : int { APART = 0, VIRGIN = 1, UNLOADING = 2, RELOADING = 3, RATCHET = 4 };
 
 inline const char *branch_name(int branch)
@@ -80,15 +89,21 @@ struct CyclicLaw {
   double residual_ratio(double cycle) const
   {
     if (cycle < 2.0) return 0.0;
-    const double ratio = residual_ratio_coefficient * std::pow(cycle, -residual_ratio_power);
-    return shakedown || ratio >= tolerance ? ratio : 0.0;
+    return residual_ratio_from_log(std::log(cycle));
   }
 
   // Dissipation of closed cycle N (N >= 2) over cycle 1's (the shakedown form's loops).
   double plastic_work_ratio(double cycle) const
   {
     if (cycle < 2.0) return 1.0;
-    return plastic_work_ratio_coefficient * std::pow(cycle, -plastic_work_ratio_power);
+    return plastic_work_ratio_coefficient * std::exp(-plastic_work_ratio_power * std::log(cycle));
+  }
+
+  // residual_ratio(N) given log N (N >= 2): the shakedown form needs both ratios of one N
+  double residual_ratio_from_log(double log_cycle) const
+  {
+    const double ratio = residual_ratio_coefficient * std::exp(-residual_ratio_power * log_cycle);
+    return shakedown || ratio >= tolerance ? ratio : 0.0;
   }
 };
 
@@ -160,7 +175,7 @@ struct LawParams {
     const double x = std::max(depth, 1.0);
     const double l =
         residual_transition == 1.0 ? std::log(x) : std::log1p((x - 1.0) / residual_transition);
-    return residual_log_power == 1.0 ? l : std::pow(l, residual_log_power);
+    return residual_log_power == 1.0 ? l : positive_pow(l, residual_log_power);
   }
   // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield
   double residual_ratio(double depth) const
@@ -172,12 +187,13 @@ struct LawParams {
   double virgin_force(double d) const
   {
     if (d <= 0.0) return 0.0;
-    if (d <= yield_approach) return hertz_coefficient * std::pow(d, kHertzExponent);
+    if (d <= yield_approach) return hertz_coefficient * d * std::sqrt(d);
     if (d <= fully_plastic_approach)
-      return yield_force * std::pow(d / yield_approach, elastic_plastic_exponent);
+      return yield_force * positive_pow(d / yield_approach, elastic_plastic_exponent);
     if (d <= deep_plastic_approach)
-      return fully_plastic_force * std::pow(d / fully_plastic_approach, fully_plastic_exponent);
-    return deep_plastic_force * std::pow(d / deep_plastic_approach, deep_plastic_exponent);
+      return fully_plastic_force *
+             positive_pow(d / fully_plastic_approach, fully_plastic_exponent);
+    return deep_plastic_force * positive_pow(d / deep_plastic_approach, deep_plastic_exponent);
   }
 
   // Exact work of the force along the virgin curve from 0 to d.
@@ -272,21 +288,42 @@ inline double pending_ratchet(const LawParams &p, double depth, double cycles,
 // `_shakedown_reloading_exponent`): the ratchet creep Fmax ds_N plus the loop
 // Fmax (dmax - dres) (n_u - k) / ((k + 1)(n_u + 1)) equal the fitted plastic-work ratio of
 // cycle N times cycle 1's dissipation, the creep at the band's force; bounded to
-// [min(1, n_u), n_u].
+// [min(1, n_u), n_u]. Cycle 1's dissipation, the envelope's plastic work
+// (LawParams::envelope_plastic_work), comes from the contact's envelope state: the virgin work to
+// dmax from Fmax (no power) minus Fmax (dmax - dres) / (n_u + 1); one log serves both ratios.
 inline double shakedown_reloading_exponent(const LawParams &p, double cycles, double dmax,
                                            double fmax, double dres, double nu)
 {
-  cycles = std::max(cycles, 2.0);
-  const double target = p.envelope_plastic_work(dmax) * p.cyclic.plastic_work_ratio(cycles);
-  const double ratchet = p.cyclic.residual_ratio(cycles) * dres;
+  const double log_cycles = std::log(std::max(cycles, 2.0));
+  const double first = p.virgin_work_from_force(dmax, fmax) - fmax * (dmax - dres) / (nu + 1.0);
+  const double target = first * p.cyclic.plastic_work_ratio_coefficient *
+                        std::exp(-p.cyclic.plastic_work_ratio_power * log_cycles);
+  const double ratchet = p.cyclic.residual_ratio_from_log(log_cycles) * dres;
+  const double log_band = std::log1p(-p.cyclic.tolerance);  // (1 - tol)^k = exp(k log_band)
   double k = nu;
   // the creep happens at the band's force Fmax (1 - tol)^k: two fixed-point passes
   for (int pass = 0; pass < 2; ++pass) {
-    const double creep = fmax * std::pow(1.0 - p.cyclic.tolerance, k) * ratchet;
+    const double creep = fmax * std::exp(k * log_band) * ratchet;
     const double a = std::max(target - creep, 0.0) / (fmax * (dmax - dres)) * (nu + 1.0);
     k = std::min(std::max((nu - a) / (1.0 + a), std::min(1.0, nu)), nu);
   }
   return k;
+}
+
+// Force on a plastic envelope's unloading curve F = A Fmax t^n_u (bval = A) or reloading curve
+// F = Fmax t^k (bval = k), t = (d' - d_res) / (d_max - d_res); zero for t <= 0.
+GEOCONTACT_ALWAYS_INLINE double curve_force(bool unloading, double bval, double nu, double fmax,
+                                            double t)
+{
+  if (t <= 0.0) return 0.0;
+  return unloading ? bval * fmax * positive_pow(t, nu) : fmax * positive_pow(t, bval);
+}
+
+// Exact work of a power-law curve F = C (d - base)^n from (d, f) to (end, f_end).
+GEOCONTACT_ALWAYS_INLINE double curve_work(double f_end, double end, double f, double d,
+                                           double base, double n)
+{
+  return (f_end * (end - base) - f * (d - base)) / (n + 1.0);
 }
 
 // Width of the envelope band, tol (d_max - d_res): approaches closer to d_max are the envelope
@@ -373,7 +410,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
         // the unloading curve through this point of the reloading curve
         pending = 0.0;
         const double t = (d - dres) / (dmax - dres);
-        bval = (force / fmax) / std::pow(t, nu);
+        bval = (force / fmax) / positive_pow(t, nu);
         b = UNLOADING;
         continue;
       }
@@ -433,7 +470,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
         bval = 1.0;
       } else {
         const double t = (d - dres) / (dmax - dres);
-        bval = (force / fmax) / std::pow(t, nu);
+        bval = (force / fmax) / positive_pow(t, nu);
       }
       b = UNLOADING;
       continue;
@@ -451,18 +488,12 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
     double expo, f_end;
     if (elastic) {
       expo = kHertzExponent;
-      f_end = end > 0.0 ? kh * std::pow(end, kHertzExponent) : 0.0;
+      f_end = end > 0.0 ? kh * end * std::sqrt(end) : 0.0;
     } else {
       expo = (b == UNLOADING) ? nu : bval;
-      const double t = (end - dres) / (dmax - dres);
-      if (t <= 0.0)
-        f_end = 0.0;
-      else if (b == UNLOADING)
-        f_end = bval * fmax * std::pow(t, nu);
-      else
-        f_end = fmax * std::pow(t, bval);
+      f_end = detail::curve_force(b == UNLOADING, bval, nu, fmax, (end - dres) / (dmax - dres));
     }
-    work += (f_end * (end - base) - force * (d - base)) / (expo + 1.0);
+    work += detail::curve_work(f_end, end, force, d, base, expo);
     force = f_end;
     if (ratchets && end >= band_start) {
       b = RATCHET;
@@ -544,6 +575,29 @@ GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double ap
     s.branch = APART;
     s.branch_value = 1.0;  // left along an (elastic) unloading curve, A = 1
     return {0.0, 0.0};
+  }
+  if (s.max_approach > dy && (s.branch == UNLOADING || s.branch == RELOADING)) {
+    // on a plastic envelope's unloading or reloading curve, moving along it without reaching
+    // its end (d_res below, the envelope band or point above): the general loop's one move
+    // "along UNLOADING / RELOADING", same arithmetic, and only approach, force and work change
+    const double shift = s.ratchet_shift, dres = s.residual_approach, dmax = s.max_approach;
+    const double d = s.approach - shift, target = approach_new - shift;
+    const bool unloading = s.branch == UNLOADING;
+    const double top = s.pending_ratchet > 0.0 ? dmax - detail::envelope_band(p, dmax, dres) : dmax;
+    if (unloading ? (target < d && target > dres) : (target > d && target < top)) {
+      const double nu = s.unloading_exponent, bval = s.branch_value;
+      const double expo = unloading ? nu : bval;
+      const double f = detail::curve_force(unloading, bval, nu, s.max_force,
+                                           (target - dres) / (dmax - dres));
+      s.work += detail::curve_work(f, target, s.force, d, dres, expo);
+      s.approach = approach_new;
+      if (target <= 0.0) {
+        s.force = 0.0;
+        return {0.0, 0.0};
+      }
+      s.force = f;
+      return {f, f > 0.0 ? expo * f / (target - dres) : 0.0};
+    }
   }
   return detail::step_moves(p, s, approach_new);
 }

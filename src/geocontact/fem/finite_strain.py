@@ -1,0 +1,333 @@
+"""Finite-strain option of the FE engine (``run_history(kinematics="finite")``; issue 15).
+
+Multiplicative elastoplasticity with logarithmic (Hencky) elastic strain and the exponential map
+(Eterovic & Bathe 1990; Simo 1992; de Souza Neto, Peric & Owen 2008, ch. 14): with the inverse
+plastic right Cauchy-Green tensor ``C_p^-1`` of the last converged state, the elastic trial left
+Cauchy-Green tensor is ``b_e^trial = F C_p^-1 F^T``, its logarithmic strain
+``eps_e^trial = ln(b_e^trial) / 2`` gives the trial Kirchhoff stress ``tau = D : eps_e^trial``
+(``D`` the linear isotropic elasticity of the small-strain engine), and the Drucker-Prager return
+mapping of :mod:`geocontact.fem.plasticity` (cone and apex, unchanged) returns it in Kirchhoff
+stress; the exponential map then gives ``b_e = exp(2 eps_e)`` and ``C_p^-1 = F^-1 b_e F^-T``.
+At small strain this is the small-strain engine exactly (eps_e^trial -> eps - eps_p).
+
+Kinematics, axisymmetric: ``F`` is block diagonal, the in-plane 2x2 ``dx/dX`` of (r, z) and the
+hoop stretch ``1 + u_r / R``. Gradients are written as 5-vectors
+``[rr, zz, tt, rz, zr]`` (``rz`` = d/dz of the r component). The weak form is the spatial one
+pulled back to the reference volume dV0 = 2 pi R dA0::
+
+    f_j = integral tau : g_bar_j dV0,      g_j = Grad N_j F^-1 (hoop N_j / r, r = R + u_r)
+
+F-bar, the finite-strain analogue of the engine's B-bar (de Souza Neto et al. 2008, ch. 15):
+``F_bar = (J_bar / J)^(1/3) F`` with ``ln J_bar`` the r-weighted L2 projection of ``ln J`` per
+element onto the same space as the small-strain B-bar (linear, ``bbar-p1``, or constant); this
+is variational (``F_bar`` of a stored-energy function), so the test gradient ``g_bar`` gets the
+same projection of its trace, and the formulation reduces to the small-strain B-bar one as
+F -> I.
+
+The consistent tangent is derived in closed form (:func:`material_tangent`, the
+linearisation of the return mapping through the logarithm of ``b_e^trial``, plus the geometric
+term of the spatial form and of the projection) and checked against finite differences of the
+internal force in ``tests/test_fem_finite_strain.py``; it is not symmetric in general, so the
+linear systems are factorised with LU (SuperLU).
+
+Contact: the flat is rigid, z = 0, and the contact is the engine's exact node-to-flat constraint;
+a node's gap z0 + u_z is its current height, so the constraint is already the one of the current
+configuration (frictionless: the node slides freely in r). The contact radius is measured on the
+current configuration (r = R + u_r of the surface nodes).
+
+Outputs: ``State.stress`` is the Kirchhoff stress (its yield ratio and elastic energy
+psi = tau : D^-1 : tau / 2 per reference volume are those of the Hencky model);
+``State.strain`` holds ``C_p^-1 - I`` as ``[rr, zz, tt, rz]`` (zero in the virgin state).
+Plastic dissipation per step: sum of (tau_n + tau_n+1) / 2 : (eps_e^trial - eps_e) dV0 (the
+logarithmic plastic strain increment of the exponential map).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .plasticity import DruckerPrager, elastic_strain, return_mapping
+from .solver import ContactSolver, State, _lu
+
+# 5-vector gradient components and their place in the 2x2 in-plane block
+RR, ZZ, TT, RZ, ZR = range(5)
+_IN_PLANE = ((RR, RZ), (ZR, ZZ))  # _IN_PLANE[i][k]: component of d(.)_i / dx_k
+# tau : g (symmetric tau as [rr, zz, tt, rz]) as a 4x5 matrix: g_rz and g_zr both meet tau_rz
+SYM = np.array([[1.0, 0, 0, 0, 0], [0, 1.0, 0, 0, 0], [0, 0, 1.0, 0, 0], [0, 0, 0, 1.0, 1.0]])
+
+
+def block(v: np.ndarray) -> np.ndarray:
+    """5-vectors (5, ...) -> in-plane 2x2 blocks (..., 2, 2)."""
+    m = np.empty(v.shape[1:] + (2, 2))
+    for i in range(2):
+        for k in range(2):
+            m[..., i, k] = v[_IN_PLANE[i][k]]
+    return m
+
+
+def unblock(m: np.ndarray, hoop: np.ndarray) -> np.ndarray:
+    """In-plane blocks (..., 2, 2) and hoop (...) -> 5-vectors (5, ...)."""
+    v = np.empty((5,) + hoop.shape)
+    for i in range(2):
+        for k in range(2):
+            v[_IN_PLANE[i][k]] = m[..., i, k]
+    v[TT] = hoop
+    return v
+
+
+def sym_block(t: np.ndarray) -> np.ndarray:
+    """Symmetric tensors [rr, zz, tt, rz] (4, ...) -> in-plane blocks (..., 2, 2)."""
+    m = np.empty(t.shape[1:] + (2, 2))
+    m[..., 0, 0], m[..., 1, 1] = t[0], t[1]
+    m[..., 0, 1] = m[..., 1, 0] = t[3]
+    return m
+
+
+def sym_unblock(m: np.ndarray, hoop: np.ndarray) -> np.ndarray:
+    return np.stack([m[..., 0, 0], m[..., 1, 1], hoop, 0.5 * (m[..., 0, 1] + m[..., 1, 0])])
+
+
+def _eig(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return np.linalg.eigh(m)
+
+
+def _log_derivative_weights(lam: np.ndarray) -> np.ndarray:
+    """f_ab of d ln(b) = V (f o (V^T db V)) V^T: 1/lambda_a on the diagonal,
+    (ln lambda_a - ln lambda_b) / (lambda_a - lambda_b) off it (its limit when they meet)."""
+    l1, l2 = lam[..., 0], lam[..., 1]
+    diff = l1 - l2
+    close = np.abs(diff) < 1e-8 * np.abs(l1)
+    mean = 0.5 * (l1 + l2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = np.where(close, 1.0 / mean, (np.log(l1) - np.log(l2)) / np.where(close, 1.0, diff))
+    f = np.empty(lam.shape[:-1] + (2, 2))
+    f[..., 0, 0], f[..., 1, 1] = 1.0 / l1, 1.0 / l2
+    f[..., 0, 1] = f[..., 1, 0] = off
+    return f
+
+
+def _matrix_function(m: np.ndarray, fn) -> np.ndarray:
+    lam, vec = _eig(m)
+    return np.einsum("...ia,...a,...ja->...ij", vec, fn(lam), vec)
+
+
+class FiniteUpdate:
+    """The constitutive update at every point for displacement gradients ``H = F - I``
+    (5, ...) with the plastic metric ``cp = C_p^-1 - I`` (4, ...) and eqps of the last converged
+    state.
+
+    Everything is carried as a difference from the identity (``b - I`` by ``log1p`` of its
+    eigenvalues, ``C_p^-1 - I`` from ``expm1``), so that the stress of a small strain is as
+    exact as the small-strain engine's: formed from F and ln(b) directly, the stress would carry
+    a round-off of E x 1e-16 whatever the load, a residual floor far above the Newton tolerance
+    at small forces."""
+
+    def __init__(self, model: DruckerPrager, H: np.ndarray, cp: np.ndarray,
+                 eqps_old: np.ndarray, *, plastic: bool = True, tangent: bool = True):
+        hm, ht = block(H), H[TT]
+        gm, gt = sym_block(cp), cp[2]
+        eye = np.eye(2)
+        # b - I = (G - I) + H G + G H^T + H G H^T, G = I + cp
+        g_full = eye + gm
+        hg = hm @ g_full
+        b_minus = gm + hg + np.swapaxes(hg, -1, -2) + hg @ np.swapaxes(hm, -1, -2)
+        bt_minus = gt + ht * (2.0 + ht) * (1.0 + gt)
+        mu, vec = _eig(b_minus)
+        self.b, self.bt, self.lam, self.vec = eye + b_minus, 1.0 + bt_minus, 1.0 + mu, vec
+        eps = np.einsum("...ia,...a,...ja->...ij", vec, 0.5 * np.log1p(mu), vec)
+        trial_strain = sym_unblock(eps, 0.5 * np.log1p(bt_minus))
+        trial_strain[3] *= 2.0  # engineering shear
+        self.trial_strain = trial_strain
+        d_el = model.elastic_matrix()
+        trial = np.einsum("cd,d...->c...", d_el, trial_strain)
+        if plastic:
+            res = return_mapping(model, trial, eqps_old, tangent=tangent)
+            self.stress, self.eqps, self.status = res.stress, res.eqps, res.status
+            d_ep = res.tangent
+        else:
+            self.stress, self.eqps = trial, np.asarray(eqps_old)
+            self.status = np.zeros(trial.shape[1:], dtype=np.int8)
+            d_ep = np.broadcast_to(d_el.reshape((4, 4) + (1,) * (trial.ndim - 1)),
+                                   (4, 4) + trial.shape[1:]) if tangent else None
+        self.elastic_strain = elastic_strain(model, self.stress)
+        self.d_ep = d_ep
+        # exponential map: b_e = exp(2 eps_e), C_p^-1 = F^-1 b_e F^-T; with K = F^-1 - I:
+        # C_p^-1 - I = K + K^T + K K^T + F^-1 (b_e - I) F^-T
+        e = sym_block(self.elastic_strain * np.array([1.0, 1.0, 1.0, 0.5]).reshape(
+            (4,) + (1,) * (trial.ndim - 1)))
+        be_minus = _matrix_function(e, lambda x: np.expm1(2.0 * x))
+        finv = np.linalg.inv(eye + hm)
+        k = -hm @ finv
+        cp_new = (k + np.swapaxes(k, -1, -2) + k @ np.swapaxes(k, -1, -2)
+                  + finv @ be_minus @ np.swapaxes(finv, -1, -2))
+        # hoop: exp(2 e_tt) / F_tt^2 - 1
+        cp_t = np.expm1(2.0 * self.elastic_strain[2] - 2.0 * np.log1p(ht))
+        self.cp = sym_unblock(cp_new, cp_t)
+
+    def material_tangent(self) -> np.ndarray:
+        """d tau / d h (4, 5, ...): the change of the Kirchhoff stress [rr, zz, tt, rz] with the
+        spatial velocity gradient h = dF F^-1 (a 5-vector), through
+        d b_e^trial = h b + b h^T, d eps^trial = d ln(b) / 2 and the return mapping's D^ep."""
+        b, bt, vec = self.b, self.bt, self.vec
+        weights = _log_derivative_weights(self.lam)
+        shape = bt.shape
+        d_strain = np.empty((4, 5) + shape)
+        for k in range(5):
+            unit = np.zeros((5,) + shape)
+            unit[k] = 1.0
+            hm = block(unit)
+            db = hm @ b + b @ np.swapaxes(hm, -1, -2)
+            rotated = np.swapaxes(vec, -1, -2) @ db @ vec
+            deps = 0.5 * vec @ (weights * rotated) @ np.swapaxes(vec, -1, -2)
+            col = sym_unblock(deps, unit[TT] * 1.0)  # d eps_tt = h_tt (db_t = 2 h_tt b_t)
+            col[3] *= 2.0
+            d_strain[:, k] = col
+        return np.einsum("cd...,dk...->ck...", self.d_ep, d_strain)
+
+
+def geometric_tangent(stress: np.ndarray, mean_shift: np.ndarray) -> np.ndarray:
+    """A (5, 5, ...) with g . A h = -tau : (g h) + (tau_m - P[tau_m]) tr(g h), the change of
+    tau : g_bar under a change h of the configuration (``mean_shift`` = tau_m - P[tau_m], the
+    mean stress less its projection: the F-bar term)."""
+    tau = sym_block(stress)
+    shape = stress.shape[1:]
+    a = np.zeros((5, 5) + shape)
+    for i in range(2):
+        for j in range(2):
+            for k in range(2):
+                a[_IN_PLANE[i][k], _IN_PLANE[k][j]] -= tau[..., i, j]
+    a[TT, TT] -= stress[2]
+    for i in range(2):
+        for k in range(2):
+            a[_IN_PLANE[i][k], _IN_PLANE[k][i]] += mean_shift
+    a[TT, TT] += mean_shift
+    return a
+
+
+class FiniteStrainSolver(ContactSolver):
+    """The hemisphere-on-flat problem in finite strain (the module docstring); same interface,
+    contact, force control and outputs as :class:`ContactSolver`."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        basis = self.basis
+        r = self.radius_qp
+        rows = []
+        for phi in basis.basis:
+            f = phi[0]
+            rows.append(np.stack([f.grad[0, 0], f.grad[1, 1], np.asarray(f)[0] / r,
+                                  f.grad[0, 1], f.grad[1, 0]]))
+        self.G0 = np.ascontiguousarray(np.stack(rows))  # (12, 5, e, q) Grad N_j
+        self._predictor = None  # internal force of the last converged state while predicting
+
+    # --- kinematics -----------------------------------------------------------------------
+    def _project(self, field: np.ndarray) -> np.ndarray:
+        """The B-bar projection of a scalar field (e, q) per element (P0 or P1, r-weighted)."""
+        if not self.bbar:
+            return field
+        return self._project_volumetric(field[None])[0]
+
+    def kinematics(self, displacement: np.ndarray):
+        """H = F - I (5, e, q), H_bar = F_bar - I, and the spatial test gradients
+        g (12, 5, e, q) and g_bar."""
+        H = np.einsum("jkeq,je->keq", self.G0, displacement[self.element_dofs], optimize=True)
+        # ln J = ln det(F_in-plane) + ln F_tt, without forming 1 + small
+        log_j = (np.log1p(H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR])
+                 + np.log1p(H[TT]))
+        scale_minus = np.expm1((self._project(log_j) - log_j) / 3.0)  # (J_bar / J)^(1/3) - 1
+        h_bar = H * (1.0 + scale_minus)[None]
+        for c in (RR, ZZ, TT):
+            h_bar[c] += scale_minus
+        finv = np.linalg.inv(np.eye(2) + block(H))  # (e, q, 2, 2)
+        g_in = block(self.G0.transpose(1, 0, 2, 3)) @ finv[None]  # (12, e, q, 2, 2)
+        g = np.moveaxis(unblock(g_in, self.G0[:, TT] / (1.0 + H[TT])[None]), 0, 1)
+        trace = g[:, RR] + g[:, ZZ] + g[:, TT]
+        shift = ((self._project_volumetric(trace) if self.bbar else trace) - trace) / 3.0
+        g_bar = g.copy()
+        for c in (RR, ZZ, TT):
+            g_bar[:, c] += shift
+        return H, h_bar, g, g_bar
+
+    # --- the solver's hooks ---------------------------------------------------------------
+    def _evaluate(self, old: State, u: np.ndarray, *, elastic: bool, tangent: bool = True):
+        """Stress, C_p^-1, eqps, status, internal force and element matrices at ``u``."""
+        _, h_bar, g, g_bar = self.kinematics(u)
+        update = FiniteUpdate(self.model, h_bar, old.strain, old.eqps,
+                              plastic=self.plastic and not elastic, tangent=tangent)
+        stress = update.stress
+        f_int = self._force(g_bar, stress)
+        local = None
+        if tangent:
+            a_mat = np.einsum("cd,ck...->dk...", SYM, update.material_tangent())  # (5,5,e,q)
+            mean = (stress[0] + stress[1] + stress[2]) / 3.0
+            a_geo = geometric_tangent(stress, mean - self._project(mean))
+            dv = self.dvolume
+            local = (np.einsum("jceq,cdeq,kdeq,eq->ejk", g_bar, a_mat, g_bar, dv, optimize=True)
+                     + np.einsum("jceq,cdeq,kdeq,eq->ejk", g, a_geo, g, dv, optimize=True))
+        return update, f_int, local
+
+    def _force(self, g_bar: np.ndarray, stress: np.ndarray) -> np.ndarray:
+        """Nodal internal forces: integral of tau : g_bar dV0."""
+        local = np.einsum("jceq,ceq,eq->je", g_bar, np.einsum("cd,d...->c...", SYM.T, stress),
+                          self.dvolume, optimize=True)
+        return np.bincount(self.element_dofs.ravel(), weights=local.ravel(),
+                           minlength=self.ndofs)
+
+    def state_internal_force(self, state: State) -> np.ndarray:
+        return self._force(self.kinematics(state.displacement)[3], state.stress)
+
+    def element_matrices(self, tangent):
+        if tangent is None or tangent.ndim == 4:  # the linear predictor: B^T D B
+            return super().element_matrices(tangent)
+        return tangent  # (elements, 12, 12): _evaluate assembled them
+
+    def stiffness(self, tangent):
+        import scipy.sparse as sp
+
+        if tangent is None:
+            return super().stiffness(None)
+        a = self._assembly
+        data = np.bincount(a.slot, weights=tangent.ravel(), minlength=len(a.indices))
+        return sp.csr_matrix((data, a.indices, a.indptr), shape=(self.ndofs, self.ndofs))
+
+    def _response(self, old: State, u: np.ndarray, *, elastic: bool):
+        if self._predictor is not None:
+            # the linear predictor: the equilibrium of ``old`` plus the small-strain elastic
+            # stiffness of the reference configuration times the increment
+            d_strain = self.strain(u - old.displacement)
+            d_stress = np.einsum("cd,deq->ceq", self.elastic_matrix, d_strain)
+            f_int = self._predictor + ContactSolver.internal_force(self, d_stress)
+            return old.stress, old.strain, old.eqps, old.status, f_int, None
+        update, f_int, local = self._evaluate(old, u, elastic=elastic)
+        return update.stress, update.cp, update.eqps, update.status, f_int, local
+
+    def solve_step(self, old: State, force: float, *, label: str = "") -> State:
+        """A linear elastic predictor on the reference configuration (iterating only on the
+        contact set: it gets the contact set and the displacement close), then Newton with the
+        consistent finite-strain tangent."""
+        self._predictor = self.state_internal_force(old)
+        try:
+            u, w, active, _ = self._iterate(old, force, old.displacement.copy(),
+                                            old.top_displacement, old.active.copy(),
+                                            elastic=True, label=label)
+        finally:
+            self._predictor = None
+        _, _, _, result = self._iterate(old, force, u, w, active, elastic=not self.plastic,
+                                        label=label, final=True)
+        return result
+
+    def _factor(self, local, reduced):
+        if local is self._cache.get("elastic_local"):
+            return super()._factor(local, reduced)  # symmetric: CHOLMOD
+        self.factorisations += 1
+        return _lu(self._bordered_system(local, reduced))
+
+    def _dissipation(self, old: State, u: np.ndarray, stress: np.ndarray,
+                     strain: np.ndarray) -> float:
+        update = self._evaluate(old, u, elastic=False, tangent=False)[0]
+        d_plastic = update.trial_strain - update.elastic_strain
+        return 0.5 * float(np.sum(np.sum((old.stress + stress) * d_plastic, axis=0)
+                                  * self.dvolume))
+
+    def candidate_radii(self, state: State) -> np.ndarray:
+        return self.candidate_r + state.displacement[self.candidate_dofs_r]
