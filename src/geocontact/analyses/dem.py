@@ -124,14 +124,19 @@ def script_variables(settings: Settings, law: Path, contact: str, out: Path,
     return args
 
 
-def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: int, out: Path,
-               progress: Callable[[str], None] | None = None) -> float:
-    """Run the script into ``out`` (created by it); the wall time in s. The legs are reported
-    as LAMMPS finishes them; an interrupt (Ctrl-C, SIGTERM) stops LAMMPS before it propagates."""
+Reporter = Callable[[Path, int, str, "Callable[[str], None] | None"], int]
+
+
+def run_lammps(test: str, variables: list[str], contact: str, ranks: int, out: Path,
+               progress: Callable[[str], None] | None = None,
+               reporter: Reporter | None = None) -> float:
+    """Run the script with its ``-var`` arguments into ``out`` (created by it); the wall time in
+    s. ``reporter(out, reported, contact, progress)`` reports what LAMMPS finished (default: the
+    oedometer's legs); an interrupt (Ctrl-C, SIGTERM) stops LAMMPS before it propagates."""
     script = find_script(test)
+    report = reporter or (lambda folder, done, c, p: _report_legs(folder / "legs.txt", done, c, p))
     command = [*lammps_command(ranks), "-nocite", "-log", str(out.parent / f"{out.name}.log"),
-               "-screen", "none", "-in", str(script),
-               *script_variables(settings, law, contact, out, ranks)]
+               "-screen", "none", "-in", str(script), *variables]
     env = dict(os.environ)
     env["LD_LIBRARY_PATH"] = os.pathsep.join(
         p for p in (str(mpi_library_dir()), env.get("LD_LIBRARY_PATH", "")) if p)
@@ -146,7 +151,7 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
     try:
         while process.poll() is None:
             time.sleep(0.2)
-            reported = _report_legs(out / "legs.txt", reported, contact, progress)
+            reported = report(out, reported, contact, progress)
     finally:
         if process.poll() is None:  # interrupted: stop the LAMMPS we started, and its ranks
             os.killpg(process.pid, 15)
@@ -155,7 +160,7 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, 9)
                 process.wait()
-    _report_legs(out / "legs.txt", reported, contact, progress)
+    report(out, reported, contact, progress)
     if process.returncode != 0:
         log = out.parent / f"{out.name}.log"
         message = _lammps_error(log, stderr_path.read_text(errors="replace"))
@@ -358,7 +363,8 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
             folder = tmp / contact
             if progress:
                 progress(f"{contact}: {settings.grains} grains, {ranks} rank(s)")
-            wall = run_lammps(test, settings, law, contact, ranks, folder, progress)
+            wall = run_lammps(test, script_variables(settings, law, contact, folder, ranks),
+                              contact, ranks, folder, progress)
             parsed = parse_run(folder, settings)
             parsed["summary"]["runtime_s"] = wall
             parsed["summary"]["ranks"] = ranks
