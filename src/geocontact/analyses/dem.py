@@ -56,17 +56,7 @@ class Settings:
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
 
     def check(self) -> None:
-        if not MIN_GRAINS <= self.grains <= MAX_GRAINS:
-            raise InputError(f"grains: must be in [{MIN_GRAINS}, {MAX_GRAINS}] (a sample, not "
-                             f"a cluster; hours per cycle beyond), got {self.grains}")
-        for name, value, low, high in (("radius", self.radius, 1e-6, 10.0),
-                                       ("spread", self.spread, 0.0, 1.0),
-                                       ("stress", self.stress, 1.0, 1e9),
-                                       ("inertia", self.inertia, 1e-6, 0.1),
-                                       ("friction", self.friction, 0.0, 10.0),
-                                       ("damping", self.damping, 0.0, 0.99)):
-            if not (math.isfinite(value) and low <= value <= high):
-                raise InputError(f"{name}: must be in [{low:g}, {high:g}], got {value:g}")
+        check_sample(self, "cycle")
         if not self.targets or len(self.targets) % 2:
             raise InputError(f"targets: an even number of stress ratios (peak, valley, ...), "
                              f"got {len(self.targets)}")
@@ -79,8 +69,24 @@ class Settings:
                                  f"got {a:g} then {b:g}")
         if self.walls is not None and self.walls not in CONTACTS:
             raise InputError(f"walls: must be geocontact or granular, got {self.walls!r}")
-        if not 0 < self.seed < 2**31 - 1:
-            raise InputError(f"seed: must be in [1, {2**31 - 2}], got {self.seed}")
+
+
+def check_sample(settings, per: str, more: tuple = ()) -> None:
+    """The checks every DEM test's settings share (grains, sizes, stress, contact values, seed),
+    and ``more`` (name, value, low, high) ranges; ``per``: what takes hours beyond the limit."""
+    if not MIN_GRAINS <= settings.grains <= MAX_GRAINS:
+        raise InputError(f"grains: must be in [{MIN_GRAINS}, {MAX_GRAINS}] (a sample, not "
+                         f"a cluster; hours per {per} beyond), got {settings.grains}")
+    for name, value, low, high in (("radius", settings.radius, 1e-6, 10.0),
+                                   ("spread", settings.spread, 0.0, 1.0),
+                                   ("stress", settings.stress, 1.0, 1e9),
+                                   ("inertia", settings.inertia, 1e-6, 0.1),
+                                   ("friction", settings.friction, 0.0, 10.0),
+                                   ("damping", settings.damping, 0.0, 0.99), *more):
+        if not (math.isfinite(value) and low <= value <= high):
+            raise InputError(f"{name}: must be in [{low:g}, {high:g}], got {value:g}")
+    if not 0 < settings.seed < 2**31 - 1:
+        raise InputError(f"seed: must be in [1, {2**31 - 2}], got {settings.seed}")
 
 
 def find_script(test: str) -> Path:

@@ -42,16 +42,7 @@ import numpy as np
 
 from ..errors import GeocontactError, InputError
 from ..lammps_plugin import plugin_path
-from .dem import (
-    CONTACTS,
-    MAX_GRAINS,
-    MAX_RANKS,
-    MIN_GRAINS,
-    SCHEMA,
-    read_run,
-    read_table,
-    run_lammps,
-)
+from .dem import CONTACTS, MAX_RANKS, SCHEMA, check_sample, read_run, read_table, run_lammps
 
 TEST = "seismic"
 MAX_SAMPLES = 20_000  # record samples: one `run` of LAMMPS each
@@ -76,22 +67,9 @@ class SeismicSettings:
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
 
     def check(self) -> None:
-        if not MIN_GRAINS <= self.grains <= MAX_GRAINS:
-            raise InputError(f"grains: must be in [{MIN_GRAINS}, {MAX_GRAINS}] (a sample, not "
-                             f"a cluster; hours per record beyond), got {self.grains}")
-        for name, value, low, high in (("radius", self.radius, 1e-6, 10.0),
-                                       ("spread", self.spread, 0.0, 1.0),
-                                       ("stress", self.stress, 1.0, 1e9),
-                                       ("strain", self.strain, 1e-6, 0.2),
-                                       ("inertia", self.inertia, 1e-6, 0.1),
-                                       ("friction", self.friction, 0.0, 10.0),
-                                       ("damping", self.damping, 0.0, 0.99)):
-            if not (math.isfinite(value) and low <= value <= high):
-                raise InputError(f"{name}: must be in [{low:g}, {high:g}], got {value:g}")
+        check_sample(self, "record", (("strain", self.strain, 1e-6, 0.2),))
         if not 1 <= self.decimate <= 1000:
             raise InputError(f"decimate: must be in [1, 1000], got {self.decimate}")
-        if not 0 < self.seed < 2**31 - 1:
-            raise InputError(f"seed: must be in [1, {2**31 - 2}], got {self.seed}")
 
 
 @dataclass(frozen=True)
