@@ -23,8 +23,9 @@ relative timing of its peaks, hence the peak-time fraction), and the response of
 which is rate independent, as long as the sample stays quasi-static. Two numbers say whether it
 does, both reported: the inertia number (below about 1e-3 the stresses do not depend on the
 rate), and the ratio of the compressed record's displacement frequency (timescale times
-max|du/dt| / max|u| / 2 pi) to the sample's first vertical resonance sqrt(M / rho_bulk) / (4 H)
-(M the consolidation's secant modulus, a lower bound of the elastic one): well below 1, the
+max|du/dt| / max|u| / 2 pi) to the sample's first vertical resonance sqrt(M / rho_bulk) / (4 H),
+given for M between the consolidation's secant modulus (a lower bound of the elastic one) and
+the Voigt estimate the servo uses (an upper bound): well below 1, the
 sample is loaded as a quasi-static element; near 1 or above, the base shakes only the grains
 near it and the stresses are dynamic. The time compression does not keep the inertial loading of
 the real event (the base acceleration in the simulation is timescale^2 times the scaled
@@ -208,7 +209,9 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
     peak_time = motion.processed.peak_time
     modulus = float(run["modulus_Pa"])
     packing = float(run["solid_volume_m3"]) / (area * h0)
+    voigt = float(run["voigt_modulus_Pa"])
     resonance = math.sqrt(modulus / (packing * settings.density)) / (4.0 * h0)
+    resonance_voigt = math.sqrt(voigt / (packing * settings.density)) / (4.0 * h0)
     loading = timescale * motion.peak_velocity_ratio / (2.0 * math.pi)
     fraction = motion.processed.peak_time_fraction
 
@@ -233,12 +236,15 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
         "height_m": h0,
         "packing_fraction": packing,
         "consolidation_modulus_Pa": modulus,
+        "voigt_modulus_Pa": voigt,
         "resonance_hz": resonance,
         "loading_frequency_hz": loading,
         "loading_over_resonance": loading / resonance,
+        "loading_over_resonance_voigt": loading / resonance_voigt,
         "stress_at_start_Pa": float(run["shaking_start_stress_Pa"]),
         "stress_mean_Pa": float(np.mean(stress)),
         "stress_std_Pa": float(np.std(stress)),
+        "stress_min_Pa": float(np.min(stress)),
         "peak_shear_strain": float(np.max(np.abs(base)) / h0),
         "peak_shear_stress_Pa": float(np.max(np.abs(shear))),
         "inertia_number": {"max": float(np.max(inertia)),
