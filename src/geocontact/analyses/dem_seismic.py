@@ -195,8 +195,10 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
     # geocontact: the base's work from the wall fix's own force (the virial misses the wall
     # contacts' half-branches: a few per cent quasi-statically, more when dynamic)
     wall_force = series["base_wall_force_x_N"][keep]
-    fix_work = (float(np.sum(wall_force * series["base_velocity_m_s"][keep]) * nprint * dt)
-                if np.any(wall_force) else None)
+    fix_power = series["base_power_fix_W"][keep] + series["top_power_fix_W"][keep]
+    fix_work = np.cumsum(fix_power * nprint * dt) if np.any(wall_force) else None
+    fix_base_work = (float(np.sum(series["base_power_fix_W"][keep]) * nprint * dt)
+                     if np.any(wall_force) else None)
     law = series["law_dissipated_J"][keep] - series["law_dissipated_J"][keep][0]
     stress = series["stress_Pa"][keep]
     shear = series["shear_stress_Pa"][keep]
@@ -255,9 +257,11 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
         "vertical_strain": final_settlement / h0,
         "wall_work_J": final_work,
         "base_work_J": float(base_work[-1]),
-        "base_work_from_wall_force_J": fix_work,
+        "base_work_from_wall_force_J": fix_base_work,
+        "wall_work_from_wall_forces_J": float(fix_work[-1]) if fix_work is not None else None,
         "law_dissipated_J": float(law[-1]),
-        "law_share_of_wall_work": float(law[-1] / final_work) if final_work > 0 else None,
+        "law_share_of_wall_work": (float(law[-1] / fix_work[-1]) if fix_work is not None
+                                   and fix_work[-1] > 0 else None),
         "at_peak_time": {
             "settlement_fraction": at(peak_time, settlement) / final_settlement
             if final_settlement > 0 else None,
@@ -275,6 +279,8 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
               "shear_stress_Pa": shear, "base_displacement_m": base,
               "shear_strain": base / h0, "base_velocity_m_s": velocity,
               "inertia_number": inertia, "wall_work_J": work, "base_work_J": base_work,
+              "wall_work_from_wall_forces_J": (fix_work if fix_work is not None
+                                               else np.zeros_like(work)),
               "law_dissipated_J": law,
               "base_wall_force_x_N": series["base_wall_force_x_N"][keep],
               "kinetic_J": series["kinetic_J"][keep],
