@@ -68,21 +68,20 @@ def test_settlement_and_dissipation(both):
     out, doc = both
     g, h = doc["runs"]["geocontact"], doc["runs"]["granular"]
     for run in (g, h):
-        # the servo holds the vertical stress on average: loosely here (300 grains shaken far
-        # above their resonance carry less stress on average; a servo of the wrong sign or gain
-        # runs away to 0 or to MPa)
-        assert run["stress_mean_Pa"] == pytest.approx(5e3, rel=0.3)
+        # the servo holds the vertical stress, loosely here: 300 grains shaken far above their
+        # resonance compact faster than the speed-limited servo follows (docs/dem.md gives the
+        # quasi-static run); a servo of the wrong sign or gain runs away to 0 or to MPa
+        assert 0.4 * 5e3 < run["stress_mean_Pa"] < 1.2 * 5e3
         # a sample sheared back and forth at constant stress compacts: it settles, the walls
         # do positive work, and the settlement grows (never undone by more than the noise)
         assert run["settlement_m"] > 0
         s = read_csv_column(out / run["contact"] / "series.csv", "settlement_m")
         assert s[-1] > 0.5 * s.max()
         assert 0.55 < run["packing_fraction"] < 0.72
-    # only the geocontact law dissipates in its normal contact law; the base gives energy (its
-    # own force on the grains times its velocity). (Shaken this fast, the virial's shear stress
-    # is not the base force and the servo's top wall takes energy out: no balance is checked
-    # here; docs/dem.md compares them in the quasi-static run.)
-    assert g["law_dissipated_J"] > 0
+    # only the geocontact law dissipates in its normal contact law, and less than the walls gave
+    # (their work from the wall fixes' own forces; shaken this fast, the virial's stresses are
+    # not the wall forces, docs/dem.md)
+    assert 0 < g["law_dissipated_J"] < g["wall_work_from_wall_forces_J"]
     assert h["law_dissipated_J"] == 0
     assert g["base_work_from_wall_force_J"] > 0 and h["base_work_from_wall_force_J"] is None
     law = read_csv_column(out / "geocontact" / "series.csv", "law_dissipated_J")
@@ -109,9 +108,9 @@ def test_two_ranks(tmp_path):
     base_follows_the_record(tmp_path / "r2" / "geocontact", run,
                             base_motion(RECORD, decimate=SMALL["decimate"]),
                             SeismicSettings().strain)
-    assert run["stress_mean_Pa"] == pytest.approx(5e3, rel=0.3)
-    assert run["settlement_m"] > 0 and run["law_dissipated_J"] > 0
-    assert run["base_work_from_wall_force_J"] > 0
+    assert 0.4 * 5e3 < run["stress_mean_Pa"] < 1.2 * 5e3
+    assert run["settlement_m"] > 0
+    assert 0 < run["law_dissipated_J"] < run["wall_work_from_wall_forces_J"]
 
 
 def test_base_motion_of_a_sine_is_its_closed_form(tmp_path):
