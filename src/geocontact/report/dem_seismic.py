@@ -39,13 +39,15 @@ def seismic_section(report: Report, directory: Path, root: Path, figures: Path) 
         rows.append([contact, r["grains"], r["ranks"], r["steps"], r["runtime_s"],
                      r["timescale"], r["inertia_number"]["max"], r["inertia_number"]["rms"],
                      r["peak_shear_strain"], r["settlement_m"], r["vertical_strain"],
-                     r["wall_work_J"], r["law_dissipated_J"],
+                     r["wall_work_J"], r.get("wall_work_from_wall_forces_J"),
+                     r["law_dissipated_J"],
                      r["at_peak_time"]["settlement_fraction"],
                      r["settlement_90_fraction_of_record"]])
     items.append(table(["contact", "grains", "ranks", "steps", "runtime (s)", "time compression",
                         "inertia number (max)", "inertia number (rms)", "peak shear strain",
-                        "settlement (m)", "vertical strain", "wall work (J)",
-                        "law dissipation (J)", "settlement share at the PGA time",
+                        "settlement (m)", "vertical strain", "wall work, virial (J)",
+                        "wall work, wall fixes (J)", "law dissipation (J)",
+                        "settlement share at the PGA time",
                         "90 % of settlement at (share of record)"], rows))
 
     # the record: acceleration, and the base displacement it becomes
@@ -73,13 +75,16 @@ def seismic_section(report: Report, directory: Path, root: Path, figures: Path) 
     data: dict[str, np.ndarray] = {}
     for contact in runs:
         t = _columns(directory / contact / "series.csv",
-                     ("record_time_s", "settlement_m", "wall_work_J", "law_dissipated_J"))
+                     ("record_time_s", "settlement_m", "wall_work_J",
+                      "wall_work_from_wall_forces_J", "law_dissipated_J"))
         colour = COLOURS[contact]
         axes[0].plot(t["record_time_s"], t["settlement_m"] * 1e6, lw=0.9, label=contact,
                      color=colour)
         axes[1].plot(t["record_time_s"], t["wall_work_J"] * 1e3, lw=0.9,
                      label=f"{contact}: wall work", color=colour)
         if contact == "geocontact":
+            axes[1].plot(t["record_time_s"], t["wall_work_from_wall_forces_J"] * 1e3, lw=0.9,
+                         ls=":", label="geocontact: wall work (wall fix forces)", color=colour)
             axes[1].plot(t["record_time_s"], t["law_dissipated_J"] * 1e3, lw=0.9, ls="--",
                          label="geocontact: law dissipation", color=colour, alpha=0.7)
         data.update({f"{contact}_{k}": v for k, v in t.items()})
@@ -96,6 +101,8 @@ def seismic_section(report: Report, directory: Path, root: Path, figures: Path) 
         f"peak {first['peak_shear_strain']:.2g} of the height; the record's time compressed "
         f"{first['timescale']:.3g}x (largest inertia number {first['inertia_number']['max']:.2g})."
         " Wall work: the work of the base and the top wall on the sample (dissipated by "
-        "friction, damping and the law, less the small change of stored energy); law "
-        "dissipation: the geocontact normal law's own. Dashed: the time of the PGA.", data)))
+        "friction, damping and the law, less the small change of stored energy), from the "
+        "virial stresses (both laws) and, dotted, from the wall fixes' own forces (geocontact); "
+        "law dissipation: the geocontact normal law's own. Grey dashed: the time of the PGA.",
+        data)))
     report.add(f"DEM seismic {rel or '.'}", *items)
