@@ -334,16 +334,12 @@ def parse_run(folder: Path, settings: Settings) -> dict:
 
 # --- the command -------------------------------------------------------------------------------
 
-def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[str, ...],
-            ranks: int, out: str | Path, overwrite: bool = False,
-            progress: Callable[[str], None] | None = None) -> dict:
-    """Run ``test`` for each contact model into ``out`` (one result folder, written as a unit):
-    ``CONTACT/`` with the LAMMPS outputs and the parsed CSVs, and summary.json."""
-    from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
+def check_run(settings, law: str | Path, contacts: tuple[str, ...], ranks: int):
+    """The checks of a DEM run before anything is written: contacts, ranks, settings, the law
+    file (its path resolved and its parameters); the granular model and the time step take the
+    law file's elastic constants unless ``settings.extra`` sets them."""
     from ..law import load_params
 
-    if test not in TESTS:
-        raise InputError(f"test: must be one of {', '.join(TESTS)}, got {test!r}")
     for c in contacts:
         if c not in CONTACTS:
             raise InputError(f"contact: must be geocontact, granular or both, got {c!r}")
@@ -353,11 +349,23 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
     law = Path(law).resolve()
     try:
         params = load_params(law)
-    except InputError as exc:  # named by this function's parameter
+    except InputError as exc:  # named by the run's parameter
         raise InputError(f"law: {str(exc).removeprefix('params: ')}") from None
-    # the granular model and the time step use the law file's elastic constants
     settings.extra.setdefault("E", repr(params.material.youngs_modulus))
     settings.extra.setdefault("nu", repr(params.material.poissons_ratio))
+    return law, params
+
+
+def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[str, ...],
+            ranks: int, out: str | Path, overwrite: bool = False,
+            progress: Callable[[str], None] | None = None) -> dict:
+    """Run ``test`` for each contact model into ``out`` (one result folder, written as a unit):
+    ``CONTACT/`` with the LAMMPS outputs and the parsed CSVs, and summary.json."""
+    from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
+
+    if test not in TESTS:
+        raise InputError(f"test: must be one of {', '.join(TESTS)}, got {test!r}")
+    law, params = check_run(settings, law, contacts, ranks)
     check_replaceable(out, "dem", overwrite=overwrite)
     inputs = {"test": test, "law": str(law), "contacts": list(contacts), "ranks": ranks,
               **{k: v for k, v in asdict(settings).items()}}

@@ -43,7 +43,7 @@ import numpy as np
 
 from ..errors import GeocontactError, InputError
 from ..lammps_plugin import plugin_path
-from .dem import CONTACTS, MAX_RANKS, SCHEMA, check_sample, read_run, read_table, run_lammps
+from .dem import SCHEMA, check_run, check_sample, read_run, read_table, run_lammps
 
 TEST = "seismic"
 MAX_SAMPLES = 20_000  # record samples: one `run` of LAMMPS each
@@ -297,22 +297,9 @@ def run_seismic(record: str, law: str | Path, settings: SeismicSettings, *,
     folder, written as a unit): ``record.csv``, ``CONTACT/`` with the LAMMPS outputs and
     ``series.csv``, and summary.json."""
     from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
-    from ..law import load_params
     from .seismic.classify import PAPER_EARLY_PEAK_FRACTION, peak_time_rule
 
-    for c in contacts:
-        if c not in CONTACTS:
-            raise InputError(f"contact: must be geocontact, granular or both, got {c!r}")
-    if not 1 <= ranks <= MAX_RANKS:
-        raise InputError(f"ranks: must be in [1, {MAX_RANKS}], got {ranks}")
-    settings.check()
-    law = Path(law).resolve()
-    try:
-        params = load_params(law)
-    except InputError as exc:
-        raise InputError(f"law: {str(exc).removeprefix('params: ')}") from None
-    settings.extra.setdefault("E", repr(params.material.youngs_modulus))
-    settings.extra.setdefault("nu", repr(params.material.poissons_ratio))
+    law, params = check_run(settings, law, contacts, ranks)
     motion = base_motion(record, settings.baseline, settings.decimate)
     check_replaceable(out, "dem", overwrite=overwrite)
     timescale = motion.timescale(settings)
