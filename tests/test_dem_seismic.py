@@ -85,9 +85,11 @@ def test_settlement_and_dissipation(both):
     assert h["law_dissipated_J"] == 0
     assert g["base_work_from_wall_force_J"] > 0 and h["base_work_from_wall_force_J"] is None
     law = read_csv_column(out / "geocontact" / "series.csv", "law_dissipated_J")
-    # it grows, but for dips of up to 1.4e-3 of its total measured at a few samples (the pair
-    # compute's total; not explained yet, docs/dem.md)
-    assert law[0] == 0 and np.all(np.diff(law) >= -1e-2 * law[-1])
+    # it grows, but for the dips when a contact that dissipated leaves the neighbour list
+    # (`compute pair geocontact` [1] sums the current contacts only; measured: one or two dips of
+    # about 1e-8 J, up to 1.8 % of the total here)
+    dips = np.minimum(np.diff(law), 0.0)
+    assert law[0] == 0 and dips.sum() >= -0.05 * law[-1]
 
 
 def test_report_section(both):
