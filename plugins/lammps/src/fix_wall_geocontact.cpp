@@ -32,7 +32,7 @@ constexpr const char *kUsage =
     "fix ID group wall/geocontact P.json [friction mu] [damping beta] "
     "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] "
     "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
-    "position v_name]";
+    "position v_name | shear dim V|v_name]";
 
 }  // namespace
 
@@ -40,7 +40,7 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), friction_(kDefaultFriction), damping_(0.0), resistance_{},
     wallstyle_(ZPLANE),
     lo_(0.0), hi_(0.0), cylinder_radius_(0.0), motion_(STATIC), wiggle_axis_(2),
-    amplitude_(0.0), angular_frequency_(0.0), velocity_(0.0), ivariable_(-1),
+    amplitude_(0.0), angular_frequency_(0.0), velocity_(0.0), shear_axis_(0), ivariable_(-1),
     last_position_(0.0), position_velocity_(0.0), last_position_step_(-1),
     forgotten_dissipated_(0.0), totals_current_(false), unreadable_restart_(false),
     unreadable_tag_(0), unreadable_walls_(0)
@@ -144,18 +144,40 @@ void FixWallGeocontact::parse_wall(int &iarg, int narg, char **arg)
   }
 }
 
-// wiggle dim A period | velocity v | position v_name (at most one)
+// wiggle dim A period | velocity v | position v_name | shear dim V|v_name (at most one)
 void FixWallGeocontact::parse_motion(int &iarg, int narg, char **arg)
 {
   while (iarg < narg) {
     const std::string key = arg[iarg];
-    if (key != "wiggle" && key != "velocity" && key != "position")
+    if (key != "wiggle" && key != "velocity" && key != "position" && key != "shear")
       error->all(FLERR, "Fix wall/geocontact: unknown keyword '{}' (allowed after the wall: "
-                        "wiggle, velocity, position)", key);
+                        "wiggle, velocity, position, shear)", key);
     if (motion_ != STATIC)
       error->all(FLERR, "Fix wall/geocontact: '{}' after another wall motion (one of wiggle, "
-                        "velocity, position)", key);
-    if (key == "wiggle") {
+                        "velocity, position, shear)", key);
+    if (key == "shear") {
+      if (iarg + 2 >= narg)
+        error->all(FLERR, "Fix wall/geocontact: shear needs dim and a velocity (a number or "
+                          "v_name)");
+      const std::string dim = arg[iarg + 1];
+      if (dim != "x" && dim != "y" && dim != "z")
+        error->all(FLERR, "Fix wall/geocontact: shear dim must be x, y or z, got '{}'", dim);
+      shear_axis_ = dim[0] - 'x';
+      if (wallstyle_ == ZCYLINDER && shear_axis_ != 2)
+        error->all(FLERR, "Fix wall/geocontact: a zcylinder shears along z only, got '{}'", dim);
+      if (wallstyle_ <= ZPLANE && shear_axis_ == wallstyle_)
+        error->all(FLERR, "Fix wall/geocontact: shear dim must lie in the {} wall (not its "
+                          "normal {}), got '{}'", kWallNames[wallstyle_], dim, dim);
+      if (strncmp(arg[iarg + 2], "v_", 2) == 0) {
+        variable_ = arg[iarg + 2] + 2;
+        if (variable_.empty())
+          error->all(FLERR, "Fix wall/geocontact: shear velocity 'v_' names no variable");
+      } else {
+        velocity_ = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      }
+      motion_ = SHEAR;
+      iarg += 3;
+    } else if (key == "wiggle") {
       if (iarg + 3 >= narg)
         error->all(FLERR, "Fix wall/geocontact: wiggle needs dim amplitude period");
       const std::string dim = arg[iarg + 1];
@@ -197,14 +219,15 @@ int FixWallGeocontact::setmask()
 
 void FixWallGeocontact::init()
 {
-  if (motion_ == POSITION) {
+  if (!variable_.empty()) {
+    const char *what = motion_ == POSITION ? "position" : "shear";
     ivariable_ = input->variable->find(variable_.c_str());
     if (ivariable_ < 0)
-      error->all(FLERR, "Fix wall/geocontact: variable '{}' of position does not exist",
-                 variable_);
+      error->all(FLERR, "Fix wall/geocontact: variable '{}' of {} does not exist", variable_,
+                 what);
     if (!input->variable->equalstyle(ivariable_))
-      error->all(FLERR, "Fix wall/geocontact: variable '{}' of position is not equal-style",
-                 variable_);
+      error->all(FLERR, "Fix wall/geocontact: variable '{}' of {} is not equal-style",
+                 variable_, what);
   }
   // A per-atom restart record this fix could not read: refused on every rank, the lowest rank
   // that met one names it.
@@ -270,6 +293,16 @@ double FixWallGeocontact::wall_displacement(double &velocity)
     velocity = velocity_;
     return velocity_ * t;
   }
+  if (motion_ == SHEAR) {  // in the wall's plane: the velocity only, the wall stays in place
+    if (variable_.empty()) {
+      velocity = velocity_;
+    } else {
+      modify->clearstep_compute();
+      velocity = input->variable->compute_equal(ivariable_);
+      modify->addstep_compute(update->ntimestep + 1);
+    }
+    return 0.0;
+  }
   if (motion_ == POSITION) {
     modify->clearstep_compute();
     const double position = input->variable->compute_equal(ivariable_);
@@ -311,6 +344,8 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       lo += shift;
       hi += shift;
     }
+  } else if (motion_ == SHEAR) {
+    vwall[shear_axis_] = wall_velocity;
   } else if (motion_ != STATIC) {
     if (normal_axis >= 0) {
       vwall[normal_axis] = wall_velocity;
@@ -394,9 +429,11 @@ void FixWallGeocontact::post_force(int /*vflag*/)
         const ContactStiffness stiffness = wall_contact_stiffness(law_, constants, rec.law, scale);
         const Damping damping = damping_coefficients(damping_, rmass[i], stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
+        // setup: the stored spring, not advanced (LAMMPS's granular models with the history
+        // update off), so the force is the one the last committed step ended with
         if (friction_ > 0.0)
           tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
-                           friction_, fn, dt);
+                           friction_, fn, commit ? dt : 0.0);
         // the wall as body j: no spin, flat (R* = r)
         if (resistance_.rolling)
           rolling_torque(rec.rolling, extra, resistance_, n, omega[i], no_spin, radius[i], fn,

@@ -4,7 +4,11 @@
 //   fix ID group wall/geocontact P.json [friction mu] [damping beta]
 //       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] wallstyle args [motion]
 //     wallstyle: xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
-//     motion:    wiggle dim A period | velocity v | position v_name
+//     motion:    wiggle dim A period | velocity v | position v_name | shear dim V
+//       shear: the wall slides in its own plane (along the axis of a zcylinder) at the velocity V
+//       along dim, a constant (LAMMPS's fix wall/gran shear) or an equal-style variable v_name
+//       evaluated every step (a base driven by a velocity record); the wall does not move along
+//       its normal, so the grains feel it through the tangential force and rolling alone.
 //
 // A grain of radius r = s R (R the file's radius) at wall interference w feels the ball-wall
 // law of the FE half model (SPEC 10): F = s^2 F_R(2 w / s), the pair law of two identical
@@ -85,7 +89,7 @@ class FixWallGeocontact : public Fix {
 
  private:
   enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3 };
-  enum Motion { STATIC, WIGGLE, VELOCITY, POSITION };
+  enum Motion { STATIC, WIGGLE, VELOCITY, POSITION, SHEAR };
   enum Side { LO, HI, CYLINDER };
   enum Global { GF_X, GF_Y, GF_Z, G_DISSIPATED, G_ELASTIC, G_CONTACTS, G_COUNT };
 
@@ -114,7 +118,8 @@ class FixWallGeocontact : public Fix {
   int motion_;
   int wiggle_axis_;
   double amplitude_, angular_frequency_, velocity_;
-  std::string variable_;
+  int shear_axis_;
+  std::string variable_;  // of position, or of the shear velocity (empty: a constant shear)
   int ivariable_;
   bigint time_origin_;
   // the position variable's last value, the wall velocity from it, and their step

@@ -475,9 +475,11 @@ void PairGeocontact::compute(int eflag, int vflag)
         const double meff = reduced_mass(rmass[i], rmass[j]);
         const Damping damping = damping_coefficients(tp.damping, meff, stiffness);
         fn = damped_normal_force(law_force, damping.normal, frame.vn);
+        // setup: the stored spring, not advanced (LAMMPS's granular models with the history
+        // update off), so the force is the one the last committed step ended with
         if (tp.friction > 0.0)
           tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
-                           tp.friction, fn, dt);
+                           tp.friction, fn, commit ? dt : 0.0);
         const RollingCoeffs &rc = tp.resistance;
         if (rc.rolling) {
           const double reff = radi * radius[j] / radsum;

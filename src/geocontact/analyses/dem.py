@@ -56,17 +56,7 @@ class Settings:
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
 
     def check(self) -> None:
-        if not MIN_GRAINS <= self.grains <= MAX_GRAINS:
-            raise InputError(f"grains: must be in [{MIN_GRAINS}, {MAX_GRAINS}] (a sample, not "
-                             f"a cluster; hours per cycle beyond), got {self.grains}")
-        for name, value, low, high in (("radius", self.radius, 1e-6, 10.0),
-                                       ("spread", self.spread, 0.0, 1.0),
-                                       ("stress", self.stress, 1.0, 1e9),
-                                       ("inertia", self.inertia, 1e-6, 0.1),
-                                       ("friction", self.friction, 0.0, 10.0),
-                                       ("damping", self.damping, 0.0, 0.99)):
-            if not (math.isfinite(value) and low <= value <= high):
-                raise InputError(f"{name}: must be in [{low:g}, {high:g}], got {value:g}")
+        check_sample(self, "cycle")
         if not self.targets or len(self.targets) % 2:
             raise InputError(f"targets: an even number of stress ratios (peak, valley, ...), "
                              f"got {len(self.targets)}")
@@ -79,8 +69,24 @@ class Settings:
                                  f"got {a:g} then {b:g}")
         if self.walls is not None and self.walls not in CONTACTS:
             raise InputError(f"walls: must be geocontact or granular, got {self.walls!r}")
-        if not 0 < self.seed < 2**31 - 1:
-            raise InputError(f"seed: must be in [1, {2**31 - 2}], got {self.seed}")
+
+
+def check_sample(settings, per: str, more: tuple = ()) -> None:
+    """The checks every DEM test's settings share (grains, sizes, stress, contact values, seed),
+    and ``more`` (name, value, low, high) ranges; ``per``: what takes hours beyond the limit."""
+    if not MIN_GRAINS <= settings.grains <= MAX_GRAINS:
+        raise InputError(f"grains: must be in [{MIN_GRAINS}, {MAX_GRAINS}] (a sample, not "
+                         f"a cluster; hours per {per} beyond), got {settings.grains}")
+    for name, value, low, high in (("radius", settings.radius, 1e-6, 10.0),
+                                   ("spread", settings.spread, 0.0, 1.0),
+                                   ("stress", settings.stress, 1.0, 1e9),
+                                   ("inertia", settings.inertia, 1e-6, 0.1),
+                                   ("friction", settings.friction, 0.0, 10.0),
+                                   ("damping", settings.damping, 0.0, 0.99), *more):
+        if not (math.isfinite(value) and low <= value <= high):
+            raise InputError(f"{name}: must be in [{low:g}, {high:g}], got {value:g}")
+    if not 0 < settings.seed < 2**31 - 1:
+        raise InputError(f"seed: must be in [1, {2**31 - 2}], got {settings.seed}")
 
 
 def find_script(test: str) -> Path:
@@ -124,14 +130,19 @@ def script_variables(settings: Settings, law: Path, contact: str, out: Path,
     return args
 
 
-def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: int, out: Path,
-               progress: Callable[[str], None] | None = None) -> float:
-    """Run the script into ``out`` (created by it); the wall time in s. The legs are reported
-    as LAMMPS finishes them; an interrupt (Ctrl-C, SIGTERM) stops LAMMPS before it propagates."""
+Reporter = Callable[[Path, int, str, "Callable[[str], None] | None"], int]
+
+
+def run_lammps(test: str, variables: list[str], contact: str, ranks: int, out: Path,
+               progress: Callable[[str], None] | None = None,
+               reporter: Reporter | None = None) -> float:
+    """Run the script with its ``-var`` arguments into ``out`` (created by it); the wall time in
+    s. ``reporter(out, reported, contact, progress)`` reports what LAMMPS finished (default: the
+    oedometer's legs); an interrupt (Ctrl-C, SIGTERM) stops LAMMPS before it propagates."""
     script = find_script(test)
+    report = reporter or (lambda folder, done, c, p: _report_legs(folder / "legs.txt", done, c, p))
     command = [*lammps_command(ranks), "-nocite", "-log", str(out.parent / f"{out.name}.log"),
-               "-screen", "none", "-in", str(script),
-               *script_variables(settings, law, contact, out, ranks)]
+               "-screen", "none", "-in", str(script), *variables]
     env = dict(os.environ)
     env["LD_LIBRARY_PATH"] = os.pathsep.join(
         p for p in (str(mpi_library_dir()), env.get("LD_LIBRARY_PATH", "")) if p)
@@ -146,7 +157,7 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
     try:
         while process.poll() is None:
             time.sleep(0.2)
-            reported = _report_legs(out / "legs.txt", reported, contact, progress)
+            reported = report(out, reported, contact, progress)
     finally:
         if process.poll() is None:  # interrupted: stop the LAMMPS we started, and its ranks
             os.killpg(process.pid, 15)
@@ -155,7 +166,7 @@ def run_lammps(test: str, settings: Settings, law: Path, contact: str, ranks: in
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, 9)
                 process.wait()
-    _report_legs(out / "legs.txt", reported, contact, progress)
+    report(out, reported, contact, progress)
     if process.returncode != 0:
         log = out.parent / f"{out.name}.log"
         message = _lammps_error(log, stderr_path.read_text(errors="replace"))
@@ -323,16 +334,12 @@ def parse_run(folder: Path, settings: Settings) -> dict:
 
 # --- the command -------------------------------------------------------------------------------
 
-def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[str, ...],
-            ranks: int, out: str | Path, overwrite: bool = False,
-            progress: Callable[[str], None] | None = None) -> dict:
-    """Run ``test`` for each contact model into ``out`` (one result folder, written as a unit):
-    ``CONTACT/`` with the LAMMPS outputs and the parsed CSVs, and summary.json."""
-    from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
+def check_run(settings, law: str | Path, contacts: tuple[str, ...], ranks: int):
+    """The checks of a DEM run before anything is written: contacts, ranks, settings, the law
+    file (its path resolved and its parameters); the granular model and the time step take the
+    law file's elastic constants unless ``settings.extra`` sets them."""
     from ..law import load_params
 
-    if test not in TESTS:
-        raise InputError(f"test: must be one of {', '.join(TESTS)}, got {test!r}")
     for c in contacts:
         if c not in CONTACTS:
             raise InputError(f"contact: must be geocontact, granular or both, got {c!r}")
@@ -342,11 +349,23 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
     law = Path(law).resolve()
     try:
         params = load_params(law)
-    except InputError as exc:  # named by this function's parameter
+    except InputError as exc:  # named by the run's parameter
         raise InputError(f"law: {str(exc).removeprefix('params: ')}") from None
-    # the granular model and the time step use the law file's elastic constants
     settings.extra.setdefault("E", repr(params.material.youngs_modulus))
     settings.extra.setdefault("nu", repr(params.material.poissons_ratio))
+    return law, params
+
+
+def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[str, ...],
+            ranks: int, out: str | Path, overwrite: bool = False,
+            progress: Callable[[str], None] | None = None) -> dict:
+    """Run ``test`` for each contact model into ``out`` (one result folder, written as a unit):
+    ``CONTACT/`` with the LAMMPS outputs and the parsed CSVs, and summary.json."""
+    from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
+
+    if test not in TESTS:
+        raise InputError(f"test: must be one of {', '.join(TESTS)}, got {test!r}")
+    law, params = check_run(settings, law, contacts, ranks)
     check_replaceable(out, "dem", overwrite=overwrite)
     inputs = {"test": test, "law": str(law), "contacts": list(contacts), "ranks": ranks,
               **{k: v for k, v in asdict(settings).items()}}
@@ -358,7 +377,8 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
             folder = tmp / contact
             if progress:
                 progress(f"{contact}: {settings.grains} grains, {ranks} rank(s)")
-            wall = run_lammps(test, settings, law, contact, ranks, folder, progress)
+            wall = run_lammps(test, script_variables(settings, law, contact, folder, ranks),
+                              contact, ranks, folder, progress)
             parsed = parse_run(folder, settings)
             parsed["summary"]["runtime_s"] = wall
             parsed["summary"]["ranks"] = ranks

@@ -1,4 +1,5 @@
-"""``geocontact dem``: a DEM sample in LAMMPS (examples/lammps/in.TEST) -> cycles, contacts."""
+"""``geocontact dem``: a DEM sample in LAMMPS (examples/lammps/in.TEST) -> cycles, contacts;
+``geocontact dem seismic RECORD``: the sample under a seismic record -> settlement, dissipation."""
 
 from __future__ import annotations
 
@@ -13,18 +14,26 @@ def register(sub) -> None:
 
     p = sub.add_parser(
         "dem",
-        help="a DEM sample in LAMMPS (oedometer): stress-strain loops, residual strain and "
-             "dissipation per cycle, coordination, per-contact residual approach",
+        help="a DEM sample in LAMMPS (oedometer: stress-strain loops, residual strain and "
+             "dissipation per cycle, coordination, per-contact residual approach; seismic "
+             "RECORD: settlement and dissipation under a record)",
         description=(
             "Run examples/lammps/in.TEST (from the checkout, after `make plugin`) with the law "
             "file on --ranks MPI ranks, for the geocontact law and/or LAMMPS's granular "
             "hertz/material + Mindlin, and write the time series, the per-cycle numbers and the "
-            "per-contact residual approach as CSVs with a summary.json (docs/dem.md)."
+            "per-contact residual approach as CSVs with a summary.json; `seismic RECORD`: the "
+            "sample sheared by its base along the record's ground displacement under constant "
+            "vertical stress, settlement and dissipation against time (docs/dem.md)."
         ),
     )
-    p.add_argument("test", choices=TESTS, metavar="TEST", help="the test: oedometer")
+    p.add_argument("test", choices=[*TESTS, "seismic"], metavar="TEST",
+                   help="the test: oedometer or seismic")
+    p.add_argument("record", nargs="?", default=None,
+                   help="seismic: the record, an AT2/CSV file, a FEMA P695 component "
+                        "(KOBE/NIS000) or ELCENTRO1940/ELC180")
     p.add_argument("--law", required=False, help="law parameters (geocontact.law/1 JSON)")
-    p.add_argument("--grains", type=int, default=2000, help="number of grains (default 2000)")
+    p.add_argument("--grains", type=int, default=None,
+                   help="number of grains (default 2000; seismic 1000)")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks (default 1)")
     p.add_argument("--contact", default="geocontact", choices=[*CONTACTS, "both"],
                    help="contact model: geocontact, granular (pair granular hertz/material + "
@@ -39,7 +48,14 @@ def register(sub) -> None:
     p.add_argument("--spread", type=float, default=None,
                    help="standard deviation of ln(radius) (default 0.3)")
     p.add_argument("--inertia", type=float, default=None,
-                   help="inertia number of the cycles (default 1e-3)")
+                   help="inertia number of the cycles (default 1e-3); seismic: the largest of "
+                        "the shaking, which sets the time compression (default 1e-3)")
+    p.add_argument("--strain", type=float, default=None,
+                   help="seismic: peak base displacement over the sample height (default 2e-3)")
+    p.add_argument("--decimate", type=int, default=None,
+                   help="seismic: use every k-th record sample (default 1)")
+    p.add_argument("--baseline", default=None, choices=["none", "mean", "linear", "quadratic"],
+                   help="seismic: baseline correction of the acceleration (default linear)")
     p.add_argument("--targets", type=float, nargs="+", default=None, metavar="RATIO",
                    help="peak and valley stresses of the cycles as multiples of --stress "
                         "(default: 3 repeated, 3 increasing, 3 decreasing cycles)")
@@ -61,7 +77,14 @@ def run(args) -> int:
         raise InputError("--law: missing (law parameters, geocontact.law/1 JSON)")
     if args.out is None:
         raise InputError("--out: missing (output directory)")
-    settings = Settings(grains=args.grains)
+    if args.test == "seismic":
+        return run_seismic(args)
+    if args.record is not None:
+        raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
+    for name in ("strain", "decimate", "baseline"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: only for the seismic test")
+    settings = Settings(grains=args.grains or 2000)
     for name in ("stress", "radius", "spread", "inertia", "seed", "walls"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
@@ -84,5 +107,42 @@ def run(args) -> int:
                   f"{c['peak_stress_Pa']:9.4g} Pa: residual strain {c['residual_strain']:+.3e}, "
                   f"wall work {c['wall_work_J']:.3e} J, law dissipation "
                   f"{c['law_dissipated_J']:.3e} J")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def run_seismic(args) -> int:
+    from ..analyses.dem import CONTACTS
+    from ..analyses.dem_seismic import SeismicSettings
+    from ..analyses.dem_seismic import run_seismic as run
+
+    if args.record is None:
+        raise InputError("record: missing (an AT2/CSV file, a FEMA P695 component such as "
+                         "KOBE/NIS000, or ELCENTRO1940/ELC180)")
+    for name in ("walls", "targets"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: not for the seismic test")
+    settings = SeismicSettings()
+    for name in ("grains", "stress", "radius", "spread", "inertia", "seed", "strain",
+                 "decimate", "baseline"):
+        if getattr(args, name) is not None:
+            setattr(settings, name, getattr(args, name))
+    contacts = CONTACTS if args.contact == "both" else (args.contact,)
+    document = run(args.record, args.law, settings, contacts=contacts, ranks=args.ranks,
+                   out=args.out, overwrite=args.force, progress=_progress)
+    if args.json:
+        print_json(document)
+        return 0
+    rec = document["record"]
+    print(f"record {rec['name']}: {rec['duration_s']:.4g} s, PGA at {rec['peak_time_s']:.4g} s "
+          f"({rec['peak_time_fraction']:.3f} of the record): paper rule {rec['paper_rule']}")
+    for contact, s in document["runs"].items():
+        print(f"{contact}: {s['grains']} grains, {s['steps']} steps in {s['runtime_s']:.1f} s "
+              f"(time compressed {s['timescale']:.4g}x, inertia number max "
+              f"{s['inertia_number']['max']:.2g}, rms {s['inertia_number']['rms']:.2g}, "
+              f"loading/resonance {s['loading_over_resonance']:.2g}); "
+              f"settlement {s['settlement_m']:.4g} m (vertical strain "
+              f"{s['vertical_strain']:.3e}), wall work {s['wall_work_J']:.4g} J, law "
+              f"dissipation {s['law_dissipated_J']:.4g} J")
     print(f"wrote {args.out}")
     return 0

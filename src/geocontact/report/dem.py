@@ -30,6 +30,11 @@ def _series(directory: Path, contact: str) -> dict[str, np.ndarray]:
 
 def dem_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
     s = read_summary(directory)
+    if s.get("test") == "seismic":
+        from .dem_seismic import seismic_section
+
+        seismic_section(report, directory, root, figures)
+        return
     rel = relative_dir(directory, root)
     tag = "_".join(filter(None, (rel.strip("/").replace("/", "_"), "dem")))
     runs = s["runs"]

