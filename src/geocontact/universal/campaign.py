@@ -214,8 +214,9 @@ def _header(code_hash: str, provenance_record) -> dict[str, Any]:
     return {
         "format": DATASET_FORMAT,
         "design": {"axes": [{"name": a[0], "low": a[1], "high": a[2]} for a in AXES],
-                   "sequence": "centre of the box, its 16 corners, then scrambled Sobol "
-                               f"(scipy.stats.qmc, seed {SOBOL_SEED})",
+                   "sequence": "centre of the box, 8 corners (half fraction x4 = x1 x2 x3), 8 "
+                               "scrambled Sobol points (scipy.stats.qmc, seed "
+                               f"{SOBOL_SEED}), the other 8 corners, then Sobol on",
                    "modulus_Pa": CAMPAIGN_MODULUS, "radius_m": CAMPAIGN_RADIUS},
         "levels_force_over_yield": "design.force_levels(s): LEVELS geometric from 2 to "
                                    "140 x 10^(s - 2), s = log10(E/sigma_c)",

@@ -7,9 +7,9 @@ finite size of the sphere. The campaign therefore spans four coordinates (``AXES
 and E are fixed (they scale out exactly: radius by SPEC 10, E at fixed E/sigma_c because the
 continuum problem is linear in the stress scale).
 
-The point list is deterministic: the centre of the box, its 16 corners (a half fraction first),
-then a scrambled Sobol
-sequence (scipy.stats.qmc, fixed seed). Extending the campaign continues the same list, so a
+The point list is deterministic: the centre of the box, 8 of its corners (a half fraction),
+8 points of a scrambled Sobol sequence (scipy.stats.qmc, fixed seed), the other 8 corners,
+then the Sobol sequence on. Extending the campaign continues the same list, so a
 dataset built over several sessions is one design.
 
     points = design_points(40)      # list of DesignPoint, the first 40 of the sequence
@@ -133,17 +133,16 @@ def outside_range(material: Material) -> list[str]:
 def _unit_sequence(count: int) -> np.ndarray:
     from scipy.stats import qmc
 
-    head = [np.full(len(AXES), 0.5)]
     # the 16 corners, the half fraction x4 = x1 x2 x3 (in +-1) first: its 8 corners span
     # every axis already, so a campaign stopped after 9 points still has a full-rank design
     corners = [np.array(c) for c in itertools.product((-1.0, 1.0), repeat=len(AXES))]
     corners.sort(key=lambda c: c[3] != c[0] * c[1] * c[2])  # stable: product order within
-    head += [(c + 1.0) / 2.0 for c in corners]
-    rest = max(0, count - len(head))
-    if rest:
-        sobol = qmc.Sobol(d=len(AXES), scramble=True, seed=SOBOL_SEED)
-        head += list(sobol.random_base2(12)[:rest])  # a prefix of one fixed sequence
-    return np.array(head[:count])
+    corners = [(c + 1.0) / 2.0 for c in corners]
+    sobol = list(qmc.Sobol(d=len(AXES), scramble=True, seed=SOBOL_SEED).random_base2(12))
+    # centre, half-fraction corners, 8 interior Sobol points (the curvature a random material
+    # inside the box needs), the other 8 corners (the interactions), then Sobol on
+    sequence = [np.full(len(AXES), 0.5), *corners[:8], *sobol[:8], *corners[8:], *sobol[8:]]
+    return np.array(sequence[:count])
 
 
 def design_points(count: int) -> list[DesignPoint]:
