@@ -17,9 +17,15 @@ from geocontact.cli import main
 from geocontact.errors import InputError
 from geocontact.law import Contact, ContactArrays, for_material, load_params
 from geocontact.universal import dataset, design
-from geocontact.universal.interpolate import build_surfaces, universal_params
+from geocontact.universal.interpolate import (
+    FITS_FILE,
+    build_surfaces,
+    read_fits,
+    row_key,
+    universal_params,
+)
 
-SLICE = 12  # rows of the shipped dataset used here (the centre, corners first)
+SLICE = 10  # rows of the shipped dataset used here (the centre, 8 corners, 1 interior point)
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +35,9 @@ def slice_dir(tmp_path_factory):
     rows = dataset.rows_of(data)[:SLICE]
     folder = tmp_path_factory.mktemp("universal")
     (folder / "points.csv").write_text(dataset.format_points(rows))
+    fits = dataset.default_directory() / FITS_FILE
+    if fits.exists():  # the nodes' saturating fits: warm starts of the law's fit
+        (folder / FITS_FILE).write_text(fits.read_text())
     return folder
 
 
@@ -69,6 +78,29 @@ def test_leave_one_out_is_the_error_of_the_surface_without_the_node(slice_data):
                                                   rel=1e-9)
 
 
+def test_warm_started_fit_at_a_node_is_the_full_fit(slice_dir, slice_data):
+    """fits.json holds each node's saturating fits by the full 30-start grid of
+    calibrate.fit; the law at a node (interpolation exact there, fit warm-started from the
+    nearest nodes) lands on the same parameters."""
+    fits = read_fits(slice_dir)
+    checked = 0
+    for i in (0, 5, 9):
+        entry = fits.get(str(int(slice_data["index"][i])))
+        if entry is None or "residual" not in entry or entry["row"] != row_key(slice_data, i):
+            continue
+        coords = [slice_data[n][i] for n in design.AXIS_NAMES]
+        params = universal_params(design.material_at(coords), directory=slice_dir)
+        assert params.provenance["universal"]["saturating_fit_start"].startswith("the fits")
+        got = [params.residual_limit, params.residual_power, params.residual_transition,
+               params.residual_log_power]
+        assert got == pytest.approx(entry["residual"], rel=1e-4, abs=1e-6)
+        got = [params.plastic_work_limit, params.plastic_work_power,
+               params.plastic_work_transition, params.plastic_work_log_power]
+        assert got == pytest.approx(entry["plastic_work"], rel=1e-4, abs=1e-6)
+        checked += 1
+    assert checked >= 2, "fits.json is stale: python -m geocontact.universal.interpolate --prepare"
+
+
 def test_design_sequence_is_one_deterministic_list():
     head = design.design_points(40)
     assert design.design_points(20) == head[:20]
@@ -104,10 +136,10 @@ def test_params_command_writes_a_valid_law_file_quickly(slice_dir, slice_data, t
                                                         capsys):
     material = inside_material(slice_data)
     toml = tmp_path / "m.toml"
-    toml.write_text("[material]\n" + "".join(
-        f"{k} = {getattr(material, k)!r}\n" for k in (
-            "youngs_modulus", "poissons_ratio", "compressive_yield_stress",
-            "friction_angle_deg", "hardening_ratio")) + f"[geometry]\nradius = {material.radius!r}\n")
+    keys = ("youngs_modulus", "poissons_ratio", "compressive_yield_stress",
+            "friction_angle_deg", "hardening_ratio")
+    toml.write_text("[material]\n" + "".join(f"{k} = {getattr(material, k)!r}\n" for k in keys)
+                    + f"[geometry]\nradius = {material.radius!r}\n")
     out = tmp_path / "P.json"
     started = time.perf_counter()
     assert main(["params", "--material", str(toml), "--out", str(out), "--dataset",
