@@ -139,8 +139,12 @@ def _loo(nodes: np.ndarray, values: np.ndarray, kernel: str) -> np.ndarray:
     return error
 
 
-def build_surfaces(data: dict[str, np.ndarray], sha256: str = "") -> Surfaces:
-    """The surfaces of a dataset (``dataset.read_points``); kernels chosen per column by LOO."""
+def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
+                   loo: dict[str, Any] | None = None) -> Surfaces:
+    """The surfaces of a dataset (``dataset.read_points``); kernels chosen per column by LOO.
+
+    ``loo``: the kernels and LOO errors ``prepare`` stored for this dataset (fits.json), used
+    when their dataset hash is ``sha256`` instead of recomputing them."""
     n = data["index"].size
     if n < MIN_POINTS:
         raise InputError(f"universal law: the dataset has {n} points; at least {MIN_POINTS} "
@@ -151,27 +155,46 @@ def build_surfaces(data: dict[str, np.ndarray], sha256: str = "") -> Surfaces:
     if not np.all(np.isfinite(values)):
         bad = [c for c in columns if not np.all(np.isfinite(data[c]))]
         raise InputError(f"universal law: the dataset has empty values in {', '.join(bad[:3])}")
+    if loo and sha256 and loo.get("dataset_sha256") == sha256 \
+            and loo.get("columns") == columns:
+        kernels = list(loo["kernels"])
+        error = np.array(loo["loo_error"], dtype=float)
+        return _assemble(columns, nodes, values, kernels, error, sha256)
     errors = {k: _loo(nodes, values, k) for k in KERNELS}
     # per column: the kernel with the smallest RMS LOO error
     rms = np.array([np.sqrt(np.mean(errors[k] ** 2, axis=0)) for k in KERNELS])
-    if not np.all(np.isfinite(rms)):
+    # a kernel whose system is singular for some subset (e.g. the thin-plate spline on nodes
+    # at equal mutual distances) is not used
+    rms[~np.all(np.isfinite(rms), axis=1)] = np.inf
+    if not np.any(np.isfinite(rms)):
         raise InputError(f"universal law: the dataset's {n} points do not span the four "
                          "coordinates well enough for a leave-one-out check; run more of the "
                          "campaign (python -m geocontact.universal.campaign)")
     best = np.argmin(rms, axis=0)
     kernels = [KERNELS[b] for b in best]
-    loo = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
+    error = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
+    return _assemble(columns, nodes, values, kernels, error, sha256)
+
+
+def _assemble(columns, nodes, values, kernels, error, sha256) -> Surfaces:
     interpolators = {}
-    for b, kernel in enumerate(KERNELS):
-        index = np.nonzero(best == b)[0]
+    for kernel in KERNELS:
+        index = np.array([j for j, k in enumerate(kernels) if k == kernel], dtype=int)
         if index.size:
             interpolators[kernel] = (_rbf(nodes, values[:, index], kernel), index)
-    return Surfaces(columns, nodes, values, kernels, loo, interpolators, sha256)
+    return Surfaces(columns, nodes, values, kernels, error, interpolators, sha256)
 
 
 @functools.lru_cache(maxsize=4)
 def _surfaces_of(directory: str, sha256: str) -> Surfaces:
-    return build_surfaces(read_points(directory), sha256)
+    return build_surfaces(read_points(directory), sha256, read_loo(directory))
+
+
+def read_loo(directory: str | Path | None = None) -> dict[str, Any] | None:
+    path = Path(directory or default_directory()) / FITS_FILE
+    if not path.exists():
+        return None
+    return json.loads(path.read_text()).get("surfaces")
 
 
 def surfaces(directory: str | Path | None = None) -> Surfaces:
@@ -284,13 +307,17 @@ def prepare(directory: str | Path | None = None, progress: bool = True) -> int:
         fitted += 1
         if progress:
             print(f"universal: node {index} fitted", file=sys.stderr)
+    sha256 = dataset_hash(directory)
+    table = build_surfaces(data, sha256)
     write_json_atomic(directory / FITS_FILE, {
         "format": "geocontact.universal-fits/1",
         "what": "per campaign point, the saturating fits (limit, power, transition, log power) "
                 "of its own data by calibrate.fit.fit_law (30-start grid): the warm starts of "
                 "the universal law's fit at a material near it",
         "command": "python -m geocontact.universal.interpolate --prepare",
-        "nodes": nodes})
+        "nodes": nodes,
+        "surfaces": {"dataset_sha256": sha256, "columns": table.columns,
+                     "kernels": table.kernels, "loo_error": table.loo_error}})
     return fitted
 
 
