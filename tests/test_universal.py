@@ -114,12 +114,12 @@ def test_design_sequence_is_one_deterministic_list():
 
 
 @pytest.mark.parametrize("field, value, message", [
-    ("friction_angle_deg", 60.0, "friction_angle_deg: 60 is outside the universal law's range "
+    ("friction_angle_deg", 57.0, "friction_angle_deg: 57 is outside the universal law's range "
                                  "[0, 55]"),
-    ("poissons_ratio", 0.1, "poissons_ratio: 0.1 is outside the universal law's range"),
-    ("hardening_ratio", 0.4, "hardening_ratio: 0.4 is outside"),
-    ("compressive_yield_stress", 1e9, "youngs_modulus / compressive_yield_stress: 10 is "
-                                      "outside the universal law's range [100, 10000]"),
+    ("poissons_ratio", 0.14, "poissons_ratio: 0.14 is outside the universal law's range"),
+    ("hardening_ratio", 0.31, "hardening_ratio: 0.31 is outside"),
+    ("compressive_yield_stress", 1.25e8, "youngs_modulus / compressive_yield_stress: 80 is "
+                                         "outside the universal law's range [100, 10000]"),
 ])
 def test_outside_the_range_is_refused_in_one_line(slice_dir, slice_data, field, value,
                                                   message):
@@ -141,10 +141,10 @@ def test_params_command_writes_a_valid_law_file_quickly(slice_dir, slice_data, t
     toml.write_text("[material]\n" + "".join(f"{k} = {getattr(material, k)!r}\n" for k in keys)
                     + f"[geometry]\nradius = {material.radius!r}\n")
     out = tmp_path / "P.json"
-    started = time.perf_counter()
+    started = time.process_time()
     assert main(["params", "--material", str(toml), "--out", str(out), "--dataset",
                  str(slice_dir), "--json"]) == 0
-    wall = time.perf_counter() - started
+    cpu = time.process_time() - started
     summary = json.loads(capsys.readouterr().out)
     document = json.loads(out.read_text())
     schema.validate(document)  # the table both readers validate from
@@ -154,7 +154,8 @@ def test_params_command_writes_a_valid_law_file_quickly(slice_dir, slice_data, t
     assert document["provenance"]["universal"]["dataset_sha256"] == \
         dataset.dataset_hash(slice_dir)
     assert summary["inside_range"] is True and summary["dataset_points"] == SLICE
-    assert wall < 3.0  # < 1 s on an idle machine (docs/universal.md); slack for a loaded one
+    # CPU time (the machine may be loaded): < 1 s measured (docs/universal.md); slack here
+    assert cpu < 2.0
     # the compiled core (the C++ header the LAMMPS plugin uses) reads the same file
     path = np.concatenate([np.linspace(0, 40, 200), np.linspace(40, 5, 100),
                            np.linspace(5, 60, 200), np.linspace(60, 0, 200)]) \
@@ -196,7 +197,7 @@ def universal_law(slice_dir, slice_data):
     return universal_params(inside_material(slice_data, fraction=0.45), directory=slice_dir)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(st.lists(st.floats(min_value=-1.0, max_value=1.0), min_size=1, max_size=20))
 def test_universal_law_is_hertz_below_yield(universal_law, xs):
     params = universal_law
@@ -208,7 +209,7 @@ def test_universal_law_is_hertz_below_yield(universal_law, xs):
                                   abs=0.0)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(st.lists(st.floats(min_value=-3.0, max_value=400.0), min_size=1, max_size=15))
 def test_universal_law_never_tensile_and_creates_no_energy(universal_law, xs):
     params = universal_law
@@ -227,5 +228,8 @@ def test_universal_law_never_tensile_and_creates_no_energy(universal_law, xs):
         assert contact.dissipated_energy >= dissipated - 1e-9 * scale
         dissipated = contact.dissipated_energy
     assert contact.state.force == 0.0
-    work = float(np.sum(0.5 * (np.array(forces[1:]) + forces[:-1]) * np.diff(dense)))
-    assert work >= -1e-6 * scale * max(1.0, max(abs(x) for x in xs)) ** 2
+    loop = contact.state.work  # the law's exact work over the path, apart to apart
+    assert loop >= -1e-9 * scale
+    trapezoid = float(np.sum(0.5 * (np.array(forces[1:]) + forces[:-1]) * np.diff(dense)))
+    reach = max(1.0, max(xs)) ** 2.5  # F dmax in units of Fy dy
+    assert trapezoid == pytest.approx(loop, rel=2e-3, abs=1e-3 * scale * reach)

@@ -133,7 +133,7 @@ def _power_of_depth(depth, exponents):
     return p, rms
 
 
-def _saturating(depth, values, what, starts=None, max_log_power=5.0):
+def _saturating(depth, values, what, starts=None, max_log_power=5.0, original=False):
     """limit, power, transition, log_power of values = limit (1 - exp(-power L^b)),
     L = log(1 + (x - 1)/transition) (``law.params.saturating_ratio``).
 
@@ -154,8 +154,8 @@ def _saturating(depth, values, what, starts=None, max_log_power=5.0):
         raise InputError(f"calibration: {what} ratios must lie in [0, 1)")
     complement = np.log1p(-values)
     ratio = np.log(np.maximum(values, 1e-12))
-    free_transition = depth.size >= 4
-    free_log_power = depth.size >= 5
+    free_transition = depth.size >= 4 and not original
+    free_log_power = depth.size >= 5 and not original
     # The ratio's own relative error enters only with the log power free (enough levels for
     # the form to follow both ends); a ratio of a few % (a level just past yield) is at the
     # FE's resolution, so its relative error weighs less (weight 1/2 at RATIO_FLOOR).
@@ -198,7 +198,8 @@ def _saturating(depth, values, what, starts=None, max_log_power=5.0):
     log_power = log_power if free_log_power else 1.0
     model = saturating_ratio(depth, limit, power, transition, log_power)
     errors = {"rms": float(np.sqrt(np.mean((model - values) ** 2))),
-              "max_relative": float(np.max(np.abs(model / values - 1.0))),
+              "max_relative": float(np.max(np.abs(model[values > 0] / values[values > 0]
+                                                  - 1.0), initial=0.0)),
               "recovery": float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))}
     return limit, power, transition, log_power, errors
 
@@ -271,20 +272,29 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     try:
         return LawParams(**values)
     except InputError as exc:
-        # A residual form with log power b > 1 starts flat at x = 1 (its slope there is 0);
-        # with a loading exponent near Hertz's the unloading then gives back more than the
-        # loading took just past yield. Refit the residual form with b <= 1 (slope > 0 at
-        # x = 1) before giving up; a parameter set the check accepts is never changed.
-        if "creates energy" not in str(exc) or b <= 1.0:
+        if "creates energy" not in str(exc):
             raise
+        refused = str(exc)
+    # With a loading exponent near Hertz's (hardening grains) a stretched residual form that
+    # starts flat at x = 1 (log power b > 1, or a large transition depth) lets the unloading
+    # give back more than the loading took just past yield. Refit the residual form with
+    # b <= 1, then in the original form (transition 1, b = 1: slope limit x power at x = 1),
+    # before giving up; a parameter set the check accepts is never changed.
+    for original in (False, True):
         rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
-                                             starts.get("residual"), max_log_power=1.0)
+                                             None if original else starts.get("residual"),
+                                             max_log_power=1.0, original=original)
         fit_errors.update({
             "residual_ratio_rms": res_err["rms"],
             "residual_ratio_max_relative": res_err["max_relative"],
             "elastic_recovery_rms_relative": res_err["recovery"],
-            "residual_log_power_capped": "log power <= 1: the free fit created energy just "
-                                         f"past yield ({exc})"})
+            "residual_form_restricted": ("original form (transition 1, log power 1)"
+                                         if original else "log power <= 1")
+            + f": the free fit created energy just past yield ({refused})"})
         values.update(residual_limit=rho, residual_power=s, residual_transition=x0,
                       residual_log_power=b, fit_errors=fit_errors)
-        return LawParams(**values)
+        try:
+            return LawParams(**values)
+        except InputError as exc:
+            if "creates energy" not in str(exc) or original:
+                raise

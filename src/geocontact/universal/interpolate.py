@@ -380,8 +380,14 @@ def universal_params(material: Material, *, extrapolate: bool = False,
                                      if starts else "the fit's full start grid"),
         },
     }
-    params = fit_law(material, yield_approach, d_virgin, f_virgin, levels,
-                     provenance=provenance, starts=starts)
+    try:
+        params = fit_law(material, yield_approach, d_virgin, f_virgin, levels,
+                         provenance=provenance, starts=starts)
+    except InputError as exc:
+        if not problems:
+            raise
+        raise InputError(f"{problems[0]}; extrapolated that far the data give no valid law "
+                         f"({exc})") from None
     return replace(params, label="universal", yield_extra={
         "analytic_force_N": analytic.force, "analytic_approach_m": analytic.approach,
         "fe_over_analytic_force": data["fe_yield_ratio"],
