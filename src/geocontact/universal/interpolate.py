@@ -80,12 +80,13 @@ class Surfaces:
     loo_error: np.ndarray  # (n, q): |LOO prediction - value| at each node
     interpolators: dict[str, Any]
     dataset_sha256: str
+    slope: float  # of the approach baseline (``baseline``)
 
     def __call__(self, coordinates) -> dict[str, float]:
         u = np.atleast_2d(unit(coordinates))
-        out = np.empty(len(self.columns))
+        out = baseline(self.columns, float(np.asarray(coordinates)[3]), self.slope)
         for _kernel, (rbf, index) in self.interpolators.items():
-            out[index] = rbf(u)[0]
+            out[index] += rbf(u)[0]
         return dict(zip(self.columns, out, strict=True))
 
     def expected_error(self, coordinates) -> dict[str, float]:
@@ -116,6 +117,42 @@ class Surfaces:
             out[group] = {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e)),
                           "kernels": sorted({self.kernels[i] for i in index})}
         return out
+
+
+# The approach columns are interpolated about a baseline in log10(F/Fy): a point's samples sit
+# at forces that move with E/sigma_c (the levels and the virgin grid end at the top level,
+# 140 x 10^(s - 2) Fy), so log10 x at sample K changes by a decade and more along s although
+# at a fixed F/Fy it hardly does (similarity). The baseline is Hertz below Fy (slope 2/3) and a
+# power law above, its slope fitted to every node's samples (least squares); the RBF then
+# carries only the deviation from it. Exact at the nodes like any other column.
+TRANSFORM = "approach about the baseline log10 x = 2/3 min(l, 0) + k max(l, 0), l = log10 F/Fy"
+
+
+def force_positions(columns: list[str], s: float) -> np.ndarray:
+    """log10(F/Fy) of each approach column's sample at log10(E/sigma_c) = s (NaN: others)."""
+    virgin = np.log10(virgin_force_grid(s))
+    levels = np.log10(force_levels(s))
+    out = np.full(len(columns), np.nan)
+    for j, c in enumerate(columns):
+        if c.startswith("virgin_logx_"):
+            out[j] = virgin[int(c.rpartition("_")[2])]
+        elif c.startswith("logx_"):
+            out[j] = levels[int(c.rpartition("_")[2])]
+    return out
+
+
+def baseline(columns: list[str], s: float, slope: float) -> np.ndarray:
+    lf = force_positions(columns, s)
+    out = (2.0 / 3.0) * np.minimum(lf, 0.0) + slope * np.maximum(lf, 0.0)
+    return np.where(np.isfinite(lf), out, 0.0)
+
+
+def baseline_slope(columns: list[str], values: np.ndarray, s: np.ndarray) -> float:
+    """k of the baseline: least squares of log10 x - 2/3 min(l, 0) = k max(l, 0) over every
+    approach sample above Fy of every node."""
+    lf = np.array([force_positions(columns, float(v)) for v in s])
+    above = np.isfinite(lf) & (lf > 0.0)
+    return float(np.sum(lf[above] * values[above]) / np.sum(lf[above] ** 2))
 
 
 def _rbf(nodes, values, kernel):
@@ -155,12 +192,15 @@ def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
     if not np.all(np.isfinite(values)):
         bad = [c for c in columns if not np.all(np.isfinite(data[c]))]
         raise InputError(f"universal law: the dataset has empty values in {', '.join(bad[:3])}")
+    s = data[AXIS_NAMES[3]]
+    slope = baseline_slope(columns, values, s)
+    shifted = values - np.array([baseline(columns, float(v), slope) for v in s])
     if loo and sha256 and loo.get("dataset_sha256") == sha256 \
-            and loo.get("columns") == columns:
+            and loo.get("columns") == columns and loo.get("transform") == TRANSFORM:
         kernels = list(loo["kernels"])
         error = np.array(loo["loo_error"], dtype=float)
-        return _assemble(columns, nodes, values, kernels, error, sha256)
-    errors = {k: _loo(nodes, values, k) for k in KERNELS}
+        return _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope)
+    errors = {k: _loo(nodes, shifted, k) for k in KERNELS}
     # per column: the kernel with the smallest RMS LOO error
     rms = np.array([np.sqrt(np.mean(errors[k] ** 2, axis=0)) for k in KERNELS])
     # a kernel whose system is singular for some subset (e.g. the thin-plate spline on nodes
@@ -173,16 +213,16 @@ def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
     best = np.argmin(rms, axis=0)
     kernels = [KERNELS[b] for b in best]
     error = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
-    return _assemble(columns, nodes, values, kernels, error, sha256)
+    return _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope)
 
 
-def _assemble(columns, nodes, values, kernels, error, sha256) -> Surfaces:
+def _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope) -> Surfaces:
     interpolators = {}
     for kernel in KERNELS:
         index = np.array([j for j, k in enumerate(kernels) if k == kernel], dtype=int)
         if index.size:
-            interpolators[kernel] = (_rbf(nodes, values[:, index], kernel), index)
-    return Surfaces(columns, nodes, values, kernels, error, interpolators, sha256)
+            interpolators[kernel] = (_rbf(nodes, shifted[:, index], kernel), index)
+    return Surfaces(columns, nodes, values, kernels, error, interpolators, sha256, slope)
 
 
 @functools.lru_cache(maxsize=4)
@@ -324,7 +364,8 @@ def prepare(directory: str | Path | None = None, progress: bool = True,
                 "the universal law's fit at a material near it",
         "command": "python -m geocontact.universal.interpolate --prepare",
         "nodes": nodes,
-        "surfaces": {"dataset_sha256": sha256, "columns": table.columns,
+        "surfaces": {"dataset_sha256": sha256, "transform": TRANSFORM,
+                     "baseline_slope": table.slope, "columns": table.columns,
                      "kernels": table.kernels, "loo_error": table.loo_error}})
     return fitted
 
