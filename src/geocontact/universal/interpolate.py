@@ -36,7 +36,6 @@ from ..material import Material
 from .dataset import (
     LEVEL_FIELDS,
     VIRGIN_SAMPLES,
-    dataset_hash,
     default_directory,
     law_columns,
     read_points,
@@ -87,6 +86,7 @@ class Surfaces:
     interpolators: dict[str, Any]
     dataset_sha256: str
     slope: float  # of the approach baseline (``baseline``)
+    data: dict[str, np.ndarray] | None = None  # the dataset's columns the surfaces were built on
 
     def __call__(self, coordinates) -> dict[str, float]:
         u = np.atleast_2d(unit(coordinates))
@@ -206,7 +206,12 @@ def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
             and loo.get("columns") == columns and loo.get("transform") == TRANSFORM:
         kernels = list(loo["kernels"])
         error = np.array(loo["loo_error"], dtype=float)
-        return _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope)
+        if error.shape != values.shape:
+            raise InputError("universal law: fits.json does not match points.csv; rerun "
+                             "python -m geocontact.universal.interpolate --prepare")
+        table = _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope)
+        table.data = data
+        return table
     errors = {k: _loo(nodes, shifted, k) for k in KERNELS}
     # per column: the kernel with the smallest RMS LOO error
     rms = np.array([np.sqrt(np.mean(errors[k] ** 2, axis=0)) for k in KERNELS])
@@ -222,7 +227,9 @@ def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
                for c, b in zip(columns, best, strict=True)]
     errors.setdefault(LOCAL_KERNEL, _loo(nodes, shifted, LOCAL_KERNEL))
     error = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
-    return _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope)
+    table = _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope)
+    table.data = data
+    return table
 
 
 def _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope) -> Surfaces:
@@ -235,8 +242,12 @@ def _assemble(columns, nodes, values, shifted, kernels, error, sha256, slope) ->
 
 
 @functools.lru_cache(maxsize=4)
-def _surfaces_of(directory: str, sha256: str) -> Surfaces:
-    return build_surfaces(read_points(directory), sha256, read_loo(directory))
+def _surfaces_of(directory: str, sha256: str, text: bytes) -> Surfaces:
+    from .dataset import parse_points
+
+    data = parse_points(text.decode(), f"{directory}/points.csv") if text else read_points(
+        directory)
+    return build_surfaces(data, sha256, read_loo(directory))
 
 
 def read_loo(directory: str | Path | None = None) -> dict[str, Any] | None:
@@ -249,8 +260,12 @@ def read_loo(directory: str | Path | None = None) -> dict[str, Any] | None:
 def surfaces(directory: str | Path | None = None) -> Surfaces:
     """The surfaces of the dataset in ``directory`` (default: the shipped one), cached by the
     dataset's hash."""
+    import hashlib
+
     directory = str(Path(directory or default_directory()))
-    return _surfaces_of(directory, dataset_hash(directory))
+    path = Path(directory) / "points.csv"
+    text = path.read_bytes() if path.exists() else b""  # once: hash and rows agree
+    return _surfaces_of(directory, hashlib.sha256(text).hexdigest() if text else "", text)
 
 
 def normalised_data(values: dict[str, float], s: float) -> dict[str, Any]:
@@ -344,10 +359,14 @@ def prepare(directory: str | Path | None = None, progress: bool = True,
     """Write fits.json: every node's saturating fits (the warm starts of ``universal_params``).
     Nodes whose row is unchanged keep their entry (unless ``refit``, or it records a failed
     fit); returns the number fitted now."""
+    import hashlib
+
     from ..io import write_json_atomic
+    from .dataset import parse_points
 
     directory = Path(directory or default_directory())
-    data = read_points(directory)
+    text = (directory / "points.csv").read_bytes()  # once: the campaign may append meanwhile
+    data = parse_points(text.decode(), str(directory / "points.csv"))
     old = read_fits(directory)
     nodes, fitted = {}, 0
     for i in range(data["index"].size):
@@ -364,7 +383,7 @@ def prepare(directory: str | Path | None = None, progress: bool = True,
         fitted += 1
         if progress:
             print(f"universal: node {index} fitted", file=sys.stderr)
-    sha256 = dataset_hash(directory)
+    sha256 = hashlib.sha256(text).hexdigest()
     table = build_surfaces(data, sha256)
     write_json_atomic(directory / FITS_FILE, {
         "format": "geocontact.universal-fits/1",
@@ -401,7 +420,6 @@ def warm_starts(data: dict[str, np.ndarray], fits: dict[str, Any], u: np.ndarray
 def universal_params(material: Material, *, extrapolate: bool = False,
                      directory: str | Path | None = None):
     """The universal law's LawParams for ``material`` (see the module's docstring)."""
-    from ..calibrate.fit import fit_law
 
     problems = outside_range(material)
     if problems and not extrapolate:
@@ -411,9 +429,7 @@ def universal_params(material: Material, *, extrapolate: bool = False,
     coords = coordinates_of(material)
     values = table(coords)
     yield_approach, d_virgin, f_virgin, levels, data, analytic = rebuild(material, values)
-    starts = warm_starts(_points_of(str(Path(directory or default_directory())),
-                                    table.dataset_sha256),
-                         read_fits(directory), unit(coords))
+    starts = warm_starts(table.data, read_fits(directory), unit(coords))
     expected = table.expected_error(coords)
     provenance = {
         "source": "universal law (geocontact params): the FE campaign's normalised data "
@@ -439,8 +455,8 @@ def universal_params(material: Material, *, extrapolate: bool = False,
         },
     }
     try:
-        params = fit_law(material, yield_approach, d_virgin, f_virgin, levels,
-                         provenance=provenance, starts=starts)
+        params = _fit_within_energy(material, yield_approach, d_virgin, f_virgin, levels,
+                                    provenance, starts)
     except InputError as exc:
         if not problems:
             raise
@@ -453,9 +469,35 @@ def universal_params(material: Material, *, extrapolate: bool = False,
                   "interpolated; approach = Hertz approach of that force"})
 
 
-@functools.lru_cache(maxsize=4)
-def _points_of(directory: str, sha256: str) -> dict[str, np.ndarray]:
-    return read_points(directory)
+def _fit_within_energy(material, yield_approach, d_virgin, f_virgin, levels, provenance,
+                       starts):
+    """``fit_law``; when the fitted law would create energy (the parameter check refuses it),
+    the top level is left out and the virgin curve cut at the next one, and the fit repeated
+    (at least 3 levels). Where it happens: near E/sigma_c = 100 the FE's virgin curve stiffens
+    over its top level (the contact reaches a few tenths of R, finite size) more than the
+    law's power-law regimes can follow without giving back more than was put in. The
+    calibrated range in ``provenance.universal.valid_depth`` says where the law stops."""
+    from ..calibrate.fit import fit_law
+
+    levels = list(levels)
+    while True:
+        try:
+            return fit_law(material, yield_approach, d_virgin, f_virgin, levels,
+                           provenance=provenance, starts=starts)
+        except InputError as exc:
+            if "creates energy" not in str(exc) or len(levels) <= 3:
+                raise
+            dropped = levels.pop()
+            keep = f_virgin <= levels[-1].max_force * (1.0 + 1e-9)
+            d_virgin, f_virgin = d_virgin[keep], f_virgin[keep]
+            u = provenance["universal"]
+            u.setdefault("levels_left_out", []).append({
+                "force_N": dropped.max_force,
+                "reason": f"the law fitted with it creates energy ({exc})"})
+            u["valid_depth"] = (f"calibrated from 2 Fy to {levels[-1].max_force:.4g} N "
+                                f"(delta_max/delta_y = "
+                                f"{levels[-1].max_approach / yield_approach:.4g}); higher "
+                                "levels left out (levels_left_out)")
 
 
 def main_summary(params) -> dict[str, Any]:
