@@ -1,0 +1,151 @@
+"""The material behind a fitted test (SPEC 9: E, nu, sigma_c, beta, m).
+
+What one test separates and what it does not:
+
+* E*: the Hertz part (``labtest.curve.fit_contact``); E = 2 (1 - nu^2) E* needs nu (given or
+  assumed);
+* sigma_c at a given beta (and nu, m): the FE master curve. For two identical spheres the
+  virgin loading curve in yield units, F / Fy against delta / delta_y, depends on nu, beta, m
+  and (weakly, through a / R) on sigma_c / E; at fixed E, Fy scales as sigma_c^3 and delta_y as
+  sigma_c^2 (p0 at yield = sigma_c / C(nu, beta), Hertz). So one FE run of this project's engine
+  (``geocontact.fem``, monotonic loading) at a trial sigma_c gives the curve's shape, and
+  sigma_c is the one-parameter least-squares scale that lays it on the measured virgin loading
+  (weights as the yield profile: force noise and a 1 % form error, per log-depth share). A
+  second FE run at the identified sigma_c removes the weak sigma_c / E dependence (iterated
+  until it moves less than ``TOLERANCE``). The misfit against sigma_c is kept (the profile).
+  This is the identification that needs no universal law; it costs ``ROUNDS`` FE runs
+  (coarse mesh: tens of seconds each, cached by their inputs);
+* beta (and m) against sigma_c: one curve fixes one yield force, and beta moves the shape of
+  F / Fy only weakly; beta and m are given (``--friction-angle``) or assumed and then
+  reported with sigma_c(beta) from the analytic incipient yield at the fitted yield force.
+  With the universal law (``geocontact.law.for_material``, issue 12) the shapes could be
+  compared over beta without FE runs; it is used when installed (``universal_law``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ..errors import InputError
+from ..hertz import incipient_yield
+from ..law.params import HERTZ_EXPONENT
+from ..material import Material
+
+ROUNDS = 4          # FE runs at most
+TOLERANCE = 0.005   # relative change of sigma_c that ends the rounds
+FE_STEPS = 40       # load steps of the FE run: the curve's shape between steps is linear
+DEPTH_MARGIN = 3.0  # the FE run loads this far beyond the test's largest force (in Fy units)
+
+
+def universal_law():
+    """``geocontact.law.for_material`` when this installation has it, else None."""
+    try:
+        from ..law import for_material
+    except ImportError:
+        return None
+    return for_material
+
+
+def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
+                 progress: bool = False) -> dict[str, Any]:
+    """FE monotonic loading of ``material`` to ``max_force``: delta/delta_y and F/Fy (the FE's
+    own first yield force Fy and its Hertz approach delta_y)."""
+    from ..fem.campaign import FemJob, run_campaign
+
+    job = FemJob(material, (0.0, float(max_force)), mesh=mesh, steps_per_segment=FE_STEPS,
+                 label="identification")
+    result = run_campaign([job], cache_dir, workers=1, progress=progress)[0]
+    c = result.curve
+    d, f = np.asarray(c["approach_m"], float), np.asarray(c["force_N"], float)
+    fe_fy = result.summary.get("first_yield_force_N")
+    if not fe_fy:
+        raise InputError("identification: the FE run did not yield; the test's forces are "
+                         "elastic for this material")
+    # in units of the analytic first yield (exactly Fy ~ sigma_c^3, dy ~ sigma_c^2); the FE's
+    # own first yield (a load-step bracket) is kept as its ratio to it
+    analytic = incipient_yield(material)
+    fy, dy = analytic.force, analytic.approach
+    keep = (d > 0) & (f > 0)
+    return {"x": d[keep] / dy, "g": f[keep] / fy, "yield_force_N": float(fy),
+            "fe_over_analytic_yield": float(fe_fy / fy),
+            "material": material,
+            "yield_approach_m": float(dy), "fe_yield_approach_m":
+                result.summary.get("first_yield_approach_m"),
+            "cache_key": job.key(), "mesh": mesh, "max_force_N": float(max_force)}
+
+
+def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, list]:
+    """s of sigma_c = s sigma_c(trial): F = s^3 Fy g(d / (s^2 dy)) on the measured virgin
+    loading; returns (s, misfit, profile)."""
+    lx, lg = np.log(curve["x"]), np.log(curve["g"])
+    order = np.argsort(lx)
+    lx, lg = lx[order], lg[order]
+    fy, dy = curve["yield_force_N"], curve["yield_approach_m"]
+    from .fit import _weighted_virgin
+
+    d, f, w = _weighted_virgin(vd, vf, noise)
+
+    def misfit(log_s):
+        s = math.exp(log_s)
+        xx = np.log(d / (s * s * dy))
+        below = xx < lx[0]  # below the FE's first point: Hertz, g = x^1.5
+        model = np.where(below, np.exp(HERTZ_EXPONENT * xx),
+                         np.exp(np.interp(xx, lx, lg, right=np.nan)))
+        if np.any(np.isnan(model)):
+            return math.inf
+        return float(np.sum(w * (s**3 * fy * model - f) ** 2) / np.sum(w))
+
+    grid = np.linspace(math.log(0.25), math.log(2.0), 36)
+    values = [misfit(v) for v in grid]
+    k = int(np.argmin(values))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    best = minimize_scalar(misfit, bounds=(lo, hi), method="bounded",
+                           options={"xatol": 1e-5})
+    profile = [{"scale": float(math.exp(g)), "misfit": v} for g, v in zip(grid, values,
+                                                                          strict=True)]
+    return float(math.exp(best.x)), float(best.fun), profile
+
+
+def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coarse",
+                   cache_dir=None, progress: bool = False) -> dict[str, Any]:
+    """sigma_c (at the material's E, nu, beta, m) whose FE virgin loading reproduces the
+    measured one (module docstring). Returns the identified material, the FE yield of the last
+    round and the rounds."""
+    from ..fem.campaign import DEFAULT_CACHE
+
+    cache_dir = DEFAULT_CACHE if cache_dir is None else cache_dir
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    rounds = []
+    trial = material
+    for _ in range(ROUNDS):
+        top = float(vf.max())
+        fy_trial = incipient_yield(trial).force
+        # deep enough for any scale the fit may take (s down to 0.25: Fy / 64)
+        depth_force = DEPTH_MARGIN * top
+        curve = master_curve(trial, max(depth_force, 2.0 * fy_trial), mesh=mesh,
+                             cache_dir=cache_dir, progress=progress)
+        s, misfit, profile = scale_fit(curve, vd, vf, noise)
+        sigma = s * trial.compressive_yield_stress
+        rounds.append({"trial_sigma_c_Pa": trial.compressive_yield_stress, "scale": s,
+                       "sigma_c_Pa": sigma, "misfit": misfit, "fe_cache_key":
+                           curve["cache_key"], "fe_max_force_N": curve["max_force_N"],
+                       "profile": profile})
+        done = abs(s - 1.0) < TOLERANCE
+        trial = trial.with_(compressive_yield_stress=sigma)
+        if done:
+            break
+    last = rounds[-1]
+    fy = curve["yield_force_N"] * last["scale"] ** 3
+    return {"method": "FE master curve: one-parameter scale of the FE virgin loading (F/Fy "
+                      "against delta/delta_y) on the measured virgin loading, rounds until "
+                      f"sigma_c moves < {100 * TOLERANCE:g} %",
+            "mesh": mesh, "compressive_yield_stress_Pa": trial.compressive_yield_stress,
+            "yield_force_N": float(fy),
+            "rounds": rounds, "converged": abs(last["scale"] - 1.0) < TOLERANCE,
+            "master": curve}
+
+
