@@ -315,16 +315,30 @@ def _material(kh, radius, nu, beta, m, sigma_c=None, yield_force=None) -> Materi
     return trial.with_(compressive_yield_stress=sigma_c_of_yield(yield_force, trial))
 
 
-def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=None,
-             poissons_ratio=None, friction_angle=None, hardening_ratio=None,
-             force=None, master: dict | None = None) -> LabFit:
-    """Condition the record and fit the law once (no bootstrap).
+@dataclass
+class Prepared:
+    """A conditioned record with its virgin loading, Hertz coefficient and departure."""
 
-    Yield: with ``master`` (an FE master curve of ``labtest.identify``) sigma_c is its scale
-    fitted to this record's virgin loading and delta_y the Hertz approach of the FE first-yield
-    force scaled with it (as ``geocontact calibrate`` takes delta_y from the FE's first yield);
-    without, delta_y is where the record leaves Hertz (``departure``) and sigma_c the analytic
-    one at that force (a first estimate: the departure lies past the first yield)."""
+    test: LabTest
+    virgin_approach: np.ndarray
+    virgin_force: np.ndarray
+    hertz_coefficient: float
+    departure: dict
+    nu: float
+    beta: float
+    m: float
+
+    def first_estimate(self) -> Material:
+        """The material with sigma_c analytic at the departure force (a seed: high)."""
+        return _material(self.hertz_coefficient, self.test.radius, self.nu, self.beta, self.m,
+                         yield_force=self.departure["force_N"])
+
+
+def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None,
+            poissons_ratio=None, friction_angle=None, hardening_ratio=None,
+            force=None) -> Prepared:
+    """Condition the record (``labtest.curve.condition``), check its cycles, find where the
+    virgin loading leaves Hertz and refit the contact point below that."""
     nu = DEFAULT_POISSONS_RATIO if poissons_ratio is None else float(poissons_ratio)
     beta = DEFAULT_FRICTION_ANGLE if friction_angle is None else float(friction_angle)
     m = DEFAULT_HARDENING_RATIO if hardening_ratio is None else float(hardening_ratio)
@@ -348,6 +362,27 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
             vd, vf = _virgin(test)
             kh = test.contact["stiffness"] * scale
             leave = departure(vd, vf, kh, test.noise)
+    return Prepared(test, vd, vf, kh, leave, nu, beta, m)
+
+
+def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=None,
+             poissons_ratio=None, friction_angle=None, hardening_ratio=None,
+             force=None, master: dict | None = None,
+             prepared: Prepared | None = None) -> LabFit:
+    """Condition the record and fit the law once (no bootstrap).
+
+    Yield: with ``master`` (an FE master curve of ``labtest.identify``) sigma_c is its scale
+    fitted to this record's virgin loading and delta_y the Hertz approach of the FE first-yield
+    force scaled with it (as ``geocontact calibrate`` takes delta_y from the FE's first yield);
+    without, delta_y is where the record leaves Hertz (``departure``) and sigma_c the analytic
+    one at that force (a first estimate: the departure lies past the first yield)."""
+    if prepared is None:
+        prepared = prepare(record, setup, radius, machine_stiffness=machine_stiffness,
+                           poissons_ratio=poissons_ratio, friction_angle=friction_angle,
+                           hardening_ratio=hardening_ratio, force=force)
+    test, vd, vf = prepared.test, prepared.virgin_approach, prepared.virgin_force
+    kh, leave = prepared.hertz_coefficient, prepared.departure
+    nu, beta, m = prepared.nu, prepared.beta, prepared.m
     if master is None:
         fy = leave["force_N"]
         material = _material(kh, radius, nu, beta, m, yield_force=fy)
@@ -467,21 +502,23 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                          f"{', '.join(IDENTIFY)})")
     options = dict(machine_stiffness=machine_stiffness, poissons_ratio=poissons_ratio,
                    friction_angle=friction_angle, hardening_ratio=hardening_ratio)
-    result = fit_once(record, setup, radius, **options)
-    first = result
+    prepared = prepare(record, setup, radius, **options)
+    seed = prepared.first_estimate()
     if identify == "fe":
         from .identify import identify_by_fe
 
-        vd, vf = result.virgin()
-        found = identify_by_fe(result.params.material, vd, vf, result.test.noise,
-                               mesh=mesh, cache_dir=cache_dir,
+        found = identify_by_fe(seed, prepared.virgin_approach, prepared.virgin_force,
+                               prepared.test.noise, mesh=mesh, cache_dir=cache_dir,
                                progress=progress is not None)
-        result = fit_once(record, setup, radius, master=found["master"], **options)
+        result = fit_once(record, setup, radius, master=found["master"], prepared=prepared,
+                          **options)
         result.identification = {k: v for k, v in found.items() if k != "master"}
+    else:
+        result = fit_once(record, setup, radius, prepared=prepared, **options)
     result.identification["first_estimate"] = {
-        "source": "departure from Hertz, analytic incipient yield",
-        "yield_force_N": first.params.yield_force,
-        "compressive_yield_stress_Pa": first.params.material.compressive_yield_stress}
+        "source": "departure of the virgin loading from Hertz, analytic incipient yield there",
+        "yield_force_N": prepared.departure["force_N"],
+        "compressive_yield_stress_Pa": seed.compressive_yield_stress}
     result.sigma_c_of_beta = sigma_c_of_beta(result)
     if bootstrap_samples:
         result.bootstrap = bootstrap(record, result, setup, radius, samples=bootstrap_samples,
