@@ -39,7 +39,7 @@ from scipy.signal import savgol_filter
 
 from ..calibrate.fit import LevelData, fit_law
 from ..errors import InputError
-from ..hertz import incipient_yield
+from ..hertz import hertz_coefficient, incipient_yield
 from ..law.params import HERTZ_EXPONENT, LawParams
 from ..material import Material
 from .curve import SMOOTH_WINDOW, LabTest, Record, condition
@@ -391,22 +391,23 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     else:
         from .identify import scale_fit
 
-        s, misfit, _ = scale_fit(master, vd, vf, test.noise)
+        s, e, misfit, _ = scale_fit(master, vd, vf, test.noise)
         trial = master["material"]
-        e_star = effective_modulus_of(kh, radius)
-        e_star_trial = trial.effective_modulus
-        # Fy ~ sigma_c^3 / E*^2 (Hertz at p0 = sigma_c / C): E* of this record
-        # the master curve is in units of the analytic yield, Fy ~ sigma_c^3 / E*^2: the
-        # scale fixes Fy; sigma_c follows with this record's E*
-        analytic_fy = master["yield_force_N"] * s**3
-        sigma_c = trial.compressive_yield_stress * s * (e_star / e_star_trial) ** (2.0 / 3.0)
-        material = _material(kh, radius, nu, beta, m, sigma_c=sigma_c)
+        # the master curve is in units of the analytic yield: Fy ~ sigma_c^3 / E*^2
+        analytic_fy = master["yield_force_N"] * s**3 / e**2
+        material = trial.with_(compressive_yield_stress=s * trial.compressive_yield_stress,
+                               youngs_modulus=e * trial.youngs_modulus,
+                               poissons_ratio=nu, friction_angle_deg=beta, hardening_ratio=m)
+        hertz_part = {"youngs_modulus_Pa": youngs_modulus_of(kh, radius, nu),
+                      "note": "E from the contact-point fit of the Hertz part alone"}
+        kh = hertz_coefficient(material)
         fy = analytic_fy * master["fe_over_analytic_yield"]
         yield_info = {"source": "FE master curve (geocontact.labtest.identify): the FE first "
                                 "yield force of the identified material (as geocontact "
                                 "calibrate takes it)",
                       "force_N": fy, "analytic_force_N": analytic_fy,
                       "fe_over_analytic": master["fe_over_analytic_yield"], "scale": s,
+                      "modulus_scale": e, "hertz_part": hertz_part,
                       "misfit": misfit, "fe_cache_key": master["cache_key"]}
     dy = (fy / kh) ** (1.0 / HERTZ_EXPONENT)
     yield_info["approach_m"] = dy
@@ -503,11 +504,11 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     options = dict(machine_stiffness=machine_stiffness, poissons_ratio=poissons_ratio,
                    friction_angle=friction_angle, hardening_ratio=hardening_ratio)
     prepared = prepare(record, setup, radius, **options)
-    seed = prepared.first_estimate()
+    start = prepared.first_estimate()
     if identify == "fe":
         from .identify import identify_by_fe
 
-        found = identify_by_fe(seed, prepared.virgin_approach, prepared.virgin_force,
+        found = identify_by_fe(start, prepared.virgin_approach, prepared.virgin_force,
                                prepared.test.noise, mesh=mesh, cache_dir=cache_dir,
                                progress=progress is not None)
         result = fit_once(record, setup, radius, master=found["master"], prepared=prepared,
@@ -518,7 +519,7 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     result.identification["first_estimate"] = {
         "source": "departure of the virgin loading from Hertz, analytic incipient yield there",
         "yield_force_N": prepared.departure["force_N"],
-        "compressive_yield_stress_Pa": seed.compressive_yield_stress}
+        "compressive_yield_stress_Pa": start.compressive_yield_stress}
     result.sigma_c_of_beta = sigma_c_of_beta(result)
     if bootstrap_samples:
         result.bootstrap = bootstrap(record, result, setup, radius, samples=bootstrap_samples,

@@ -28,7 +28,7 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+from scipy.optimize import least_squares
 
 from ..errors import InputError
 from ..hertz import incipient_yield
@@ -36,7 +36,7 @@ from ..law.params import HERTZ_EXPONENT
 from ..material import Material
 
 ROUNDS = 4          # FE runs at most
-TOLERANCE = 0.005   # relative change of sigma_c that ends the rounds
+TOLERANCE = 0.01    # relative change of sigma_c and E that ends the rounds
 FE_STEPS = 40       # load steps of the FE run: the curve's shape between steps is linear
 DEPTH_MARGIN = 3.0  # the FE run loads this far beyond the test's largest force (in Fy units)
 
@@ -78,9 +78,12 @@ def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
             "cache_key": job.key(), "mesh": mesh, "max_force_N": float(max_force)}
 
 
-def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, list]:
-    """s of sigma_c = s sigma_c(trial): F = s^3 Fy g(d / (s^2 dy)) on the measured virgin
-    loading; returns (s, misfit, profile)."""
+def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, list]:
+    """s and e of sigma_c = s sigma_c(trial), E* = e E*(trial) laying the FE master curve on the
+    measured virgin loading: F = Fy g(d / dy) with Fy = s^3 / e^2 Fy(trial) and
+    dy = s^2 / e^2 dy(trial) (Hertz at p0 = sigma_c / C), weighted least squares in force
+    (``fit._weighted_virgin``). The Hertz part fixes e, the bend past yield s. Returns
+    (s, e, misfit, profile of the misfit over s at the best e)."""
     lx, lg = np.log(curve["x"]), np.log(curve["g"])
     order = np.argsort(lx)
     lx, lg = lx[order], lg[order]
@@ -88,26 +91,30 @@ def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, list]:
     from .fit import _weighted_virgin
 
     d, f, w = _weighted_virgin(vd, vf, noise)
+    sw = np.sqrt(w / np.sum(w))
 
-    def misfit(log_s):
-        s = math.exp(log_s)
-        xx = np.log(d / (s * s * dy))
+    def model(log_s, log_e):
+        s, e = math.exp(log_s), math.exp(log_e)
+        xx = np.log(d / (s * s / (e * e) * dy))
         below = xx < lx[0]  # below the FE's first point: Hertz, g = x^1.5
-        model = np.where(below, np.exp(HERTZ_EXPONENT * xx),
-                         np.exp(np.interp(xx, lx, lg, right=np.nan)))
-        if np.any(np.isnan(model)):
-            return math.inf
-        return float(np.sum(w * (s**3 * fy * model - f) ** 2) / np.sum(w))
+        g = np.where(below, np.exp(HERTZ_EXPONENT * xx),
+                     np.exp(np.interp(xx, lx, lg, right=np.nan)))
+        return s**3 / e**2 * fy * g
+
+    def residual(theta):
+        r = sw * (model(*theta) - f)
+        return np.where(np.isnan(r), 1e3 * np.abs(f).max() * sw, r)
+
+    def misfit(theta):
+        return float(np.sum(residual(theta) ** 2))
 
     grid = np.linspace(math.log(0.25), math.log(2.0), 36)
-    values = [misfit(v) for v in grid]
-    k = int(np.argmin(values))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    best = minimize_scalar(misfit, bounds=(lo, hi), method="bounded",
-                           options={"xatol": 1e-5})
-    profile = [{"scale": float(math.exp(g)), "misfit": v} for g, v in zip(grid, values,
-                                                                          strict=True)]
-    return float(math.exp(best.x)), float(best.fun), profile
+    start = min(grid, key=lambda g: misfit((g, 0.0)))
+    best = least_squares(residual, [start, 0.0], x_scale=[0.05, 0.02],
+                         bounds=([math.log(0.2), math.log(0.5)], [math.log(2.5), math.log(2.0)]))
+    log_s, log_e = (float(v) for v in best.x)
+    profile = [{"scale": float(math.exp(g)), "misfit": misfit((g, log_e))} for g in grid]
+    return math.exp(log_s), math.exp(log_e), misfit(best.x), profile
 
 
 def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coarse",
@@ -128,24 +135,27 @@ def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coa
         depth_force = DEPTH_MARGIN * top
         curve = master_curve(trial, max(depth_force, 2.0 * fy_trial), mesh=mesh,
                              cache_dir=cache_dir, progress=progress)
-        s, misfit, profile = scale_fit(curve, vd, vf, noise)
+        s, e, misfit, profile = scale_fit(curve, vd, vf, noise)
         sigma = s * trial.compressive_yield_stress
-        rounds.append({"trial_sigma_c_Pa": trial.compressive_yield_stress, "scale": s,
-                       "sigma_c_Pa": sigma, "misfit": misfit, "fe_cache_key":
-                           curve["cache_key"], "fe_max_force_N": curve["max_force_N"],
-                       "profile": profile})
-        done = abs(s - 1.0) < TOLERANCE
-        trial = trial.with_(compressive_yield_stress=sigma)
+        modulus = e * trial.youngs_modulus  # E* ~ E at a fixed nu
+        rounds.append({"trial_sigma_c_Pa": trial.compressive_yield_stress,
+                       "trial_youngs_modulus_Pa": trial.youngs_modulus, "scale": s,
+                       "modulus_scale": e, "sigma_c_Pa": sigma, "youngs_modulus_Pa": modulus,
+                       "misfit": misfit, "fe_cache_key": curve["cache_key"],
+                       "fe_max_force_N": curve["max_force_N"], "profile": profile})
+        done = abs(s - 1.0) < TOLERANCE and abs(e - 1.0) < TOLERANCE
+        trial = trial.with_(compressive_yield_stress=sigma, youngs_modulus=modulus)
         if done:
             break
     last = rounds[-1]
-    fy = curve["yield_force_N"] * last["scale"] ** 3
+    fy = curve["yield_force_N"] * last["scale"] ** 3 / last["modulus_scale"] ** 2
     return {"method": "FE master curve: one-parameter scale of the FE virgin loading (F/Fy "
                       "against delta/delta_y) on the measured virgin loading, rounds until "
                       f"sigma_c moves < {100 * TOLERANCE:g} %",
             "mesh": mesh, "compressive_yield_stress_Pa": trial.compressive_yield_stress,
+            "youngs_modulus_Pa": trial.youngs_modulus,
             "yield_force_N": float(fy),
-            "rounds": rounds, "converged": abs(last["scale"] - 1.0) < TOLERANCE,
+            "rounds": rounds, "converged": done,
             "master": curve}
 
 
