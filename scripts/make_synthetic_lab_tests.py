@@ -39,6 +39,7 @@ from geocontact.io import write_json_atomic, write_text_atomic
 from geocontact.material import Material
 
 OUT = Path("examples/tests")
+MASTERS = Path("tests/data/labtest")  # the FE master curves the tests' identifications end on
 
 # Two grains no calibration of the project uses (SPEC 9 ranges); radii of lab grains.
 TESTS = {
@@ -217,6 +218,25 @@ def make(names, mesh: str, cache: Path, out: Path) -> dict:
     return made
 
 
+def write_masters(names, cache: Path, tests: Path, masters: Path) -> None:
+    """The FE master curve each noise-free test's identification ends on (``geocontact fit``,
+    coarse mesh), for the fast tests of tests/test_labtest.py."""
+    from geocontact.labtest import fit_test, read_test
+
+    for name in names:
+        truth = json.loads((tests / f"{name}.truth.json").read_text())
+        m = truth["material"]
+        fit = fit_test(read_test(tests / f"{name}.clean.csv"), truth["setup"], m["radius"],
+                       machine_stiffness=truth["machine_stiffness_N_per_m"],
+                       poissons_ratio=m["poissons_ratio"],
+                       friction_angle=m["friction_angle_deg"], bootstrap_samples=0,
+                       cache_dir=cache)
+        master = {**fit.master, "material": fit.master["material"].to_dict(),
+                  "note": f"FE master curve of the identification of {name}.clean.csv "
+                          "(scripts/make_synthetic_lab_tests.py)"}
+        write_json_atomic(masters / f"{name}.master.json", master)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
@@ -227,6 +247,7 @@ def main(argv=None) -> int:
 
     def run():
         made = make(args.only, args.mesh, Path(args.cache), Path(args.out))
+        write_masters(args.only, Path(args.cache), Path(args.out), MASTERS)
         print(json.dumps({n: t["fe_cycles"] for n, t in made.items()}, indent=1))
 
     return run_reporting_errors(run)

@@ -417,7 +417,8 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         raise InputError(f"curve: {len(deep)} cycle(s) peak past the yield approach "
                          f"({dy:.3g} m); fit needs >= {MIN_LEVELS}")
     provenance = {"source": "laboratory test (geocontact fit)", "test": test.inputs()}
-    params = fit_law(material, dy, vd, vf, deep, provenance=provenance)
+    with np.errstate(divide="ignore"):  # a level with no residual: its relative error is inf
+        params = fit_law(material, dy, vd, vf, deep, provenance=provenance)
     given = {"poissons_ratio": poissons_ratio, "friction_angle_deg": friction_angle,
              "hardening_ratio": hardening_ratio, "radius_m": radius, "setup": setup,
              "machine_stiffness_N_per_m": machine_stiffness}
