@@ -249,3 +249,68 @@ def test_fit_recovers_the_material(name, tolerances):
         assert lv["max_force_N"] == pytest.approx(fe["max_force_N"], rel=0.02)
         assert lv["residual_approach_m"] == pytest.approx(fe["residual_approach_m"],
                                                           rel=0.35 if k == 0 else 0.10)
+
+
+# --- the command --------------------------------------------------------------------------------
+def _law_test_csv(tmp_path):
+    rec, _, _ = law_path_record(peaks=(6e-6, 2e-5, 6e-5, 1.5e-4), noise=5e-5, offset=0.3)
+    path = tmp_path / "test.csv"
+    _write(path, "displacement_mm,force_kN",
+           np.column_stack([rec.displacement * 1e3, rec.force * 1e-3]))
+    return path
+
+
+def test_cli_writes_a_valid_law_a_result_folder_and_a_report(tmp_path, capsys):
+    from geocontact.cli import main
+    from geocontact.io import verify_manifest
+    from geocontact.report import build_report
+
+    curve = _law_test_csv(tmp_path)
+    out = tmp_path / "P.json"
+    args = ["fit", str(curve), "--setup", "pair", "--radius", "0.1", "--out", str(out),
+            "--identify", "departure", "--bootstrap", "2", "--json"]
+    assert main(args) == 0
+    document = json.loads(capsys.readouterr().out)
+    params = load_params(out)  # schema-valid
+    assert params.provenance["source"].startswith("laboratory test")
+    assert set(params.provenance["assumed"]) == {"poissons_ratio", "friction_angle_deg",
+                                                 "hardening_ratio"}
+    assert document["bootstrap"]["succeeded"] >= 2
+    assert document["fitted"]["youngs_modulus_Pa"]["standard_error"] > 0
+    # the shipped law's E (10 GPa at nu = 0.25) from the Hertz part
+    assert params.material.youngs_modulus == pytest.approx(10e9, rel=0.05)
+    folder = tmp_path / "P.fit"
+    assert verify_manifest(folder) == []
+    assert {"fit.png", "yield.png", "curve.csv", "fit.json"} <= {p.name for p in
+                                                                 folder.iterdir()}
+    html = build_report(folder).read_text()
+    assert "Laboratory-test fit" in html
+    # a second run replaces its own folder; a folder of the user's is refused
+    args[args.index("--bootstrap") + 1] = "0"
+    assert main(args) == 0
+    capsys.readouterr()
+    (folder / "mine.txt").write_text("notes")
+    assert main(args) == 2
+    assert "was not written by geocontact" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra,match", [
+    (["--setup", "anvil"], "invalid choice"),
+    (["--radius", "-1"], "radius"),
+    (["--bootstrap", "-2"], "--bootstrap"),
+    (["--poissons-ratio", "0.7"], "poissons_ratio"),
+])
+def test_cli_bad_arguments_are_one_line(tmp_path, capsys, extra, match):
+    from geocontact.cli import main
+
+    curve = _law_test_csv(tmp_path)
+    base = {"--setup": "pair", "--radius": "0.1", "--out": str(tmp_path / "P.json")}
+    for flag, value in zip(extra[::2], extra[1::2], strict=True):
+        base[flag] = value
+    argv = ["fit", str(curve), "--identify", "departure", "--bootstrap",
+            base.pop("--bootstrap", "0")]
+    for flag, value in base.items():
+        argv += [flag, value]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert match in err and "\n" not in err

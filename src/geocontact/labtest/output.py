@@ -128,7 +128,8 @@ def write_fit(result: LabFit, out: str | Path, *, overwrite: bool = False,
     smooth, law_force = law_along(params, t.approach)
     law_rms = path_rms_percent(smooth, law_force - t.force, t.peak_force)
     document = summary(result, out, law_rms)
-    columns = {"approach_m": t.approach, "force_N": t.force, "law_force_N": law_force,
+    columns = {"approach_m": t.approach, "force_N": t.force, "law_approach_m": smooth,
+               "law_force_N": law_force,
                "branch": branches(result), "displacement_m": t.record.displacement,
                "raw_force_N": t.record.force}
     if t.record.time is not None:

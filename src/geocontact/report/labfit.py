@@ -35,7 +35,7 @@ def is_labfit(directory: Path) -> bool:
 
 def _curve(directory: Path) -> dict[str, np.ndarray]:
     return {c: read_csv_column(directory / "curve.csv", c)
-            for c in ("approach_m", "force_N", "law_force_N", "branch")}
+            for c in ("approach_m", "force_N", "law_approach_m", "law_force_N", "branch")}
 
 
 def _figures(directory: Path, tag: str) -> list[tuple]:
@@ -43,6 +43,7 @@ def _figures(directory: Path, tag: str) -> list[tuple]:
     doc = read_fit(directory)
     c = _curve(directory)
     d, f, law, branch = c["approach_m"], c["force_N"], c["law_force_N"], c["branch"]
+    dl = c["law_approach_m"]  # the smoothed approach the law was driven along
     peak = float(f.max())
     rms = doc["law_along_record"]["force_rms_percent_of_peak"]
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(6.2, 5.6), sharex=False,
@@ -54,7 +55,7 @@ def _figures(directory: Path, tag: str) -> list[tuple]:
         if on.any():
             ax.plot(d[on] * 1e6, f[on], ".", ms=1.6, color=colours[code],
                     label=names.get(code, code))
-    ax.plot(d * 1e6, law, "-", lw=1.0, color="tab:red", label="fitted law")
+    ax.plot(dl * 1e6, law, "-", lw=1.0, color="tab:red", label="fitted law")
     ax.set_xlabel("pair approach δ (µm, from the contact point)")
     ax.set_ylabel("force F (N)")
     ax.legend(fontsize=7, loc="upper left", markerscale=4)
@@ -73,7 +74,8 @@ def _figures(directory: Path, tag: str) -> list[tuple]:
                  f"{test['radius_m']:.4g} m: the conditioned record (machine compliance "
                  "removed, from the fitted contact point, pair approach) by branch, the law "
                  "driven along it, and the residual.",
-                 {"approach_m": d, "force_N": f, "law_force_N": law, "branch": branch})
+                 {"approach_m": d, "force_N": f, "law_approach_m": dl, "law_force_N": law,
+                  "branch": branch})
     # contact and yield: the first loading on log axes with Hertz and the yield point
     material = doc["material"]["values"]
     y = doc["yield"]
@@ -84,8 +86,9 @@ def _figures(directory: Path, tag: str) -> list[tuple]:
     kh = y["force_N"] / y["approach_m"] ** 1.5
     bx.loglog(grid * 1e6, kh * grid**1.5, "--", color="tab:blue", lw=1,
               label=f"Hertz, E = {material['youngs_modulus'] / 1e9:.4g} GPa")
-    on = np.argsort(d[virgin])
-    bx.loglog(d[virgin][on] * 1e6, law[virgin][on], "-", color="tab:red", lw=1.2,
+    on = virgin & (dl > 0) & (law > 0)
+    order = np.argsort(dl[on])
+    bx.loglog(dl[on][order] * 1e6, law[on][order], "-", color="tab:red", lw=1.2,
               label="fitted law")
     bx.plot([y["approach_m"] * 1e6], [y["force_N"]], "o", color="tab:red", mfc="none",
             label=f"yield Fy = {y['force_N']:.3g} N")
@@ -101,7 +104,8 @@ def _figures(directory: Path, tag: str) -> list[tuple]:
                  "The virgin loading on log axes: Hertz with the fitted E*, the law, its yield "
                  "point (the FE first yield of the identified material when identified) and "
                  "where the record leaves Hertz by 3 %.",
-                 {"approach_m": d[virgin], "force_N": f[virgin], "law_force_N": law[virgin]})
+                 {"approach_m": d[virgin], "force_N": f[virgin],
+                  "law_approach_m": dl[virgin], "law_force_N": law[virgin]})
     return [(fig, one), (fig2, two)]
 
 
