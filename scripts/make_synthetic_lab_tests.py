@@ -20,7 +20,6 @@ displacement-controlled press dirties a curve:
 Seeded: the same command writes the same files. The FE runs are cached in out/cache/fem.
 
     nice -n 5 .venv/bin/python scripts/make_synthetic_lab_tests.py          # examples/tests/
-    .venv/bin/python scripts/make_synthetic_lab_tests.py --check            # files up to date?
 """
 
 from __future__ import annotations

@@ -51,7 +51,7 @@ MIN_LEVELS = 3
 # model error of the law's form in the profile's weights: a point weighs 1/(sigma^2 + (e F)^2)
 FORM_ERROR = 0.01
 UNLOAD_KEEP = (0.05, 0.98)  # share of the peak force over which the unloading law is fitted
-BETA_PROFILE = (0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+BETA_PROFILE = (0.0, 15.0, 30.0, 45.0, 60.0)
 
 
 def effective_modulus_of(stiffness: float, radius: float) -> float:

@@ -78,12 +78,8 @@ def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
             "cache_key": job.key(), "mesh": mesh, "max_force_N": float(max_force)}
 
 
-def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, list]:
-    """s and e of sigma_c = s sigma_c(trial), E* = e E*(trial) laying the FE master curve on the
-    measured virgin loading: F = Fy g(d / dy) with Fy = s^3 / e^2 Fy(trial) and
-    dy = s^2 / e^2 dy(trial) (Hertz at p0 = sigma_c / C), weighted least squares in force
-    (``fit._weighted_virgin``). The Hertz part fixes e, the bend past yield s. Returns
-    (s, e, misfit, profile of the misfit over s at the best e)."""
+def _residual_of(curve: dict, vd, vf, noise: float):
+    """residual(log s, log e) of the master curve scaled onto the measured virgin loading."""
     lx, lg = np.log(curve["x"]), np.log(curve["g"])
     order = np.argsort(lx)
     lx, lg = lx[order], lg[order]
@@ -93,28 +89,68 @@ def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, l
     d, f, w = _weighted_virgin(vd, vf, noise)
     sw = np.sqrt(w / np.sum(w))
 
-    def model(log_s, log_e):
-        s, e = math.exp(log_s), math.exp(log_e)
+    def residual(theta):
+        s, e = math.exp(theta[0]), math.exp(theta[1])
         xx = np.log(d / (s * s / (e * e) * dy))
         below = xx < lx[0]  # below the FE's first point: Hertz, g = x^1.5
         g = np.where(below, np.exp(HERTZ_EXPONENT * xx),
                      np.exp(np.interp(xx, lx, lg, right=np.nan)))
-        return s**3 / e**2 * fy * g
-
-    def residual(theta):
-        r = sw * (model(*theta) - f)
+        r = sw * (s**3 / e**2 * fy * g - f)
         return np.where(np.isnan(r), 1e3 * np.abs(f).max() * sw, r)
+
+    return residual
+
+
+BOUNDS = ([math.log(0.2), math.log(0.5)], [math.log(2.5), math.log(2.0)])
+
+
+def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, list]:
+    """s and e of sigma_c = s sigma_c(trial), E* = e E*(trial) laying the FE master curve on the
+    measured virgin loading: F = Fy g(d / dy) with Fy = s^3 / e^2 Fy(trial) and
+    dy = s^2 / e^2 dy(trial) (Hertz at p0 = sigma_c / C), weighted least squares in force
+    (``fit._weighted_virgin``). The Hertz part fixes e, the bend past yield s. Returns
+    (s, e, misfit, profile of the misfit over s at the best e)."""
+    residual = _residual_of(curve, vd, vf, noise)
 
     def misfit(theta):
         return float(np.sum(residual(theta) ** 2))
 
     grid = np.linspace(math.log(0.25), math.log(2.0), 36)
     start = min(grid, key=lambda g: misfit((g, 0.0)))
-    best = least_squares(residual, [start, 0.0], x_scale=[0.05, 0.02],
-                         bounds=([math.log(0.2), math.log(0.5)], [math.log(2.5), math.log(2.0)]))
+    best = least_squares(residual, [start, 0.0], x_scale=[0.05, 0.02], bounds=BOUNDS)
     log_s, log_e = (float(v) for v in best.x)
     profile = [{"scale": float(math.exp(g)), "misfit": misfit((g, log_e))} for g in grid]
     return math.exp(log_s), math.exp(log_e), misfit(best.x), profile
+
+
+VALLEY = 0.10  # the correlated range: misfit within this share of its minimum
+
+
+def valley(curve: dict, vd, vf, noise: float, best: tuple[float, float]) -> dict[str, Any]:
+    """The (sigma_c, E) pairs one record cannot tell apart: for sigma_c on a grid around the
+    best, the E that fits best and the misfit (a profile); the range of sigma_c whose profile
+    misfit is within VALLEY of the minimum."""
+    residual = _residual_of(curve, vd, vf, noise)
+    trial = curve["material"]
+    rows = []
+    for s in np.sort(np.append(best[0] * np.geomspace(0.75, 1.3, 41), best[0])):
+        log_s = math.log(s)
+
+        def at(t, log_s=log_s):
+            return residual((log_s, t[0]))
+
+        fit = least_squares(at, [math.log(best[1])], bounds=([BOUNDS[0][1]], [BOUNDS[1][1]]))
+        rows.append({"compressive_yield_stress_Pa": float(s * trial.compressive_yield_stress),
+                     "youngs_modulus_Pa": float(math.exp(fit.x[0]) * trial.youngs_modulus),
+                     "misfit": float(2.0 * fit.cost)})
+    low = min(r["misfit"] for r in rows)
+    inside = [r["compressive_yield_stress_Pa"] for r in rows
+              if r["misfit"] <= (1 + VALLEY) * low]
+    return {"profile": rows,
+            "sigma_c_range_Pa": [min(inside), max(inside)],
+            "definition": f"sigma_c whose best-E misfit is within {100 * VALLEY:g} % of the "
+                          "minimum (E re-fitted at each sigma_c): what the record does not "
+                          "separate along the sigma_c-E correlation"}
 
 
 def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coarse",
@@ -151,10 +187,12 @@ def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coa
     fy = curve["yield_force_N"] * last["scale"] ** 3 / last["modulus_scale"] ** 2
     sensitivity = master_sensitivity(curve["material"], vd, vf, noise, last, mesh=mesh,
                                      cache_dir=cache_dir, progress=progress)
+    correlated = valley(curve, vd, vf, noise, (last["scale"], last["modulus_scale"]))
     return {"method": "FE master curve: scale (sigma_c, E*) of the FE virgin loading (F/Fy "
                       "against delta/delta_y, analytic yield units) on the measured virgin "
                       f"loading, rounds until both move < {100 * TOLERANCE:g} %",
             "master_sensitivity": sensitivity,
+            "sigma_c_modulus_valley": correlated,
             "mesh": mesh, "compressive_yield_stress_Pa": trial.compressive_yield_stress,
             "youngs_modulus_Pa": trial.youngs_modulus,
             "yield_force_N": float(fy),
