@@ -78,6 +78,9 @@ def verify(name: str, bootstrap: int, cache: Path, tests: Path) -> dict:
                                          m["compressive_yield_stress"]),
             "yield_force_over_fe": noisy.params.yield_force / truth["fe_first_yield_force_N"],
             "standard_errors": se,
+            "sigma_c_range_over_true": [
+                v / m["compressive_yield_stress"] for v in
+                noisy.identification["sigma_c_modulus_valley"]["sigma_c_range_Pa"]],
             "bootstrap_samples": bootstrap,
         },
         "noise_free": {

@@ -109,6 +109,11 @@ def run(args) -> int:
     print(line("yield stress sigma_c", "compressive_yield_stress_Pa", 1e6, "MPa")
           + ("  (FE master curve)" if result.master is not None
              else "  (departure from Hertz: a first estimate)"))
+    valley = result.identification.get("sigma_c_modulus_valley")
+    if valley:
+        lo, hi = valley["sigma_c_range_Pa"]
+        print(f"  {'':28s} sigma_c {lo / 1e6:.4g} to {hi / 1e6:.4g} MPa fit as well (with E "
+              "re-fitted): the sigma_c-E correlation of this record")
     print(line("first-yield force Fy", "yield_force_N", 1.0, "N"))
     for key in ("poissons_ratio", "friction_angle_deg", "hardening_ratio"):
         state = "assumed" if key in result.assumed else "given"

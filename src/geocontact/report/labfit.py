@@ -158,6 +158,11 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
     notes = (f"<p>Standard errors: {html_escape(boot.get('method', 'none (no bootstrap)'))}"
              + (f"; {boot.get('succeeded')} of {boot.get('samples')} samples, seed "
                 f"{boot.get('seed')}." if boot else ".") + "</p>")
+    valley = doc["identification"].get("sigma_c_modulus_valley")
+    if valley:
+        lo, hi = valley["sigma_c_range_Pa"]
+        rows.insert(2, ["σc range (MPa)", f"{lo / 1e6:.4g} – {hi / 1e6:.4g}",
+                        "misfit within 10 % of its minimum, E re-fitted"])
     beta = ", ".join(f"β = {r['friction_angle_deg']:g}°: "
                      f"{r['compressive_yield_stress_Pa'] / 1e6:.3g}"
                      for r in doc["sigma_c_of_beta"])
