@@ -37,7 +37,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from ..calibrate.fit import LevelData, fit_law
+from ..calibrate.fit import LevelData, _trapezoid_weights, fit_law
 from ..errors import InputError
 from ..hertz import hertz_coefficient, incipient_yield
 from ..law.params import HERTZ_EXPONENT, LawParams
@@ -144,15 +144,6 @@ def _virgin(test: LabTest):
     return vd[order], vf[order]
 
 
-def _log_weights(d):
-    x = np.log(d)
-    gap = np.diff(x)
-    w = np.zeros_like(x)
-    w[:-1] += 0.5 * gap
-    w[1:] += 0.5 * gap
-    return w
-
-
 # a force resolution in the weights of at least this share of the largest force (a record
 # without noise, or with its noise estimate below the digits written, still has one)
 RESOLUTION_FLOOR = 1e-4
@@ -169,7 +160,7 @@ def _weighted_virgin(vd, vf, noise: float):
     d, f = vd[use], vf[use]
     if d.size < 10:
         raise InputError("curve: fewer than 10 virgin loading points above the noise")
-    return d, f, _log_weights(d) / (sigma**2 + (FORM_ERROR * f) ** 2)
+    return d, f, _trapezoid_weights(np.log(d)) / (sigma**2 + (FORM_ERROR * f) ** 2)
 
 
 def departure(vd, vf, kh: float, noise: float) -> dict:
