@@ -224,14 +224,15 @@ def _master(name):
 
 @pytest.mark.parametrize("name,tolerances", [
     ("platens-quartzite.clean", {"E": 0.02, "fy": 0.10, "sigma": 0.05}),
-    ("platens-quartzite", {"E": 0.03, "fy": 0.15, "sigma": 0.05}),
+    ("platens-quartzite", {"E": 0.05, "fy": 0.45, "sigma": 0.15}),
 ])
 def test_fit_recovers_the_material(name, tolerances):
     """E, Fy (against the FE's first yield) and sigma_c of the committed platens test, with the
     FE master curve its identification ended on (tests/data/labtest, made by
     scripts/make_synthetic_lab_tests.py): noise-free within 2 %, 10 %, 5 %; with the test's noise
-    (0.03 % of the peak force), offset, sampling and compliance within 3 %, 15 %, 5 %. (With the
-    master its own identification ends on, the noisy test lands further off: docs/fit.md.)"""
+    (0.03 % of the peak force), offset, sampling and compliance within 5 %, 45 %, 15 %: about two
+    of the bootstrap's standard errors on this record (2.5 %, 20 %, 6 %; docs/fit.md: the noise
+    on the Hertz part and the sigma_c-E correlation)."""
     truth = json.loads((TESTS / "platens-quartzite.truth.json").read_text())
     m = truth["material"]
     rec = read_test(TESTS / f"{name}.csv")
