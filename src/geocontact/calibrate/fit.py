@@ -133,7 +133,7 @@ def _power_of_depth(depth, exponents):
     return p, rms
 
 
-def _saturating(depth, values, what):
+def _saturating(depth, values, what, starts=None, max_log_power=5.0, original=False):
     """limit, power, transition, log_power of values = limit (1 - exp(-power L^b)),
     L = log(1 + (x - 1)/transition) (``law.params.saturating_ratio``).
 
@@ -143,15 +143,19 @@ def _saturating(depth, values, what):
     or more levels (log power free), also of the ratio itself (the residual approach a DEM user
     reads; over five decades of depth one form must serve both ends). Started from a grid over
     the transition depth. With fewer than 4 levels the transition is fixed at 1 (the original
-    two-parameter form); with fewer than 5 the log power is fixed at 1."""
+    two-parameter form); with fewer than 5 the log power is fixed at 1.
+
+    ``starts``: (limit, power, transition, log_power) tuples to start from instead of the grid
+    (a warm start from a known fit nearby, e.g. the universal law's nearest campaign point: the
+    same least-squares problem, one local solve instead of 30)."""
     depth = np.asarray(depth, dtype=float)
     values = np.asarray(values, dtype=float)
     if np.any(values >= 1.0) or np.any(values < 0.0):
         raise InputError(f"calibration: {what} ratios must lie in [0, 1)")
     complement = np.log1p(-values)
     ratio = np.log(np.maximum(values, 1e-12))
-    free_transition = depth.size >= 4
-    free_log_power = depth.size >= 5
+    free_transition = depth.size >= 4 and not original
+    free_log_power = depth.size >= 5 and not original
     # The ratio's own relative error enters only with the log power free (enough levels for
     # the form to follow both ends); a ratio of a few % (a level just past yield) is at the
     # FE's resolution, so its relative error weighs less (weight 1/2 at RATIO_FLOOR).
@@ -168,19 +172,25 @@ def _saturating(depth, values, what):
                                weight * (np.log(model) - ratio)])
 
     best = None
-    for log_transition in (np.log(np.geomspace(1.0, 1e3, 10)) if free_transition else [0.0]):
-        for log_power in ((1.0, 1.5, 2.0) if free_log_power else (1.0,)):
-            lo = [0.0, 1e-4, log_transition - 1e-9 if not free_transition else -1e-9,
-                  0.2 if free_log_power else 1.0 - 1e-9]
-            hi = [MAX_LIMIT, 10.0,
-                  log_transition + 1e-9 if not free_transition else np.log(1e6),
-                  5.0 if free_log_power else 1.0 + 1e-9]
-            start = np.clip([min(values.max() * 1.2, 0.99), 0.3, log_transition, log_power],
-                            lo, hi)
-            fit = least_squares(residual, start, bounds=(lo, hi),
-                                x_scale=[0.1, 0.1, 1.0, 0.3])
-            if best is None or fit.cost < best.cost:
-                best = fit
+    if starts is None:
+        grid = [(None, lt, lp)
+                for lt in (np.log(np.geomspace(1.0, 1e3, 10)) if free_transition else [0.0])
+                for lp in ((1.0, 1.5, 2.0) if free_log_power else (1.0,))]
+    else:
+        grid = [((float(lim), float(pw)), np.log(float(tr)) if free_transition else 0.0,
+                 float(lp) if free_log_power else 1.0) for lim, pw, tr, lp in starts]
+    for given, log_transition, log_power in grid:
+        lo = [0.0, 1e-4, log_transition - 1e-9 if not free_transition else -1e-9,
+              min(0.2, max_log_power - 1e-9) if free_log_power else 1.0 - 1e-9]
+        hi = [MAX_LIMIT, 10.0,
+              log_transition + 1e-9 if not free_transition else np.log(1e6),
+              max_log_power if free_log_power else 1.0 + 1e-9]
+        first = (min(values.max() * 1.2, 0.99), 0.3) if given is None else given
+        start = np.clip([*first, log_transition, log_power], lo, hi)
+        fit = least_squares(residual, start, bounds=(lo, hi),
+                            x_scale=[0.1, 0.1, 1.0, 0.3])
+        if best is None or fit.cost < best.cost:
+            best = fit
     if best is None or not best.success:
         raise InputError(f"calibration: the {what} fit did not converge")
     limit, power, log_transition, log_power = (float(v) for v in best.x)
@@ -188,14 +198,19 @@ def _saturating(depth, values, what):
     log_power = log_power if free_log_power else 1.0
     model = saturating_ratio(depth, limit, power, transition, log_power)
     errors = {"rms": float(np.sqrt(np.mean((model - values) ** 2))),
-              "max_relative": float(np.max(np.abs(model / values - 1.0))),
+              "max_relative": float(np.max(np.abs(model[values > 0] / values[values > 0]
+                                                  - 1.0), initial=0.0)),
               "recovery": float(np.sqrt(np.mean(((1.0 - model) / (1.0 - values) - 1.0) ** 2)))}
     return limit, power, transition, log_power, errors
 
 
 def fit_law(material: Material, yield_approach: float, loading_approach, loading_force,
-            levels: list[LevelData], provenance: dict | None = None) -> LawParams:
-    """Every parameter of the law from FE (or test) cycles; returns validated LawParams."""
+            levels: list[LevelData], provenance: dict | None = None,
+            starts: dict | None = None) -> LawParams:
+    """Every parameter of the law from FE (or test) cycles; returns validated LawParams.
+
+    ``starts``: optional warm starts of the saturating fits, {"residual": [(limit, power,
+    transition, log_power), ...], "plastic_work": [...]} (see ``_saturating``)."""
     if len(levels) < 3:
         raise InputError(f"calibration: needs >= 3 load levels, got {len(levels)}")
     kh = hertz_coefficient(material)
@@ -216,9 +231,12 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     p_u, rms_nu = _power_of_depth(depth, np.array(n_u))
     p_r, rms_nr = _power_of_depth(depth, np.array(n_r))
     residual = np.array([lv.residual_approach / lv.max_approach for lv in levels])
-    rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach")
+    starts = starts or {}
+    rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
+                                         starts.get("residual"))
     work = np.array([lv.plastic_work / lv.total_work for lv in levels])
-    w_lim, w_pow, w_x0, w_b, work_err = _saturating(depth, work, "plastic work")
+    w_lim, w_pow, w_x0, w_b, work_err = _saturating(depth, work, "plastic work",
+                                                    starts.get("plastic_work"))
     fit_errors = {
         "loading_rms_relative": loading.pop("rms_relative_error"),
         "unloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_u)))),
@@ -233,7 +251,7 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
                        "residual_ratio": float(r), "plastic_work_ratio": float(w)}
                       for x, nu, nr, r, w in zip(depth, n_u, n_r, residual, work, strict=True)],
     }
-    return LawParams(
+    values = dict(
         material=material,
         yield_approach=yield_approach,
         unloading_power=p_u,
@@ -251,3 +269,32 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         label="calibrated",
         **loading,
     )
+    try:
+        return LawParams(**values)
+    except InputError as exc:
+        if "creates energy" not in str(exc):
+            raise
+        refused = str(exc)
+    # With a loading exponent near Hertz's (hardening grains) a stretched residual form that
+    # starts flat at x = 1 (log power b > 1, or a large transition depth) lets the unloading
+    # give back more than the loading took just past yield. Refit the residual form with
+    # b <= 1, then in the original form (transition 1, b = 1: slope limit x power at x = 1),
+    # before giving up; a parameter set the check accepts is never changed.
+    for original in (False, True):
+        rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
+                                             None if original else starts.get("residual"),
+                                             max_log_power=1.0, original=original)
+        fit_errors.update({
+            "residual_ratio_rms": res_err["rms"],
+            "residual_ratio_max_relative": res_err["max_relative"],
+            "elastic_recovery_rms_relative": res_err["recovery"],
+            "residual_form_restricted": ("original form (transition 1, log power 1)"
+                                         if original else "log power <= 1")
+            + f": the free fit created energy just past yield ({refused})"})
+        values.update(residual_limit=rho, residual_power=s, residual_transition=x0,
+                      residual_log_power=b, fit_errors=fit_errors)
+        try:
+            return LawParams(**values)
+        except InputError as exc:
+            if "creates energy" not in str(exc) or original:
+                raise

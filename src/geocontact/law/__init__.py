@@ -4,6 +4,7 @@ and the vectorised many-contact kernel."""
 from .kernel import ContactArrays
 from .params import SCHEMA, SHAKEDOWN, TRUNCATED, CyclicLaw, LawParams, load_params
 from .reference import BRANCH_NAMES, Contact, ContactState, force_history
+from .universal import for_material
 
 __all__ = [
     "BRANCH_NAMES",
@@ -15,6 +16,7 @@ __all__ = [
     "ContactState",
     "CyclicLaw",
     "LawParams",
+    "for_material",
     "force_history",
     "load_params",
 ]

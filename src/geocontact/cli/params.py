@@ -1,0 +1,104 @@
+"""``geocontact params``: law parameters for any material in range from the universal law, no
+FE run (INTERFACES; docs/universal.md)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from ..errors import InputError
+from ..io import check_output_file
+from .common import print_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "params",
+        help="law parameters (P.json) for any material in range from the universal law, no FE",
+        description="Interpolate the shipped FE campaign's normalised data over (friction "
+        "angle, Poisson's ratio, hardening ratio, E/sigma_c) at the material, make it "
+        "dimensional with the material's first yield and radius, fit the law (the fit of "
+        "geocontact calibrate) and write P.json (geocontact.law/1) in under a second. "
+        "Range: docs/universal.md.",
+    )
+    p.add_argument("--material", required=True, metavar="M.toml",
+                   help="material TOML file or preset name (radius included)")
+    p.add_argument("--out", required=True, metavar="P.json", help="law parameter file to write")
+    p.add_argument("--extrapolate", action="store_true",
+                   help="accept a material outside the campaign's range (the expected error "
+                        "says so)")
+    p.add_argument("--dataset", default=None, metavar="DIR",
+                   help="universal dataset folder (default: the one shipped with the package)")
+    p.add_argument("--force", action="store_true",
+                   help="replace --out even if it is not a law parameter file")
+    p.add_argument("--json", action="store_true", help="print a summary as JSON")
+    p.set_defaults(run=run)
+
+
+def check_law_file_replaceable(path: Path, force: bool) -> None:
+    """An existing --out is replaced only if it is a geocontact law parameter file (what this
+    command and ``calibrate`` write) or with --force: never a file of the user's."""
+    if force or not path.exists() or path.is_dir():
+        return
+    from ..law.params import SCHEMA
+
+    try:
+        ours = json.loads(path.read_text()).get("schema") == SCHEMA
+    except (OSError, ValueError, AttributeError):
+        ours = False
+    if not ours:
+        raise InputError(f"--out: {path} exists and is not a {SCHEMA} parameter file; "
+                         "refusing to overwrite it (pass --force to replace it)")
+
+
+def run(args) -> int:
+    from ..law import for_material
+    from ..material import load_material
+
+    started = time.perf_counter()
+    out = Path(args.out)
+    if out.suffix != ".json":
+        raise InputError(f"--out: expected a .json file name, got {args.out!r}")
+    check_output_file(out, "--out")
+    check_law_file_replaceable(out, args.force)
+    material = load_material(args.material)
+    if args.dataset is not None:
+        from ..universal.interpolate import universal_params
+
+        if not Path(args.dataset, "points.csv").is_file():
+            raise InputError(f"--dataset: no points.csv in {args.dataset}")
+        params = universal_params(material, extrapolate=args.extrapolate,
+                                  directory=args.dataset)
+    else:
+        params = for_material(material, extrapolate=args.extrapolate)
+    from ..io import provenance
+
+    record = provenance("params", {"material": args.material, "extrapolate": args.extrapolate,
+                                   "dataset": args.dataset})
+    record.pop("geocontact_version")
+    from dataclasses import replace
+
+    params = replace(params, provenance={**params.provenance, **record})
+    params.save(out)
+    wall = time.perf_counter() - started
+    u = params.provenance["universal"]
+    if args.json:
+        print_json({"file": str(out), "wall_time_s": wall, "label": params.label,
+                    "yield_force_N": params.yield_force,
+                    "yield_approach_m": params.yield_approach,
+                    "fully_plastic_force_N": params.fully_plastic_force,
+                    "inside_range": u["inside_range"], "outside_range": u["outside_range"],
+                    "dataset_points": u["points"], "dataset_sha256": u["dataset_sha256"],
+                    "expected_error_loo": u["expected_error_loo"],
+                    "fit_errors": {k: v for k, v in params.fit_errors.items()
+                                   if k != "per_level"}})
+        return 0
+    e = u["expected_error_loo"]
+    print(f"wrote {out} (universal law, {u['points']} FE points, {wall:.2f} s)"
+          + ("" if u["inside_range"] else " -- EXTRAPOLATED: " + "; ".join(u["outside_range"])))
+    print(f"yield {params.yield_force:.4g} N at {params.yield_approach:.4g} m; expected "
+          f"interpolation error (LOO): residual ratio {e['residual_ratio']:.3g}, work ratio "
+          f"{e['plastic_work_ratio']:.3g}, log10 approach {e['virgin_log10_approach']:.3g}, "
+          f"unloading exponent {e['unloading_exponent']:.3g}")
+    return 0

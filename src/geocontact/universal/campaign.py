@@ -1,0 +1,260 @@
+"""The universal law's FE campaign: a calibration-grade set of FE runs per point of material
+space, reduced to normalised data and appended to the dataset point by point.
+
+    python -m geocontact.universal.campaign --points 40 [--workers 1] [--scheduler ADDRESS]
+
+Each point is the set ``geocontact calibrate`` runs (``calibrate.campaign.calibration_jobs``:
+cycles 0 -> F -> 0 -> F -> 0, one mesh sized for the top peak) at the peaks
+``design.force_levels(s)`` x the analytic Fy, on the coarse mesh, cached by
+``fem.reuse.FeRunIdentity`` in the cache folder. The paper's 10-cycle repeated history is not
+part of a point (it costs as much as the seven levels together): the universal law is the
+single-envelope law, with the cyclic extension off (docs/universal.md).
+
+Resumable: a point already in points.csv is skipped, an interrupted point's finished FE runs come
+from the cache (and an interrupted run from its checkpoint). Each finished point lands in
+points.csv and provenance.json by atomic rewrites (provenance first, so a row never exists
+without its record).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, run_reporting_errors
+from ..io import write_json_atomic, write_text_atomic
+from .dataset import (
+    DATASET_FORMAT,
+    default_directory,
+    format_points,
+    read_points,
+    read_provenance,
+    rows_of,
+    virgin_force_grid,
+)
+from .design import (
+    AXES,
+    CAMPAIGN_MODULUS,
+    CAMPAIGN_RADIUS,
+    LEVELS,
+    SOBOL_SEED,
+    DesignPoint,
+    design_points,
+    force_levels,
+)
+
+MESH = "coarse"
+DEFAULT_CACHE = Path("out/cache/universal")
+
+
+def point_jobs(point: DesignPoint, mesh: str = MESH):
+    """The FE runs of one point (``calibrate.campaign.calibration_jobs`` at its peaks)."""
+    from ..calibrate.campaign import calibration_jobs
+    from ..hertz import incipient_yield
+
+    material = point.material()
+    fy = incipient_yield(material).force
+    return calibration_jobs(material, [float(p) * fy for p in force_levels(
+        point.log10_modulus_over_strength)], mesh)
+
+
+def point_row(point: DesignPoint, jobs, results) -> dict[str, Any]:
+    """The dataset row of a point from its FE runs (see ``dataset``)."""
+    from ..calibrate.campaign import extract_run, fe_fully_plastic, fe_yield
+    from ..calibrate.fit import _power_exponent
+    from ..hertz import incipient_yield
+
+    material = point.material()
+    analytic = incipient_yield(material)
+    fy, dy = analytic.force, analytic.approach
+    runs = [extract_run(job, result) for job, result in zip(jobs, results, strict=True)]
+    row: dict[str, Any] = {"index": point.index}
+    row.update(zip([a[0] for a in AXES], point.coordinates, strict=True))
+    row["fe_yield_ratio"] = fe_yield(material, runs)["fe_force_N"] / fy
+    fp = fe_fully_plastic(runs)["force_N"]
+    row["fully_plastic_ratio"] = None if fp is None else fp / fy
+    row.update(virgin_samples(runs, fy, dy, point.log10_modulus_over_strength))
+    for level, run in enumerate(sorted(runs, key=lambda r: r.level.max_force)):
+        lv = run.level
+        row[f"logx_{level}"] = np.log10(lv.max_approach / dy)
+        row[f"residual_{level}"] = lv.residual_approach / lv.max_approach
+        row[f"work_{level}"] = lv.plastic_work / lv.total_work
+        row[f"unloading_exponent_{level}"] = _power_exponent(
+            lv.unloading_approach, lv.unloading_force, lv.residual_approach, lv.max_approach,
+            lv.max_force)[0]
+        row[f"reloading_exponent_{level}"] = _power_exponent(
+            lv.reloading_approach, lv.reloading_force, lv.residual_approach, lv.max_approach,
+            lv.max_force)[0]
+        second = run.second_residual_approach
+        row[f"second_increment_{level}"] = (None if second is None else
+                                            (second - lv.residual_approach)
+                                            / lv.residual_approach)
+    return row
+
+
+def virgin_samples(runs, fy: float, dy: float, s: float) -> dict[str, float]:
+    """log10(delta/delta_y) of the stitched virgin curve at F/Fy = ``virgin_force_grid(s)``;
+    below the FE's first loaded step the curve is Hertz's (elastic, x = (F/Fy)^(2/3))."""
+    from ..calibrate.campaign import virgin_curve
+
+    d, f, _ = virgin_curve(runs)
+    keep = (f > 0.0) & (d > 0.0)
+    logf, logd = np.log10(f[keep] / fy), np.log10(d[keep] / dy)
+    order = np.argsort(logf, kind="stable")
+    logf, logd = logf[order], np.maximum.accumulate(logd[order])
+    grid = np.log10(virgin_force_grid(s))
+    values = np.interp(grid, logf, logd)
+    below = grid < logf[0]
+    values[below] = (2.0 / 3.0) * grid[below]
+    if grid[-1] > logf[-1] + 1e-6:
+        raise InputError(f"universal campaign: the virgin curve stops at F/Fy = "
+                         f"{10 ** logf[-1]:.4g}, below the grid's top {10 ** grid[-1]:.4g}")
+    return {f"virgin_logx_{k:02d}": float(v) for k, v in enumerate(values)}
+
+
+def run_points(count: int, directory: str | Path | None = None,
+               cache_dir: str | Path = DEFAULT_CACHE, *, scheduler: str | None = None,
+               workers: int | None = None, progress: bool = True) -> list[int]:
+    """Run the first ``count`` design points not yet in the dataset; returns the indices
+    added. A point whose FE runs fail is recorded as failed in provenance.json and retried by
+    the next call; the others go on."""
+    from ..fem.campaign import CampaignError, check_scheduler_address, run_campaign
+    from ..fem.reuse import fe_code_hash
+    from ..io import provenance as provenance_record
+
+    directory = Path(directory or default_directory())
+    directory.mkdir(parents=True, exist_ok=True)
+    data = read_points(directory)
+    done = {int(i) for i in data["index"]}
+    todo = [p for p in design_points(count) if p.index not in done]
+    if progress:
+        print(f"universal campaign: {count} points asked, {count - len(todo)} in the dataset, "
+              f"{len(todo)} to run ({LEVELS} FE runs each, {MESH} mesh)", file=sys.stderr)
+    if not todo:
+        return []
+    if scheduler is not None:
+        scheduler = check_scheduler_address(scheduler)
+    cluster = None
+    if scheduler is None:
+        from dask.distributed import LocalCluster
+
+        cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        scheduler = cluster.scheduler_address
+    added = []
+    started = time.perf_counter()
+    try:
+        for n, point in enumerate(todo, 1):
+            jobs = point_jobs(point)
+            t0 = time.perf_counter()
+            try:
+                results = run_campaign(jobs, cache_dir, scheduler=scheduler, progress=False)
+                row = point_row(point, jobs, results)
+            except (CampaignError, InputError) as exc:
+                record = read_provenance(directory)
+                record.setdefault("failed", {})[str(point.index)] = {
+                    "coordinates": dict(zip([a[0] for a in AXES], point.coordinates,
+                                            strict=True)),
+                    "error": str(exc)}
+                write_json_atomic(directory / "provenance.json", record)
+                if progress:
+                    print(f"universal campaign: point {point.index} FAILED: {exc}",
+                          file=sys.stderr)
+                continue
+            wall = time.perf_counter() - t0
+            record = read_provenance(directory)
+            record.update(_header(fe_code_hash(), provenance_record))
+            record.setdefault("failed", {}).pop(str(point.index), None)
+            record["points"][str(point.index)] = {
+                "coordinates": dict(zip([a[0] for a in AXES], point.coordinates, strict=True)),
+                "material": {k: getattr(point.material(), k) for k in (
+                    "youngs_modulus", "poissons_ratio", "compressive_yield_stress",
+                    "friction_angle_deg", "hardening_ratio", "radius")},
+                "peak_forces_N": [max(j.forces) for j in jobs],
+                "cache_keys": [j.key() for j in jobs],
+                "fe_code_hash": fe_code_hash(),
+                "geocontact_version": _version(),
+                "elements": [r.summary["mesh"]["elements"] for r in results],
+                "run_wall_time_s": [r.summary["wall_time_s"] for r in results],
+                "point_wall_time_s": wall,
+                "warnings": sorted({w for r in results for w in r.summary.get("warnings", [])}),
+            }
+            write_json_atomic(directory / "provenance.json", record)
+            data = read_points(directory)
+            rows = [r for r in rows_of(data) if int(r["index"]) != point.index] + [row]
+            write_text_atomic(directory / "points.csv", format_points(rows))
+            added.append(point.index)
+            if progress:
+                elapsed = time.perf_counter() - started
+                eta = elapsed / n * (len(todo) - n)
+                print(f"universal campaign: point {point.index} done ({n}/{len(todo)}, "
+                      f"{wall:.0f} s; beta {point.friction_angle_deg:.1f}, nu "
+                      f"{point.poissons_ratio:.3f}, m {point.hardening_ratio:.3f}, E/sigma_c "
+                      f"{10 ** point.log10_modulus_over_strength:.0f}); "
+                      f"{len(data['index']) + 1} in the dataset; ETA {eta / 60:.0f} min",
+                      file=sys.stderr)
+    finally:
+        if cluster is not None:
+            cluster.close()
+    return added
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+def _header(code_hash: str, provenance_record) -> dict[str, Any]:
+    return {
+        "format": DATASET_FORMAT,
+        "design": {"axes": [{"name": a[0], "low": a[1], "high": a[2]} for a in AXES],
+                   "sequence": "centre of the box, 8 corners (half fraction x4 = x1 x2 x3), 8 "
+                               "scrambled Sobol points (scipy.stats.qmc, seed "
+                               f"{SOBOL_SEED}), the other 8 corners, then Sobol on",
+                   "modulus_Pa": CAMPAIGN_MODULUS, "radius_m": CAMPAIGN_RADIUS},
+        "levels_force_over_yield": "design.force_levels(s): LEVELS geometric from 2 to "
+                                   "140 x 10^(s - 2), s = log10(E/sigma_c)",
+        "virgin_force_over_yield": "dataset.virgin_force_grid(s): geometric from 0.5 to the top "
+                                   "level",
+        "fe": {"mesh": MESH, "history_shape": "0 -> F -> 0 -> F -> 0 (data/calibration.toml)",
+               "shared_mesh": "one mesh per point, sized for the top peak",
+               "cyclic_run": "not part of a point (the law's cyclic extension stays off)"},
+        "command": "python -m geocontact.universal.campaign",
+        "last_update": provenance_record("universal campaign", {})["created_utc"],
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m geocontact.universal.campaign",
+        description="Run the universal law's FE campaign: the first --points points of the "
+                    "design not yet in the dataset, each appended when it finishes.")
+    parser.add_argument("--points", type=int, required=True, help="design points to reach")
+    parser.add_argument("--dataset", default=None,
+                        help="dataset folder (default: the package's data/universal)")
+    parser.add_argument("--cache", default=str(DEFAULT_CACHE), help="FE result cache")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="Dask scheduler address (default: a local cluster)")
+    parser.add_argument("--workers", type=int, default=2, help="local Dask workers (default 2)")
+    args = parser.parse_args(argv)
+
+    def run() -> int:
+        from ..cli.common import check_workers
+
+        check_workers(args.workers)
+        added = run_points(args.points, args.dataset, args.cache, scheduler=args.scheduler,
+                           workers=args.workers)
+        print(f"universal campaign: {len(added)} points added")
+        return 0
+
+    return run_reporting_errors(run)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,436 @@
+"""The universal law: the dataset's normalised quantities interpolated over material space,
+turned back into FE-like data for a material and fitted by the project's own fit.
+
+For a material (any E, radius; beta, nu, m and E/sigma_c inside the campaign's box):
+
+1. every law quantity of the dataset (``dataset.law_columns``) is interpolated at the
+   material's coordinates (scipy ``RBFInterpolator`` on the unit box, a polynomial of degree 1
+   plus a radial kernel; the kernel of each quantity is the one with the smallest
+   leave-one-out error among ``KERNELS``, chosen from the data, no hand-set number);
+2. the normalised data are made dimensional with the material's analytic first yield
+   (``hertz.incipient_yield``: Fy, delta_y): the virgin curve, and per level the peak, the
+   residual approach, the work ratio and power-law unloading and reloading curves with the
+   interpolated exponents (``calibrate.fit`` reduces a curve to exactly that exponent);
+3. ``calibrate.fit.fit_law`` fits the law to them: the same code path as ``geocontact
+   calibrate`` (``fit_runs``) and the lab-test fit.
+
+The error expected at the material is the leave-one-out error of the nodes near it (inverse
+distance weights in the unit box), per quantity group.
+
+    params = universal_params(material)            # LawParams, provenance says where from
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import sys
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..material import Material
+from .dataset import (
+    LEVEL_FIELDS,
+    VIRGIN_SAMPLES,
+    dataset_hash,
+    default_directory,
+    law_columns,
+    read_points,
+    virgin_force_grid,
+)
+from .design import (
+    AXIS_NAMES,
+    coordinates_of,
+    force_levels,
+    material_at,
+    outside_range,
+    unit,
+)
+
+KERNELS = ("thin_plate_spline", "cubic", "linear")
+MIN_POINTS = 6  # a degree-1 polynomial in 4 coordinates needs 5 nodes; one more for the LOO
+# Samples of each rebuilt unloading/reloading curve (the fit takes 2-98 % of the peak force).
+CURVE_SAMPLES = 41
+# Warm starts of the saturating fits: those of the nearest campaign points (fits.json).
+WARM_STARTS = 2
+# Quantity groups reported as the expected error at a material.
+GROUPS = {
+    "fe_yield_ratio": ("fe_yield_ratio",),
+    "virgin_log10_approach": ("virgin_logx_",),
+    "level_log10_approach": ("logx_",),
+    "residual_ratio": ("residual_",),
+    "plastic_work_ratio": ("work_",),
+    "unloading_exponent": ("unloading_exponent_",),
+    "reloading_exponent": ("reloading_exponent_",),
+}
+
+
+@dataclass
+class Surfaces:
+    """The interpolating surfaces of one dataset and their leave-one-out errors."""
+
+    columns: list[str]
+    nodes: np.ndarray  # unit coordinates, (n, 4)
+    values: np.ndarray  # (n, q)
+    kernels: list[str]  # per column
+    loo_error: np.ndarray  # (n, q): |LOO prediction - value| at each node
+    interpolators: dict[str, Any]
+    dataset_sha256: str
+
+    def __call__(self, coordinates) -> dict[str, float]:
+        u = np.atleast_2d(unit(coordinates))
+        out = np.empty(len(self.columns))
+        for _kernel, (rbf, index) in self.interpolators.items():
+            out[index] = rbf(u)[0]
+        return dict(zip(self.columns, out, strict=True))
+
+    def expected_error(self, coordinates) -> dict[str, float]:
+        """Leave-one-out error expected at ``coordinates``: per group, the largest over its
+        columns of the inverse-square-distance mean of the nodes' LOO errors."""
+        u = unit(coordinates)
+        d2 = np.sum((self.nodes - u) ** 2, axis=1)
+        if np.any(d2 < 1e-24):
+            w = (d2 < 1e-24).astype(float)
+        else:
+            w = 1.0 / d2
+        w /= w.sum()
+        per_column = w @ self.loo_error
+        out = {}
+        for group, prefixes in GROUPS.items():
+            index = [i for i, c in enumerate(self.columns)
+                     if any(c == p or (p.endswith("_") and c.startswith(p)) for p in prefixes)]
+            out[group] = float(np.max(per_column[index]))
+        return out
+
+    def loo_summary(self) -> dict[str, dict[str, float]]:
+        """Per group: RMS and max LOO error over nodes and columns, and the kernels used."""
+        out = {}
+        for group, prefixes in GROUPS.items():
+            index = [i for i, c in enumerate(self.columns)
+                     if any(c == p or (p.endswith("_") and c.startswith(p)) for p in prefixes)]
+            e = self.loo_error[:, index]
+            out[group] = {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e)),
+                          "kernels": sorted({self.kernels[i] for i in index})}
+        return out
+
+
+def _rbf(nodes, values, kernel):
+    from scipy.interpolate import RBFInterpolator
+
+    return RBFInterpolator(nodes, values, kernel=kernel, degree=1)
+
+
+def _loo(nodes: np.ndarray, values: np.ndarray, kernel: str) -> np.ndarray:
+    """|prediction - value| at each node from the surface of the others, all columns."""
+    n = nodes.shape[0]
+    error = np.empty_like(values)
+    for i in range(n):
+        keep = np.arange(n) != i
+        try:
+            rbf = _rbf(nodes[keep], values[keep], kernel)
+        except np.linalg.LinAlgError:  # the other nodes do not span the box (too few)
+            error[i] = np.inf
+            continue
+        error[i] = np.abs(rbf(nodes[i:i + 1])[0] - values[i])
+    return error
+
+
+def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
+                   loo: dict[str, Any] | None = None) -> Surfaces:
+    """The surfaces of a dataset (``dataset.read_points``); kernels chosen per column by LOO.
+
+    ``loo``: the kernels and LOO errors ``prepare`` stored for this dataset (fits.json), used
+    when their dataset hash is ``sha256`` instead of recomputing them."""
+    n = data["index"].size
+    if n < MIN_POINTS:
+        raise InputError(f"universal law: the dataset has {n} points; at least {MIN_POINTS} "
+                         "are needed (run the campaign: python -m geocontact.universal.campaign)")
+    columns = law_columns()
+    nodes = unit(np.column_stack([data[name] for name in AXIS_NAMES]))
+    values = np.column_stack([data[c] for c in columns])
+    if not np.all(np.isfinite(values)):
+        bad = [c for c in columns if not np.all(np.isfinite(data[c]))]
+        raise InputError(f"universal law: the dataset has empty values in {', '.join(bad[:3])}")
+    if loo and sha256 and loo.get("dataset_sha256") == sha256 \
+            and loo.get("columns") == columns:
+        kernels = list(loo["kernels"])
+        error = np.array(loo["loo_error"], dtype=float)
+        return _assemble(columns, nodes, values, kernels, error, sha256)
+    errors = {k: _loo(nodes, values, k) for k in KERNELS}
+    # per column: the kernel with the smallest RMS LOO error
+    rms = np.array([np.sqrt(np.mean(errors[k] ** 2, axis=0)) for k in KERNELS])
+    # a kernel whose system is singular for some subset (e.g. the thin-plate spline on nodes
+    # at equal mutual distances) is not used
+    rms[~np.all(np.isfinite(rms), axis=1)] = np.inf
+    if not np.any(np.isfinite(rms)):
+        raise InputError(f"universal law: the dataset's {n} points do not span the four "
+                         "coordinates well enough for a leave-one-out check; run more of the "
+                         "campaign (python -m geocontact.universal.campaign)")
+    best = np.argmin(rms, axis=0)
+    kernels = [KERNELS[b] for b in best]
+    error = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
+    return _assemble(columns, nodes, values, kernels, error, sha256)
+
+
+def _assemble(columns, nodes, values, kernels, error, sha256) -> Surfaces:
+    interpolators = {}
+    for kernel in KERNELS:
+        index = np.array([j for j, k in enumerate(kernels) if k == kernel], dtype=int)
+        if index.size:
+            interpolators[kernel] = (_rbf(nodes, values[:, index], kernel), index)
+    return Surfaces(columns, nodes, values, kernels, error, interpolators, sha256)
+
+
+@functools.lru_cache(maxsize=4)
+def _surfaces_of(directory: str, sha256: str) -> Surfaces:
+    return build_surfaces(read_points(directory), sha256, read_loo(directory))
+
+
+def read_loo(directory: str | Path | None = None) -> dict[str, Any] | None:
+    path = Path(directory or default_directory()) / FITS_FILE
+    if not path.exists():
+        return None
+    return json.loads(path.read_text()).get("surfaces")
+
+
+def surfaces(directory: str | Path | None = None) -> Surfaces:
+    """The surfaces of the dataset in ``directory`` (default: the shipped one), cached by the
+    dataset's hash."""
+    directory = str(Path(directory or default_directory()))
+    return _surfaces_of(directory, dataset_hash(directory))
+
+
+def normalised_data(values: dict[str, float], s: float) -> dict[str, Any]:
+    """The interpolated quantities as curves and levels in units of the analytic Fy, dy."""
+    force = virgin_force_grid(s)
+    logx = np.array([values[f"virgin_logx_{k:02d}"] for k in range(VIRGIN_SAMPLES)])
+    levels = []
+    for level, peak in enumerate(force_levels(s)):
+        levels.append({"force": float(peak), **{
+            name: float(values[f"{name}_{level}"]) for name in LEVEL_FIELDS
+            if name != "second_increment"}})
+    return {"virgin_force": force, "virgin_approach": 10.0 ** np.maximum.accumulate(logx),
+            "levels": levels, "fe_yield_ratio": float(values["fe_yield_ratio"])}
+
+
+def rebuild(material: Material, values: dict[str, float]):
+    """FE-like data of ``material`` from normalised quantities (a row of the dataset, or the
+    interpolated one): yield approach, virgin curve and per-level ``calibrate.fit.LevelData``."""
+    from ..calibrate.fit import LevelData
+    from ..hertz import hertz_coefficient, incipient_yield
+
+    data = normalised_data(values, float(coordinates_of(material)[3]))
+    analytic = incipient_yield(material)
+    fy, dy = analytic.force, analytic.approach
+    kh = hertz_coefficient(material)
+    yield_approach = (data["fe_yield_ratio"] * fy / kh) ** (2.0 / 3.0)
+    d_virgin = data["virgin_approach"] * dy
+    f_virgin = data["virgin_force"] * fy
+    # the virgin curve from zero (its first sample is elastic, below first yield)
+    d_all = np.concatenate([[0.0], d_virgin])
+    f_all = np.concatenate([[0.0], f_virgin])
+    levels = []
+    t = np.linspace(0.0, 1.0, CURVE_SAMPLES)
+    for lv in data["levels"]:
+        peak = lv["force"] * fy
+        dmax = 10.0 ** lv["logx"] * dy
+        dres = min(max(lv["residual"], 0.0), 1.0 - 1e-9) * dmax
+        upto = d_all < dmax
+        total = float(np.trapezoid(np.append(f_all[upto], peak), np.append(d_all[upto], dmax)))
+        approach = dres + (dmax - dres) * t
+        levels.append(LevelData(
+            max_approach=dmax, max_force=peak, residual_approach=dres,
+            plastic_work=min(max(lv["work"], 0.0), 1.0 - 1e-9) * total, total_work=total,
+            unloading_approach=approach[::-1].copy(),
+            unloading_force=(peak * t ** lv["unloading_exponent"])[::-1].copy(),
+            reloading_approach=approach.copy(),
+            reloading_force=peak * t ** lv["reloading_exponent"]))
+    return yield_approach, d_virgin, f_virgin, levels, data, analytic
+
+
+FITS_FILE = "fits.json"
+
+
+def row_key(data: dict[str, np.ndarray], i: int) -> str:
+    """Hash of row i's law columns and coordinates (a node's fit is reused while it holds)."""
+    import hashlib
+
+    cells = [f"{data[c][i]:.10g}" for c in (*AXIS_NAMES, *law_columns())]
+    return hashlib.sha256(",".join(cells).encode()).hexdigest()[:16]
+
+
+def node_fit(data: dict[str, np.ndarray], i: int) -> dict[str, list[float]]:
+    """The saturating fits of node i's own data (full multi-start ``fit_law``)."""
+    from ..calibrate.fit import fit_law
+
+    coords = [float(data[n][i]) for n in AXIS_NAMES]
+    material = material_at(coords)
+    values = {c: float(data[c][i]) for c in law_columns()}
+    yield_approach, d_virgin, f_virgin, levels, _, _ = rebuild(material, values)
+    p = fit_law(material, yield_approach, d_virgin, f_virgin, levels)
+    return {"residual": [p.residual_limit, p.residual_power, p.residual_transition,
+                         p.residual_log_power],
+            "plastic_work": [p.plastic_work_limit, p.plastic_work_power,
+                             p.plastic_work_transition, p.plastic_work_log_power]}
+
+
+def read_fits(directory: str | Path | None = None) -> dict[str, Any]:
+    path = Path(directory or default_directory()) / FITS_FILE
+    if not path.exists():
+        return {}
+    return json.loads(path.read_text()).get("nodes", {})
+
+
+def prepare(directory: str | Path | None = None, progress: bool = True) -> int:
+    """Write fits.json: every node's saturating fits (the warm starts of ``universal_params``).
+    Nodes whose row is unchanged keep their entry; returns the number fitted now."""
+    from ..io import write_json_atomic
+
+    directory = Path(directory or default_directory())
+    data = read_points(directory)
+    old = read_fits(directory)
+    nodes, fitted = {}, 0
+    for i in range(data["index"].size):
+        key = row_key(data, i)
+        index = str(int(data["index"][i]))
+        if index in old and old[index].get("row") == key:
+            nodes[index] = old[index]
+            continue
+        try:
+            nodes[index] = {"row": key, **node_fit(data, i)}
+        except InputError as exc:  # recorded; such a node gives no warm start
+            nodes[index] = {"row": key, "error": str(exc)}
+        fitted += 1
+        if progress:
+            print(f"universal: node {index} fitted", file=sys.stderr)
+    sha256 = dataset_hash(directory)
+    table = build_surfaces(data, sha256)
+    write_json_atomic(directory / FITS_FILE, {
+        "format": "geocontact.universal-fits/1",
+        "what": "per campaign point, the saturating fits (limit, power, transition, log power) "
+                "of its own data by calibrate.fit.fit_law (30-start grid): the warm starts of "
+                "the universal law's fit at a material near it",
+        "command": "python -m geocontact.universal.interpolate --prepare",
+        "nodes": nodes,
+        "surfaces": {"dataset_sha256": sha256, "columns": table.columns,
+                     "kernels": table.kernels, "loo_error": table.loo_error}})
+    return fitted
+
+
+def warm_starts(data: dict[str, np.ndarray], fits: dict[str, Any], u: np.ndarray,
+                count: int = WARM_STARTS) -> dict[str, list] | None:
+    """The saturating fits of the ``count`` nodes nearest to ``u`` (unit box) whose entry in
+    fits.json matches their row; None if there is none (then the full grid is used)."""
+    nodes = unit(np.column_stack([data[n] for n in AXIS_NAMES]))
+    order = np.argsort(np.sum((nodes - u) ** 2, axis=1))
+    chosen = []
+    for i in order:
+        entry = fits.get(str(int(data["index"][i])))
+        if entry is not None and "residual" in entry and entry.get("row") == row_key(data, i):
+            chosen.append(entry)
+        if len(chosen) == count:
+            break
+    if not chosen:
+        return None
+    return {"residual": [e["residual"] for e in chosen],
+            "plastic_work": [e["plastic_work"] for e in chosen]}
+
+
+def universal_params(material: Material, *, extrapolate: bool = False,
+                     directory: str | Path | None = None):
+    """The universal law's LawParams for ``material`` (see the module's docstring)."""
+    from ..calibrate.fit import fit_law
+
+    problems = outside_range(material)
+    if problems and not extrapolate:
+        raise InputError(problems[0] + " (pass --extrapolate / extrapolate=True to accept "
+                                       "it with a larger error)")
+    table = surfaces(directory)
+    coords = coordinates_of(material)
+    values = table(coords)
+    yield_approach, d_virgin, f_virgin, levels, data, analytic = rebuild(material, values)
+    starts = warm_starts(_points_of(str(Path(directory or default_directory())),
+                                    table.dataset_sha256),
+                         read_fits(directory), unit(coords))
+    expected = table.expected_error(coords)
+    provenance = {
+        "source": "universal law (geocontact params): the FE campaign's normalised data "
+                  "interpolated over material space, fitted by calibrate.fit.fit_law",
+        "universal": {
+            "dataset_sha256": table.dataset_sha256,
+            "points": int(table.nodes.shape[0]),
+            "coordinates": dict(zip(AXIS_NAMES, (float(c) for c in coords), strict=True)),
+            "inside_range": not problems,
+            "outside_range": problems,
+            "expected_error_loo": expected,
+            "expected_error_note": (
+                "leave-one-out interpolation error of the dataset's nodes near this material "
+                "(absolute, in each quantity's unit: log10 approach, ratios, exponents)"
+                + ("; the material is OUTSIDE the campaign's range: the interpolation "
+                   "extrapolates and the real error can be larger" if problems else "")),
+            "fe_mesh": "coarse",
+            "levels_force_over_yield": [lv["force"] for lv in data["levels"]],
+            "valid_depth": "calibrated from 2 Fy to the top level "
+                           f"{data['levels'][-1]['force']:.4g} Fy (contact radius <= R/2)",
+            "saturating_fit_start": ("the fits of the nearest campaign points (fits.json)"
+                                     if starts else "the fit's full start grid"),
+        },
+    }
+    try:
+        params = fit_law(material, yield_approach, d_virgin, f_virgin, levels,
+                         provenance=provenance, starts=starts)
+    except InputError as exc:
+        if not problems:
+            raise
+        raise InputError(f"{problems[0]}; extrapolated that far the data give no valid law "
+                         f"({exc})") from None
+    return replace(params, label="universal", yield_extra={
+        "analytic_force_N": analytic.force, "analytic_approach_m": analytic.approach,
+        "fe_over_analytic_force": data["fe_yield_ratio"],
+        "source": "universal law: the FE first-yield force over the analytic one, "
+                  "interpolated; approach = Hertz approach of that force"})
+
+
+@functools.lru_cache(maxsize=4)
+def _points_of(directory: str, sha256: str) -> dict[str, np.ndarray]:
+    return read_points(directory)
+
+
+def main_summary(params) -> dict[str, Any]:
+    u = params.provenance["universal"]
+    return {"label": params.label, "yield_force_N": params.yield_force,
+            "yield_approach_m": params.yield_approach, "points": u["points"],
+            "inside_range": u["inside_range"], "expected_error_loo": u["expected_error_loo"],
+            "dataset_sha256": u["dataset_sha256"]}
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    from ..errors import run_reporting_errors
+
+    parser = argparse.ArgumentParser(
+        prog="python -m geocontact.universal.interpolate",
+        description="Prepare the universal law from its dataset: --prepare writes fits.json "
+                    "(every node's saturating fits); --loo prints the leave-one-out errors.")
+    parser.add_argument("--dataset", default=None, help="dataset folder (default: shipped)")
+    parser.add_argument("--prepare", action="store_true")
+    parser.add_argument("--loo", action="store_true")
+    args = parser.parse_args(argv)
+
+    def run() -> int:
+        if args.prepare:
+            print(f"fitted {prepare(args.dataset)} nodes")
+        if args.loo:
+            print(json.dumps(surfaces(args.dataset).loo_summary(), indent=2))
+        return 0
+
+    return run_reporting_errors(run)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
