@@ -315,3 +315,27 @@ def test_cli_bad_arguments_are_one_line(tmp_path, capsys, extra, match):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert match in err and "\n" not in err
+
+
+def test_universal_identification_is_the_misfit_minimum():
+    """--identify universal: sigma_c is where the universal law's virgin loading fits the
+    noise-free platens test best (a minimum of the misfit against sigma_c +-15 %), and lands
+    within the universal law's own error of the truth (docs/fit.md: -6 % here)."""
+    from geocontact.labtest.fit import prepare
+    from geocontact.labtest.identify import _universal_misfit, identify_universal, universal_law
+
+    truth = json.loads((TESTS / "platens-quartzite.truth.json").read_text())
+    m = truth["material"]
+    p = prepare(read_test(TESTS / "platens-quartzite.clean.csv"), "platens", m["radius"],
+                machine_stiffness=truth["machine_stiffness_N_per_m"],
+                poissons_ratio=m["poissons_ratio"], friction_angle=m["friction_angle_deg"])
+    start = p.first_estimate()
+    found = identify_universal(start, p.virgin_approach, p.virgin_force, p.test.noise,
+                               beta_given=True)
+    sigma = found["compressive_yield_stress_Pa"]
+    assert sigma == pytest.approx(m["compressive_yield_stress"], rel=0.15)
+    law = universal_law()
+    at = [_universal_misfit(law, start.with_(compressive_yield_stress=f * sigma),
+                            p.virgin_approach, p.virgin_force, p.test.noise)
+          for f in (0.85, 1.0, 1.15)]
+    assert at[1] < at[0] and at[1] < at[2]

@@ -43,10 +43,11 @@ def register(sub) -> None:
                         "subtracted in series (default: none)")
     p.add_argument("--columns", default=None, metavar="KIND=NAME:UNIT,...",
                    help="name the columns, e.g. displacement=Stroke:mm,force=Load:kN,time=t:s")
-    p.add_argument("--identify", default="fe", choices=["fe", "departure"],
+    p.add_argument("--identify", default="fe", choices=["fe", "universal", "departure"],
                    help="sigma_c and the yield: fe = FE master curve (a few coarse FE runs, "
-                        "cached; default), departure = where the record leaves Hertz, no FE "
-                        "(biased: a first estimate)")
+                        "cached; default), universal = the universal law's virgin loading (no "
+                        "FE run; its interpolation error applies), departure = where the record "
+                        "leaves Hertz, no FE (biased: a first estimate)")
     p.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"],
                    help="FE mesh of the identification runs")
     p.add_argument("--cache", default=None, metavar="DIR",
@@ -106,14 +107,13 @@ def run(args) -> int:
           f"load-cell offset {result.contact['offset_N']:.3g} N, noise "
           f"{result.contact['noise_N']:.2g} N; {len(result.levels)} cycles")
     print(line("Young's modulus E", "youngs_modulus_Pa", 1e9, "GPa"))
+    source = ("FE master curve" if result.master is not None else "universal law"
+              if result.universal is not None else "departure from Hertz: a first estimate")
     print(line("yield stress sigma_c", "compressive_yield_stress_Pa", 1e6, "MPa")
-          + ("  (FE master curve)" if result.master is not None
-             else "  (departure from Hertz: a first estimate)"))
-    valley = result.identification.get("sigma_c_modulus_valley")
-    if valley:
-        lo, hi = valley["sigma_c_range_Pa"]
-        print(f"  {'':28s} sigma_c {lo / 1e6:.4g} to {hi / 1e6:.4g} MPa fit as well (with E "
-              "re-fitted): the sigma_c-E correlation of this record")
+          + f"  ({source})")
+    for row in result.identification.get("beta_profile", []):
+        print(f"  {'':28s} beta {row['friction_angle_deg']:4.0f} deg: sigma_c "
+              f"{row['compressive_yield_stress_Pa'] / 1e6:.4g} MPa, misfit {row['misfit']:.3g}")
     print(line("first-yield force Fy", "yield_force_N", 1.0, "N"))
     for key in ("poissons_ratio", "friction_angle_deg", "hardening_ratio"):
         state = "assumed" if key in result.assumed else "given"

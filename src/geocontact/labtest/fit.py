@@ -259,6 +259,7 @@ class LabFit:
     assumed: dict[str, Any]
     sigma_c_of_beta: list[dict]
     master: dict | None = None
+    universal: dict | None = None
     bootstrap: dict[str, Any] = field(default_factory=dict)
     identification: dict[str, Any] = field(default_factory=dict)
 
@@ -359,7 +360,7 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
 def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=None,
              poissons_ratio=None, friction_angle=None, hardening_ratio=None,
              force=None, master: dict | None = None,
-             prepared: Prepared | None = None) -> LabFit:
+             prepared: Prepared | None = None, universal: dict | None = None) -> LabFit:
     """Condition the record and fit the law once (no bootstrap).
 
     Yield: with ``master`` (an FE master curve of ``labtest.identify``) sigma_c is its scale
@@ -374,7 +375,14 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     test, vd, vf = prepared.test, prepared.virgin_approach, prepared.virgin_force
     kh, leave = prepared.hertz_coefficient, prepared.departure
     nu, beta, m = prepared.nu, prepared.beta, prepared.m
-    if master is None:
+    if universal is not None:
+        sigma_c = universal["compressive_yield_stress_Pa"]
+        material = _material(kh, radius, nu, beta, m, sigma_c=sigma_c)
+        fy = universal["yield_force_N"] * (hertz_coefficient(material) / hertz_coefficient(
+            universal["material"])) ** -2  # Fy ~ 1/E*^2 at a fixed sigma_c
+        yield_info = {"source": "universal law (geocontact.law.for_material) of the identified "
+                                "material", "force_N": fy}
+    elif master is None:
         fy = leave["force_N"]
         material = _material(kh, radius, nu, beta, m, yield_force=fy)
         yield_info = {"source": "departure from Hertz (no identification)",
@@ -427,7 +435,7 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                                                          "curve"}
     return LabFit(params=params, test=test, levels=info, yield_info=yield_info,
                   departure=leave, given=given, assumed=assumed, sigma_c_of_beta=[],
-                  master=master)
+                  master=master, universal=universal)
 
 
 def sigma_c_of_beta(result: LabFit) -> list[dict]:
@@ -460,12 +468,15 @@ def bootstrap(record: Record, result: LabFit, setup: str, radius: float, *, samp
         force = smooth + rng.choice(residual, size=f.size, replace=True)
         try:
             rows.append(fitted_values(fit_once(record, setup, radius, force=force,
-                                               master=result.master, **options).params))
+                                               master=result.master,
+                                               universal=result.universal, **options).params))
         except InputError as exc:
             failed.append(str(exc))
         if progress:
             progress(k + 1, samples)
     names = list(result.values())
+    if result.universal is not None:  # sigma_c is not re-identified per sample (cost)
+        names.remove("compressive_yield_stress_Pa")
     values = {n: np.array([r[n] for r in rows]) for n in names}
     main = result.values()
     return {
@@ -483,7 +494,7 @@ def bootstrap(record: Record, result: LabFit, setup: str, radius: float, *, samp
     }
 
 
-IDENTIFY = ("fe", "departure")
+IDENTIFY = ("fe", "universal", "departure")
 
 
 def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=None,
@@ -510,6 +521,14 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         result = fit_once(record, setup, radius, master=found["master"], prepared=prepared,
                           **options)
         result.identification = {k: v for k, v in found.items() if k != "master"}
+    elif identify == "universal":
+        from .identify import identify_universal
+
+        found = identify_universal(start, prepared.virgin_approach, prepared.virgin_force,
+                                   prepared.test.noise, beta_given=friction_angle is not None)
+        result = fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
+        result.identification = {k: v for k, v in found.items() if k != "material"}
+        result.identification["universal_law"] = {"used": True, **found["universal"]}
     else:
         result = fit_once(record, setup, radius, prepared=prepared, **options)
     result.identification["first_estimate"] = {
@@ -567,9 +586,11 @@ def provenance_of(result: LabFit) -> dict[str, Any]:
         "fitted_from_curve": from_curve,
         "given": result.given,
         "assumed": result.assumed,
-        "universal_law": {"used": False, "why": (
-            "geocontact.law.for_material (issue 12) is not in this installation"
-            if universal_law() is None else "not used by this fit (FE master curve instead)")},
+        "universal_law": result.identification.get("universal_law") or {
+            "used": False, "why": (
+                "geocontact.law.for_material (issue 12) is not in this installation"
+                if universal_law() is None else
+                "not used by this fit (--identify fe: the FE master curve instead)")},
         "contact_point": result.contact,
         "yield": result.yield_info,
         "departure_from_hertz": {k: v for k, v in result.departure.items()

@@ -243,3 +243,72 @@ def master_sensitivity(trial: Material, vd, vf, noise: float, last: dict, *, mes
             "definition": "half the range of sigma_c and E identified with master curves at "
                           "the final trial and at (sigma_c, E) x (0.9, 1), (1.1, 1), (1, 0.97), "
                           "(1, 1.03) of it"}
+
+
+# --- with the universal law (issue 12) ----------------------------------------------------------
+UNIVERSAL_BETAS = (0.0, 15.0, 30.0, 45.0, 55.0)  # the profile over beta when none is given
+
+
+def _universal_misfit(law, material: Material, vd, vf, noise: float) -> float:
+    from .fit import _weighted_virgin
+
+    d, f, w = _weighted_virgin(vd, vf, noise)
+    params = law(material)
+    return float(np.sum(w * (params.virgin_force(d) - f) ** 2) / np.sum(w))
+
+
+def _best_sigma(law, material: Material, vd, vf, noise: float) -> tuple[float, float]:
+    """sigma_c (at the material's E, nu, beta, m) whose universal-law virgin loading fits the
+    measured one best; bounded by the universal law's range of E / sigma_c."""
+    from scipy.optimize import minimize_scalar
+
+    from ..errors import InputError
+
+    e = material.youngs_modulus
+
+    def misfit(log_ratio):  # log10(E / sigma_c)
+        try:
+            return _universal_misfit(
+                law, material.with_(compressive_yield_stress=e / 10.0**log_ratio), vd, vf,
+                noise)
+        except InputError:  # outside the universal law's range: worse than any fit
+            return 1e6 * float(np.max(vf)) ** 2
+
+    fit = minimize_scalar(misfit, bounds=(2.0, 4.0), method="bounded",
+                          options={"xatol": 2e-3})
+    return float(e / 10.0**fit.x), float(fit.fun)
+
+
+def identify_universal(material: Material, vd, vf, noise: float, *,
+                       beta_given: bool) -> dict[str, Any]:
+    """sigma_c (and, when no beta is given, the profile of the misfit over beta with its best
+    sigma_c: the correlated pair) from the universal law's virgin loading (``for_material``, no
+    FE run). E, nu and m are the fit's (given or assumed)."""
+    law = universal_law()
+    if law is None:
+        from ..errors import InputError
+
+        raise InputError("identify: the universal law (geocontact.law.for_material) is not in "
+                         "this installation; use --identify fe")
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    sigma, misfit = _best_sigma(law, material, vd, vf, noise)
+    out: dict[str, Any] = {
+        "method": "universal law (geocontact.law.for_material): sigma_c minimising the weighted "
+                  "misfit of its virgin loading to the measured one, at the fit's E, nu, beta, m",
+        "compressive_yield_stress_Pa": sigma, "misfit": misfit,
+        "friction_angle_deg": material.friction_angle_deg,
+    }
+    if not beta_given:
+        profile = []
+        for beta in UNIVERSAL_BETAS:
+            s, f = _best_sigma(law, material.with_(friction_angle_deg=beta), vd, vf, noise)
+            profile.append({"friction_angle_deg": beta, "compressive_yield_stress_Pa": s,
+                            "misfit": f})
+        out["beta_profile"] = profile
+        out["beta_profile_note"] = ("best sigma_c and misfit at each beta: the pair one curve "
+                                    "gives; beta stays assumed in the law file")
+    found = law(material.with_(compressive_yield_stress=sigma))
+    out["universal"] = found.provenance.get("universal", {})
+    out["yield_force_N"] = found.yield_force
+    out["material"] = found.material
+    return out

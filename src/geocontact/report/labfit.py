@@ -139,7 +139,7 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
                         fitted["youngs_modulus_Pa"]["standard_error"], 1e9), "fitted (Hertz)"],
         ["σc (MPa)", _pm(fitted["compressive_yield_stress_Pa"]["value"],
                          fitted["compressive_yield_stress_Pa"]["standard_error"], 1e6),
-         "identified" if doc["identification"].get("rounds") else "from the departure"],
+         html_escape(doc["yield"].get("source", ""))],
         ["ν", f"{m['poissons_ratio']:g}",
          "assumed" if "poissons_ratio" in doc["assumed"] else "given"],
         ["β (deg)", f"{m['friction_angle_deg']:g}",
@@ -158,11 +158,6 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
     notes = (f"<p>Standard errors: {html_escape(boot.get('method', 'none (no bootstrap)'))}"
              + (f"; {boot.get('succeeded')} of {boot.get('samples')} samples, seed "
                 f"{boot.get('seed')}." if boot else ".") + "</p>")
-    valley = doc["identification"].get("sigma_c_modulus_valley")
-    if valley:
-        lo, hi = valley["sigma_c_range_Pa"]
-        rows.insert(2, ["σc range (MPa)", f"{lo / 1e6:.4g} – {hi / 1e6:.4g}",
-                        "misfit within 10 % of its minimum, E re-fitted"])
     beta = ", ".join(f"β = {r['friction_angle_deg']:g}°: "
                      f"{r['compressive_yield_stress_Pa'] / 1e6:.3g}"
                      for r in doc["sigma_c_of_beta"])
