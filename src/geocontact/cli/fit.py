@@ -73,16 +73,14 @@ def run(args) -> int:
     record = read_test(args.curve, args.columns)
 
     def progress(k, n):
-        if not args.json:
-            print(f"\rbootstrap {k}/{n}", end="" if k < n else "\n", file=sys.stderr,
-                  flush=True)
+        print(f"\rbootstrap {k}/{n}", end="" if k < n else "\n", file=sys.stderr, flush=True)
 
     result = fit_test(record, args.setup, args.radius, machine_stiffness=args.machine_stiffness,
                       poissons_ratio=args.poissons_ratio, friction_angle=args.friction_angle,
                       hardening_ratio=args.hardening_ratio, bootstrap_samples=args.bootstrap,
                       seed=args.seed, identify=args.identify, mesh=args.mesh,
                       cache_dir=Path(args.cache) if args.cache else None,
-                      progress=progress)
+                      progress=None if args.json else progress)
     inputs = {"curve": args.curve, "curve_sha256": record.sha256, "setup": args.setup,
               "radius": args.radius, "poissons_ratio": args.poissons_ratio,
               "friction_angle": args.friction_angle, "hardening_ratio": args.hardening_ratio,
