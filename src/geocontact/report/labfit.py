@@ -136,7 +136,9 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
     m = doc["material"]["values"]
     rows = [
         ["E (GPa)", _pm(fitted["youngs_modulus_Pa"]["value"],
-                        fitted["youngs_modulus_Pa"]["standard_error"], 1e9), "fitted (Hertz)"],
+                        fitted["youngs_modulus_Pa"]["standard_error"], 1e9),
+         "fitted (E* of the virgin loading with the FE master curve)"
+         if doc["identification"].get("rounds") else "fitted (E* of the Hertz part)"],
         ["σc (MPa)", _pm(fitted["compressive_yield_stress_Pa"]["value"],
                          fitted["compressive_yield_stress_Pa"]["standard_error"], 1e6),
          html_escape(doc["yield"].get("source", ""))],
@@ -162,7 +164,7 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
                      f"{r['compressive_yield_stress_Pa'] / 1e6:.3g}"
                      for r in doc["sigma_c_of_beta"])
     report.add(
-        f"Laboratory-test fit {where}",
+        f"Laboratory-test fit {directory.name if where == '.' else where}",
         f"<p>Law file <code>{html_escape(doc['params_file'])}</code>, fitted to "
         f"<code>{html_escape(doc['test']['curve'])}</code> ({doc['test']['points']} points, "
         f"set-up {doc['test']['setup']}). Law along the record: RMS "
