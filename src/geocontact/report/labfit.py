@@ -164,7 +164,7 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
                      f"{r['compressive_yield_stress_Pa'] / 1e6:.3g}"
                      for r in doc["sigma_c_of_beta"])
     report.add(
-        f"Laboratory-test fit {directory.name if where == '.' else where}",
+        f"Laboratory-test fit {directory.resolve().name if where == '.' else where}",
         f"<p>Law file <code>{html_escape(doc['params_file'])}</code>, fitted to "
         f"<code>{html_escape(doc['test']['curve'])}</code> ({doc['test']['points']} points, "
         f"set-up {doc['test']['setup']}). Law along the record: RMS "
