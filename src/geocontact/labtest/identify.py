@@ -28,7 +28,7 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
+from scipy.interpolate import UnivariateSpline
 from scipy.optimize import least_squares
 
 from ..errors import InputError
@@ -38,6 +38,7 @@ from ..material import Material
 
 ROUNDS = 4          # FE runs at most
 TOLERANCE = 0.01    # relative change of sigma_c and E that ends the rounds
+MASTER_SMOOTHING = 0.005  # RMS of the master curve's smoothing spline in log F (0.5 %)
 FE_STEPS = 40       # load steps of the FE run: the curve's shape between steps is linear
 DEPTH_MARGIN = 3.0  # the FE run loads this far beyond the test's largest force (in Fy units)
 
@@ -85,9 +86,14 @@ def _residual_of(curve: dict, vd, vf, noise: float):
     order = np.argsort(lx)
     lx, lg = lx[order], lg[order]
     keep = np.concatenate([[True], np.diff(lx) > 0])
-    # monotone cubic through the FE steps in log-log (the force-controlled FE curve has kinks
-    # at its load steps under linear interpolation, which roughen the misfit)
-    shape = PchipInterpolator(lx[keep], lg[keep], extrapolate=False)
+    # a smoothing spline in log-log: the FE curve steps as contact nodes engage (docs/fem.md),
+    # and those steps, scaled against the record's, make the misfit multi-modal; the spline
+    # keeps the curve within MASTER_SMOOTHING (relative) of the FE points
+    lx, lg = lx[keep], lg[keep]
+    spline = UnivariateSpline(lx, lg, k=3, s=lx.size * MASTER_SMOOTHING**2)
+
+    def shape(x):
+        return np.where((x >= lx[0]) & (x <= lx[-1]), spline(x), np.nan)
     fy, dy = curve["yield_force_N"], curve["yield_approach_m"]
     from .fit import _weighted_virgin
 
