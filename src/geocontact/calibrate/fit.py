@@ -8,6 +8,7 @@ error so a calibration file carries how well it describes the data it came from.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,14 +63,17 @@ THIRD_REGIME_GAIN = 0.75
 MIN_TAIL_DECADES = 0.5
 
 
-def fit_loading(approach, force, yield_approach, hertz_coefficient):
+def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_slope=None):
     """n1, delta_p/delta_y, n2 (and, where it pays, delta_q/delta_y, n3) of the virgin curve:
     power laws continuous at dy, dp (and dq).
 
     For each candidate break (pair) on a log grid, the exponents are a linear least-squares
     problem in log space (anchored at the yield point); the best breaks win. Points are
     weighted by their share of log(delta) (trapezoid), so every decade of depth counts the same
-    however the FE placed its load steps (they crowd near yield)."""
+    however the FE placed its load steps (they crowd near yield).
+
+    ``max_first_slope``: an upper bound on n1 (``fit_law`` sets one when the free fit would
+    create energy just past yield); the other exponents are fitted with n1 at the bound."""
     d = np.asarray(approach, dtype=float)
     f = np.asarray(force, dtype=float)
     dy = yield_approach
@@ -82,13 +86,15 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient):
     w = _trapezoid_weights(x)
     top = max(np.log(2.0), np.log(0.95) + x.max())
     grid = np.log(np.geomspace(1.5, np.exp(top), 240))
-    two = min((_broken_power_fit(x, y, w, (lp,)) for lp in grid), key=lambda r: r[0])
+    two = min((_broken_power_fit(x, y, w, (lp,), max_first_slope) for lp in grid),
+              key=lambda r: r[0])
     err, slopes, breaks = two
     tail = MIN_TAIL_DECADES * np.log(10.0)
     coarse = grid[::4]
     pairs = [(a, b) for a in coarse for b in coarse if b - a >= tail and x.max() - b >= tail]
     if pairs:
-        three = min((_broken_power_fit(x, y, w, pq) for pq in pairs), key=lambda r: r[0])
+        three = min((_broken_power_fit(x, y, w, pq, max_first_slope) for pq in pairs),
+                    key=lambda r: r[0])
         if three[0] < THIRD_REGIME_GAIN * err:
             err, slopes, breaks = three
     out = {"elastic_plastic_exponent": slopes[0],
@@ -100,13 +106,18 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient):
     return out
 
 
-def _broken_power_fit(x, y, w, breaks):
+def _broken_power_fit(x, y, w, breaks, max_first_slope=None):
     """Continuous piecewise-linear y(x) through the origin with the given breaks: weighted
     least squares for the slopes. Returns (weighted RMS relative force error, slopes, breaks);
-    slopes outside (0, 3] (the parameter file's range) make the candidate infinitely bad."""
+    slopes outside (0, 3] (the parameter file's range) make the candidate infinitely bad.
+    With ``max_first_slope`` a first slope above it is fixed at it and the rest refitted."""
     basis = np.column_stack([x] + [np.maximum(x - b, 0.0) for b in breaks])
     sw = np.sqrt(w)
     coef, *_ = np.linalg.lstsq(basis * sw[:, None], y * sw, rcond=None)
+    if max_first_slope is not None and coef[0] > max_first_slope:
+        rest, *_ = np.linalg.lstsq(basis[:, 1:] * sw[:, None],
+                                   (y - max_first_slope * x) * sw, rcond=None)
+        coef = np.concatenate([[max_first_slope], rest])
     slopes = np.cumsum(coef)
     if np.any(slopes <= 0.0) or np.any(slopes > 3.0) or np.sum(x <= breaks[0]) < 2:
         return np.inf, [float(v) for v in slopes], tuple(breaks)
@@ -215,6 +226,7 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         raise InputError(f"calibration: needs >= 3 load levels, got {len(levels)}")
     kh = hertz_coefficient(material)
     loading = fit_loading(loading_approach, loading_force, yield_approach, kh)
+    loading_inputs = (loading_approach, loading_force, yield_approach, kh)
     depth = np.array([lv.max_approach / yield_approach for lv in levels])
     if np.any(depth <= 1.0):
         raise InputError("calibration: every level must go past yield (delta_max > delta_y)")
@@ -275,11 +287,30 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         if "creates energy" not in str(exc):
             raise
         refused = str(exc)
-    # With a loading exponent near Hertz's (hardening grains) a stretched residual form that
-    # starts flat at x = 1 (log power b > 1, or a large transition depth) lets the unloading
-    # give back more than the loading took just past yield. Refit the residual form with
-    # b <= 1, then in the original form (transition 1, b = 1: slope limit x power at x = 1),
-    # before giving up; a parameter set the check accepts is never changed.
+    # With a loading exponent near Hertz's (hardening grains, steep friction angles) and a
+    # residual form that starts flat at x = 1 (log power b > 1, or a large transition depth),
+    # the unloading gives back more than the loading took just past yield: to first order in
+    # x - 1 the plastic work grows only if n1 <= 1.5 + 0.6 p_u (n_u = 1.5 x^p_u). First refit
+    # the loading with n1 at that bound (the residual form kept), then the residual form with
+    # b <= 1, then in the original form (transition 1, b = 1), before giving up; a parameter
+    # set the check accepts is never changed.
+    bound = HERTZ_EXPONENT + 0.6 * p_u - 0.005
+    if loading["elastic_plastic_exponent"] > bound:
+        capped = fit_loading(*loading_inputs, max_first_slope=bound)
+        capped_error = capped.pop("rms_relative_error")
+        trial = {**values, **capped}
+        if "deep_plastic_approach_ratio" not in capped:
+            trial.update(deep_plastic_approach_ratio=math.inf, deep_plastic_exponent=1.0)
+        try:
+            params = LawParams(**trial)
+        except InputError:
+            pass
+        else:
+            fit_errors.update({
+                "loading_rms_relative": capped_error,
+                "loading_first_exponent_bounded": f"n1 <= {bound:.4g}: the free fit created "
+                                                  f"energy just past yield ({refused})"})
+            return params
     for original in (False, True):
         rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
                                              None if original else starts.get("residual"),

@@ -13,7 +13,7 @@ single-envelope law, with the cyclic extension off (docs/universal.md).
 Resumable: a point already in points.csv is skipped, an interrupted point's finished FE runs come
 from the cache (and an interrupted run from its checkpoint). Each finished point lands in
 points.csv and provenance.json by atomic rewrites (provenance first, so a row never exists
-without its record).
+without its record), and fits.json is brought up to date (``interpolate.prepare``).
 """
 
 from __future__ import annotations
@@ -189,6 +189,7 @@ def run_points(count: int, directory: str | Path | None = None,
             rows = [r for r in rows_of(data) if int(r["index"]) != point.index] + [row]
             write_text_atomic(directory / "points.csv", format_points(rows))
             added.append(point.index)
+            _prepare(directory, progress)
             if progress:
                 elapsed = time.perf_counter() - started
                 eta = elapsed / n * (len(todo) - n)
@@ -202,6 +203,20 @@ def run_points(count: int, directory: str | Path | None = None,
         if cluster is not None:
             cluster.close()
     return added
+
+
+def _prepare(directory: Path, progress: bool) -> None:
+    """Bring fits.json up to date with the new row (the law's warm starts and LOO errors):
+    the dataset is ready for `geocontact params` after every point."""
+    from .interpolate import MIN_POINTS, prepare
+
+    if read_points(directory)["index"].size < MIN_POINTS:
+        return
+    try:
+        prepare(directory, progress=False)
+    except InputError as exc:  # e.g. too few points to span the box yet
+        if progress:
+            print(f"universal campaign: fits.json not updated ({exc})", file=sys.stderr)
 
 
 def _version() -> str:
