@@ -5,12 +5,14 @@ and one ``calibrate.fit.LevelData`` per closed cycle, and ``calibrate.fit.fit_la
 form of docs/law.md to them. What the test adds:
 
 * E* from the Hertz part: the contact-point fit F = K delta^1.5 (``labtest.curve``), re-fitted
-  below the yield force once that is known; K = (4/3) E* sqrt(R/2), E = 2 (1 - nu^2) E* with
-  the given (or default) Poisson's ratio;
-* the yield approach delta_y as the break of the law's own virgin form (Hertz to delta_y, then
-  the power laws of ``fit_loading``) that fits the virgin loading best: a profile over delta_y
-  (the calibration takes delta_y from the FE's detected first yield; a test has no such
-  detector, only the curve), Fy = K delta_y^1.5;
+  below the force where the record leaves Hertz (``departure``); K = (4/3) E* sqrt(R/2),
+  E = 2 (1 - nu^2) E* with the given (or default) Poisson's ratio. With the FE identification
+  (``labtest.identify``, the default) E* and sigma_c come together from the FE master curve
+  scaled onto the whole virgin loading;
+* the yield: the Hertz approach of the FE first-yield force of the identified material (as
+  ``geocontact calibrate`` takes delta_y from the FE's first yield; a record has no yield
+  detector, and the departure from Hertz lies far past first yield), or of the universal law's
+  yield (``--identify universal``), or, without identification, the departure itself (biased);
 * per cycle: the peak (delta_max, F_max) on the smoothed record, the residual approach from the
   unloading's own power law F = F_max ((d - d_res)/(d_max - d_res))^n fitted with d_res free
   (the unloading need not reach zero force), the work of the virgin curve to delta_max and the
@@ -18,12 +20,11 @@ form of docs/law.md to them. What the test adds:
   work of 0 -> F -> 0);
 * uncertainties: a residual bootstrap (the force noise, taken from the record's residual about
   its Savitzky-Golay smoothing, resampled onto the smoothed record; the whole conditioning and
-  fit rerun per sample; seeded): one standard error per fitted value;
-* the material: sigma_c from Fy by the analytic incipient yield (``hertz.incipient_yield``:
-  p0 at yield is sigma_c / C(nu, beta), so sigma_c = C p0(Fy) exactly) for the given friction
-  angle beta, or, when none is given, as the curve sigma_c(beta) (one test cannot separate the
-  two); with the universal law (``geocontact.law.for_material``), when it is installed, also
-  the material whose universal law reproduces the whole curve best (``labtest.identify``).
+  fit rerun per sample with the final master curve; seeded): one standard error per fitted
+  value, with the master-curve sensitivity added for sigma_c and E (docs/fit.md: how far to
+  trust them);
+* what one test does not separate: sigma_c against beta at the fitted yield force (analytic
+  incipient yield: p0 at yield is sigma_c / C(nu, beta), so sigma_c = C p0(Fy) exactly).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ DEFAULT_POISSONS_RATIO = 0.25
 DEFAULT_FRICTION_ANGLE = 30.0
 DEFAULT_HARDENING_RATIO = 0.0
 MIN_LEVELS = 3
-# model error of the law's form in the profile's weights: a point weighs 1/(sigma^2 + (e F)^2)
+# model error of the virgin form in the weights: a point weighs 1/(sigma^2 + (e F)^2)
 FORM_ERROR = 0.01
 UNLOAD_KEEP = (0.05, 0.98)  # share of the peak force over which the unloading law is fitted
 BETA_PROFILE = (0.0, 15.0, 30.0, 45.0, 60.0)

@@ -2,24 +2,24 @@
 
 What one test separates and what it does not:
 
-* E*: the Hertz part (``labtest.curve.fit_contact``); E = 2 (1 - nu^2) E* needs nu (given or
-  assumed);
-* sigma_c at a given beta (and nu, m): the FE master curve. For two identical spheres the
-  virgin loading curve in yield units, F / Fy against delta / delta_y, depends on nu, beta, m
-  and (weakly, through a / R) on sigma_c / E; at fixed E, Fy scales as sigma_c^3 and delta_y as
-  sigma_c^2 (p0 at yield = sigma_c / C(nu, beta), Hertz). So one FE run of this project's engine
-  (``geocontact.fem``, monotonic loading) at a trial sigma_c gives the curve's shape, and
-  sigma_c is the one-parameter least-squares scale that lays it on the measured virgin loading
-  (weights as the yield profile: force noise and a 1 % form error, per log-depth share). A
-  second FE run at the identified sigma_c removes the weak sigma_c / E dependence (iterated
-  until it moves less than ``TOLERANCE``). The misfit against sigma_c is kept (the profile).
-  This is the identification that needs no universal law; it costs ``ROUNDS`` FE runs
-  (coarse mesh: tens of seconds each, cached by their inputs);
+* E* and sigma_c at a given beta (and nu, m): the FE master curve. For two identical spheres
+  the virgin loading curve in yield units, F / Fy against delta / delta_y, depends on nu, beta,
+  m and, through the mesh and a / R, on the trial material; at a given E*, Fy ~ sigma_c^3 / E*^2
+  and delta_y ~ sigma_c^2 / E*^2 (p0 at yield = sigma_c / C(nu, beta), Hertz). So one FE run of
+  this project's engine (``geocontact.fem``, monotonic loading, coarse by default) at a trial
+  material gives the curve's shape (smoothed by a cubic spline in log-log), and (sigma_c, E*)
+  are the two-parameter least-squares scale that lays it on the measured virgin loading (a grid
+  over both, then least squares; weights: force noise and a 1 % form error, per log-depth
+  share); the Hertz part fixes E*, the bend past yield sigma_c. Rounds with the identified
+  material as the next trial run until both move less than ``TOLERANCE`` (at most ``ROUNDS`` FE
+  runs, cached by their inputs); ``master_sensitivity`` (4 more runs) measures how much the
+  result depends on the trial; ``valley`` keeps the misfit's profile along sigma_c;
 * beta (and m) against sigma_c: one curve fixes one yield force, and beta moves the shape of
   F / Fy only weakly; beta and m are given (``--friction-angle``) or assumed and then
-  reported with sigma_c(beta) from the analytic incipient yield at the fitted yield force.
-  With the universal law (``geocontact.law.for_material``, issue 12) the shapes could be
-  compared over beta without FE runs; it is used when installed (``universal_law``).
+  reported with sigma_c(beta) from the analytic incipient yield at the fitted yield force;
+* with the universal law (``geocontact.law.for_material``, issue 12; ``identify_universal``):
+  sigma_c from its virgin loading without FE runs, and the profile of the misfit over beta when
+  no beta is given (the correlated pair).
 """
 
 from __future__ import annotations
