@@ -23,8 +23,8 @@ reached ``HERTZ_SHARE`` of the first peak) is fitted by least squares with
 F = f0 + K (u - u0)_+^1.5 (Hertz with an unknown load-cell offset f0 and contact point u0), the
 pre-contact points included, so u0 is where the fitted Hertz curve leaves the offset; the
 force noise (sigma, from the residual of a Savitzky-Golay smoothing, median absolute deviation)
-bounds what counts as contact. ``geocontact.labtest.fit`` re-fits it below the yield force once
-that is known.
+bounds what counts as contact. ``geocontact.labtest.fit`` re-fits it below the force where the
+record leaves Hertz when that is lower.
 
 Segmentation: the press drives the displacement, so the turning points are found on it (a
 zig-zag with a hysteresis of ``TURN_SHARE`` of the displacement range on the smoothed signal,
