@@ -12,7 +12,7 @@ import sys
 from ..errors import ArgumentParser, run_reporting_errors
 
 COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "dem",
-            "report", "presets", "params"]
+            "report", "presets", "params", "fit"]
 
 
 def build_parser() -> ArgumentParser:

@@ -12,7 +12,9 @@ Recognised, in DIR itself and in its immediate sub-directories:
 * a cyclic-history run (``geocontact cycles``: ``summary.json`` with ``analyses``): the ratios of
   cycle N to cycle 1 with their power laws, the shakedown states and critical cycles;
 * the paper's loading-history study (``findings.json``);
-* a DEM run (``geocontact dem``: ``summary.json`` with ``"schema": "geocontact.dem/1"``).
+* a DEM run (``geocontact dem``: ``summary.json`` with ``"schema": "geocontact.dem/1"``);
+* a laboratory-test fit (``geocontact fit``: ``fit.json`` with
+  ``"schema": "geocontact.labfit/1"``).
 
 Sections for other result kinds register themselves in ``SECTIONS`` (first match wins).
 """
@@ -37,6 +39,7 @@ from .cycles import cycles_section, is_cycles
 from .dem import dem_section, is_dem
 from .fe import fe_section, is_fe_run
 from .html import Report, is_our_report, render_html
+from .labfit import is_labfit, labfit_section
 from .law import law_files, law_section
 from .paper_histories import is_paper_histories, paper_histories_section
 from .seismic import is_seismic, seismic_section
@@ -48,6 +51,7 @@ SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
     (is_seismic, seismic_section),
     (is_cycles, cycles_section),
     (is_dem, dem_section),
+    (is_labfit, labfit_section),
     (is_fe_run, fe_section),
 ]
 

@@ -1,0 +1,608 @@
+"""The law (and the material behind it) fitted to a conditioned laboratory test.
+
+One code path with ``geocontact calibrate``: the measured cycles become the virgin loading curve
+and one ``calibrate.fit.LevelData`` per closed cycle, and ``calibrate.fit.fit_law`` fits every
+form of docs/law.md to them. What the test adds:
+
+* E* from the Hertz part: the contact-point fit F = K delta^1.5 (``labtest.curve``), re-fitted
+  below the force where the record leaves Hertz (``departure``); K = (4/3) E* sqrt(R/2),
+  E = 2 (1 - nu^2) E* with the given (or default) Poisson's ratio. With the FE identification
+  (``labtest.identify``, the default) E* and sigma_c come together from the FE master curve
+  scaled onto the whole virgin loading;
+* the yield: the Hertz approach of the FE first-yield force of the identified material (as
+  ``geocontact calibrate`` takes delta_y from the FE's first yield; a record has no yield
+  detector, and the departure from Hertz lies far past first yield), or of the universal law's
+  yield (``--identify universal``), or, without identification, the departure itself (biased);
+* per cycle: the peak (delta_max, F_max) on the smoothed record, the residual approach from the
+  unloading's own power law F = F_max ((d - d_res)/(d_max - d_res))^n fitted with d_res free
+  (the unloading need not reach zero force), the work of the virgin curve to delta_max and the
+  work the unloading gives back (their difference is the cycle's plastic work, as the FE's loop
+  work of 0 -> F -> 0);
+* uncertainties: a residual bootstrap (the force noise, taken from the record's residual about
+  its Savitzky-Golay smoothing, resampled onto the smoothed record; the whole conditioning and
+  fit rerun per sample with the final master curve; seeded): one standard error per fitted
+  value, with the master-curve sensitivity added for sigma_c and E (docs/fit.md: how far to
+  trust them);
+* what one test does not separate: sigma_c against beta at the fitted yield force (analytic
+  incipient yield: p0 at yield is sigma_c / C(nu, beta), so sigma_c = C p0(Fy) exactly).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import savgol_filter
+
+from ..calibrate.fit import LevelData, _trapezoid_weights, fit_law
+from ..errors import InputError
+from ..hertz import hertz_coefficient, incipient_yield
+from ..law.params import HERTZ_EXPONENT, LawParams
+from ..material import Material
+from .curve import SMOOTH_WINDOW, LabTest, Record, condition
+
+DEFAULT_POISSONS_RATIO = 0.25
+DEFAULT_FRICTION_ANGLE = 30.0
+DEFAULT_HARDENING_RATIO = 0.0
+MIN_LEVELS = 3
+# model error of the virgin form in the weights: a point weighs 1/(sigma^2 + (e F)^2)
+FORM_ERROR = 0.01
+UNLOAD_KEEP = (0.05, 0.98)  # share of the peak force over which the unloading law is fitted
+BETA_PROFILE = (0.0, 15.0, 30.0, 45.0, 60.0)
+
+
+def effective_modulus_of(stiffness: float, radius: float) -> float:
+    """E* of two identical spheres from K of F = K delta^1.5: K = (4/3) E* sqrt(R/2)."""
+    return 0.75 * stiffness / math.sqrt(0.5 * radius)
+
+
+def youngs_modulus_of(stiffness: float, radius: float, poissons_ratio: float) -> float:
+    return 2.0 * (1.0 - poissons_ratio**2) * effective_modulus_of(stiffness, radius)
+
+
+@functools.lru_cache(maxsize=256)
+def _dp_factor(poissons_ratio: float, friction_angle_deg: float) -> float:
+    """C(nu, beta) of the analytic incipient yield (p0 at yield = sigma_c / C); any E, R."""
+    return incipient_yield(Material(youngs_modulus=1e9, poissons_ratio=poissons_ratio,
+                                    compressive_yield_stress=1e6,
+                                    friction_angle_deg=friction_angle_deg,
+                                    hardening_ratio=0.0, radius=1.0)).dp_factor
+
+
+def sigma_c_of_yield(yield_force: float, material: Material) -> float:
+    """sigma_c at which the analytic first yield of ``material``'s elastic contact is
+    ``yield_force``: p0 at yield = sigma_c / C (C = ``dp_factor`` of nu and beta), and Hertz
+    p0 = (6 F E*^2 / (pi^3 R*^2))^(1/3)."""
+    c = _dp_factor(material.poissons_ratio, material.friction_angle_deg)
+    e_star, r_star = material.effective_modulus, material.effective_radius
+    p0 = (6.0 * yield_force * e_star**2 / (math.pi**3 * r_star**2)) ** (1.0 / 3.0)
+    return c * p0
+
+
+@dataclass
+class Peak:
+    approach: float
+    force: float
+
+
+def _peak(test: LabTest, cycle) -> Peak:
+    """The cycle's peak on the smoothed record: the largest smoothed approach, and the force
+    there from a straight line through the last loading points near it (the record's cusp is
+    not rounded by smoothing)."""
+    d, f = test.approach, test.force
+    lo = max(cycle.start, cycle.peak - SMOOTH_WINDOW)
+    hi = min(cycle.end, cycle.peak + SMOOTH_WINDOW)
+    dmax = float(np.median(np.sort(d[lo:hi + 1])[-3:]))
+    near = slice(max(cycle.start, cycle.peak - 2 * SMOOTH_WINDOW), cycle.peak + 1)
+    dd, ff = d[near], f[near]
+    if dd.size >= 4 and np.ptp(dd) > 0:
+        slope, icpt = np.polyfit(dd, ff, 1)
+        fmax = float(slope * dmax + icpt)
+    else:
+        fmax = float(f[cycle.peak])
+    return Peak(dmax, max(fmax, float(np.median(f[lo:hi + 1]))))
+
+
+def unloading_law(approach, force, peak: Peak) -> tuple[float, float, float]:
+    """d_res and n of F = F_max ((d - d_res)/(d_max - d_res))^n over the unloading between
+    UNLOAD_KEEP of the peak force (d_res free); returns (d_res, n, rms of peak)."""
+    d, f = np.asarray(approach), np.asarray(force)
+    use = (f > UNLOAD_KEEP[0] * peak.force) & (f < UNLOAD_KEEP[1] * peak.force) & (
+        d < peak.approach)
+    if use.sum() < 5:
+        raise InputError("curve: an unloading has fewer than 5 points between 5 % and 98 % of "
+                         "its peak force; sample the unloading more densely")
+    dd, ff = d[use], f[use] / peak.force
+
+    def residual(theta):
+        dres, n = theta
+        t = np.clip((dd - dres) / (peak.approach - dres), 0.0, None)
+        return t**n - ff
+
+    lowest = float(dd.min())
+    start = [lowest - 0.3 * (peak.approach - lowest), 2.0]
+    fit = least_squares(residual, start, bounds=([-peak.approach, 1.0],
+                                                 [lowest - 1e-6 * peak.approach, 20.0]))
+    dres, n = (float(v) for v in fit.x)
+    return dres, n, float(np.sqrt(np.mean(fit.fun**2)))
+
+
+def _virgin(test: LabTest):
+    """The virgin loading: each cycle's loading beyond the largest approach before it."""
+    d, f = test.approach, test.force
+    parts_d, parts_f = [], []
+    for c in test.cycles:
+        s = c.loading()
+        keep = (d[s] > c.previous_max_approach) & (d[s] > 0.0)
+        parts_d.append(d[s][keep])
+        parts_f.append(f[s][keep])
+    vd, vf = np.concatenate(parts_d), np.concatenate(parts_f)
+    order = np.argsort(vd)
+    return vd[order], vf[order]
+
+
+# a force resolution in the weights of at least this share of the largest force (a record
+# without noise, or with its noise estimate below the digits written, still has one)
+RESOLUTION_FLOOR = 1e-4
+DEPARTURE = 0.03  # the virgin curve has left Hertz when it lies this share below it
+DEPARTURE_BINS = 60
+
+
+def _weighted_virgin(vd, vf, noise: float):
+    """The virgin points above the noise with their weights 1/(sigma^2 + (FORM_ERROR F)^2) x
+    log-depth share (every decade of depth counts the same, as in ``fit_loading``)."""
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    sigma = max(noise, RESOLUTION_FLOOR * float(vf.max()))
+    use = (vf > 5.0 * noise) & (vd > 0)
+    d, f = vd[use], vf[use]
+    if d.size < 10:
+        raise InputError("curve: fewer than 10 virgin loading points above the noise")
+    return d, f, _trapezoid_weights(np.log(d)) / (sigma**2 + (FORM_ERROR * f) ** 2)
+
+
+def departure(vd, vf, kh: float, noise: float) -> dict:
+    """Where the virgin loading leaves Hertz: the median of F / (K d^1.5) in log bins of d
+    (points above 10 sigma); the first bin after the last one within DEPARTURE of 1."""
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    use = (vd > 0) & (vf > 10.0 * noise)
+    d, f = vd[use], vf[use]
+    if d.size < 20:
+        raise InputError("curve: fewer than 20 virgin loading points above 10x the noise")
+    ratio = f / (kh * d**HERTZ_EXPONENT)
+    edges = np.geomspace(d.min(), d.max() * (1 + 1e-12), DEPARTURE_BINS + 1)
+    which = np.digitize(d, edges) - 1
+    centres, medians = [], []
+    for i in range(DEPARTURE_BINS):
+        inside = which == i
+        if inside.sum() >= 3:
+            centres.append(float(np.median(d[inside])))
+            medians.append(float(np.median(ratio[inside])))
+    ok = np.flatnonzero(np.array(medians) >= 1.0 - DEPARTURE)
+    if ok.size == 0:
+        raise InputError("curve: the first loading never follows Hertz (F = K d^1.5) within "
+                         f"{100 * DEPARTURE:g} %: check --setup, --radius and the machine "
+                         "stiffness")
+    last = int(ok[-1])
+    if last == len(centres) - 1:
+        raise InputError("curve: the virgin loading follows Hertz to its end: the test never "
+                         "yields, so there is no plastic law to fit")
+    dd = centres[last + 1]
+    return {"approach_m": dd, "force_N": float(kh * dd**HERTZ_EXPONENT),
+            "method": f"first log bin of the virgin loading whose median F/(K d^1.5) stays "
+                      f"below {1 - DEPARTURE:g} (points above 10 sigma, {DEPARTURE_BINS} "
+                      "bins)",
+            "ratio_profile": [{"approach_m": c, "ratio": r}
+                              for c, r in zip(centres, medians, strict=True)]}
+
+
+def levels_of(test: LabTest, virgin_d, virgin_f) -> tuple[list[LevelData], list[dict]]:
+    """LevelData of each closed cycle (module docstring); and per cycle what was measured."""
+    d, f = test.approach, test.force
+    vd = np.concatenate([[0.0], virgin_d])
+    vf = np.concatenate([[0.0], np.maximum(virgin_f, 0.0)])
+    levels, info = [], []
+    closed = [c for c in test.cycles if c.closed]
+    for i, c in enumerate(closed):
+        peak = _peak(test, c)
+        un = c.unloading()
+        dres, n, rms = unloading_law(d[un], f[un], peak)
+        dres = max(dres, 0.0)
+        below = vd <= peak.approach
+        total = float(np.trapezoid(np.append(vf[below], peak.force),
+                                   np.append(vd[below], peak.approach)))
+        ud, uf = d[un], np.maximum(f[un], 0.0)
+        keep = ud >= dres
+        order = np.argsort(ud[keep])
+        returned = float(np.trapezoid(uf[keep][order], ud[keep][order]))
+        low = float(ud[keep].min()) if keep.any() else dres
+        span = peak.approach - dres
+        returned += peak.force * span / (n + 1.0) * ((low - dres) / span) ** (n + 1.0)
+        # reloading: the next cycle's loading up to this peak (the lift-off gap left out)
+        nxt = test.cycles[test.cycles.index(c) + 1] if c is not test.cycles[-1] else None
+        if nxt is not None:
+            s = nxt.loading()
+            rel = (d[s] <= peak.approach) & (f[s] > 3.0 * test.noise)
+            rd, rf = d[s][rel], f[s][rel]
+        else:
+            rd, rf = np.array([]), np.array([])
+        if rd.size < 5:  # the last cycle has no reload: its unloading stands in (same ends)
+            rd, rf = ud[::-1], f[un][::-1]
+            reload_from = "unloading (no reload after the last cycle)"
+        else:
+            reload_from = "next cycle's loading"
+        levels.append(LevelData(
+            max_approach=peak.approach, max_force=peak.force, residual_approach=dres,
+            plastic_work=total - returned, total_work=total,
+            unloading_approach=d[un].copy(), unloading_force=f[un].copy(),
+            reloading_approach=rd.copy(), reloading_force=rf.copy()))
+        info.append({"cycle": i + 1, "max_approach_m": peak.approach,
+                     "max_force_N": peak.force, "residual_approach_m": dres,
+                     "unloading_exponent_free_fit": n, "unloading_fit_rms_of_peak": rms,
+                     "total_work_J": total, "returned_work_J": returned,
+                     "plastic_work_J": total - returned, "reloading_from": reload_from})
+    return levels, info
+
+
+@dataclass
+class LabFit:
+    """The law fitted to a test, with what was measured, given and assumed."""
+
+    params: LawParams
+    test: LabTest
+    levels: list[dict]
+    yield_info: dict
+    departure: dict
+    given: dict[str, Any]
+    assumed: dict[str, Any]
+    sigma_c_of_beta: list[dict]
+    master: dict | None = None
+    universal: dict | None = None
+    bootstrap: dict[str, Any] = field(default_factory=dict)
+    identification: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def contact(self) -> dict:
+        return self.test.contact
+
+    def values(self) -> dict[str, float]:
+        return fitted_values(self.params)
+
+    def virgin(self):
+        return _virgin(self.test)
+
+
+def fitted_values(params: LawParams) -> dict[str, float]:
+    """The values a fit produces (what the bootstrap gives standard errors of)."""
+    out = {
+        "youngs_modulus_Pa": params.material.youngs_modulus,
+        "effective_modulus_Pa": params.material.effective_modulus,
+        "compressive_yield_stress_Pa": params.material.compressive_yield_stress,
+        "yield_force_N": params.yield_force,
+        "yield_approach_m": params.yield_approach,
+        "elastic_plastic_exponent": params.elastic_plastic_exponent,
+        "fully_plastic_approach_ratio": params.fully_plastic_approach_ratio,
+        "fully_plastic_exponent": params.fully_plastic_exponent,
+        "unloading_power": params.unloading_power,
+        "reloading_power": params.reloading_power,
+        "residual_limit": params.residual_limit,
+        "residual_power": params.residual_power,
+        "plastic_work_limit": params.plastic_work_limit,
+        "plastic_work_power": params.plastic_work_power,
+    }
+    return {k: float(v) for k, v in out.items()}
+
+
+def _material(kh, radius, nu, beta, m, sigma_c=None, yield_force=None) -> Material:
+    """The material of Hertz coefficient ``kh`` (E from E* and nu) with ``sigma_c``, or with the
+    sigma_c whose analytic incipient yield is ``yield_force``."""
+    e = youngs_modulus_of(kh, radius, nu)
+    trial = Material(youngs_modulus=e, poissons_ratio=nu,
+                     compressive_yield_stress=sigma_c or 1e-3 * e,
+                     friction_angle_deg=beta, hardening_ratio=m, radius=radius)
+    if sigma_c is not None:
+        return trial
+    return trial.with_(compressive_yield_stress=sigma_c_of_yield(yield_force, trial))
+
+
+@dataclass
+class Prepared:
+    """A conditioned record with its virgin loading, Hertz coefficient and departure."""
+
+    test: LabTest
+    virgin_approach: np.ndarray
+    virgin_force: np.ndarray
+    hertz_coefficient: float
+    departure: dict
+    nu: float
+    beta: float
+    m: float
+
+    def first_estimate(self) -> Material:
+        """The material with sigma_c analytic at the departure force (a seed: high)."""
+        return _material(self.hertz_coefficient, self.test.radius, self.nu, self.beta, self.m,
+                         yield_force=self.departure["force_N"])
+
+
+def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None,
+            poissons_ratio=None, friction_angle=None, hardening_ratio=None,
+            force=None) -> Prepared:
+    """Condition the record (``labtest.curve.condition``), check its cycles, find where the
+    virgin loading leaves Hertz and refit the contact point below that."""
+    nu = DEFAULT_POISSONS_RATIO if poissons_ratio is None else float(poissons_ratio)
+    beta = DEFAULT_FRICTION_ANGLE if friction_angle is None else float(friction_angle)
+    m = DEFAULT_HARDENING_RATIO if hardening_ratio is None else float(hardening_ratio)
+    Material(youngs_modulus=1e9, poissons_ratio=nu, compressive_yield_stress=1e6,
+             friction_angle_deg=beta, hardening_ratio=m, radius=radius)  # range checks
+    test = condition(record, setup, radius, machine_stiffness, force=force)
+    closed = [c for c in test.cycles if c.closed]
+    if len(closed) < MIN_LEVELS:
+        raise InputError(f"curve: {len(closed)} closed load-unload cycle(s) (unloading below "
+                         f"10 % of the peak); fit needs >= {MIN_LEVELS} to peaks past yield")
+    scale = 1.0 if setup != "flat" else 2.0 ** -HERTZ_EXPONENT  # K of u -> K of delta
+    vd, vf = _virgin(test)
+    kh = test.contact["stiffness"] * scale
+    leave = departure(vd, vf, kh, test.noise)
+    if leave["force_N"] < test.contact["upto_N"] - test.contact["offset_N"]:
+        # the contact fit reached past the departure: refit it on the Hertz part alone
+        below = condition(record, setup, radius, machine_stiffness, force=force,
+                          hertz_upto=test.contact["offset_N"] + leave["force_N"])
+        if below.contact["points_in_contact"] >= 20:
+            test = below
+            vd, vf = _virgin(test)
+            kh = test.contact["stiffness"] * scale
+            leave = departure(vd, vf, kh, test.noise)
+    return Prepared(test, vd, vf, kh, leave, nu, beta, m)
+
+
+def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=None,
+             poissons_ratio=None, friction_angle=None, hardening_ratio=None,
+             force=None, master: dict | None = None,
+             prepared: Prepared | None = None, universal: dict | None = None) -> LabFit:
+    """Condition the record and fit the law once (no bootstrap).
+
+    Yield: with ``master`` (an FE master curve of ``labtest.identify``) sigma_c is its scale
+    fitted to this record's virgin loading and delta_y the Hertz approach of the FE first-yield
+    force scaled with it (as ``geocontact calibrate`` takes delta_y from the FE's first yield);
+    without, delta_y is where the record leaves Hertz (``departure``) and sigma_c the analytic
+    one at that force (a first estimate: the departure lies past the first yield)."""
+    if prepared is None:
+        prepared = prepare(record, setup, radius, machine_stiffness=machine_stiffness,
+                           poissons_ratio=poissons_ratio, friction_angle=friction_angle,
+                           hardening_ratio=hardening_ratio, force=force)
+    test, vd, vf = prepared.test, prepared.virgin_approach, prepared.virgin_force
+    kh, leave = prepared.hertz_coefficient, prepared.departure
+    nu, beta, m = prepared.nu, prepared.beta, prepared.m
+    if universal is not None:
+        sigma_c = universal["compressive_yield_stress_Pa"]
+        material = _material(kh, radius, nu, beta, m, sigma_c=sigma_c)
+        fy = universal["yield_force_N"] * (hertz_coefficient(material) / hertz_coefficient(
+            universal["material"])) ** -2  # Fy ~ 1/E*^2 at a fixed sigma_c
+        yield_info = {"source": "universal law (geocontact.law.for_material) of the identified "
+                                "material", "force_N": fy}
+    elif master is None:
+        fy = leave["force_N"]
+        material = _material(kh, radius, nu, beta, m, yield_force=fy)
+        yield_info = {"source": "departure from Hertz (no identification)",
+                      "force_N": fy}
+    else:
+        from .identify import scale_fit
+
+        s, e, misfit, _ = scale_fit(master, vd, vf, test.noise)
+        trial = master["material"]
+        # the master curve is in units of the analytic yield: Fy ~ sigma_c^3 / E*^2
+        analytic_fy = master["yield_force_N"] * s**3 / e**2
+        material = trial.with_(compressive_yield_stress=s * trial.compressive_yield_stress,
+                               youngs_modulus=e * trial.youngs_modulus,
+                               poissons_ratio=nu, friction_angle_deg=beta, hardening_ratio=m)
+        hertz_part = {"youngs_modulus_Pa": youngs_modulus_of(kh, radius, nu),
+                      "note": "E from the contact-point fit of the Hertz part alone"}
+        kh = hertz_coefficient(material)
+        fy = analytic_fy * master["fe_over_analytic_yield"]
+        yield_info = {"source": "FE master curve (geocontact.labtest.identify): the FE first "
+                                "yield force of the identified material (as geocontact "
+                                "calibrate takes it)",
+                      "force_N": fy, "analytic_force_N": analytic_fy,
+                      "fe_over_analytic": master["fe_over_analytic_yield"], "scale": s,
+                      "modulus_scale": e, "hertz_part": hertz_part,
+                      "misfit": misfit, "fe_cache_key": master["cache_key"]}
+    dy = (fy / kh) ** (1.0 / HERTZ_EXPONENT)
+    yield_info["approach_m"] = dy
+    levels, info = levels_of(test, vd, vf)
+    deep = [lv for lv in levels if lv.max_approach > 1.05 * dy]
+    if len(deep) < MIN_LEVELS:
+        raise InputError(f"curve: {len(deep)} cycle(s) peak past the yield approach "
+                         f"({dy:.3g} m); fit needs >= {MIN_LEVELS}")
+    provenance = {"source": "laboratory test (geocontact fit)", "test": test.inputs()}
+    with np.errstate(divide="ignore"):  # a level with no residual: its relative error is inf
+        params = fit_law(material, dy, vd, vf, deep, provenance=provenance)
+    given = {"poissons_ratio": poissons_ratio, "friction_angle_deg": friction_angle,
+             "hardening_ratio": hardening_ratio, "radius_m": radius, "setup": setup,
+             "machine_stiffness_N_per_m": machine_stiffness}
+    given = {k: v for k, v in given.items() if v is not None}
+    assumed = {}
+    if poissons_ratio is None:
+        assumed["poissons_ratio"] = {"value": nu, "why": "not given; E = 2 (1 - nu^2) E* "
+                                     "depends on it, E* does not"}
+    if friction_angle is None:
+        assumed["friction_angle_deg"] = {
+            "value": beta, "why": "not given; one test fixes the yield force, not sigma_c and "
+                                  "beta apart: see sigma_c_of_beta"}
+    if hardening_ratio is None:
+        assumed["hardening_ratio"] = {"value": m, "why": "not given; not identified from one "
+                                                         "curve"}
+    return LabFit(params=params, test=test, levels=info, yield_info=yield_info,
+                  departure=leave, given=given, assumed=assumed, sigma_c_of_beta=[],
+                  master=master, universal=universal)
+
+
+def sigma_c_of_beta(result: LabFit) -> list[dict]:
+    """sigma_c against beta at the fitted yield force (analytic incipient yield): what one
+    test cannot separate."""
+    material, fy = result.params.material, result.params.yield_force
+    return [{"friction_angle_deg": b,
+             "compressive_yield_stress_Pa": sigma_c_of_yield(
+                 fy, material.with_(friction_angle_deg=b))} for b in BETA_PROFILE]
+
+
+def bootstrap(record: Record, result: LabFit, setup: str, radius: float, *, samples: int,
+              seed: int, progress=None, **options) -> dict[str, Any]:
+    """Residual bootstrap of the force noise (module docstring): standard errors of every
+    fitted value over ``samples`` refits (with the main fit's FE master curve, no new FE run).
+    A refit that fails (a resample that breaks a condition) is counted, not hidden."""
+    f = np.asarray(record.force, dtype=float)
+    window = min(SMOOTH_WINDOW, f.size - (1 - f.size % 2))
+    smooth = savgol_filter(f, window, 2)
+    centre = savgol_filter(np.eye(window)[window // 2], window, 2)[window // 2]
+    residual = (f - smooth) / math.sqrt(1.0 - centre)
+    # the pool is the noise: residuals beyond 4 sigma are the smoothing's error at the record's
+    # kinks (turning points, lift-off), signal not noise
+    sigma = 1.4826 * float(np.median(np.abs(residual - np.median(residual))))
+    residual = residual[np.abs(residual - np.median(residual)) <= 4.0 * sigma]
+    residual -= residual.mean()
+    rng = np.random.default_rng(seed)
+    rows, failed = [], []
+    for k in range(samples):
+        force = smooth + rng.choice(residual, size=f.size, replace=True)
+        try:
+            rows.append(fitted_values(fit_once(record, setup, radius, force=force,
+                                               master=result.master,
+                                               universal=result.universal, **options).params))
+        except InputError as exc:
+            failed.append(str(exc))
+        if progress:
+            progress(k + 1, samples)
+    names = list(result.values())
+    if result.universal is not None:  # sigma_c is not re-identified per sample (cost)
+        names.remove("compressive_yield_stress_Pa")
+    values = {n: np.array([r[n] for r in rows]) for n in names}
+    main = result.values()
+    return {
+        "method": "residual bootstrap: the force noise (residual about a Savitzky-Golay "
+                  "smoothing, rescaled to the raw noise) resampled with replacement onto the "
+                  "smoothed record; contact point, segmentation, yield scale and law fit rerun "
+                  "per sample",
+        "samples": samples, "seed": seed, "succeeded": len(rows), "failed": len(failed),
+        "failures": failed[:3],
+        "standard_errors": {n: float(np.std(v, ddof=1)) if v.size > 1 else None
+                            for n, v in values.items()},
+        "relative_standard_errors": {
+            n: (float(np.std(v, ddof=1) / abs(main[n])) if v.size > 1 and main[n] else None)
+            for n, v in values.items()},
+    }
+
+
+IDENTIFY = ("fe", "universal", "departure")
+
+
+def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=None,
+             poissons_ratio=None, friction_angle=None, hardening_ratio=None,
+             bootstrap_samples: int = 30, seed: int = 0, identify: str = "fe",
+             mesh: str = "coarse", cache_dir=None, progress=None) -> LabFit:
+    """The whole fit (module docstring): law, material, bootstrap standard errors; the
+    provenance says what came from where. ``identify``: "fe" (sigma_c and delta_y from the FE
+    master curve, ``labtest.identify``) or "departure" (no FE run: delta_y where the record
+    leaves Hertz, sigma_c analytic there, a biased first estimate)."""
+    if identify not in IDENTIFY:
+        raise InputError(f"identify: unknown method {identify!r} (allowed: "
+                         f"{', '.join(IDENTIFY)})")
+    options = dict(machine_stiffness=machine_stiffness, poissons_ratio=poissons_ratio,
+                   friction_angle=friction_angle, hardening_ratio=hardening_ratio)
+    prepared = prepare(record, setup, radius, **options)
+    start = prepared.first_estimate()
+    if identify == "fe":
+        from .identify import identify_by_fe
+
+        found = identify_by_fe(start, prepared.virgin_approach, prepared.virgin_force,
+                               prepared.test.noise, mesh=mesh, cache_dir=cache_dir,
+                               progress=progress is not None)
+        result = fit_once(record, setup, radius, master=found["master"], prepared=prepared,
+                          **options)
+        result.identification = {k: v for k, v in found.items() if k != "master"}
+    elif identify == "universal":
+        from .identify import identify_universal
+
+        found = identify_universal(start, prepared.virgin_approach, prepared.virgin_force,
+                                   prepared.test.noise, beta_given=friction_angle is not None)
+        result = fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
+        result.identification = {k: v for k, v in found.items() if k != "material"}
+        result.identification["universal_law"] = {"used": True, **found["universal"]}
+    else:
+        result = fit_once(record, setup, radius, prepared=prepared, **options)
+    result.identification["first_estimate"] = {
+        "source": "departure of the virgin loading from Hertz, analytic incipient yield there",
+        "yield_force_N": prepared.departure["force_N"],
+        "compressive_yield_stress_Pa": start.compressive_yield_stress}
+    result.sigma_c_of_beta = sigma_c_of_beta(result)
+    if bootstrap_samples:
+        result.bootstrap = bootstrap(record, result, setup, radius, samples=bootstrap_samples,
+                                     seed=seed, progress=progress, **options)
+        _add_systematic(result)
+    result.params = replace(result.params, provenance=provenance_of(result),
+                            label="fitted to a laboratory test")
+    return result
+
+
+def _add_systematic(result: LabFit) -> None:
+    """Standard errors of sigma_c and E: the bootstrap's (noise) and the identification's
+    master-curve sensitivity (``identify.master_sensitivity``) added in quadrature; each kept
+    apart too."""
+    sens = result.identification.get("master_sensitivity", {}).get("standard_errors", {})
+    boot = result.bootstrap
+    boot["noise_standard_errors"] = dict(boot["standard_errors"])
+    for key, value in sens.items():
+        noise = boot["standard_errors"].get(key) or 0.0
+        boot["standard_errors"][key] = float(math.hypot(noise, value))
+        main = result.values()[key]
+        boot["relative_standard_errors"][key] = boot["standard_errors"][key] / abs(main)
+    if sens:
+        boot["method"] += ("; sigma_c and E also carry the identification's master-curve "
+                           "sensitivity in quadrature (noise-only values in "
+                           "noise_standard_errors)")
+
+
+def provenance_of(result: LabFit) -> dict[str, Any]:
+    from .identify import universal_law
+
+    p = result.params
+    se = (result.bootstrap or {}).get("standard_errors", {})
+    identified = result.master is not None
+    from_curve = {
+        "material.youngs_modulus": "E* of the Hertz part (contact-point fit), E = 2 (1 - nu^2) "
+                                   "E* with the given or assumed nu",
+        "material.compressive_yield_stress": (
+            "FE master curve scaled onto the virgin loading at the given or assumed nu, beta, "
+            "m" if identified else "analytic incipient yield at the force where the record "
+                                   "leaves Hertz (biased high: docs/fit.md)"),
+        "yield.approach_m": ("Hertz approach of the identified FE first-yield force"
+                             if identified else "departure of the virgin loading from Hertz"),
+        "loading, unloading, reloading, residual_approach, plastic_work":
+            "calibrate.fit.fit_law on the measured virgin loading and cycles",
+    }
+    return {
+        **p.provenance,
+        "fitted_from_curve": from_curve,
+        "given": result.given,
+        "assumed": result.assumed,
+        "universal_law": result.identification.get("universal_law") or {
+            "used": False, "why": (
+                "geocontact.law.for_material (issue 12) is not in this installation"
+                if universal_law() is None else
+                "not used by this fit (--identify fe: the FE master curve instead)")},
+        "contact_point": result.contact,
+        "yield": result.yield_info,
+        "departure_from_hertz": {k: v for k, v in result.departure.items()
+                                 if k != "ratio_profile"},
+        "identification": result.identification,
+        "cycles": result.levels,
+        "sigma_c_of_beta": result.sigma_c_of_beta,
+        "values": result.values(),
+        "uncertainty": {**{k: v for k, v in (result.bootstrap or {}).items()
+                           if k not in ("standard_errors", "relative_standard_errors")},
+                        "standard_errors": se,
+                        "relative_standard_errors": (result.bootstrap or {}).get(
+                            "relative_standard_errors", {})},
+    }

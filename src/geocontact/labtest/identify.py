@@ -1,0 +1,320 @@
+"""The material behind a fitted test (SPEC 9: E, nu, sigma_c, beta, m).
+
+What one test separates and what it does not:
+
+* E* and sigma_c at a given beta (and nu, m): the FE master curve. For two identical spheres
+  the virgin loading curve in yield units, F / Fy against delta / delta_y, depends on nu, beta,
+  m and, through the mesh and a / R, on the trial material; at a given E*, Fy ~ sigma_c^3 / E*^2
+  and delta_y ~ sigma_c^2 / E*^2 (p0 at yield = sigma_c / C(nu, beta), Hertz). So one FE run of
+  this project's engine (``geocontact.fem``, monotonic loading, coarse by default) at a trial
+  material gives the curve's shape (smoothed by a cubic spline in log-log), and (sigma_c, E*)
+  are the two-parameter least-squares scale that lays it on the measured virgin loading (a grid
+  over both, then least squares; weights: force noise and a 1 % form error, per log-depth
+  share); the Hertz part fixes E*, the bend past yield sigma_c. Rounds with the identified
+  material as the next trial run until both move less than ``TOLERANCE`` (at most ``ROUNDS`` FE
+  runs, cached by their inputs); ``master_sensitivity`` (4 more runs) measures how much the
+  result depends on the trial; ``valley`` keeps the misfit's profile along sigma_c;
+* beta (and m) against sigma_c: one curve fixes one yield force, and beta moves the shape of
+  F / Fy only weakly; beta and m are given (``--friction-angle``) or assumed and then
+  reported with sigma_c(beta) from the analytic incipient yield at the fitted yield force;
+* with the universal law (``geocontact.law.for_material``, issue 12; ``identify_universal``):
+  sigma_c from its virgin loading without FE runs, and the profile of the misfit over beta when
+  no beta is given (the correlated pair).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import UnivariateSpline
+from scipy.optimize import least_squares
+
+from ..errors import InputError
+from ..hertz import incipient_yield
+from ..law.params import HERTZ_EXPONENT
+from ..material import Material
+
+ROUNDS = 4          # FE runs at most
+TOLERANCE = 0.01    # relative change of sigma_c and E that ends the rounds
+MASTER_SMOOTHING = 0.005  # RMS of the master curve's smoothing spline in log F (0.5 %)
+FE_STEPS = 40       # load steps of the FE run: the curve's shape between steps is linear
+DEPTH_MARGIN = 3.0  # the FE run loads this far beyond the test's largest force (in Fy units)
+
+
+def universal_law():
+    """``geocontact.law.for_material`` when this installation has it, else None."""
+    try:
+        from ..law import for_material
+    except ImportError:
+        return None
+    return for_material
+
+
+def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
+                 progress: bool = False) -> dict[str, Any]:
+    """FE monotonic loading of ``material`` to ``max_force``: delta/delta_y and F/Fy (the FE's
+    own first yield force Fy and its Hertz approach delta_y)."""
+    from ..fem.campaign import FemJob, run_campaign
+
+    job = FemJob(material, (0.0, float(max_force)), mesh=mesh, steps_per_segment=FE_STEPS,
+                 label="identification")
+    result = run_campaign([job], cache_dir, workers=1, progress=progress)[0]
+    c = result.curve
+    d, f = np.asarray(c["approach_m"], float), np.asarray(c["force_N"], float)
+    fe_fy = result.summary.get("first_yield_force_N")
+    if not fe_fy:
+        raise InputError("identification: the FE run did not yield; the test's forces are "
+                         "elastic for this material")
+    # in units of the analytic first yield (exactly Fy ~ sigma_c^3, dy ~ sigma_c^2); the FE's
+    # own first yield (a load-step bracket) is kept as its ratio to it
+    analytic = incipient_yield(material)
+    fy, dy = analytic.force, analytic.approach
+    keep = (d > 0) & (f > 0)
+    return {"x": d[keep] / dy, "g": f[keep] / fy, "yield_force_N": float(fy),
+            "fe_over_analytic_yield": float(fe_fy / fy),
+            "material": material,
+            "yield_approach_m": float(dy), "fe_yield_approach_m":
+                result.summary.get("first_yield_approach_m"),
+            "cache_key": job.key(), "mesh": mesh, "max_force_N": float(max_force)}
+
+
+def _residual_of(curve: dict, vd, vf, noise: float):
+    """residual(log s, log e) of the master curve scaled onto the measured virgin loading."""
+    lx, lg = np.log(curve["x"]), np.log(curve["g"])
+    order = np.argsort(lx)
+    lx, lg = lx[order], lg[order]
+    keep = np.concatenate([[True], np.diff(lx) > 0])
+    # a smoothing spline in log-log: the FE curve steps as contact nodes engage (docs/fem.md),
+    # and those steps, scaled against the record's, make the misfit multi-modal; the spline
+    # keeps the curve within MASTER_SMOOTHING (relative) of the FE points
+    lx, lg = lx[keep], lg[keep]
+    spline = UnivariateSpline(lx, lg, k=3, s=lx.size * MASTER_SMOOTHING**2)
+
+    def shape(x):
+        return np.where((x >= lx[0]) & (x <= lx[-1]), spline(x), np.nan)
+    fy, dy = curve["yield_force_N"], curve["yield_approach_m"]
+    from .fit import _weighted_virgin
+
+    d, f, w = _weighted_virgin(vd, vf, noise)
+    sw = np.sqrt(w / np.sum(w))
+
+    def residual(theta):
+        s, e = math.exp(theta[0]), math.exp(theta[1])
+        xx = np.log(d / (s * s / (e * e) * dy))
+        below = xx < lx[0]  # below the FE's first point: Hertz, g = x^1.5
+        g = np.where(below, np.exp(HERTZ_EXPONENT * xx), np.exp(shape(xx)))
+        r = sw * (s**3 / e**2 * fy * g - f)
+        return np.where(np.isnan(r), 1e3 * np.abs(f).max() * sw, r)
+
+    return residual
+
+
+BOUNDS = ([math.log(0.2), math.log(0.5)], [math.log(2.5), math.log(2.0)])
+
+
+def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, list]:
+    """s and e of sigma_c = s sigma_c(trial), E* = e E*(trial) laying the FE master curve on the
+    measured virgin loading: F = Fy g(d / dy) with Fy = s^3 / e^2 Fy(trial) and
+    dy = s^2 / e^2 dy(trial) (Hertz at p0 = sigma_c / C), weighted least squares in force
+    (``fit._weighted_virgin``). The Hertz part fixes e, the bend past yield s. Returns
+    (s, e, misfit, profile of the misfit over s at the best e)."""
+    residual = _residual_of(curve, vd, vf, noise)
+
+    def misfit(theta):
+        return float(np.sum(residual(theta) ** 2))
+
+    grid = np.linspace(math.log(0.25), math.log(2.0), 36)
+    moduli = np.linspace(math.log(0.8), math.log(1.25), 19)
+    # a grid over both first: the misfit has a long valley along the sigma_c-E correlation
+    # and the interpolated master curve makes it rough, so a local start can stop short
+    start = min(((g, h) for g in grid for h in moduli), key=misfit)
+    best = least_squares(residual, list(start), x_scale=[0.05, 0.02], bounds=BOUNDS)
+    log_s, log_e = (float(v) for v in best.x)
+    profile = [{"scale": float(math.exp(g)), "misfit": misfit((g, log_e))} for g in grid]
+    return math.exp(log_s), math.exp(log_e), misfit(best.x), profile
+
+
+VALLEY = 0.10  # the correlated range: misfit within this share of its minimum
+
+
+def valley(curve: dict, vd, vf, noise: float, best: tuple[float, float]) -> dict[str, Any]:
+    """The (sigma_c, E) pairs one record cannot tell apart: for sigma_c on a grid around the
+    best, the E that fits best and the misfit (a profile); the range of sigma_c whose profile
+    misfit is within VALLEY of the minimum."""
+    residual = _residual_of(curve, vd, vf, noise)
+    trial = curve["material"]
+    rows = []
+    for s in np.sort(np.append(best[0] * np.geomspace(0.75, 1.3, 41), best[0])):
+        log_s = math.log(s)
+
+        def at(t, log_s=log_s):
+            return residual((log_s, t[0]))
+
+        start = min(math.log(best[1]) + np.linspace(-0.2, 0.2, 41),
+                    key=lambda h, at=at: float(np.sum(at([h]) ** 2)))
+        fit = least_squares(at, [start], bounds=([BOUNDS[0][1]], [BOUNDS[1][1]]))
+        rows.append({"compressive_yield_stress_Pa": float(s * trial.compressive_yield_stress),
+                     "youngs_modulus_Pa": float(math.exp(fit.x[0]) * trial.youngs_modulus),
+                     "misfit": float(2.0 * fit.cost)})
+    low = min(r["misfit"] for r in rows)
+    inside = [r["compressive_yield_stress_Pa"] for r in rows
+              if r["misfit"] <= (1 + VALLEY) * low]
+    return {"profile": rows,
+            "sigma_c_range_Pa": [min(inside), max(inside)],
+            "definition": f"sigma_c whose best-E misfit is within {100 * VALLEY:g} % of the "
+                          "minimum (E re-fitted at each sigma_c): what the record does not "
+                          "separate along the sigma_c-E correlation"}
+
+
+def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coarse",
+                   cache_dir=None, progress: bool = False) -> dict[str, Any]:
+    """sigma_c (at the material's E, nu, beta, m) whose FE virgin loading reproduces the
+    measured one (module docstring). Returns the identified material, the FE yield of the last
+    round and the rounds."""
+    from ..fem.campaign import DEFAULT_CACHE
+
+    cache_dir = DEFAULT_CACHE if cache_dir is None else cache_dir
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    rounds = []
+    trial = material
+    for _ in range(ROUNDS):
+        top = float(vf.max())
+        fy_trial = incipient_yield(trial).force
+        # deep enough for any scale the fit may take (s down to 0.25: Fy / 64)
+        depth_force = DEPTH_MARGIN * top
+        curve = master_curve(trial, max(depth_force, 2.0 * fy_trial), mesh=mesh,
+                             cache_dir=cache_dir, progress=progress)
+        s, e, misfit, profile = scale_fit(curve, vd, vf, noise)
+        sigma = s * trial.compressive_yield_stress
+        modulus = e * trial.youngs_modulus  # E* ~ E at a fixed nu
+        rounds.append({"trial_sigma_c_Pa": trial.compressive_yield_stress,
+                       "trial_youngs_modulus_Pa": trial.youngs_modulus, "scale": s,
+                       "modulus_scale": e, "sigma_c_Pa": sigma, "youngs_modulus_Pa": modulus,
+                       "misfit": misfit, "fe_cache_key": curve["cache_key"],
+                       "fe_max_force_N": curve["max_force_N"], "profile": profile})
+        done = abs(s - 1.0) < TOLERANCE and abs(e - 1.0) < TOLERANCE
+        trial = trial.with_(compressive_yield_stress=sigma, youngs_modulus=modulus)
+        if done:
+            break
+    last = rounds[-1]
+    fy = curve["yield_force_N"] * last["scale"] ** 3 / last["modulus_scale"] ** 2
+    sensitivity = master_sensitivity(curve["material"], vd, vf, noise, last, mesh=mesh,
+                                     cache_dir=cache_dir, progress=progress)
+    correlated = valley(curve, vd, vf, noise, (last["scale"], last["modulus_scale"]))
+    return {"method": "FE master curve: scale (sigma_c, E*) of the FE virgin loading (F/Fy "
+                      "against delta/delta_y, analytic yield units) on the measured virgin "
+                      f"loading, rounds until both move < {100 * TOLERANCE:g} %",
+            "master_sensitivity": sensitivity,
+            "sigma_c_modulus_valley": correlated,
+            "mesh": mesh, "compressive_yield_stress_Pa": trial.compressive_yield_stress,
+            "youngs_modulus_Pa": trial.youngs_modulus,
+            "yield_force_N": float(fy),
+            "rounds": rounds, "converged": done,
+            "master": curve}
+
+
+
+
+# trial (sigma_c, E) of the extra master curves, x the final trial's
+SENSITIVITY = ((0.9, 1.0), (1.1, 1.0), (1.0, 0.97), (1.0, 1.03))
+
+
+def master_sensitivity(trial: Material, vd, vf, noise: float, last: dict, *, mesh: str,
+                       cache_dir, progress: bool = False) -> dict[str, Any]:
+    """How much the identified values move when the master curve is computed at sigma_c 10 %
+    or E 3 % off the final trial: the FE curve's shape in yield units moves with the trial (mesh
+    and load steps are sized by it), so the fixed point of the rounds is only as sharp as this.
+    Half the range of the identified values over the three masters is reported as the
+    identification's systematic standard error (``standard_errors``), beside the bootstrap's
+    (which holds the master fixed)."""
+    top = float(np.max(vf))
+    sig, mod = [last["sigma_c_Pa"]], [last["youngs_modulus_Pa"]]
+    rows = []
+    for factor, modulus in SENSITIVITY:
+        other = trial.with_(compressive_yield_stress=factor * trial.compressive_yield_stress,
+                            youngs_modulus=modulus * trial.youngs_modulus)
+        curve = master_curve(other, DEPTH_MARGIN * top, mesh=mesh, cache_dir=cache_dir,
+                             progress=progress)
+        s, e, misfit, _ = scale_fit(curve, vd, vf, noise)
+        sig.append(s * other.compressive_yield_stress)
+        mod.append(e * other.youngs_modulus)
+        rows.append({"trial_sigma_c_Pa": other.compressive_yield_stress,
+                     "sigma_c_Pa": sig[-1], "youngs_modulus_Pa": mod[-1], "misfit": misfit,
+                     "fe_cache_key": curve["cache_key"]})
+    return {"masters": rows,
+            "standard_errors": {"compressive_yield_stress_Pa": 0.5 * float(np.ptp(sig)),
+                                "youngs_modulus_Pa": 0.5 * float(np.ptp(mod))},
+            "definition": "half the range of sigma_c and E identified with master curves at "
+                          "the final trial and at (sigma_c, E) x (0.9, 1), (1.1, 1), (1, 0.97), "
+                          "(1, 1.03) of it"}
+
+
+# --- with the universal law (issue 12) ----------------------------------------------------------
+UNIVERSAL_BETAS = (0.0, 15.0, 30.0, 45.0, 55.0)  # the profile over beta when none is given
+
+
+def _universal_misfit(law, material: Material, vd, vf, noise: float) -> float:
+    from .fit import _weighted_virgin
+
+    d, f, w = _weighted_virgin(vd, vf, noise)
+    params = law(material)
+    return float(np.sum(w * (params.virgin_force(d) - f) ** 2) / np.sum(w))
+
+
+def _best_sigma(law, material: Material, vd, vf, noise: float) -> tuple[float, float]:
+    """sigma_c (at the material's E, nu, beta, m) whose universal-law virgin loading fits the
+    measured one best; bounded by the universal law's range of E / sigma_c."""
+    from scipy.optimize import minimize_scalar
+
+    from ..errors import InputError
+
+    e = material.youngs_modulus
+
+    def misfit(log_ratio):  # log10(E / sigma_c)
+        try:
+            return _universal_misfit(
+                law, material.with_(compressive_yield_stress=e / 10.0**log_ratio), vd, vf,
+                noise)
+        except InputError:  # outside the universal law's range: worse than any fit
+            return 1e6 * float(np.max(vf)) ** 2
+
+    fit = minimize_scalar(misfit, bounds=(2.0, 4.0), method="bounded",
+                          options={"xatol": 2e-3})
+    return float(e / 10.0**fit.x), float(fit.fun)
+
+
+def identify_universal(material: Material, vd, vf, noise: float, *,
+                       beta_given: bool) -> dict[str, Any]:
+    """sigma_c (and, when no beta is given, the profile of the misfit over beta with its best
+    sigma_c: the correlated pair) from the universal law's virgin loading (``for_material``, no
+    FE run). E, nu and m are the fit's (given or assumed)."""
+    law = universal_law()
+    if law is None:
+        from ..errors import InputError
+
+        raise InputError("identify: the universal law (geocontact.law.for_material) is not in "
+                         "this installation; use --identify fe")
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    sigma, misfit = _best_sigma(law, material, vd, vf, noise)
+    out: dict[str, Any] = {
+        "method": "universal law (geocontact.law.for_material): sigma_c minimising the weighted "
+                  "misfit of its virgin loading to the measured one, at the fit's E, nu, beta, m",
+        "compressive_yield_stress_Pa": sigma, "misfit": misfit,
+        "friction_angle_deg": material.friction_angle_deg,
+    }
+    if not beta_given:
+        profile = []
+        for beta in UNIVERSAL_BETAS:
+            s, f = _best_sigma(law, material.with_(friction_angle_deg=beta), vd, vf, noise)
+            profile.append({"friction_angle_deg": beta, "compressive_yield_stress_Pa": s,
+                            "misfit": f})
+        out["beta_profile"] = profile
+        out["beta_profile_note"] = ("best sigma_c and misfit at each beta: the pair one curve "
+                                    "gives; beta stays assumed in the law file")
+    found = law(material.with_(compressive_yield_stress=sigma))
+    out["universal"] = found.provenance.get("universal", {})
+    out["yield_force_N"] = found.yield_force
+    out["material"] = found.material
+    return out
