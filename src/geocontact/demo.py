@@ -134,6 +134,11 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                                 "wall_time_s")}
     done("FE reference cycle")
 
+    preface.append(("The instant route: the universal law beside the FE calibration",
+                    _universal_beside_calibration(material, params, reference, plan,
+                                                  work / "calibration", summary)))
+    done("universal law")
+
     forces = preset_history("repeated", plan.cyclic_peak)
     forces = forces[: 2 * plan.cyclic_count + 1]
     _carry_over(out / "cycles-repeated", work / "cycles-repeated")
@@ -177,6 +182,40 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
                            "reference results.</b>" if plan is QUICK else "")),
                  preface=preface)
     done("report")
+
+
+def _universal_beside_calibration(material, calibrated, reference, plan: Plan,
+                                  directory: Path, summary: dict) -> list:
+    """``geocontact params`` for the reference grain (no FE run: the shipped campaign's
+    universal law, docs/universal.md) written beside the FE calibration's P.json, and both laws
+    driven along the FE reference cycle's approach path."""
+    from .calibrate.acceptance import compare
+    from .fem.campaign import FemJob
+    from .law import for_material
+
+    started = time.perf_counter()
+    universal = for_material(material)
+    seconds = time.perf_counter() - started
+    universal.save(directory / "P-universal.json")
+    job = FemJob(material, (0.0, plan.reference_force, 0.0), mesh=plan.reference_mesh,
+                 steps_per_segment=plan.steps)
+    rows, record = [], {"seconds": seconds,
+                        "dataset_points": universal.provenance["universal"]["points"]}
+    for name, law in (("FE calibration (calibration/P.json)", calibrated),
+                      ("universal law (calibration/P-universal.json)", universal)):
+        c = compare(law, job, reference, name=name, kind="held-out")
+        residual = c.residual_error_percent
+        rows.append([name, law.yield_force, law.fully_plastic_force, c.force_rms_percent,
+                     "n/a" if residual is None else residual])
+        record[name.split(" (")[0]] = {"force_rms_percent": c.force_rms_percent,
+                                       "residual_error_percent": residual}
+    summary["universal_law"] = record
+    note = (f"The universal law took {seconds:.2f} s and no FE run "
+            f"({record['dataset_points']} campaign points shipped with the package); both laws "
+            f"along the FE reference cycle 0 → {plan.reference_force:g} N → 0 "
+            "(errors in % of the FE peak force and of the FE residual approach).")
+    return [f"<p>{note}</p>", table(["law", "Fy (N)", "Fp (N)", "force RMS (%)",
+                                     "residual error (%)"], rows)]
 
 
 def _carry_over(previous: Path, target: Path) -> None:
