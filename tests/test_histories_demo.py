@@ -70,4 +70,12 @@ def test_demo_writes_a_complete_report(tmp_path):
     assert params["schema"] == "geocontact.law/1"
     assert params["provenance"]["inputs"]["levels"] == 3
     assert (out / "fe-reference" / "fields").is_dir()
+    # the instant route beside the FE calibration: the universal law of the same grain, no FE
+    # run, follows the FE reference cycle as the calibrated law does (both within 3 % RMS)
+    universal = json.loads((out / "calibration" / "P-universal.json").read_text())
+    assert universal["provenance"]["universal"]["points"] == summary["universal_law"][
+        "dataset_points"]
+    for law in ("FE calibration", "universal law"):
+        assert summary["universal_law"][law]["force_rms_percent"] < 3.0
+    assert "Law parameters calibration/P-universal.json" in html
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "demo"]  # no temp dirs
