@@ -43,23 +43,24 @@ GOALS = {"force_rms_percent_of_peak": 5.0, "residual_approach_error_percent": 10
          "sigma_c_error_percent_noise_free": 5.0}
 
 
-def fit(path: Path, truth: dict, bootstrap: int, cache: Path):
+def fit(path: Path, truth: dict, bootstrap: int, cache: Path, identify: str = "fe"):
     m = truth["material"]
     return fit_test(read_test(path), truth["setup"], truth["radius_m"],
                     machine_stiffness=truth["machine_stiffness_N_per_m"],
                     poissons_ratio=m["poissons_ratio"], friction_angle=m["friction_angle_deg"],
-                    bootstrap_samples=bootstrap, cache_dir=cache)
+                    bootstrap_samples=bootstrap, cache_dir=cache, identify=identify)
 
 
 def realizations(path: Path, truth: dict, clean, *, samples: int) -> dict:
     """Does the bootstrap's standard error describe the scatter over the noise? The noise-free
     record re-noised ``samples`` times with the generator's noise model (independent
-    realizations), each fitted with the noise-free fit's master curve; beside it, the bootstrap
-    standard error of one realization with the same master."""
+    realizations), each fitted with the noise-free fit's master curve (or, in the universal
+    mode, identified again with the universal law); beside it, the bootstrap standard error of
+    one realization."""
     from make_synthetic_lab_tests import DISPLACEMENT_NOISE, FORCE_NOISE, FORCE_TARE
 
     from geocontact.labtest.curve import Record
-    from geocontact.labtest.fit import bootstrap, fit_once
+    from geocontact.labtest.fit import bootstrap, refit
 
     m = truth["material"]
     rec = read_test(path)
@@ -73,7 +74,7 @@ def realizations(path: Path, truth: dict, clean, *, samples: int) -> dict:
                        rec.force + FORCE_TARE * peak + rng.normal(0, FORCE_NOISE * peak,
                                                                   rec.force.size),
                        rec.time, "realization", {})
-        fit = fit_once(noisy, truth["setup"], truth["radius_m"], master=clean.master, **options)
+        fit = refit(noisy, clean, truth["setup"], truth["radius_m"], None, **options)
         first = first or (noisy, fit)
         rows.append((fit.params.material.compressive_yield_stress,
                      fit.params.material.youngs_modulus, fit.params.yield_force))
@@ -94,15 +95,15 @@ def realizations(path: Path, truth: dict, clean, *, samples: int) -> dict:
 
 
 def verify(name: str, bootstrap: int, cache: Path, tests: Path,
-           realization_count: int = 12) -> dict:
+           realization_count: int = 12, identify: str = "fe") -> dict:
     truth = json.loads((tests / f"{name}.truth.json").read_text())
     started = time.perf_counter()
-    noisy = fit(tests / f"{name}.csv", truth, bootstrap, cache)
+    noisy = fit(tests / f"{name}.csv", truth, bootstrap, cache, identify)
     job = check_job(TESTS[name])
     result = run_campaign([job], cache, workers=1, progress=False)[0]
     c = compare(noisy.params, job, result, name=f"{name}-check", kind="held-out",
                 description="a different FE history of the same grain")
-    clean = fit(tests / f"{name}.clean.csv", truth, 0, cache)
+    clean = fit(tests / f"{name}.clean.csv", truth, 0, cache, identify)
     m = truth["material"]
     se = noisy.bootstrap.get("standard_errors", {}) if noisy.bootstrap else {}
 
@@ -111,6 +112,7 @@ def verify(name: str, bootstrap: int, cache: Path, tests: Path,
 
     row = {
         "test": name,
+        "identify": identify,
         "setup": truth["setup"],
         "true_material": m,
         "check_history_N": list(job.forces),
@@ -126,8 +128,8 @@ def verify(name: str, bootstrap: int, cache: Path, tests: Path,
             "yield_force_over_fe": noisy.params.yield_force / truth["fe_first_yield_force_N"],
             "standard_errors": se,
             "sigma_c_range_over_true": [
-                v / m["compressive_yield_stress"] for v in
-                noisy.identification["sigma_c_modulus_valley"]["sigma_c_range_Pa"]],
+                v / m["compressive_yield_stress"] for v in noisy.identification.get(
+                    "sigma_c_modulus_valley", {}).get("sigma_c_range_Pa", [])],
             "bootstrap_samples": bootstrap,
         },
         "noise_free": {
@@ -159,14 +161,20 @@ def main(argv=None) -> int:
     parser.add_argument("--bootstrap", type=int, default=30)
     parser.add_argument("--cache", default=str(DEFAULT_CACHE))
     parser.add_argument("--tests", default=str(OUT))
-    parser.add_argument("--out", default="out/verify_lab_fit.json")
+    parser.add_argument("--out", default=None,
+                        help="default out/verify_lab_fit.json (out/verify_lab_fit-universal"
+                             ".json with --identify universal)")
+    parser.add_argument("--identify", choices=("fe", "universal"), default="fe",
+                        help="the identification to verify (geocontact fit --identify)")
     parser.add_argument("--realizations", type=int, default=12,
                         help="independent noise realizations of each test (bootstrap check)")
     args = parser.parse_args(argv)
+    args.out = args.out or ("out/verify_lab_fit.json" if args.identify == "fe"
+                            else f"out/verify_lab_fit-{args.identify}.json")
 
     def run():
-        rows = [verify(n, args.bootstrap, Path(args.cache), Path(args.tests), args.realizations)
-                for n in TESTS]
+        rows = [verify(n, args.bootstrap, Path(args.cache), Path(args.tests), args.realizations,
+                       args.identify) for n in TESTS]
         document = {"goals": GOALS, "tests": rows,
                     "all_met": all(all(r["meets"].values()) for r in rows)}
         write_json_atomic(args.out, document)

@@ -55,7 +55,7 @@ class Comparison:
     @property
     def force_rms_percent(self) -> float:
         """RMS of the force error over the path length, % of the peak force."""
-        weights = _path_weights(self.approach)
+        weights = path_weights(self.approach)
         error = self.law_force - self.fe_force
         rms = float(np.sqrt(np.sum(weights * error**2) / np.sum(weights)))
         return 100.0 * rms / self.peak_force
@@ -72,7 +72,7 @@ class Comparison:
         return max(r["error_percent"] for r in self.residuals)
 
 
-def _path_weights(approach: np.ndarray) -> np.ndarray:
+def path_weights(approach: np.ndarray) -> np.ndarray:
     """Trapezoid weights of each point along the path, by |d approach|."""
     step = np.abs(np.diff(approach))
     weights = np.zeros_like(approach)

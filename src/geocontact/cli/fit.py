@@ -104,6 +104,10 @@ def run(args) -> int:
     print(f"contact point at displacement {result.contact['contact_displacement_m']:.4g} m, "
           f"load-cell offset {result.contact['offset_N']:.3g} N, noise "
           f"{result.contact['noise_N']:.2g} N; {len(result.levels)} cycles")
+    k = result.test.machine_stiffness
+    print(f"machine compliance: F / k subtracted, k = {k:.4g} N/m" if k else
+          "machine compliance: none subtracted (--machine-stiffness not given; a press's own "
+          "compliance left in the record lowers E and sigma_c)")
     print(line("Young's modulus E", "youngs_modulus_Pa", 1e9, "GPa"))
     source = ("FE master curve" if result.master is not None else "universal law"
               if result.universal is not None else "departure from Hertz: a first estimate")

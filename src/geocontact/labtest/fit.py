@@ -448,10 +448,28 @@ def sigma_c_of_beta(result: LabFit) -> list[dict]:
                  fy, material.with_(friction_angle_deg=b))} for b in BETA_PROFILE]
 
 
+def refit(record: Record, result: LabFit, setup: str, radius: float, force,
+           **options) -> LabFit:
+    """One bootstrap refit: with the main fit's FE master curve, or, in the universal mode,
+    sigma_c identified again from the whole resampled record (about the main fit's)."""
+    if result.universal is None:
+        return fit_once(record, setup, radius, force=force, master=result.master, **options)
+    from .identify import identify_universal
+
+    prepared = prepare(record, setup, radius, force=force, **options)
+    found = identify_universal(
+        prepared.first_estimate(), prepared.virgin_approach, prepared.virgin_force,
+        prepared.test.noise, beta_given=True, approach=prepared.test.approach,
+        force=prepared.test.force,
+        start_sigma=result.universal["compressive_yield_stress_Pa"])
+    return fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
+
+
 def bootstrap(record: Record, result: LabFit, setup: str, radius: float, *, samples: int,
               seed: int, progress=None, **options) -> dict[str, Any]:
     """Residual bootstrap of the force noise (module docstring): standard errors of every
-    fitted value over ``samples`` refits (with the main fit's FE master curve, no new FE run).
+    fitted value over ``samples`` refits (``refit``: the main fit's FE master curve, no new FE
+    run; or sigma_c re-identified with the universal law).
     A refit that fails (a resample that breaks a condition) is counted, not hidden."""
     f = np.asarray(record.force, dtype=float)
     window = min(SMOOTH_WINDOW, f.size - (1 - f.size % 2))
@@ -468,16 +486,13 @@ def bootstrap(record: Record, result: LabFit, setup: str, radius: float, *, samp
     for k in range(samples):
         force = smooth + rng.choice(residual, size=f.size, replace=True)
         try:
-            rows.append(fitted_values(fit_once(record, setup, radius, force=force,
-                                               master=result.master,
-                                               universal=result.universal, **options).params))
+            rows.append(fitted_values(refit(record, result, setup, radius, force,
+                                             **options).params))
         except InputError as exc:
             failed.append(str(exc))
         if progress:
             progress(k + 1, samples)
     names = list(result.values())
-    if result.universal is not None:  # sigma_c is not re-identified per sample (cost)
-        names.remove("compressive_yield_stress_Pa")
     values = {n: np.array([r[n] for r in rows]) for n in names}
     main = result.values()
     return {
@@ -526,7 +541,8 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         from .identify import identify_universal
 
         found = identify_universal(start, prepared.virgin_approach, prepared.virgin_force,
-                                   prepared.test.noise, beta_given=friction_angle is not None)
+                                   prepared.test.noise, beta_given=friction_angle is not None,
+                                   approach=prepared.test.approach, force=prepared.test.force)
         result = fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
         result.identification = {k: v for k, v in found.items() if k != "material"}
         result.identification["universal_law"] = {"used": True, **found["universal"]}

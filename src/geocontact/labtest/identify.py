@@ -18,8 +18,9 @@ What one test separates and what it does not:
   F / Fy only weakly; beta and m are given (``--friction-angle``) or assumed and then
   reported with sigma_c(beta) from the analytic incipient yield at the fitted yield force;
 * with the universal law (``geocontact.law.for_material``, issue 12; ``identify_universal``):
-  sigma_c from its virgin loading without FE runs, and the profile of the misfit over beta when
-  no beta is given (the correlated pair).
+  sigma_c without FE runs, first from its virgin loading, then from the whole record (the whole
+  law driven along every cycle), and the profile of the misfit over beta when no beta is given
+  (the correlated pair).
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ TOLERANCE = 0.01    # relative change of sigma_c and E that ends the rounds
 MASTER_SMOOTHING = 0.005  # RMS of the master curve's smoothing spline in log F (0.5 %)
 FE_STEPS = 40       # load steps of the FE run: the curve's shape between steps is linear
 DEPTH_MARGIN = 3.0  # the FE run loads this far beyond the test's largest force (in Fy units)
+WHOLE_RANGE = 1.5  # the whole-record search of the universal mode: this factor about the
+                   # virgin-loading estimate of sigma_c
 
 
 def universal_law():
@@ -266,48 +269,105 @@ def _universal_misfit(law, material: Material, vd, vf, noise: float) -> float:
 def _best_sigma(law, material: Material, vd, vf, noise: float) -> tuple[float, float]:
     """sigma_c (at the material's E, nu, beta, m) whose universal-law virgin loading fits the
     measured one best; bounded by the universal law's range of E / sigma_c."""
-    from scipy.optimize import minimize_scalar
+    return _bounded_sigma(lambda trial: _universal_misfit(law, trial, vd, vf, noise), material,
+                          (2.0, 4.0), 1e6 * float(np.max(vf)) ** 2)
 
-    from ..errors import InputError
+
+def _record_misfit(law, material: Material, approach, force, weights) -> float:
+    """RMS over the path length of (universal law - record) along the whole record, as a
+    fraction of the record's peak force: the law of ``material`` (its own loading, unloading,
+    reloading and residual-approach laws) driven along the record's approach history."""
+    from ..law import ContactArrays
+
+    contacts = ContactArrays(law(material), 1)
+    one = np.empty(1)
+    model = np.empty_like(approach)
+    for i, a in enumerate(approach):
+        one[0] = a
+        model[i] = contacts.step_unchecked(one)[0][0]
+    rms = math.sqrt(float(np.sum(weights * (model - force) ** 2) / np.sum(weights)))
+    return rms / float(np.max(force))
+
+
+def _bounded_sigma(misfit_of, material: Material, log_ratio_range: tuple[float, float],
+                   worst: float) -> tuple[float, float]:
+    """Bounded 1-D search of log10(E / sigma_c) in ``log_ratio_range`` (clipped to the
+    universal law's range: outside it the misfit is ``worst``); returns (sigma_c, misfit)."""
+    from scipy.optimize import minimize_scalar
 
     e = material.youngs_modulus
 
-    def misfit(log_ratio):  # log10(E / sigma_c)
+    def misfit(log_ratio):
         try:
-            return _universal_misfit(
-                law, material.with_(compressive_yield_stress=e / 10.0**log_ratio), vd, vf,
-                noise)
+            return misfit_of(material.with_(compressive_yield_stress=e / 10.0**log_ratio))
         except InputError:  # outside the universal law's range: worse than any fit
-            return 1e6 * float(np.max(vf)) ** 2
+            return worst
 
-    fit = minimize_scalar(misfit, bounds=(2.0, 4.0), method="bounded",
-                          options={"xatol": 2e-3})
+    low, high = max(2.0, log_ratio_range[0]), min(4.0, log_ratio_range[1])
+    fit = minimize_scalar(misfit, bounds=(low, high), method="bounded",
+                          options={"xatol": 1e-3})
     return float(e / 10.0**fit.x), float(fit.fun)
 
 
+def _best_sigma_whole(law, material: Material, approach, force, start_sigma: float,
+                      ) -> tuple[float, float]:
+    """sigma_c whose universal law reproduces the whole record best (``_record_misfit``),
+    searched within a factor WHOLE_RANGE of ``start_sigma`` (the virgin-loading estimate)."""
+    from ..calibrate.acceptance import path_weights
+
+    approach, force = np.asarray(approach, float), np.asarray(force, float)
+    weights = path_weights(approach)
+    centre = math.log10(material.youngs_modulus / start_sigma)
+    span = math.log10(WHOLE_RANGE)
+    return _bounded_sigma(lambda trial: _record_misfit(law, trial, approach, force, weights),
+                          material, (centre - span, centre + span), 1.0)
+
+
 def identify_universal(material: Material, vd, vf, noise: float, *,
-                       beta_given: bool) -> dict[str, Any]:
-    """sigma_c (and, when no beta is given, the profile of the misfit over beta with its best
-    sigma_c: the correlated pair) from the universal law's virgin loading (``for_material``, no
-    FE run). E, nu and m are the fit's (given or assumed)."""
+                       beta_given: bool, approach=None, force=None,
+                       start_sigma: float | None = None) -> dict[str, Any]:
+    """sigma_c from the universal law (``for_material``, no FE run) at the fit's E, nu, beta, m:
+    first where its virgin loading fits the measured one best, then, when the whole record
+    (``approach``, ``force``: conditioned, every cycle) is given, where the whole law - its
+    unloading, reloading and residual approach too - reproduces the record best (the answer;
+    the virgin-only value is kept as ``virgin_only``). ``start_sigma`` (with the whole record:
+    the bootstrap's refits) skips the virgin search and centres the whole-record search there.
+    Without a given beta, the profile of the misfit over beta with its best sigma_c (the
+    correlated pair) is added."""
     law = universal_law()
     if law is None:
-        from ..errors import InputError
-
         raise InputError("identify: the universal law (geocontact.law.for_material) is not in "
                          "this installation; use --identify fe")
     vd, vf = np.asarray(vd, float), np.asarray(vf, float)
-    sigma, misfit = _best_sigma(law, material, vd, vf, noise)
+    whole = approach is not None and force is not None
+
+    def best(trial: Material) -> tuple[float, float, float | None, float | None]:
+        if whole and start_sigma is not None:
+            return (*_best_sigma_whole(law, trial, approach, force, start_sigma), None, None)
+        sigma_v, misfit_v = _best_sigma(law, trial, vd, vf, noise)
+        if not whole:
+            return sigma_v, misfit_v, sigma_v, misfit_v
+        sigma_w, misfit_w = _best_sigma_whole(law, trial, approach, force, sigma_v)
+        return sigma_w, misfit_w, sigma_v, misfit_v
+
+    sigma, misfit, sigma_v, misfit_v = best(material)
     out: dict[str, Any] = {
-        "method": "universal law (geocontact.law.for_material): sigma_c minimising the weighted "
-                  "misfit of its virgin loading to the measured one, at the fit's E, nu, beta, m",
+        "method": ("universal law (geocontact.law.for_material) at the fit's E, nu, beta, m: "
+                   + ("sigma_c minimising the RMS over the path length of (law - record) along "
+                      "the whole record, as a fraction of its peak force, searched within a "
+                      f"factor {WHOLE_RANGE:g} of the virgin-loading estimate" if whole else
+                      "sigma_c minimising the weighted misfit of its virgin loading to the "
+                      "measured one")),
         "compressive_yield_stress_Pa": sigma, "misfit": misfit,
         "friction_angle_deg": material.friction_angle_deg,
+        "virgin_only": {"compressive_yield_stress_Pa": sigma_v, "misfit": misfit_v,
+                        "method": "sigma_c minimising the weighted misfit of the universal "
+                                  "law's virgin loading to the measured one"},
     }
     if not beta_given:
         profile = []
         for beta in UNIVERSAL_BETAS:
-            s, f = _best_sigma(law, material.with_(friction_angle_deg=beta), vd, vf, noise)
+            s, f, _, _ = best(material.with_(friction_angle_deg=beta))
             profile.append({"friction_angle_deg": beta, "compressive_yield_stress_Pa": s,
                             "misfit": f})
         out["beta_profile"] = profile
