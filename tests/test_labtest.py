@@ -285,7 +285,7 @@ def test_cli_writes_a_valid_law_a_result_folder_and_a_report(tmp_path, capsys):
     assert {"fit.png", "yield.png", "curve.csv", "fit.json"} <= {p.name for p in
                                                                  folder.iterdir()}
     html = build_report(folder).read_text()
-    assert "Laboratory-test fit" in html
+    assert "Laboratory-test fit" in html and "none subtracted" in html
     # a second run replaces its own folder; a folder of the user's is refused
     args[args.index("--bootstrap") + 1] = "0"
     assert main([a for a in args if a != "--json"]) == 0

@@ -150,6 +150,10 @@ def labfit_section(report: Report, directory: Path, root: Path, figures: Path) -
          "assumed" if "hardening_ratio" in doc["assumed"] else "given"],
         ["Fy (N)", _pm(fitted["yield_force_N"]["value"],
                        fitted["yield_force_N"]["standard_error"]), "fitted"],
+        ["machine stiffness (N/m)", f"{k:.4g}" if (k := doc["test"].get(
+            "machine_stiffness_N_per_m")) else "none subtracted",
+         "given: F / k removed from the displacement" if k else
+         "not given: a press's own compliance left in the record lowers E and σc"],
     ]
     for key in ("elastic_plastic_exponent", "fully_plastic_exponent", "unloading_power",
                 "reloading_power", "residual_limit"):
