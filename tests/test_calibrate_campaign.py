@@ -52,6 +52,8 @@ def test_cli_writes_a_valid_calibrated_parameter_file(calibrated):
     assert doc["schema"] == "geocontact.law/1"
     fe = doc["provenance"]["fe"]
     assert fe["mesh"] == "coarse" and fe["steps_per_segment"] == 4
+    assert (fe["kinematics"], fe["mesh_rule"], fe["step_rule"]) == ("small", "yield", "segment")
+    assert doc["provenance"]["inputs"]["kinematics"] == "small"
     assert len(fe["peak_forces_N"]) == 4 and len(fe["cache_keys"]) == 4
     assert all((root / "cache" / key / "summary.json").exists() for key in fe["cache_keys"])
     assert doc["provenance"]["command"] == "calibrate"
@@ -136,6 +138,7 @@ def test_rerun_reads_the_cache_and_runs_no_fe(calibrated, capsys, monkeypatch):
     (["--max-force", "3"], "not above"),
     (["--steps", "0"], "--steps"),
     (["--workers", "0"], "--workers"),
+    (["--kinematics", "large"], "--kinematics"),
 ])
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, message):
     args = ["calibrate", "--material", "reference", "--mesh", "coarse", "--cache",
@@ -151,6 +154,30 @@ def test_bad_material_and_output_name(tmp_path, capsys):
     assert main(["calibrate", "--material", "reference", "--out", str(tmp_path / "P.txt")]) == 2
     for line in capsys.readouterr().err.strip().splitlines():
         assert line.startswith("error:")
+
+
+def test_fe_model_reaches_every_run_of_a_calibration():
+    """calibrate --kinematics/--mesh-rule/--step-rule (the weak grain's finite-strain
+    calibration, issue 15) reach every FE run: the levels, the repeated-history run of the
+    cyclic laws and the held-out runs; each is part of the run's identity (cache key)."""
+    from geocontact.calibrate.acceptance import held_out_jobs
+    from geocontact.calibrate.campaign import calibration_jobs, cyclic_job
+
+    m = load_material("reference-weak")
+    model = {"kinematics": "finite", "mesh_rule": "contact", "step_rule": "decade"}
+    peaks = peak_forces(m, 3, 300.0)
+
+    def every(fe_model):
+        return (calibration_jobs(m, peaks, "coarse", 4, fe_model)
+                + [cyclic_job(m, 300.0, "coarse", 4, fe_model)]
+                + [job for _, job in held_out_jobs(m, "coarse", 4, 300.0, fe_model)])
+
+    finite, small = every(model), every(None)
+    assert len(finite) == len(small) > 5
+    assert all((j.kinematics, j.mesh_rule, j.step_rule) == tuple(model.values())
+               for j in finite)
+    assert all(j.kinematics == "small" for j in small)
+    assert not {j.key() for j in finite} & {j.key() for j in small}
 
 
 def test_peak_forces_span_from_twice_yield_geometrically():

@@ -111,7 +111,9 @@ def compare(params: LawParams, job: FemJob, result: FemResult, *, name: str, kin
 
 def held_out_jobs(material: Material, mesh: str = "default",
                   steps_per_segment: int | None = None,
-                  max_force: float | None = None) -> list[tuple[dict[str, Any], FemJob]]:
+                  max_force: float | None = None,
+                  fe_model: dict[str, str] | None = None,
+                  ) -> list[tuple[dict[str, Any], FemJob]]:
     """The held-out FE runs of data/calibration.toml for this material's force range."""
     low, high = force_range(material, max_force)
     mesh_force = shared_mesh_force([high])
@@ -123,16 +125,18 @@ def held_out_jobs(material: Material, mesh: str = "default",
                                   steps_per_segment=steps_per_segment,
                                   label=f"{spec['name']} F={peak:.4g}N",
                                   mesh_force=None if mesh_force is None
-                                  else max(mesh_force, *forces))))
+                                  else max(mesh_force, *forces), **(fe_model or {}))))
     return jobs
 
 
 def run_acceptance(params: LawParams, material: Material, *, mesh: str = "default",
                    steps_per_segment: int | None = None, max_force: float | None = None,
                    cache_dir=DEFAULT_CACHE, scheduler: str | None = None,
-                   workers: int | None = None, progress: bool = True) -> list[Comparison]:
-    """Run (or read from the cache) the held-out FE runs and compare the law with each."""
-    specs = held_out_jobs(material, mesh, steps_per_segment, max_force)
+                   workers: int | None = None, progress: bool = True,
+                   fe_model: dict[str, str] | None = None) -> list[Comparison]:
+    """Run (or read from the cache) the held-out FE runs (with the calibration's FE model)
+    and compare the law with each."""
+    specs = held_out_jobs(material, mesh, steps_per_segment, max_force, fe_model)
     results = run_campaign([job for _, job in specs], cache_dir, scheduler=scheduler,
                            workers=workers, progress=progress)
     return [compare(params, job, result, name=spec["name"], kind="held-out",

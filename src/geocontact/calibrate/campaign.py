@@ -92,12 +92,15 @@ def shared_mesh_force(peaks) -> float | None:
 
 
 def calibration_jobs(material: Material, peaks, mesh: str = "default",
-                     steps_per_segment: int | None = None) -> list[FemJob]:
+                     steps_per_segment: int | None = None,
+                     fe_model: dict[str, str] | None = None) -> list[FemJob]:
+    """The calibration levels' FE runs; ``fe_model``: kinematics, mesh_rule, step_rule of
+    ``FemJob`` (the FE defaults when None: small strain, the verified meshes)."""
     shape = settings()["campaign"]["history"]
     mesh_force = shared_mesh_force(peaks)
     return [FemJob(material, tuple(float(s) * peak for s in shape), mesh=mesh,
                    steps_per_segment=steps_per_segment, label=f"calibration F={peak:.4g}N",
-                   mesh_force=mesh_force)
+                   mesh_force=mesh_force, **(fe_model or {}))
             for peak in peaks]
 
 
@@ -203,12 +206,14 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
               max_force: float | None = None, mesh: str = "default",
               steps_per_segment: int | None = None, cache_dir=DEFAULT_CACHE,
               scheduler: str | None = None, workers: int | None = None,
-              progress: bool = True) -> tuple[LawParams, list[CalibrationRun]]:
-    """FE campaign + extraction + fit. Returns the law and the runs it was fitted to."""
+              progress: bool = True, fe_model: dict[str, str] | None = None,
+              ) -> tuple[LawParams, list[CalibrationRun]]:
+    """FE campaign + extraction + fit. Returns the law and the runs it was fitted to.
+    ``fe_model``: the FE's kinematics, mesh_rule and step_rule (``FemJob``; default the FE's)."""
     peaks = (check_peaks(material, peaks) if peaks is not None
              else peak_forces(material, levels, max_force))
-    jobs = calibration_jobs(material, peaks, mesh, steps_per_segment)
-    cyclic = cyclic_job(material, max(peaks), mesh, steps_per_segment)
+    jobs = calibration_jobs(material, peaks, mesh, steps_per_segment, fe_model)
+    cyclic = cyclic_job(material, max(peaks), mesh, steps_per_segment, fe_model)
     results = run_campaign(jobs + ([cyclic] if cyclic else []), cache_dir, scheduler=scheduler,
                            workers=workers, progress=progress)
     runs = [extract_run(job, result)
@@ -220,7 +225,8 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
 
 
 def cyclic_job(material: Material, max_force: float, mesh: str = "default",
-               steps_per_segment: int | None = None) -> FemJob | None:
+               steps_per_segment: int | None = None,
+               fe_model: dict[str, str] | None = None) -> FemJob | None:
     """The FE run the cyclic laws are fitted to (data/calibration.toml ``cyclic_history``:
     the paper's repeated history to ``cyclic_peak_over_max`` x the highest peak); None when the
     settings name no history."""
@@ -230,7 +236,8 @@ def cyclic_job(material: Material, max_force: float, mesh: str = "default",
         return None
     peak = float(campaign["cyclic_peak_over_max"]) * max_force
     return FemJob(material, tuple(preset_history(name, peak)), mesh=mesh,
-                  steps_per_segment=steps_per_segment, label=f"cyclic {name} F={peak:.4g}N")
+                  steps_per_segment=steps_per_segment, label=f"cyclic {name} F={peak:.4g}N",
+                  **(fe_model or {}))
 
 
 def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
@@ -301,6 +308,8 @@ def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
         "source": "FE calibration (geocontact calibrate)",
         "fe": {
             "mesh": job.mesh,
+            "kinematics": job.kinematics, "mesh_rule": job.mesh_rule,
+            "step_rule": job.step_rule,
             "steps_per_segment": job.steps_per_segment
             or runs[0].result.summary["inputs"]["steps_per_segment"],
             "elements": [r.result.summary["mesh"]["elements"] for r in runs],

@@ -37,7 +37,8 @@ def calibrate_to_file(material: Material, out: str | Path, inputs: dict[str, Any
                           LawParams, list[CalibrationRun], dict[str, Any] | None]:
     """Calibrate, write ``out`` (P.json) and, with ``acceptance``, ``out.acceptance.json`` and
     the folder ``out.acceptance/`` (one CSV + PNG per compared run). ``campaign``: mesh,
-    steps_per_segment, cache_dir, scheduler, workers, progress (see ``calibrate``).
+    steps_per_segment, cache_dir, scheduler, workers, progress, fe_model (see ``calibrate``;
+    the held-out runs use the same FE model).
 
     The three are one result: the figures folder lands first (whole, so no stale figure
     survives), then the table, then P.json; each names the other by hash (P.json's

@@ -7,7 +7,14 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..io import check_output_file
-from .common import add_force_flag, check_resolved_force, check_steps, check_workers, print_json
+from .common import (
+    add_fe_model_flags,
+    add_force_flag,
+    check_resolved_force,
+    check_steps,
+    check_workers,
+    print_json,
+)
 
 
 def register(sub) -> None:
@@ -40,6 +47,7 @@ def register(sub) -> None:
                    help="local Dask workers (default: one per core)")
     p.add_argument("--cache", default=None, metavar="DIR",
                    help="FE result cache (default out/cache/fem)")
+    add_fe_model_flags(p)
     add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print the parameter file on stdout")
     p.set_defaults(run=run)
@@ -81,19 +89,26 @@ def run(args) -> int:
     cache = Path(args.cache) if args.cache else DEFAULT_CACHE
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
-              "max_force": args.max_force, "cache": str(cache)}
+              "max_force": args.max_force, "cache": str(cache),
+              "kinematics": args.kinematics, "mesh_rule": args.mesh_rule,
+              "step_rule": args.step_rule}
+    fe_model = {"kinematics": args.kinematics, "mesh_rule": args.mesh_rule,
+                "step_rule": args.step_rule}
     params, runs, table = calibrate_to_file(
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
         acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
         cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
-        progress=not args.json, overwrite=args.force)
+        progress=not args.json, overwrite=args.force, fe_model=fe_model)
     acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:
         print_json(params.to_dict())
         return 0
     e = params.fit_errors
-    print(f"wrote {out} ({len(runs)} FE levels, {args.mesh} mesh, {wall:.1f} s)")
+    model = ("" if args.kinematics == "small" else f", {args.kinematics} strain") + (
+        "" if args.mesh_rule == "yield" else f", {args.mesh_rule} mesh rule") + (
+        "" if args.step_rule == "segment" else f", {args.step_rule} step rule")
+    print(f"wrote {out} ({len(runs)} FE levels, {args.mesh} mesh{model}, {wall:.1f} s)")
     print(f"yield: FE {e['yield']['fe_force_N']:.4g} N, analytic "
           f"{e['yield']['analytic_force_N']:.4g} N; FE Fp "
           + ("not reached" if e["fully_plastic"]["fe_force_N"] is None
