@@ -11,7 +11,9 @@ from geocontact.material import preset
 from geocontact.verification.ccx import (
     SECTORS,
     AxisymmetricMesh,
+    branches,
     ccx_executable,
+    force_difference,
     read_dat,
     residual_approach,
     run_ccx,
@@ -102,12 +104,37 @@ def test_residual_approach_is_exact_for_a_power_law_unloading():
     assert residual_approach(approach, np.ones_like(approach), 1e-12) is None  # never opens
 
 
+def test_deck_nlgeom_makes_every_step_geometrically_nonlinear(tmp_path, mesh):
+    write_deck(tmp_path / "d.inp", VON_MISES, mesh, [1e-5, 0.0], [4, 4], nlgeom=True)
+    steps = [line for line in (tmp_path / "d.inp").read_text().splitlines()
+             if line.startswith("*STEP")]
+    assert steps == ["*STEP, NLGEOM, INC=100000"] * 2
+
+
+def test_branches_and_force_difference_at_equal_approach():
+    # loading F = d^1.5 to d = 2, unloading F = F_max ((d - 1)/(2 - 1))^1.5 down to d = 1
+    up = np.linspace(0.0, 2.0, 21)
+    down = np.linspace(2.0, 0.8, 13)[1:]
+    approach = np.concatenate([up, down])
+    force = np.concatenate([up**1.5, 2**1.5 * np.clip(down - 1.0, 0.0, None) ** 1.5])
+    (dl, fl), (du, fu) = branches(approach, force)
+    assert dl[-1] == du[-1] == 2.0 and np.all(np.diff(dl) > 0) and np.all(np.diff(du) > 0)
+    assert du[0] == pytest.approx(1.1) and np.all(fu > 0)  # only the points still in contact
+    # the same curves 3 % higher differ by 3 % of the peak at the peak, less below it
+    diff = force_difference((approach, 1.03 * force), (approach, force), force.max())
+    assert diff["loading"] == pytest.approx(0.03) and diff["unloading"] == pytest.approx(0.03)
+    shifted = force_difference((approach, force), (approach + 0.1, force), force.max())
+    assert 0.05 < shifted["loading"] < 0.2  # a shift in approach shows as a force difference
+
+
 @pytest.mark.skipif(ccx_executable() is None, reason="CalculiX 'ccx' not installed (make ccx)")
-def test_ccx_elastic_contact_matches_hertz(mesh):
-    """Below yield the peer must give Hertz (within the coarse mesh's and the penalty's error):
-    checks the deck, the force scaling from CalculiX's 2 degree sector and the reader."""
+@pytest.mark.parametrize("nlgeom", [False, True], ids=["small", "nlgeom"])
+def test_ccx_elastic_contact_matches_hertz(mesh, nlgeom):
+    """Below yield the peer must give Hertz (within the coarse mesh's and the penalty's error),
+    with and without NLGEOM (strains of 1e-3: geometric effects far below 1 %): checks the
+    deck, the force scaling from CalculiX's 2 degree sector and the reader."""
     approach = float(hertz.hertz_approach(VON_MISES, 0.5 * hertz.incipient_yield(VON_MISES).force))
-    result = run_ccx(VON_MISES, mesh, [approach], [3])
+    result = run_ccx(VON_MISES, mesh, [approach], [3], nlgeom=nlgeom)
     d, f = result.curve["approach_m"], result.curve["force_N"]
     # at 0.5 Fy (contact radius resolved by the coarse mesh): 0.5 % under Hertz when written;
     # the smaller contacts of the first increments are under-resolved (4 % low at 1/3)
