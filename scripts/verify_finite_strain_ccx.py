@@ -7,7 +7,9 @@ Green normalisation; 100 by default, a/R = 0.15) and unloaded, on one gmsh mesh,
 
 - ours, small strain and finite strain (``run_history(kinematics=...)``, force control);
 - CalculiX 2.20, small strain and NLGEOM (``verification.ccx``, the same nodes and triangles,
-  displacement control to the largest approach our finite-strain run reached).
+  displacement control to the largest approach our finite-strain run reached, then back to
+  half of it: past the residual approach, with every increment of the unloading step on the
+  branch still in contact).
 
 Our finite-strain run goes to F = the JG load at w_max and reaches the approach d_f; CalculiX
 goes to d_f in both kinematics; our small-strain run goes to the force its own loading curve
@@ -51,8 +53,10 @@ OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
 MATERIAL = "von-mises-large"
 PROBES = (0.1, 0.25, 0.5, 0.75, 1.0)  # approach / largest approach of the table
 FIT_AT = (2.0, 5.0, 10.0, 20.0, 50.0, 100.0)  # omega/omega_c (JG) of the published-fit table
-T_GRID = np.linspace(0.0, 1.0, 101)  # unloading_shape: (d - d_res)/(d_max - d_res)
-WINDOW = 0.2  # smoothed_force_at: +/- 20 % of the approach
+T_GRID = np.linspace(0.0, 1.0, 101)  # ccx.unloading_shape: (d - d_res)/(d_max - d_res)
+# CalculiX unloads to this fraction of the largest approach (the residual approach is 0.7-0.8 of
+# it here), so that its increments fall on the unloading branch while in contact
+UNLOAD_TO = 0.5
 CODES = ("ours_small", "ours_finite", "ccx_small", "ccx_nlgeom")
 LABELS = {"ours_small": "geocontact small strain", "ours_finite": "geocontact finite strain",
           "ccx_small": "CalculiX small strain", "ccx_nlgeom": "CalculiX NLGEOM"}
@@ -81,9 +85,10 @@ def run_ours(material, forces, name, args, kinematics, mesh_force) -> dict:
 def run_peer(material, fe_mesh, approach, args, nlgeom: bool, mesh_force: float) -> dict:
     """One CalculiX run 0 -> approach -> 0, reused from ``--work`` when its inputs match."""
     name = "ccx_nlgeom" if nlgeom else "ccx_small"
+    waypoints = [approach, UNLOAD_TO * approach]
     inputs = {"material": material.to_dict(), "mesh": args.mesh, "mesh_rule": args.mesh_rule,
               "mesh_force_N": mesh_force,
-              "approaches_m": [approach, 0.0], "increments": [args.increments] * 2,
+              "approaches_m": waypoints, "increments": [args.increments] * 2,
               "nlgeom": nlgeom, "penalty_factor": ccx.PENALTY_DEFAULT,
               "nodes": len(fe_mesh.points), "ccx_version": ccx.ccx_version()}
     path = args.work / f"{name}.json"
@@ -92,8 +97,7 @@ def run_peer(material, fe_mesh, approach, args, nlgeom: bool, mesh_force: float)
         if saved.get("inputs") == json.loads(json.dumps(inputs)):
             print(f"{name}: reusing {path}", flush=True)
             return _peer_record(saved["curve"], saved["summary"])
-    result = ccx.run_ccx(material, fe_mesh, [approach, 0.0], [args.increments] * 2,
-                         nlgeom=nlgeom)
+    result = ccx.run_ccx(material, fe_mesh, waypoints, [args.increments] * 2, nlgeom=nlgeom)
     write_json_atomic(path, {"inputs": inputs, "summary": result.summary,
                              "curve": {k: v.tolist() for k, v in result.curve.items()}})
     print(f"{name}: {result.summary['increments']} increments, "
@@ -110,63 +114,6 @@ def _peer_record(curve, s) -> dict:
             "kinematics": s.get("kinematics")}
 
 
-def loading_force_at(run: dict, approaches) -> np.ndarray:
-    (d, f), _ = ccx.branches(run["approach"], run["force"])
-    return np.interp(approaches, d, f, right=np.nan)
-
-
-def smoothed_force_at(run: dict, approaches, window: float = WINDOW) -> np.ndarray:
-    """The loading force at each approach d from a power law F = C x^b fitted (least squares in
-    log-log) to the loading points within (1 -/+ window) d: the force without the step-to-step
-    scatter of a contact edge crossing element nodes (both codes show it)."""
-    (d, f), _ = ccx.branches(run["approach"], run["force"])
-    out = []
-    for x in np.atleast_1d(approaches):
-        keep = (d >= (1 - window) * x) & (d <= (1 + window) * x) & (f > 0)
-        if np.count_nonzero(keep) < 3 or x > d[-1] * (1 + 1e-9):
-            out.append(np.nan)
-            continue
-        slope, offset = np.polyfit(np.log(d[keep]), np.log(f[keep]), 1)
-        out.append(float(np.exp(offset + slope * np.log(x))))
-    return np.array(out)
-
-
-def loading_work_at(run: dict, approaches) -> np.ndarray:
-    """The work of the loading force from 0 to each approach (trapezoids on the run's points,
-    the last one cut at the approach): an integral measure, insensitive to the scatter."""
-    (d, f), _ = ccx.branches(run["approach"], run["force"])
-    work = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(d))])
-    out = []
-    for x in np.atleast_1d(approaches):
-        if x > d[-1] * (1 + 1e-9):
-            out.append(np.nan)
-            continue
-        k = int(np.searchsorted(d, x))
-        fx = np.interp(x, d, f)
-        out.append(float(work[k - 1] + 0.5 * (f[k - 1] + fx) * (x - d[k - 1])) if k else 0.0)
-    return np.array(out)
-
-
-def unloading_shape(run: dict, t: np.ndarray) -> np.ndarray:
-    """P/P_max of the unloading branch at t = (d - d_res)/(d_max - d_res): its shape, free of
-    the peak force and residual approach."""
-    _, (d, f) = ccx.branches(run["approach"], run["force"])
-    d = np.concatenate([[run["residual_approach_m"]], d])
-    f = np.concatenate([[0.0], f])
-    tt = (d - run["residual_approach_m"]) / (run["max_approach_m"] - run["residual_approach_m"])
-    return np.interp(t, tt, f / run["max_force_N"])
-
-
-def unloading_exponent(run: dict) -> float:
-    """n of P/P_max = t^n, t = (d - d_res)/(d_max - d_res): least squares in log space over the
-    unloading points with 2 % < P/P_max < 98 % (as docs/verification.md item 11)."""
-    _, (d, f) = ccx.branches(run["approach"], run["force"])
-    t = (d - run["residual_approach_m"]) / (run["max_approach_m"] - run["residual_approach_m"])
-    p = f / run["max_force_N"]
-    keep = (p > 0.02) & (p < 0.98) & (t > 0)
-    return float(np.sum(np.log(t[keep]) * np.log(p[keep])) / np.sum(np.log(t[keep]) ** 2))
-
-
 def compare(runs: dict, material, loading: dict) -> dict:
     """``runs``: the four load-unload runs from the same largest approach (unloading, residual
     approach); ``loading``: the runs whose loading branches are compared (ours: the two force
@@ -176,9 +123,9 @@ def compare(runs: dict, material, loading: dict) -> dict:
     d_max = runs["ccx_nlgeom"]["max_approach_m"]
     scale = runs["ccx_nlgeom"]["max_force_N"]
     probes = np.array(PROBES) * d_max
-    measures = {"force": {k: loading_force_at(r, probes) for k, r in loading.items()},
-                "smoothed_force": {k: smoothed_force_at(r, probes) for k, r in loading.items()},
-                "loading_work": {k: loading_work_at(r, probes) for k, r in loading.items()}}
+    measures = {"force": {k: ccx.loading_force_at(r, probes) for k, r in loading.items()},
+                "smoothed_force": {k: ccx.smoothed_force_at(r, probes) for k, r in loading.items()},
+                "loading_work": {k: ccx.loading_work_at(r, probes) for k, r in loading.items()}}
     out: dict = {"scale_force_N": scale, "largest_approach_m": d_max, "pairs": {}}
     for ours in ("ours_small", "ours_finite"):
         for peer in ("ccx_small", "ccx_nlgeom"):
@@ -197,7 +144,7 @@ def compare(runs: dict, material, loading: dict) -> dict:
                 "residual_ratio_difference": (a["residual_approach_m"] / a["max_approach_m"]
                                               - b["residual_approach_m"] / b["max_approach_m"]),
                 "unloading_shape_difference": float(np.max(np.abs(
-                    unloading_shape(a, T_GRID) - unloading_shape(b, T_GRID)))),
+                    ccx.unloading_shape(a, T_GRID) - ccx.unloading_shape(b, T_GRID)))),
             }
     out["probes"] = {"approach_over_largest": list(PROBES), "approach_m": probes.tolist(),
                      **{q: {k: v.tolist() for k, v in m.items()} for q, m in measures.items()}}
@@ -214,7 +161,7 @@ def compare(runs: dict, material, loading: dict) -> dict:
                        "contact_radius_relative_to_JG": {}, "residual": {}}
     for k, r in runs.items():
         published["load_relative_to_JG"][k] = (
-            smoothed_force_at(loading[k], 2.0 * w_grid * jg.interference) / jg_load
+            ccx.smoothed_force_at(loading[k], 2.0 * w_grid * jg.interference) / jg_load
             - 1.0).tolist()
         if "contact_radius" in loading[k]:
             k_top = int(np.argmax(loading[k]["force"]))
@@ -226,7 +173,7 @@ def compare(runs: dict, material, loading: dict) -> dict:
         w_jg = r["max_approach_m"] / 2.0 / jg.interference
         ratio = r["residual_approach_m"] / r["max_approach_m"]
         ekk, jcg = float(fits.etsion_residual_ratio(w_ke)), float(fits.jackson_residual_ratio(w_jg))
-        n, n_ekk = unloading_exponent(r), float(fits.etsion_unloading_exponent(w_ke))
+        n, n_ekk = ccx.unloading_exponent(r), float(fits.etsion_ccx.unloading_exponent(w_ke))
         published["residual"][k] = {
             "w_max_KE": float(w_ke), "residual_ratio": float(ratio), "EKK": ekk, "JCG": jcg,
             "vs_EKK": float(ratio / ekk - 1.0), "vs_JCG": float(ratio / jcg - 1.0),
@@ -327,10 +274,10 @@ def table(record: dict) -> str:
         f"{record['largest_contact_radius_over_R']:.3f}. Ours: {inputs['steps_per_segment']} "
         f"load steps per segment (force control); CalculiX: "
         f"{inputs['ccx_increments_per_step']} increments per step (displacement control to our "
-        "finite-strain run's largest approach).",
+        "finite-strain run's largest approach and back to half of it).",
         "",
         "Loading force at equal approach (power law fitted over +/- 20 % of the approach, "
-        "`smoothed_force_at`), relative to each CalculiX run; then the loading work to the "
+        "`ccx.smoothed_force_at`), relative to each CalculiX run; then the loading work to the "
         "largest approach, the largest pointwise force differences (of the CalculiX NLGEOM peak "
         "force) and the residual approach ratio:",
         "",
@@ -397,7 +344,7 @@ def figure(path, runs, loading, record, material) -> None:
     jg = fits.jackson_green_critical(material)
     styles = {"ours_small": ("tab:blue", "--"), "ours_finite": ("tab:blue", "-"),
               "ccx_small": ("tab:red", "--"), "ccx_nlgeom": ("tab:red", "-")}
-    fig, (ax, dev, pub) = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, ((ax, dev), (unl, pub)) = plt.subplots(2, 2, figsize=(12, 9))
     for k in CODES:
         r = runs[k]
         color, ls = styles[k]
@@ -413,11 +360,11 @@ def figure(path, runs, loading, record, material) -> None:
 
     d_max = runs["ccx_nlgeom"]["max_approach_m"]
     grid = np.linspace(0.05, 1.0, 60) * d_max
-    reference = smoothed_force_at(loading["ccx_nlgeom"], grid)
+    reference = ccx.smoothed_force_at(loading["ccx_nlgeom"], grid)
     for k in ("ours_small", "ours_finite", "ccx_small"):
         color, ls = styles[k]
         dev.plot(grid / 2.0 / jg.interference,
-                 100 * (smoothed_force_at(loading[k], grid) / reference - 1), ls, color=color,
+                 100 * (ccx.smoothed_force_at(loading[k], grid) / reference - 1), ls, color=color,
                  label=LABELS[k])
     dev.axhline(0.0, color="0.5", lw=0.8)
     dev.set_xlabel(r"$\omega/\omega_c$ (JG)")
@@ -430,8 +377,20 @@ def figure(path, runs, loading, record, material) -> None:
     jg_load = fits.jackson_green_load(material, w_grid) * jg.force
     for k in CODES:
         color, ls = styles[k]
-        pub.plot(w_grid, 100 * (smoothed_force_at(loading[k], 2.0 * w_grid * jg.interference)
+        pub.plot(w_grid, 100 * (ccx.smoothed_force_at(loading[k], 2.0 * w_grid * jg.interference)
                                 / jg_load - 1), ls, color=color, label=LABELS[k])
+    t = T_GRID
+    shape_nl = ccx.unloading_shape(runs["ccx_nlgeom"], t)
+    for k in ("ours_small", "ours_finite", "ccx_small"):
+        color, ls = styles[k]
+        unl.plot(t, ccx.unloading_shape(runs[k], t) - shape_nl, ls, color=color, label=LABELS[k])
+    unl.axhline(0.0, color="0.5", lw=0.8)
+    unl.set_xlabel(r"$(\delta - \delta_{res})/(\delta_{max} - \delta_{res})$")
+    unl.set_ylabel(r"$P/P_{max}$ - CalculiX NLGEOM's")
+    unl.set_title("unloading shape, against CalculiX NLGEOM")
+    unl.legend(fontsize=8)
+    unl.grid(alpha=0.3)
+
     pub.axhline(0.0, color="0.5", lw=0.8)
     pub.set_xscale("log")
     pub.set_xlabel(r"$\omega/\omega_c$ (JG)")

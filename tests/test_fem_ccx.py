@@ -14,10 +14,14 @@ from geocontact.verification.ccx import (
     branches,
     ccx_executable,
     force_difference,
+    loading_work_at,
     read_dat,
     residual_approach,
     run_ccx,
+    smoothed_force_at,
     sphere_faces,
+    unloading_exponent,
+    unloading_shape,
     write_deck,
 )
 
@@ -125,6 +129,77 @@ def test_branches_and_force_difference_at_equal_approach():
     assert diff["loading"] == pytest.approx(0.03) and diff["unloading"] == pytest.approx(0.03)
     shifted = force_difference((approach, force), (approach + 0.1, force), force.max())
     assert 0.05 < shifted["loading"] < 0.2  # a shift in approach shows as a force difference
+
+
+def _cycle(n_unload: float = 1.4, scatter: float = 0.0) -> dict:
+    """Loading F = 3 d^1.2 to d = 2 (with an alternating scatter), unloading
+    F = F_max t^n, t = (d - 1.5)/(2 - 1.5), down to d = 1."""
+    up = np.linspace(0.0, 2.0, 41)
+    wobble = 1.0 + scatter * (-1.0) ** np.arange(41)
+    down = np.linspace(2.0, 1.0, 41)[1:]
+    f_max = 3.0 * 2.0**1.2 * wobble[-1]
+    force = np.concatenate([3.0 * up**1.2 * wobble,
+                            f_max * np.clip((down - 1.5) / 0.5, 0.0, None) ** n_unload])
+    return {"approach": np.concatenate([up, down]), "force": force, "max_approach_m": 2.0,
+            "residual_approach_m": 1.5, "max_force_N": f_max}
+
+
+def test_curve_measures_smoothed_force_work_and_unloading_shape():
+    run = _cycle()
+    at = np.array([0.5, 1.0, 2.0])
+    assert smoothed_force_at(run, at) == pytest.approx(3.0 * at**1.2, rel=1e-12)
+    assert loading_work_at(run, at) == pytest.approx(3.0 * at**2.2 / 2.2, rel=2e-3)
+    assert unloading_exponent(run) == pytest.approx(1.4, rel=1e-9)
+    t = np.linspace(0.0, 1.0, 11)
+    assert unloading_shape(run, t) == pytest.approx(t**1.4, abs=2e-3)
+    # a +/- 3 % scatter from point to point (a contact edge crossing nodes) leaves the smoothed
+    # force within 1 % (an odd number of points in the window) and the work within 0.1 %
+    noisy = _cycle(scatter=0.03)
+    assert np.max(np.abs(smoothed_force_at(noisy, at[:2]) / (3.0 * at[:2]**1.2) - 1)) < 1e-2
+    assert np.max(np.abs(loading_work_at(noisy, at) / loading_work_at(run, at) - 1)) < 1e-3
+    assert np.isnan(smoothed_force_at(run, [2.5])[0])  # beyond the branch
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(ccx_executable() is None, reason="CalculiX 'ccx' not installed (make ccx)")
+def test_finite_strain_unloads_like_calculix_nlgeom():
+    """At a/R = 0.15 (preset von-mises-large, 0 -> 100 omega_c -> 0, coarse mesh) the shape of
+    the unloading curve is where small and finite strain differ (docs/verification.md item 15):
+    our finite strain must follow CalculiX NLGEOM, and our small strain CalculiX's small strain,
+    each better than the other kinematics. ~1.5 min (two CalculiX runs)."""
+    from geocontact.fem.run import run_history
+    from geocontact.verification import published_fits as fits
+
+    material = preset("von-mises-large")
+    jg = fits.jackson_green_critical(material)
+    peak = float(fits.jackson_green_load(material, 100.0)) * jg.force
+    fe_mesh = AxisymmetricMesh.from_skfem(history_mesh(material, peak, "coarse"))
+    ours = {}
+    for kinematics in ("small", "finite"):
+        r = run_history(material, [0.0, peak, 0.0], mesh="coarse", write_fields=False,
+                        kinematics=kinematics)
+        ours[kinematics] = {"approach": r.curve["approach_m"], "force": r.curve["force_N"],
+                            **{k: r.summary["cycles"][0][k] for k in
+                               ("max_approach_m", "residual_approach_m", "max_force_N")}}
+        assert r.summary["mesh"]["elements"] == len(fe_mesh.triangles)
+    d_max = ours["finite"]["max_approach_m"]
+    peer = {}
+    for nlgeom in (False, True):
+        c = run_ccx(material, fe_mesh, [d_max, 0.5 * d_max], [16, 16], nlgeom=nlgeom)
+        peer[nlgeom] = {"approach": c.curve["approach_m"], "force": c.curve["force_N"],
+                        **{k: c.summary[k] for k in
+                           ("max_approach_m", "residual_approach_m", "max_force_N")}}
+    t = np.linspace(0.0, 1.0, 51)
+
+    def gap(a, b):
+        return float(np.max(np.abs(unloading_shape(a, t) - unloading_shape(b, t))))
+
+    assert gap(ours["finite"], peer[True]) < 0.5 * gap(ours["small"], peer[True])
+    assert gap(ours["small"], peer[False]) < 0.5 * gap(ours["finite"], peer[False])
+    n = {k: unloading_exponent(r) for k, r in (("small", ours["small"]),
+                                                ("finite", ours["finite"]),
+                                                ("ccx", peer[False]), ("nlgeom", peer[True]))}
+    assert abs(n["finite"] - n["nlgeom"]) < 0.5 * abs(n["small"] - n["nlgeom"])
 
 
 @pytest.mark.skipif(ccx_executable() is None, reason="CalculiX 'ccx' not installed (make ccx)")

@@ -284,6 +284,67 @@ def force_difference(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.n
     return out
 
 
+# --- comparing load-unload curves (``run``: a dict with "approach", "force" arrays and the
+# cycle's "max_approach_m", "residual_approach_m", "max_force_N") -----------------------------
+def loading_force_at(run: dict, approaches) -> np.ndarray:
+    """The loading force at each approach (linear between the run's points; NaN beyond)."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    return np.interp(approaches, d, f, right=np.nan)
+
+
+def smoothed_force_at(run: dict, approaches, window: float = 0.2) -> np.ndarray:
+    """The loading force at each approach d from a power law F = C x^b fitted (least squares in
+    log-log) to the loading points within (1 -/+ window) d: the force without the step-to-step
+    scatter of a contact edge crossing element nodes (both codes show it); NaN where fewer than
+    three points fall in the window."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    out = []
+    for x in np.atleast_1d(approaches):
+        keep = (d >= (1 - window) * x) & (d <= (1 + window) * x) & (f > 0)
+        if np.count_nonzero(keep) < 3 or x > d[-1] * (1 + 1e-9):
+            out.append(np.nan)
+            continue
+        slope, offset = np.polyfit(np.log(d[keep]), np.log(f[keep]), 1)
+        out.append(float(np.exp(offset + slope * np.log(x))))
+    return np.array(out)
+
+
+def loading_work_at(run: dict, approaches) -> np.ndarray:
+    """The work of the loading force from 0 to each approach (trapezoids on the run's points,
+    the last one cut at the approach): an integral measure, insensitive to the scatter."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(d))])
+    out = []
+    for x in np.atleast_1d(approaches):
+        if x > d[-1] * (1 + 1e-9):
+            out.append(np.nan)
+            continue
+        k = int(np.searchsorted(d, x))
+        fx = np.interp(x, d, f)
+        out.append(float(work[k - 1] + 0.5 * (f[k - 1] + fx) * (x - d[k - 1])) if k else 0.0)
+    return np.array(out)
+
+
+def unloading_shape(run: dict, t: np.ndarray) -> np.ndarray:
+    """P/P_max of the unloading branch at t = (d - d_res)/(d_max - d_res): its shape, free of
+    the peak force and residual approach."""
+    _, (d, f) = branches(run["approach"], run["force"])
+    d = np.concatenate([[run["residual_approach_m"]], d])
+    f = np.concatenate([[0.0], f])
+    tt = (d - run["residual_approach_m"]) / (run["max_approach_m"] - run["residual_approach_m"])
+    return np.interp(t, tt, f / run["max_force_N"])
+
+
+def unloading_exponent(run: dict) -> float:
+    """n of P/P_max = t^n, t = (d - d_res)/(d_max - d_res): least squares in log space over the
+    unloading points with 2 % < P/P_max < 98 % (as docs/verification.md item 11)."""
+    _, (d, f) = branches(run["approach"], run["force"])
+    t = (d - run["residual_approach_m"]) / (run["max_approach_m"] - run["residual_approach_m"])
+    p = f / run["max_force_N"]
+    keep = (p > 0.02) & (p < 0.98) & (t > 0)
+    return float(np.sum(np.log(t[keep]) * np.log(p[keep])) / np.sum(np.log(t[keep]) ** 2))
+
+
 @dataclass
 class CcxResult:
     curve: dict[str, np.ndarray]  # time, approach_m (pair), force_N
@@ -379,5 +440,6 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
 
 
 __all__ = ["AxisymmetricMesh", "CcxResult", "branches", "ccx_executable", "ccx_version",
-           "force_difference", "read_dat", "residual_approach", "run_ccx", "sphere_faces",
-           "write_deck"]
+           "force_difference", "loading_force_at", "loading_work_at", "read_dat",
+           "residual_approach", "run_ccx", "smoothed_force_at", "sphere_faces",
+           "unloading_exponent", "unloading_shape", "write_deck"]
