@@ -25,7 +25,7 @@ force, contact radius) and Etsion, Kligerman & Kadin (2005) / Jackson, Chusoipin
 
 Every FE run is a resumable result folder under ``--work`` (``run_history(resume=True)``); each
 CalculiX run is kept there as JSON with its inputs and reused when they are the same. Writes
-docs/verification/finite_strain_ccx.{json,md,png,csv}.
+docs/verification/finite_strain_ccx.{json,md,png,csv} (``_default`` etc. for other meshes).
 """
 
 from __future__ import annotations
@@ -173,7 +173,7 @@ def compare(runs: dict, material, loading: dict) -> dict:
         w_jg = r["max_approach_m"] / 2.0 / jg.interference
         ratio = r["residual_approach_m"] / r["max_approach_m"]
         ekk, jcg = float(fits.etsion_residual_ratio(w_ke)), float(fits.jackson_residual_ratio(w_jg))
-        n, n_ekk = ccx.unloading_exponent(r), float(fits.etsion_ccx.unloading_exponent(w_ke))
+        n, n_ekk = ccx.unloading_exponent(r), float(fits.etsion_unloading_exponent(w_ke))
         published["residual"][k] = {
             "w_max_KE": float(w_ke), "residual_ratio": float(ratio), "EKK": ekk, "JCG": jcg,
             "vs_EKK": float(ratio / ekk - 1.0), "vs_JCG": float(ratio / jcg - 1.0),
@@ -242,13 +242,14 @@ def main(argv=None) -> int:
         **result,
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    write_csv(args.out / "finite_strain_ccx.csv", {
+    stem = "finite_strain_ccx" + ("" if args.mesh == "coarse" else f"_{args.mesh}")
+    write_csv(args.out / f"{stem}.csv", {
         **{f"{k}_approach_m": r["approach"] for k, r in runs.items()},
         **{f"{k}_force_N": r["force"] for k, r in runs.items()}})
-    write_json_atomic(args.out / "finite_strain_ccx.json", record)
-    write_text_atomic(args.out / "finite_strain_ccx.md", table(record))
-    figure(args.out / "finite_strain_ccx.png", runs, {**runs, "ours_small": small_to_peak},
-           record, material)
+    write_json_atomic(args.out / f"{stem}.json", record)
+    write_text_atomic(args.out / f"{stem}.md", table(record, stem))
+    figure(args.out / f"{stem}.png", runs, {**runs, "ours_small": small_to_peak}, record,
+           material)
     print(table(record))
     return 0
 
@@ -257,15 +258,14 @@ def _pct(x) -> str:
     return "n/a" if x is None or not np.isfinite(x) else f"{100 * x:+.2f} %"
 
 
-def table(record: dict) -> str:
+def table(record: dict, stem: str = "finite_strain_ccx") -> str:
     inputs, runs = record["inputs"], record["runs"]
     jg = record["critical_JG"]
     lines = [
         "# Finite strain at large interference: against CalculiX NLGEOM and the published fits",
         "",
         f"Made by `{record['command']}` (geocontact {record['geocontact_version']}, "
-        f"{record['created_utc']}); curves in finite_strain_ccx.csv, inputs in "
-        "finite_strain_ccx.json.",
+        f"{record['created_utc']}); curves in {stem}.csv, inputs in {stem}.json.",
         "",
         f"Preset `{inputs['preset']}` (E/sigma_c = 200, nu = 0.3, perfectly plastic, R = 0.1 m), "
         f"mesh `{inputs['mesh']}` ({runs['ours_finite']['elements']} elements, the same in both "
