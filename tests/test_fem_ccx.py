@@ -165,8 +165,8 @@ def test_curve_measures_smoothed_force_work_and_unloading_shape():
 def test_finite_strain_unloads_like_calculix_nlgeom():
     """At a/R = 0.15 (preset von-mises-large, 0 -> 100 omega_c -> 0, coarse mesh) the shape of
     the unloading curve is where small and finite strain differ (docs/verification.md item 15):
-    our finite strain must follow CalculiX NLGEOM, and our small strain CalculiX's small strain,
-    each better than the other kinematics. ~1.5 min (two CalculiX runs)."""
+    our finite strain must follow CalculiX NLGEOM better than our small strain does, by a factor
+    two (measured 3.4 x on this mesh with 24 increments). ~1 min (one CalculiX run)."""
     from geocontact.fem.run import run_history
     from geocontact.verification import published_fits as fits
 
@@ -183,23 +183,22 @@ def test_finite_strain_unloads_like_calculix_nlgeom():
                                ("max_approach_m", "residual_approach_m", "max_force_N")}}
         assert r.summary["mesh"]["elements"] == len(fe_mesh.triangles)
     d_max = ours["finite"]["max_approach_m"]
-    peer = {}
-    for nlgeom in (False, True):
-        c = run_ccx(material, fe_mesh, [d_max, 0.5 * d_max], [16, 16], nlgeom=nlgeom)
-        peer[nlgeom] = {"approach": c.curve["approach_m"], "force": c.curve["force_N"],
-                        **{k: c.summary[k] for k in
-                           ("max_approach_m", "residual_approach_m", "max_force_N")}}
+    # unload to 0.7 d_max, just past the residual approach (~0.75 d_max): the 12 unloading
+    # increments all fall on the branch in contact
+    c = run_ccx(material, fe_mesh, [d_max, 0.7 * d_max], [12, 12], nlgeom=True)
+    nlgeom = {"approach": c.curve["approach_m"], "force": c.curve["force_N"],
+              **{k: c.summary[k] for k in ("max_approach_m", "residual_approach_m",
+                                           "max_force_N")}}
     t = np.linspace(0.0, 1.0, 51)
 
-    def gap(a, b):
-        return float(np.max(np.abs(unloading_shape(a, t) - unloading_shape(b, t))))
+    def gap(run):
+        return float(np.max(np.abs(unloading_shape(run, t) - unloading_shape(nlgeom, t))))
 
-    assert gap(ours["finite"], peer[True]) < 0.5 * gap(ours["small"], peer[True])
-    assert gap(ours["small"], peer[False]) < 0.5 * gap(ours["finite"], peer[False])
-    n = {k: unloading_exponent(r) for k, r in (("small", ours["small"]),
-                                                ("finite", ours["finite"]),
-                                                ("ccx", peer[False]), ("nlgeom", peer[True]))}
-    assert abs(n["finite"] - n["nlgeom"]) < 0.5 * abs(n["small"] - n["nlgeom"])
+    assert gap(ours["finite"]) < 0.5 * gap(ours["small"])
+    n = {k: unloading_exponent(r) for k, r in ours.items()}
+    n_nlgeom = unloading_exponent(nlgeom)
+    assert abs(n["finite"] - n_nlgeom) < 0.5 * abs(n["small"] - n_nlgeom)
+    assert n["finite"] < n["small"]  # finite strain unloads with the smaller exponent
 
 
 @pytest.mark.skipif(ccx_executable() is None, reason="CalculiX 'ccx' not installed (make ccx)")
