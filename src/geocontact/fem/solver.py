@@ -556,11 +556,13 @@ class ContactSolver:
         """(r, pressure) at the surface nodes: nodal force / tributary ring area."""
         return self.candidate_r, self._pressure(self.contact_forces(state), self.candidate_area)
 
-    @staticmethod
-    def _pressure(force: np.ndarray, area: np.ndarray) -> np.ndarray:
-        pressure = np.divide(force, area, out=np.zeros_like(area),
-                             where=area > 1e-12 * np.max(area))
-        pressure[area <= 1e-12 * np.max(area)] = pressure[1]  # the axis node has no ring area
+    def _pressure(self, force: np.ndarray, area: np.ndarray) -> np.ndarray:
+        """Nodal force / ring area; the axis node's ring area is zero (its P2 shape function
+        gives int N r ds = 0 on the first edge; round-off leaves ~1e-10 of the largest, which
+        made a 700 sigma_c spike), so it takes its neighbour's pressure."""
+        axis = self.candidate_r <= 1e-12 * self.material.radius
+        pressure = np.divide(force, area, out=np.zeros_like(area), where=~axis & (area > 0.0))
+        pressure[axis] = pressure[1]
         return pressure
 
     def contact_radius(self, state: State) -> float:
