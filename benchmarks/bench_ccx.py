@@ -24,16 +24,20 @@ from common import record
 from geocontact.fem.run import history_mesh, run_history
 from geocontact.hertz import incipient_yield
 from geocontact.material import preset
+from geocontact.verification import ccx
+from geocontact.verification import published_fits as fits
 from geocontact.verification.ccx import PENALTY_DEFAULT, AxisymmetricMesh, run_ccx
 
 FORCE_OVER_FY = 30.0
 INCREMENTS = 24  # CalculiX increments per step (loading, unloading): our default's steps/segment
 PROBE = (0.25, 0.5, 0.75, 1.0)  # approaches (/ largest) at which the docs table lists forces
+W_NLGEOM = 100.0  # interference / omega_c (Jackson-Green) of the finite-strain comparison
 
 
-def run_ours(material, force: float, mesh: str) -> dict:
+def run_ours(material, force: float, mesh: str, kinematics: str = "small") -> dict:
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    result = run_history(material, [0.0, force, 0.0], mesh=mesh, write_fields=False)
+    result = run_history(material, [0.0, force, 0.0], mesh=mesh, write_fields=False,
+                         kinematics=kinematics)
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     cycle = result.summary["cycles"][0]
     return {"approach": result.curve["approach_m"], "force": result.curve["force_N"],
@@ -45,10 +49,12 @@ def run_ours(material, force: float, mesh: str) -> dict:
 
 
 def run_peer(material, force: float, mesh: str, max_approach: float,
-             penalty: float = PENALTY_DEFAULT) -> dict:
+             penalty: float = PENALTY_DEFAULT, nlgeom: bool = False,
+             unload_to: float = 0.0) -> dict:
+    """CalculiX 0 -> max_approach -> unload_to x max_approach (past the residual approach)."""
     fe_mesh = AxisymmetricMesh.from_skfem(history_mesh(material, force, mesh))
-    result = run_ccx(material, fe_mesh, [max_approach, 0.0], [INCREMENTS, INCREMENTS],
-                     penalty=penalty)
+    result = run_ccx(material, fe_mesh, [max_approach, unload_to * max_approach],
+                     [INCREMENTS, INCREMENTS], penalty=penalty, nlgeom=nlgeom)
     s = result.summary
     return {"approach": result.curve["approach_m"], "force": result.curve["force_N"],
             "max_approach_m": s["max_approach_m"], "residual_approach_m": s["residual_approach_m"],
@@ -58,28 +64,13 @@ def run_peer(material, force: float, mesh: str, max_approach: float,
             "penalty_slope_Pa_per_m": s["contact"]["penalty_slope_Pa_per_m"]}
 
 
-def branches(run: dict) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """(approach, force) of the loading branch and of the unloading branch while in contact,
-    each sorted by increasing approach."""
-    k = int(np.argmax(run["force"]))
-    load = (run["approach"][:k + 1], run["force"][:k + 1])
-    a, f = run["approach"][k:], run["force"][k:]
-    keep = f > 1e-6 * f[0]
-    unload = (a[keep][::-1], f[keep][::-1])
-    return load, unload
+def branches(run: dict):
+    return ccx.branches(run["approach"], run["force"])
 
 
 def force_difference(a: dict, b: dict, scale: float) -> dict:
-    """Largest |F_a - F_b| at equal approach / scale, per branch, over the approaches both
-    branches cover (b interpolated at a's points)."""
-    out = {}
-    for name, (da, fa), (db, fb) in zip(("loading", "unloading"), branches(a), branches(b),
-                                        strict=True):
-        lo, hi = max(da[0], db[0]), min(da[-1], db[-1])
-        inside = (da >= lo) & (da <= hi)
-        diff = np.abs(fa[inside] - np.interp(da[inside], db, fb))
-        out[name] = float(np.max(diff) / scale) if diff.size else None
-    return out
+    """Largest |F_a - F_b| at equal approach / scale, per branch (``ccx.force_difference``)."""
+    return ccx.force_difference((a["approach"], a["force"]), (b["approach"], b["force"]), scale)
 
 
 def forces_at(run: dict, approaches) -> list[float]:
@@ -97,27 +88,18 @@ def _public(run: dict) -> dict:
     return {k: v for k, v in run.items() if k not in ("approach", "force")}
 
 
-def main(quick: bool = False) -> dict:
-    material = preset("von-mises")
-    force = FORCE_OVER_FY * float(incipient_yield(material).force)
-    meshes = ["coarse"] if quick else ["coarse", "default"]
+def compare_codes(material, force: float, meshes: list[str], kinematics: str = "small",
+                  unload_to: float = 0.0) -> tuple[dict, dict, dict, list[float]]:
+    """Ours (``kinematics``) and CalculiX (NLGEOM for "finite") on each mesh, the same cycle
+    0 -> force -> 0; their agreement mesh for mesh and, with two meshes, each code's error on
+    the first against its own run on the second ("equal accuracy")."""
     load = [os.getloadavg()[0]]
     ours, peer = {}, {}
     for mesh in meshes:
-        ours[mesh] = run_ours(material, force, mesh)
-        peer[mesh] = run_peer(material, force, mesh, ours[mesh]["max_approach_m"])
+        ours[mesh] = run_ours(material, force, mesh, kinematics)
+        peer[mesh] = run_peer(material, force, mesh, ours[mesh]["max_approach_m"],
+                              nlgeom=kinematics == "finite", unload_to=unload_to)
         load.append(os.getloadavg()[0])
-    penalty_check = None
-    if not quick:  # the penalty's own error: the coarse run again with a 10x stiffer penalty
-        stiff = run_peer(material, force, "coarse", ours["coarse"]["max_approach_m"],
-                         penalty=10 * PENALTY_DEFAULT)
-        penalty_check = {"penalty_factor": 10 * PENALTY_DEFAULT,
-                         "force_difference": force_difference(peer["coarse"], stiff, force),
-                         "residual_ratio": discretisation_error(peer["coarse"], stiff,
-                                                                force)["residual_ratio"],
-                         "wall_time_s": stiff["wall_time_s"], "cpu_time_s": stiff["cpu_time_s"]}
-        load.append(os.getloadavg()[0])
-
     levels = {}
     for mesh in meshes:
         o, p = ours[mesh], peer[mesh]
@@ -138,10 +120,28 @@ def main(quick: bool = False) -> dict:
             "wall_time_ratio": o["wall_time_s"] / p["wall_time_s"],
             "cpu_time_ratio": o["cpu_time_s"] / p["cpu_time_s"],
         }
-    if not quick:
-        levels["coarse"]["discretisation_error"] = {
-            "ours": discretisation_error(ours["coarse"], ours["default"], force),
-            "calculix": discretisation_error(peer["coarse"], peer["default"], force)}
+    if len(meshes) > 1:
+        levels[meshes[0]]["discretisation_error"] = {
+            "ours": discretisation_error(ours[meshes[0]], ours[meshes[1]], force),
+            "calculix": discretisation_error(peer[meshes[0]], peer[meshes[1]], force)}
+    return ours, peer, levels, load
+
+
+def main(quick: bool = False) -> dict:
+    material = preset("von-mises")
+    force = FORCE_OVER_FY * float(incipient_yield(material).force)
+    meshes = ["coarse"] if quick else ["coarse", "default"]
+    ours, peer, levels, load = compare_codes(material, force, meshes)
+    penalty_check = None
+    if not quick:  # the penalty's own error: the coarse run again with a 10x stiffer penalty
+        stiff = run_peer(material, force, "coarse", ours["coarse"]["max_approach_m"],
+                         penalty=10 * PENALTY_DEFAULT)
+        penalty_check = {"penalty_factor": 10 * PENALTY_DEFAULT,
+                         "force_difference": force_difference(peer["coarse"], stiff, force),
+                         "residual_ratio": discretisation_error(peer["coarse"], stiff,
+                                                                force)["residual_ratio"],
+                         "wall_time_s": stiff["wall_time_s"], "cpu_time_s": stiff["cpu_time_s"]}
+        load.append(os.getloadavg()[0])
 
     top = meshes[-1]
     o, p = ours[top], peer[top]
@@ -162,4 +162,36 @@ def main(quick: bool = False) -> dict:
         penalty_check=penalty_check, load_average_1min=load,
         goal="our wall time / ccx wall time <= 1 at equal accuracy",
         note=note,
+    )
+
+
+def main_nlgeom(quick: bool = False) -> dict:
+    """Finite strain at large interference: our ``kinematics="finite"`` against CalculiX NLGEOM
+    on preset ``von-mises-large`` (E/sigma_c = 200), 0 -> the Jackson-Green load at
+    ``W_NLGEOM`` critical interferences (a/R = 0.15) -> 0, coarse and default mesh."""
+    material = preset("von-mises-large")
+    jg = fits.jackson_green_critical(material)
+    force = float(fits.jackson_green_load(material, W_NLGEOM)) * jg.force
+    meshes = ["coarse"] if quick else ["coarse", "default"]
+    # CalculiX unloads to half the largest approach (the residual approach is ~0.75 of it):
+    # its 24 unloading increments then fall on the branch still in contact
+    ours, peer, levels, load = compare_codes(material, force, meshes, "finite", unload_to=0.5)
+    top = meshes[-1]
+    o, p = ours[top], peer[top]
+    agreement = levels[top]["agreement"]
+    return record(
+        "fem_finite_vs_calculix_nlgeom", o["wall_time_s"], "s",
+        "CalculiX 2.20 ccx NLGEOM (CAX6, penalty contact, 1 thread)", p["wall_time_s"],
+        ratio=o["wall_time_s"] / p["wall_time_s"],
+        material="von-mises-large", force_N=force, w_max_jackson_green=W_NLGEOM, mesh=top,
+        elements_ours=o["elements"], elements_calculix=p["elements"],
+        max_force_difference=max(agreement["force_difference"].values()),
+        residual_approach_difference=agreement["residual_approach_difference"],
+        cpu_time_ratio=levels[top]["cpu_time_ratio"], levels=levels, load_average_1min=load,
+        goal="our finite-strain wall time / ccx NLGEOM wall time <= 1 at equal accuracy",
+        note=(f"{top} mesh ({o['elements']} elements), finite strain, 0 -> {W_NLGEOM:g} wc -> "
+              f"0 (a/R 0.15); force difference <= "
+              f"{100 * max(agreement['force_difference'].values()):.2g} % F, residual approach "
+              f"{100 * agreement['residual_approach_difference']:+.2g} %; CPU ratio "
+              f"{levels[top]['cpu_time_ratio']:.2f}"),
     )

@@ -52,3 +52,39 @@ def main(mesh: str = "default") -> dict:
               f"{reference['wall_time_s']:.1f} s"),
     )
     return document
+
+
+def main_finite(mesh: str = "default") -> dict:
+    """The reference cycle in finite strain (``kinematics="finite"``, issue 15) against the
+    same cycle in small strain, run one after the other on the same mesh; with the finite/small
+    differences of the results (at a/R = 0.06 they should be a fraction of a per cent)."""
+    import time
+
+    from geocontact.fem.run import run_history
+
+    material = preset("reference")
+    runs = {}
+    for kinematics in ("small", "finite"):
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        result = run_history(material, [0.0, 6000.0, 0.0], mesh=mesh, write_fields=False,
+                             kinematics=kinematics)
+        s = result.summary
+        runs[kinematics] = {"wall_time_s": time.perf_counter() - wall0,
+                            "cpu_time_s": time.process_time() - cpu0, "steps": s["steps"],
+                            "newton_iterations": s["newton_iterations"],
+                            "cycle": s["cycles"][0],
+                            "first_yield_force_N": s["first_yield_force_N"]}
+    small, finite = runs["small"], runs["finite"]
+    difference = {q: finite["cycle"][q] / small["cycle"][q] - 1.0
+                  for q in ("max_approach_m", "residual_approach_m", "plastic_work_J")}
+    return record(
+        f"fem_reference_cycle_finite_{mesh}", finite["wall_time_s"], "s",
+        "the same cycle in small strain, same run", small["wall_time_s"],
+        ratio=finite["wall_time_s"] / small["wall_time_s"],
+        cpu_time_ratio=finite["cpu_time_s"] / small["cpu_time_s"], runs=runs,
+        finite_over_small_minus_1=difference, mesh=mesh,
+        note=(f"0->6000->0 N; CPU {finite['cpu_time_s']:.1f} vs {small['cpu_time_s']:.1f} s, "
+              f"Newton {finite['newton_iterations']} vs {small['newton_iterations']}; finite/small"
+              f" - 1: max approach {100 * difference['max_approach_m']:+.2f} %, residual "
+              f"{100 * difference['residual_approach_m']:+.2f} %"),
+    )

@@ -1,7 +1,8 @@
 """``make bench``: every benchmark, each against a peer measured in the same run.
 
 Writes out/bench/*.json and the results table of docs/benchmarks.md.
-Usage: python benchmarks/run.py [law] [lammps] [lammps_poly] [lammps_wall] [fem] [ccx] [--quick]
+Usage: python benchmarks/run.py [law] [lammps] [lammps_poly] [lammps_wall] [fem] [ccx]
+       [fem_finite] [ccx_nlgeom] [--quick]
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-reference.j
 def main(argv: list[str]) -> int:
     quick = "--quick" in argv
     names = ([a for a in argv if not a.startswith("--")]
-             or ["law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx"])
+             or ["law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx", "fem_finite",
+                 "ccx_nlgeom"])
     if "law" in names:
         import bench_law
 
@@ -48,6 +50,14 @@ def main(argv: list[str]) -> int:
         import bench_ccx
 
         bench_ccx.main(quick=quick)
+    if "fem_finite" in names:
+        import bench_fem
+
+        bench_fem.main_finite(mesh="coarse" if quick else "default")
+    if "ccx_nlgeom" in names:
+        import bench_ccx
+
+        bench_ccx.main_nlgeom(quick=quick)
     write_table()
     return 0
 

@@ -331,3 +331,10 @@ class FiniteStrainSolver(ContactSolver):
 
     def candidate_radii(self, state: State) -> np.ndarray:
         return self.candidate_r + state.displacement[self.candidate_dofs_r]
+
+    def contact_pressure(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """(current r, pressure) at the surface nodes: nodal force / tributary ring area of the
+        current configuration (the Cauchy contact pressure; the small-strain engine divides by
+        the reference area)."""
+        area = self._tributary_areas(self.candidate_points, state.displacement)
+        return self.candidate_radii(state), self._pressure(self.contact_forces(state), area)

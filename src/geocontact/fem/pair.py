@@ -166,7 +166,7 @@ class PairSolver(ContactSolver):
         keep = body1[self.candidate_dofs] & (
             self.candidate_r <= CANDIDATE_RADIUS * min(r1, r2) * (1 + 1e-12))
         for name in ("candidate_r", "candidate_z0", "candidate_dofs", "candidate_dofs_r",
-                     "candidate_area"):
+                     "candidate_area", "candidate_points"):
             setattr(self, name, getattr(self, name)[keep])
         # Masters: sphere 2's surface edges, the three nodes of each (ends, middle).
         on2 = (~body1[dofs_z]) & (np.abs(np.hypot(x, z + r2) - r2) < 1e-7 * r2)

@@ -174,6 +174,7 @@ class ContactSolver:
         self.candidate_z0 = z[cand]
         self.candidate_dofs = dofs_z[cand]
         self.candidate_dofs_r = dofs_r[cand]
+        self.candidate_points = cand
         self.candidate_area = self._tributary_areas(cand)
         self.elastic_matrix = self.model.elastic_matrix()
         # fast path: B per point as (elements, points, 12, 4) for batched matrix products
@@ -237,17 +238,34 @@ class ContactSolver:
         on = np.all(np.abs(dist - radius) < 1e-7 * radius, axis=0)
         return facets[on & (np.max(ends[0], axis=0) > 0.0)]
 
-    def _tributary_areas(self, cand_points: np.ndarray) -> np.ndarray:
-        """Ring area carried by each contact node: integral of its z shape function * 2 pi r."""
-        from skfem import ElementTriP2, FacetBasis, LinearForm
+    def _tributary_areas(self, cand_points: np.ndarray,
+                         displacement: np.ndarray | None = None) -> np.ndarray:
+        """Ring area carried by each contact node: integral of its z shape function * 2 pi r
+        over the sphere's surface; with ``displacement``, over the surface of the current
+        configuration (r = R + u_r, line element |F t| dS with t the reference unit tangent)."""
+        from skfem import ElementTriP2, ElementVector, FacetBasis, LinearForm
 
-        fb = FacetBasis(self.mesh, ElementTriP2(), facets=self.sphere_facets(), intorder=6)
+        facets = self.sphere_facets()
+        fb = FacetBasis(self.mesh, ElementTriP2(), facets=facets, intorder=6)
 
         @LinearForm
         def ring(v, w):
             return TWO_PI * w.x[0] * v
 
-        return ring.assemble(fb)[cand_points]
+        if displacement is None:
+            return ring.assemble(fb)[cand_points]
+        vb = FacetBasis(self.mesh, ElementVector(ElementTriP2()), facets=facets, intorder=6)
+        u = vb.interpolate(displacement)
+
+        @LinearForm
+        def current_ring(v, w):
+            t_r, t_z = -w.n[1], w.n[0]  # reference unit tangent
+            du = w.u.grad  # (2, 2, ...): du_i/dX_k
+            stretch = np.hypot(t_r + du[0, 0] * t_r + du[0, 1] * t_z,
+                               t_z + du[1, 0] * t_r + du[1, 1] * t_z)
+            return TWO_PI * (w.x[0] + w.u[0]) * stretch * v
+
+        return current_ring.assemble(fb, u=u)[cand_points]
 
     # --- element kernels --------------------------------------------------------------------
     def strain(self, displacement: np.ndarray) -> np.ndarray:
@@ -536,11 +554,16 @@ class ContactSolver:
 
     def contact_pressure(self, state: State) -> tuple[np.ndarray, np.ndarray]:
         """(r, pressure) at the surface nodes: nodal force / tributary ring area."""
-        area = self.candidate_area
-        pressure = np.divide(self.contact_forces(state), area, out=np.zeros_like(area),
-                             where=area > 1e-12 * np.max(area))
-        pressure[area <= 1e-12 * np.max(area)] = pressure[1]  # the axis node has no ring area
-        return self.candidate_r, pressure
+        return self.candidate_r, self._pressure(self.contact_forces(state), self.candidate_area)
+
+    def _pressure(self, force: np.ndarray, area: np.ndarray) -> np.ndarray:
+        """Nodal force / ring area; the axis node's ring area is zero (its P2 shape function
+        gives int N r ds = 0 on the first edge; round-off leaves ~1e-10 of the largest, which
+        made a 700 sigma_c spike), so it takes its neighbour's pressure."""
+        axis = self.candidate_r <= 1e-12 * self.material.radius
+        pressure = np.divide(force, area, out=np.zeros_like(area), where=~axis & (area > 0.0))
+        pressure[axis] = pressure[1]
+        return pressure
 
     def contact_radius(self, state: State) -> float:
         """Radius of the contact circle.

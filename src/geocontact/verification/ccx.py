@@ -8,7 +8,8 @@ CalculiX allows:
   (CalculiX expands them into 15-node wedges of a 2 degree sector, full integration, no B-bar);
 - von Mises / Drucker-Prager is not available as such: the material must be beta = 0 and is
   written as ``*ELASTIC`` + ``*PLASTIC`` (isotropic hardening table; perfectly plastic when
-  the hardening ratio is 0); small strain (no NLGEOM);
+  the hardening ratio is 0); small strain by default, geometrically nonlinear with
+  ``nlgeom=True`` (``*STEP, NLGEOM``: the peer of ``kinematics="finite"``);
 - the rigid frictionless flat is a block of elements below z = 0 whose nodes are all fixed; its
   top edge is the master surface, the sphere's edges (z0 < 0.3 R, as in our model) the slave
   surface of a face-to-face *penalty* contact (``PRESSURE-OVERCLOSURE=LINEAR``, no friction).
@@ -99,7 +100,8 @@ def _lines(values, per_line: int = 8) -> list[str]:
 def write_deck(path: str | Path, material: Material, mesh: AxisymmetricMesh,
                interferences: list[float], increments: list[int], *,
                penalty: float = PENALTY_DEFAULT,
-               residual_tolerance: float | None = None) -> dict[str, Any]:
+               residual_tolerance: float | None = None,
+               nlgeom: bool = False) -> dict[str, Any]:
     """Write the CalculiX input deck; returns what it chose (penalty slope, node/element counts).
 
     ``interferences``: top-face displacement waypoints w >= 0 of the half model (m), one
@@ -107,6 +109,9 @@ def write_deck(path: str | Path, material: Material, mesh: AxisymmetricMesh,
     increments per step (CalculiX may cut back, never coarsen beyond it).
     ``residual_tolerance``: the largest residual / average nodal force accepted (CalculiX's
     R_n, and R_p after 9 iterations; None keeps its defaults, 0.005 and 0.02).
+    ``nlgeom``: geometrically nonlinear steps (``*STEP, NLGEOM``; CalculiX's *PLASTIC then
+    works on the multiplicative decomposition of the deformation gradient), the peer of our
+    ``kinematics="finite"``; False: small strain, the peer of ``kinematics="small"``.
     """
     if material.friction_angle_deg != 0.0:
         raise InputError("ccx: CalculiX's *PLASTIC is von Mises; need friction_angle_deg = 0, "
@@ -173,7 +178,7 @@ def write_deck(path: str | Path, material: Material, mesh: AxisymmetricMesh,
     for w, count in zip(interferences, increments, strict=True):
         dt = 1.0 / count
         lines += [
-            "*STEP, INC=100000",
+            "*STEP, NLGEOM, INC=100000" if nlgeom else "*STEP, INC=100000",
             "*STATIC",
             f"{_num(dt)}, 1.0, {_num(dt * 1e-3)}, {_num(dt)}",
         ]
@@ -253,6 +258,93 @@ def residual_approach(approach: np.ndarray, force: np.ndarray, zero: float) -> f
     return float(linear)
 
 
+def branches(approach: np.ndarray, force: np.ndarray
+             ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """(approach, force) of the loading branch (up to the largest force) and of the unloading
+    branch while in contact (force > 1e-6 of its start), each sorted by increasing approach."""
+    k = int(np.argmax(force))
+    load = (approach[:k + 1], force[:k + 1])
+    a, f = approach[k:], force[k:]
+    keep = f > 1e-6 * f[0]
+    return load, (a[keep][::-1], f[keep][::-1])
+
+
+def force_difference(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                     scale: float) -> dict[str, float | None]:
+    """Largest |F_a - F_b| at equal approach / ``scale`` per branch ("loading", "unloading")
+    of two load-unload curves (approach, force), over the approaches both branches cover (b
+    interpolated at a's points); None where they share none."""
+    out: dict[str, float | None] = {}
+    for name, (da, fa), (db, fb) in zip(("loading", "unloading"), branches(*a), branches(*b),
+                                        strict=True):
+        lo, hi = max(da[0], db[0]), min(da[-1], db[-1])
+        inside = (da >= lo) & (da <= hi)
+        diff = np.abs(fa[inside] - np.interp(da[inside], db, fb))
+        out[name] = float(np.max(diff) / scale) if diff.size else None
+    return out
+
+
+# --- comparing load-unload curves (``run``: a dict with "approach", "force" arrays and the
+# cycle's "max_approach_m", "residual_approach_m", "max_force_N") -----------------------------
+def loading_force_at(run: dict, approaches) -> np.ndarray:
+    """The loading force at each approach (linear between the run's points; NaN beyond)."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    return np.interp(approaches, d, f, right=np.nan)
+
+
+def smoothed_force_at(run: dict, approaches, window: float = 0.2) -> np.ndarray:
+    """The loading force at each approach d from a power law F = C x^b fitted (least squares in
+    log-log) to the loading points within (1 -/+ window) d: the force without the step-to-step
+    scatter of a contact edge crossing element nodes (both codes show it); NaN where fewer than
+    three points fall in the window."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    out = []
+    for x in np.atleast_1d(approaches):
+        keep = (d >= (1 - window) * x) & (d <= (1 + window) * x) & (f > 0)
+        if np.count_nonzero(keep) < 3 or x > d[-1] * (1 + 1e-9):
+            out.append(np.nan)
+            continue
+        slope, offset = np.polyfit(np.log(d[keep]), np.log(f[keep]), 1)
+        out.append(float(np.exp(offset + slope * np.log(x))))
+    return np.array(out)
+
+
+def loading_work_at(run: dict, approaches) -> np.ndarray:
+    """The work of the loading force from 0 to each approach (trapezoids on the run's points,
+    the last one cut at the approach): an integral measure, insensitive to the scatter."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(d))])
+    out = []
+    for x in np.atleast_1d(approaches):
+        if x > d[-1] * (1 + 1e-9):
+            out.append(np.nan)
+            continue
+        k = int(np.searchsorted(d, x))
+        fx = np.interp(x, d, f)
+        out.append(float(work[k - 1] + 0.5 * (f[k - 1] + fx) * (x - d[k - 1])) if k else 0.0)
+    return np.array(out)
+
+
+def unloading_shape(run: dict, t: np.ndarray) -> np.ndarray:
+    """P/P_max of the unloading branch at t = (d - d_res)/(d_max - d_res): its shape, free of
+    the peak force and residual approach."""
+    _, (d, f) = branches(run["approach"], run["force"])
+    d = np.concatenate([[run["residual_approach_m"]], d])
+    f = np.concatenate([[0.0], f])
+    tt = (d - run["residual_approach_m"]) / (run["max_approach_m"] - run["residual_approach_m"])
+    return np.interp(t, tt, f / run["max_force_N"])
+
+
+def unloading_exponent(run: dict) -> float:
+    """n of P/P_max = t^n, t = (d - d_res)/(d_max - d_res): least squares in log space over the
+    unloading points with 2 % < P/P_max < 98 % (as docs/verification.md item 11)."""
+    _, (d, f) = branches(run["approach"], run["force"])
+    t = (d - run["residual_approach_m"]) / (run["max_approach_m"] - run["residual_approach_m"])
+    p = f / run["max_force_N"]
+    keep = (p > 0.02) & (p < 0.98) & (t > 0)
+    return float(np.sum(np.log(t[keep]) * np.log(p[keep])) / np.sum(np.log(t[keep]) ** 2))
+
+
 @dataclass
 class CcxResult:
     curve: dict[str, np.ndarray]  # time, approach_m (pair), force_N
@@ -270,12 +362,23 @@ def ccx_executable() -> str | None:
     return shutil.which("ccx")
 
 
+def ccx_version() -> str | None:
+    """The version CalculiX prints (``ccx -v``: "This is Version 2.20"), None if not on PATH."""
+    exe = ccx_executable()
+    if exe is None:
+        return None
+    proc = subprocess.run([exe, "-v"], capture_output=True, text=True)
+    m = re.search(r"Version\s+(\S+)", proc.stdout + proc.stderr)
+    return m.group(1) if m else "unknown"
+
+
 def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
             increments: list[int], *, penalty: float = PENALTY_DEFAULT,
             residual_tolerance: float | None = None, threads: int = 1,
-            workdir: str | Path | None = None) -> CcxResult:
+            workdir: str | Path | None = None, nlgeom: bool = False) -> CcxResult:
     """Run CalculiX through the approach (ball-ball) waypoints ``approaches`` (loading and
-    unloading steps); wall and CPU time are those of the ``ccx`` process alone."""
+    unloading steps); wall and CPU time are those of the ``ccx`` process alone. ``nlgeom``:
+    geometrically nonlinear (``write_deck``)."""
     exe = ccx_executable()
     if exe is None:
         raise InputError("ccx: the CalculiX executable 'ccx' is not on PATH "
@@ -286,7 +389,8 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
     work.mkdir(parents=True, exist_ok=True)
     try:
         info = write_deck(work / "sphere.inp", material, mesh, interferences, increments,
-                          penalty=penalty, residual_tolerance=residual_tolerance)
+                          penalty=penalty, residual_tolerance=residual_tolerance,
+                          nlgeom=nlgeom)
         env = dict(os.environ, OMP_NUM_THREADS=str(threads),
                    CCX_NPROC_EQUATION_SOLVER=str(threads), CCX_NPROC_RESULTS=str(threads),
                    CCX_NPROC_STIFFNESS=str(threads))
@@ -324,6 +428,7 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
                         "smallest_edge_m": info["smallest_edge_m"],
                         "slave_faces": info["contact_faces"]},
             "residual_tolerance": residual_tolerance,
+            "kinematics": "finite (NLGEOM)" if nlgeom else "small",
             "threads": threads,
             "ccx": exe,
         }
@@ -334,5 +439,7 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
             shutil.rmtree(work, ignore_errors=True)
 
 
-__all__ = ["AxisymmetricMesh", "CcxResult", "ccx_executable", "read_dat", "residual_approach",
-           "run_ccx", "sphere_faces", "write_deck"]
+__all__ = ["AxisymmetricMesh", "CcxResult", "branches", "ccx_executable", "ccx_version",
+           "force_difference", "loading_force_at", "loading_work_at", "read_dat",
+           "residual_approach", "run_ccx", "smoothed_force_at", "sphere_faces",
+           "unloading_exponent", "unloading_shape", "write_deck"]
