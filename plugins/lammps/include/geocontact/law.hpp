@@ -409,7 +409,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
         continue;
       }
       // one log of the depth, shared by the force (one exp), the work from the force, and the
-      // envelope (two exp; the residual's log1p, expm1 and power where its x0 or b is not 1)
+      // envelope (one or two exp; the residual's log1p, expm1 and power where x0 or b is not 1)
       const double lx = std::log(std::max(target / dy, 1.0));
       fmax = p.virgin_force_from_log(target, lx);
       work += p.virgin_work_from_force(target, fmax) - p.virgin_work_from_force(d, force);
@@ -420,7 +420,10 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
                             : p.residual_log_depth(target / dy);
       dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * target;
       nu = kHertzExponent * std::exp(p.unloading_power * lx);
-      nr = std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+      // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
+      nr = p.reloading_power >= p.unloading_power
+               ? nu
+               : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
       // an excursion (from bval, where it left the old envelope) wider than the band is a new
       // envelope: the count restarts; within the band it is the same cycle
       if (target - bval > detail::envelope_band(p, dmax, dres)) cycles = 1.0;
