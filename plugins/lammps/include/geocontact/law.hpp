@@ -138,6 +138,9 @@ struct LawParams {
   double fully_plastic_force = 0.0;     // Fp = Fy r_p^n1
   double deep_plastic_approach = 0.0;   // delta_q = r_q delta_y (max double without one)
   double deep_plastic_force = 0.0;      // Fq = Fp (r_q / r_p)^n2 (max double without one)
+  double log_fully_plastic_ratio = 0.0;  // log r_p
+  double log_deep_plastic_ratio = 0.0;   // log r_q (max double without one)
+  double log_band = 0.0;                 // log(1 - tol) of the cyclic extension's band
 
   void derive()
   {
@@ -156,6 +159,11 @@ struct LawParams {
       deep_plastic_approach = std::numeric_limits<double>::max();
       deep_plastic_force = std::numeric_limits<double>::max();
     }
+    log_fully_plastic_ratio = std::log(fully_plastic_approach_ratio);
+    log_deep_plastic_ratio = std::isfinite(deep_plastic_approach_ratio)
+                                 ? std::log(deep_plastic_approach_ratio)
+                                 : std::numeric_limits<double>::max();
+    log_band = std::log1p(-cyclic.tolerance);
   }
 
   // --- the fitted functions of the plastic depth x = delta_max / delta_y --------------------
@@ -194,6 +202,20 @@ struct LawParams {
       return fully_plastic_force *
              positive_pow(d / fully_plastic_approach, fully_plastic_exponent);
     return deep_plastic_force * positive_pow(d / deep_plastic_approach, deep_plastic_exponent);
+  }
+
+  // virgin_force(d) given lx = log(d / delta_y), which the step needs anyway: each power law
+  // (d / d_start)^n as exp(n (lx - log(d_start / delta_y))), one exp instead of a log and an exp
+  // (the same value to a few ulp: the golden vectors hold it to the reference at 1e-11)
+  double virgin_force_from_log(double d, double lx) const
+  {
+    if (d <= 0.0) return 0.0;
+    if (d <= yield_approach) return hertz_coefficient * d * std::sqrt(d);
+    if (d <= fully_plastic_approach) return yield_force * std::exp(elastic_plastic_exponent * lx);
+    if (d <= deep_plastic_approach)
+      return fully_plastic_force *
+             std::exp(fully_plastic_exponent * (lx - log_fully_plastic_ratio));
+    return deep_plastic_force * std::exp(deep_plastic_exponent * (lx - log_deep_plastic_ratio));
   }
 
   // Exact work of the force along the virgin curve from 0 to d.
@@ -299,7 +321,7 @@ inline double shakedown_reloading_exponent(const LawParams &p, double cycles, do
   const double target = first * p.cyclic.plastic_work_ratio_coefficient *
                         std::exp(-p.cyclic.plastic_work_ratio_power * log_cycles);
   const double ratchet = p.cyclic.residual_ratio_from_log(log_cycles) * dres;
-  const double log_band = std::log1p(-p.cyclic.tolerance);  // (1 - tol)^k = exp(k log_band)
+  const double log_band = p.log_band;  // (1 - tol)^k = exp(k log_band)
   double k = nu;
   // the creep happens at the band's force Fmax (1 - tol)^k: two fixed-point passes
   for (int pass = 0; pass < 2; ++pass) {
@@ -386,18 +408,22 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
         bval = 1.0;
         continue;
       }
-      // one pow for the force, the work from it; one log, three exp for the envelope
-      fmax = p.virgin_force(target);
+      // one log of the depth, shared by the force (one exp), the work from the force, and the
+      // envelope (one or two exp; the residual's log1p, expm1 and power where x0 or b is not 1)
+      const double lx = std::log(std::max(target / dy, 1.0));
+      fmax = p.virgin_force_from_log(target, lx);
       work += p.virgin_work_from_force(target, fmax) - p.virgin_work_from_force(d, force);
       dmax = target;
       force = fmax;
-      const double lx = std::log(std::max(target / dy, 1.0));
       const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
                             ? lx
                             : p.residual_log_depth(target / dy);
       dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * target;
       nu = kHertzExponent * std::exp(p.unloading_power * lx);
-      nr = std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+      // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
+      nr = p.reloading_power >= p.unloading_power
+               ? nu
+               : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
       // an excursion (from bval, where it left the old envelope) wider than the band is a new
       // envelope: the count restarts; within the band it is the same cycle
       if (target - bval > detail::envelope_band(p, dmax, dres)) cycles = 1.0;
