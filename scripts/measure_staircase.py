@@ -69,6 +69,10 @@ def figure(out: Path, names: list[str], path: Path) -> None:
     plt.close(fig)
 
 
+def _ratio(text: str) -> float | None:
+    return None if text == "none" else float(text)
+
+
 def main() -> None:
     from geocontact.fem.run import run_history
 
@@ -81,9 +85,13 @@ def main() -> None:
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
     ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
     ap.add_argument("--steps", type=int, nargs="+", default=[24, 48])
+    ap.add_argument("--max-step-ratio", type=_ratio, nargs="+", default=[None],
+                    help="cap(s) on the loading force ratio of one solve (run_history "
+                         "max_step_ratio); every --steps is run with every cap; none: no cap")
     ap.add_argument("--force", type=float, default=FORCE)
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--progress", action="store_true", help="progress bar of each FE run")
     args = ap.parse_args()
     if args.figure is not None:
         figure(Path(args.out), args.runs, args.figure)
@@ -94,28 +102,38 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     curves, runs = {}, {}
     fy = None
-    for n in args.steps:
-        name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
-        started = time.perf_counter()
-        result = run_history(material, [0.0, args.force], args.mesh, out / name,
-                             steps_per_segment=n, resume=True, write_fields=False,
-                             mesh_rule=args.mesh_rule, step_rule=args.step_rule)
-        curves[f"{n} steps"] = result.curve
-        fy = fy or result.summary["first_yield_force_N"]
-        runs[f"{n} steps"] = {"elements": result.summary["mesh"]["elements"],
-                              "wall_time_s": result.summary["wall_time_s"],
-                              "this_call_s": time.perf_counter() - started,
-                              "steps": result.summary["steps"],
-                              "contact_resolution": result.summary["contact_resolution"]}
+    for ratio in args.max_step_ratio:
+        for n in args.steps:
+            name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
+            label = f"{n} steps"
+            if ratio is not None:
+                name += f"-cap{ratio:g}"
+                label += f", cap {ratio:g}"
+            started = time.perf_counter()
+            result = run_history(material, [0.0, args.force], args.mesh, out / name,
+                                 steps_per_segment=n, resume=True, write_fields=False,
+                                 mesh_rule=args.mesh_rule, step_rule=args.step_rule,
+                                 max_step_ratio=ratio, progress=args.progress)
+            curves[label] = result.curve
+            fy = fy or result.summary["first_yield_force_N"]
+            runs[label] = {"elements": result.summary["mesh"]["elements"],
+                           "wall_time_s": result.summary["wall_time_s"],
+                           "this_call_s": time.perf_counter() - started,
+                           "steps": result.summary["steps"],
+                           "step_control": result.summary["step_control"],
+                           "newton_iterations": result.summary["newton_iterations"],
+                           "contact_resolution": result.summary["contact_resolution"]}
     measures = staircase_measures(curves, fy, args.floor)
     measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
-                     "step_rule": args.step_rule,
+                     "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
-    write_json_atomic(out / f"staircase-{args.mesh}-{args.mesh_rule}-{args.step_rule}.json",
-                      measures)
+    caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
+    write_json_atomic(
+        out / f"staircase-{args.mesh}-{args.mesh_rule}-{args.step_rule}{caps}.json", measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))
     for name, r in runs.items():
-        print(f"{name}: {r['elements']} elements, {r['wall_time_s']:.0f} s")
+        print(f"{name}: {r['elements']} elements, {r['step_control']['solves']} solves, "
+              f"{r['wall_time_s']:.0f} s")
 
 
 if __name__ == "__main__":
