@@ -19,6 +19,16 @@ Measures (``geocontact.fem.staircase``), on the loading curve above ``--floor`` 
     PYTHONPATH=src nice -n 5 .venv/bin/python scripts/measure_staircase.py --mesh coarse \
         --steps 24 48 --out out/staircase
 
+The load-step control (``run_history(max_step_ratio=...)``: every loading step above the
+first-yield force solved through geometric sub-steps of at most that force ratio, the requested
+steps still the recorded ones) is measured with ``--max-step-ratio``: every cap is run with
+every ``--steps``, and all the runs are compared pairwise, so one call gives both the issue's
+measure (24 vs 48 steps at one cap) and the control's own convergence (cap r vs sqrt(r) at the
+same steps; ``none`` = no cap)::
+
+    PYTHONPATH=src nice -n 10 .venv/bin/python scripts/measure_staircase.py --mesh coarse \
+        --mesh-rule contact --steps 24 48 --max-step-ratio 1.02 1.01 --out out/staircase
+
 Each run is a resumable FE result directory under ``--out`` (``run_history(resume=True)``);
 the table of measures is printed and written to ``<out>/staircase.json``.
 """

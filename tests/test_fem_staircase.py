@@ -22,7 +22,13 @@ from geocontact.fem.run import (
     sub_step_record,
     sub_steps,
 )
-from geocontact.fem.staircase import force_gap, slope_measures, staircase_measures
+from geocontact.fem.staircase import (
+    approach_gap,
+    force_gap,
+    gap_by_decade,
+    slope_measures,
+    staircase_measures,
+)
 from geocontact.hertz import incipient_yield
 from geocontact.material import preset
 
@@ -56,6 +62,26 @@ def test_measures_tell_a_staircase_from_a_smooth_curve():
               "b": {"force_N": np.r_[0.0, f2], "approach_m": np.r_[0.0, x2]}}
     measures = staircase_measures(curves, yield_force=1e-3, floor=10.0)
     assert measures["pairs"]["a vs b"]["force_gap_max"] < 1e-6
+
+
+def test_approach_gap_compares_only_the_forces_both_runs_recorded():
+    """A run recording every other point of another: the approach gap is over the shared
+    forces only, exact there (a staircase's risers between them do not count); a run 2 % softer
+    at the same forces shows 2 %; the force gap is binned by decade of force."""
+    x, f = _power_law(61)
+    half = (x[::2], f[::2])
+    gap = approach_gap((x, f), half, 0.0)
+    assert gap["common_forces"] == 31 and gap["approach_gap_max"] < 1e-12
+    softer = approach_gap((1.02 * x, f), half, 0.0)
+    assert abs(softer["approach_gap_max"] - 0.02) < 1e-12
+    assert abs(softer["approach_gap_rms"] - 0.02) < 1e-12
+    xs, fs = _staircase(61)
+    fs = fs * np.geomspace(1.0, 1.01, len(fs))  # plateaus rising a little: a loading branch
+    assert approach_gap((xs, fs), (xs[::2], fs[::2]), 0.0)["approach_gap_max"] < 1e-12
+    assert force_gap((xs, fs), (xs[::2], fs[::2]), 0.0)[0] > 0.01  # interpolation over risers
+    decades = gap_by_decade(np.array([5.0, 50.0, 60.0, 500.0]),
+                            np.array([0.01, -0.03, 0.02, 0.001]))
+    assert decades == {"1e0-1e1": 0.01, "1e1-1e2": 0.03, "1e2-1e3": 0.001}
 
 
 def test_contact_rule_refines_the_surface_over_the_plastic_contact_radii():
