@@ -72,7 +72,7 @@ def figure(out: Path, names: list[str], path: Path) -> None:
     slope.set_ylim(0.0, 6.0)
     slope.set_xlim(10.0, None)
     slope.grid(True, which="both", alpha=0.3)
-    slope.set_title("sigma_c = 1 MPa, 0 -> 6000 N, coarse")
+    slope.set_title("sigma_c = 1 MPa, 0 -> 6000 N")
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=100, format="png")
@@ -84,6 +84,7 @@ def _ratio(text: str) -> float | None:
 
 
 def main() -> None:
+    from geocontact.fem.reuse import FeRunIdentity, finished_run
     from geocontact.fem.run import run_history
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -102,6 +103,9 @@ def main() -> None:
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
     ap.add_argument("--out", required=True)
     ap.add_argument("--progress", action="store_true", help="progress bar of each FE run")
+    ap.add_argument("--finished-only", action="store_true",
+                    help="measure only the runs already finished in --out (no FE run)")
+    ap.add_argument("--json", default=None, help="name of the measures file in --out")
     args = ap.parse_args()
     if args.figure is not None:
         figure(Path(args.out), args.runs, args.figure)
@@ -120,10 +124,18 @@ def main() -> None:
                 name += f"-cap{ratio:g}"
                 label += f", cap {ratio:g}"
             started = time.perf_counter()
-            result = run_history(material, [0.0, args.force], args.mesh, out / name,
-                                 steps_per_segment=n, resume=True, write_fields=False,
-                                 mesh_rule=args.mesh_rule, step_rule=args.step_rule,
-                                 max_step_ratio=ratio, progress=args.progress)
+            if args.finished_only:
+                result = finished_run(out / name, FeRunIdentity.of(
+                    material, [0.0, args.force], args.mesh, steps_per_segment=n,
+                    mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio))
+                if result is None:
+                    print(f"{name}: not finished, left out")
+                    continue
+            else:
+                result = run_history(material, [0.0, args.force], args.mesh, out / name,
+                                     steps_per_segment=n, resume=True, write_fields=False,
+                                     mesh_rule=args.mesh_rule, step_rule=args.step_rule,
+                                     max_step_ratio=ratio, progress=args.progress)
             curves[label] = result.curve
             fy = fy or result.summary["first_yield_force_N"]
             runs[label] = {"elements": result.summary["mesh"]["elements"],
@@ -138,8 +150,8 @@ def main() -> None:
                      "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
     caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
-    write_json_atomic(
-        out / f"staircase-{args.mesh}-{args.mesh_rule}-{args.step_rule}{caps}.json", measures)
+    write_json_atomic(out / (args.json or f"staircase-{args.mesh}-{args.mesh_rule}-"
+                                          f"{args.step_rule}{caps}.json"), measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))
     for name, r in runs.items():
         print(f"{name}: {r['elements']} elements, {r['step_control']['solves']} solves, "

@@ -26,6 +26,7 @@ from geocontact.fem.staircase import (
     approach_gap,
     force_gap,
     gap_by_decade,
+    sampling_gap,
     slope_measures,
     staircase_measures,
 )
@@ -79,6 +80,10 @@ def test_approach_gap_compares_only_the_forces_both_runs_recorded():
     fs = fs * np.geomspace(1.0, 1.01, len(fs))  # plateaus rising a little: a loading branch
     assert approach_gap((xs, fs), (xs[::2], fs[::2]), 0.0)["approach_gap_max"] < 1e-12
     assert force_gap((xs, fs), (xs[::2], fs[::2]), 0.0)[0] > 0.01  # interpolation over risers
+    # ... which is all sampling: the same curve kept at every other point gives the same gap
+    assert sampling_gap((xs, fs), (xs[::2], fs[::2]), 0.0) == force_gap(
+        (xs, fs), (xs[::2], fs[::2]), 0.0)
+    assert sampling_gap((x, f), half, 0.0)[0] < 1e-9  # a power law interpolates exactly
     decades = gap_by_decade(np.array([5.0, 50.0, 60.0, 500.0]),
                             np.array([0.01, -0.03, 0.02, 0.001]))
     assert decades == {"1e0-1e1": 0.01, "1e1-1e2": 0.03, "1e2-1e3": 0.001}

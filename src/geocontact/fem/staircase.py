@@ -86,6 +86,21 @@ def approach_gap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarr
         "approach_gap_max_at_N": float(fa[common][k])}
 
 
+def sampling_gap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                 floor_force: float) -> tuple[float, float]:
+    """The part of ``force_gap(a, b)`` that is sampling alone: the run with more points against
+    itself kept only at the forces the other recorded (and below ``floor_force``). Two runs in
+    the same state at every shared force still differ by this much in the force gap, from
+    interpolating a curve with kinks (the risers of the node staircase) over fewer points."""
+    (fine, coarse) = (a, b) if len(a[1]) >= len(b[1]) else (b, a)
+    x, f = fine
+    j = np.clip(np.searchsorted(coarse[1], f), 0, len(coarse[1]) - 1)
+    keep = (np.abs(coarse[1][j] / f - 1.0) < 1e-9) | (f <= floor_force)
+    if keep.sum() < 2 or keep.all():
+        return float("nan"), float("nan")
+    return force_gap(fine, (x[keep], f[keep]), floor_force)
+
+
 def gap_by_decade(forces: np.ndarray, gaps: np.ndarray) -> dict[str, float]:
     """Largest |gap| per decade of force ("1e2-1e3": 100 N <= F < 1000 N)."""
     out = {}
@@ -121,9 +136,11 @@ def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float
                 "force_gap_max_by_decade": gap_by_decade(
                     *force_gap_profile(branches[p], branches[q], floor_force))}
         pair.update(approach_gap(branches[p], branches[q], floor_force))
+        pair["sampling_gap_max"], pair["sampling_gap_rms"] = sampling_gap(
+            branches[p], branches[q], floor_force)
         out["pairs"][f"{p} vs {q}"] = pair
     return out
 
 
 __all__ = ["approach_gap", "force_gap", "force_gap_profile", "gap_by_decade", "loading_branch",
-           "log_slopes", "slope_measures", "staircase_measures"]
+           "log_slopes", "sampling_gap", "slope_measures", "staircase_measures"]
