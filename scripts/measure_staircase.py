@@ -19,6 +19,16 @@ Measures (``geocontact.fem.staircase``), on the loading curve above ``--floor`` 
     PYTHONPATH=src nice -n 5 .venv/bin/python scripts/measure_staircase.py --mesh coarse \
         --steps 24 48 --out out/staircase
 
+The load-step control (``run_history(max_step_ratio=...)``: every loading step above the
+first-yield force solved through geometric sub-steps of at most that force ratio, the requested
+steps still the recorded ones) is measured with ``--max-step-ratio``: every cap is run with
+every ``--steps``, and all the runs are compared pairwise, so one call gives both the issue's
+measure (24 vs 48 steps at one cap) and the control's own convergence (cap r vs sqrt(r) at the
+same steps; ``none`` = no cap)::
+
+    PYTHONPATH=src nice -n 10 .venv/bin/python scripts/measure_staircase.py --mesh coarse \
+        --mesh-rule contact --steps 24 48 --max-step-ratio 1.02 1.01 --out out/staircase
+
 Each run is a resumable FE result directory under ``--out`` (``run_history(resume=True)``);
 the table of measures is printed and written to ``<out>/staircase.json``.
 """
@@ -62,14 +72,19 @@ def figure(out: Path, names: list[str], path: Path) -> None:
     slope.set_ylim(0.0, 6.0)
     slope.set_xlim(10.0, None)
     slope.grid(True, which="both", alpha=0.3)
-    slope.set_title("sigma_c = 1 MPa, 0 -> 6000 N, coarse")
+    slope.set_title("sigma_c = 1 MPa, 0 -> 6000 N")
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=100, format="png")
     plt.close(fig)
 
 
+def _ratio(text: str) -> float | None:
+    return None if text == "none" else float(text)
+
+
 def main() -> None:
+    from geocontact.fem.reuse import FeRunIdentity, finished_run
     from geocontact.fem.run import run_history
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -81,9 +96,16 @@ def main() -> None:
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
     ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
     ap.add_argument("--steps", type=int, nargs="+", default=[24, 48])
+    ap.add_argument("--max-step-ratio", type=_ratio, nargs="+", default=[None],
+                    help="cap(s) on the loading force ratio of one solve (run_history "
+                         "max_step_ratio); every --steps is run with every cap; none: no cap")
     ap.add_argument("--force", type=float, default=FORCE)
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--progress", action="store_true", help="progress bar of each FE run")
+    ap.add_argument("--finished-only", action="store_true",
+                    help="measure only the runs already finished in --out (no FE run)")
+    ap.add_argument("--json", default=None, help="name of the measures file in --out")
     args = ap.parse_args()
     if args.figure is not None:
         figure(Path(args.out), args.runs, args.figure)
@@ -94,28 +116,46 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     curves, runs = {}, {}
     fy = None
-    for n in args.steps:
-        name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
-        started = time.perf_counter()
-        result = run_history(material, [0.0, args.force], args.mesh, out / name,
-                             steps_per_segment=n, resume=True, write_fields=False,
-                             mesh_rule=args.mesh_rule, step_rule=args.step_rule)
-        curves[f"{n} steps"] = result.curve
-        fy = fy or result.summary["first_yield_force_N"]
-        runs[f"{n} steps"] = {"elements": result.summary["mesh"]["elements"],
-                              "wall_time_s": result.summary["wall_time_s"],
-                              "this_call_s": time.perf_counter() - started,
-                              "steps": result.summary["steps"],
-                              "contact_resolution": result.summary["contact_resolution"]}
+    for ratio in args.max_step_ratio:
+        for n in args.steps:
+            name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
+            label = f"{n} steps"
+            if ratio is not None:
+                name += f"-cap{ratio:g}"
+                label += f", cap {ratio:g}"
+            started = time.perf_counter()
+            if args.finished_only:
+                result = finished_run(out / name, FeRunIdentity.of(
+                    material, [0.0, args.force], args.mesh, steps_per_segment=n,
+                    mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio))
+                if result is None:
+                    print(f"{name}: not finished, left out")
+                    continue
+            else:
+                result = run_history(material, [0.0, args.force], args.mesh, out / name,
+                                     steps_per_segment=n, resume=True, write_fields=False,
+                                     mesh_rule=args.mesh_rule, step_rule=args.step_rule,
+                                     max_step_ratio=ratio, progress=args.progress)
+            curves[label] = result.curve
+            fy = fy or result.summary["first_yield_force_N"]
+            runs[label] = {"elements": result.summary["mesh"]["elements"],
+                           "wall_time_s": result.summary["wall_time_s"],
+                           "this_call_s": time.perf_counter() - started,
+                           "steps": result.summary["steps"],
+                           "step_control": result.summary["step_control"],
+                           "newton_iterations": result.summary["newton_iterations"],
+                           "contact_resolution": result.summary["contact_resolution"]}
     measures = staircase_measures(curves, fy, args.floor)
     measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
-                     "step_rule": args.step_rule,
+                     "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
-    write_json_atomic(out / f"staircase-{args.mesh}-{args.mesh_rule}-{args.step_rule}.json",
-                      measures)
+    caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
+    write_json_atomic(out / (args.json or f"staircase-{args.mesh}-{args.mesh_rule}-"
+                                          f"{args.step_rule}{caps}.json"), measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))
     for name, r in runs.items():
-        print(f"{name}: {r['elements']} elements, {r['wall_time_s']:.0f} s")
+        print(f"{name}: {r['elements']} elements, {r['step_control']['solves']} solves, "
+              f"{r['wall_time_s']:.0f} s")
 
 
 if __name__ == "__main__":

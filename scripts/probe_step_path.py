@@ -15,6 +15,8 @@ Prints the approach, contact radius, contact nodes and the dissipation of each (
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 from geocontact.errors import ConvergenceError
@@ -23,9 +25,13 @@ from geocontact.material import preset
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
+    ap.add_argument("--parts", type=int, nargs="+", default=[1, 2, 4, 8])
+    args = ap.parse_args()
     material = preset("reference-weak")
     result = run_history(material, [0.0, 3000.0], mesh="coarse", steps_per_segment=12,
-                         write_fields=False, keep_states=True)
+                         write_fields=False, keep_states=True, mesh_rule=args.mesh_rule)
     solver, states, force = result.solver, result.states, result.curve["force_N"]
     k = int(np.searchsorted(force, 1000.0))
     old, target = states[k], float(force[k + 1])
@@ -46,7 +52,7 @@ def main() -> None:
         print(f"start {label}: approach {other.top_displacement / one.top_displacement - 1:+.1e}"
               f", eqps {np.max(np.abs(other.eqps - one.eqps)):.1e} from the first solution")
 
-    for parts in (1, 2, 4, 8):
+    for parts in args.parts:
         state = old
         for j in range(1, parts + 1):
             state = solver.solve_step(state, old.force + j * (target - old.force) / parts)

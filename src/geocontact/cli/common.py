@@ -71,7 +71,8 @@ def check_resolved_force(material, force: float | None, field: str) -> None:
 
 
 def add_fe_model_flags(p) -> None:
-    """--kinematics, --mesh-rule and --step-rule of the FE engine (docs/fem.md)."""
+    """--kinematics, --mesh-rule, --step-rule and --max-step-ratio of the FE engine
+    (docs/fem.md)."""
     p.add_argument("--kinematics", default="small", choices=["small", "finite"],
                    help="FE kinematics: small strain (default) or finite strain (logarithmic "
                         "elastic strain, exponential map, F-bar)")
@@ -83,3 +84,8 @@ def add_fe_model_flags(p) -> None:
                    help="FE load steps: 'segment' (default, --steps per monotonic segment) or "
                         "'decade' (also at least --steps/2 geometric loading steps per decade "
                         "of force: for histories spanning many decades of F/Fy)")
+    p.add_argument("--max-step-ratio", type=float, default=None, metavar="R",
+                   help="FE load-step control: solve each loading step above the first-yield "
+                        "force through geometric sub-steps of at most R in force (e.g. 1.01; "
+                        "the requested steps are still the recorded ones): a weak grain's "
+                        "perfectly plastic flattening is step dependent (docs/fem.md)")

@@ -95,13 +95,15 @@ class FeRunIdentity:
     mesh_rule: str = "yield"
     kinematics: str = "small"
     step_rule: str = "segment"
+    max_step_ratio: float | None = None
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse", *,
            steps_per_segment: int | None = None, tolerance: float = TOLERANCE,
            volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
            mesh_rule: str = "yield", kinematics: str = "small",
-           step_rule: str = "segment") -> FeRunIdentity:
+           step_rule: str = "segment",
+           max_step_ratio: float | None = None) -> FeRunIdentity:
         """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
         an input the FE would refuse."""
         forces = tuple(validate_forces(list(forces)))
@@ -118,6 +120,12 @@ class FeRunIdentity:
                                      ("step_rule", step_rule, STEP_RULES)):
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
+        if max_step_ratio is not None and (
+                isinstance(max_step_ratio, bool)
+                or not isinstance(max_step_ratio, (int, float))
+                or not (math.isfinite(max_step_ratio) and 1.0 < max_step_ratio <= 2.0)):
+            raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
+                             f"got {max_step_ratio!r}")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax
@@ -126,7 +134,8 @@ class FeRunIdentity:
             raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, "
                              f"got {mesh_force!r}")
         return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
-                   float(mesh_force), mesh_rule, kinematics, step_rule)
+                   float(mesh_force), mesh_rule, kinematics, step_rule,
+                   None if max_step_ratio is None else float(max_step_ratio))
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
@@ -135,7 +144,7 @@ class FeRunIdentity:
                 "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
                 "volumetric": self.volumetric, **self._new_inputs()}
 
-    def _new_inputs(self) -> dict[str, str]:
+    def _new_inputs(self) -> dict[str, Any]:
         """The inputs added after the first identity record: recorded only when not at their
         default, so the keys (cache entries, checkpoints) of earlier runs stay valid."""
         extra = {}
@@ -145,6 +154,8 @@ class FeRunIdentity:
             extra["kinematics"] = self.kinematics
         if self.step_rule != "segment":
             extra["step_rule"] = self.step_rule
+        if self.max_step_ratio is not None:
+            extra["max_step_ratio"] = self.max_step_ratio
         return extra
 
     def to_dict(self) -> dict[str, Any]:
@@ -175,6 +186,8 @@ class FeRunIdentity:
             settings.append(f"{self.kinematics} strain")
         if self.step_rule != "segment":
             settings.append(f"step rule {self.step_rule}")
+        if self.max_step_ratio is not None:
+            settings.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "

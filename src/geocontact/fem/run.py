@@ -13,6 +13,7 @@ the half model, energies = 2 x the half model's (SPEC section 2). The force is t
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 import shutil
@@ -275,6 +276,42 @@ def load_schedule(forces: list[float], n: int, yield_force: float,
     return targets, marks
 
 
+def sub_steps(start: float, target: float, yield_force: float,
+              max_step_ratio: float | None) -> list[float]:
+    """The forces one load step ``start -> target`` is solved through (``target`` last).
+
+    ``max_step_ratio`` None: the step itself. Else, on loading above the first-yield force,
+    geometric sub-steps no larger than ``max_step_ratio`` in force (a step crossing
+    ``yield_force`` first goes to it in one elastic solve): a large backward-Euler force step
+    flattens a perfectly plastic contact too far and pushes the contact edge a node further, an
+    error of first order in the step that the requested steps alone do not make small (docs/fem.md,
+    "The staircase of a growing contact"). Unloading and elastic loading are not divided.
+    """
+    if max_step_ratio is None or target <= start or target <= yield_force:
+        return [target]
+    low = max(start, yield_force)
+    count = math.ceil(math.log(target / low) / math.log(max_step_ratio) - 1e-9)
+    goals = [float(f) for f in np.geomspace(low, target, max(count, 1) + 1)[1:]]
+    goals[-1] = target
+    return ([low] if start < low else []) + goals
+
+
+def sub_step_record(targets: list[float], yield_force: float,
+                    max_step_ratio: float | None) -> dict[str, Any]:
+    """What the step control did over the schedule ``targets`` (from 0 N): the cap, the force
+    it applies from, the solves it takes (before any cutback) and the largest loading force
+    ratio of one solve above the yield force (summary.json, ``step_control``)."""
+    solves, largest, last = 0, 1.0, 0.0
+    for target in targets:
+        for goal in sub_steps(last, target, yield_force, max_step_ratio):
+            if last >= yield_force and goal > last:
+                largest = max(largest, goal / last)
+            solves += 1
+            last = goal
+    return {"max_step_ratio": max_step_ratio, "from_force_N": yield_force, "solves": solves,
+            "requested_steps": len(targets), "largest_loading_ratio_above_yield": largest}
+
+
 def fully_plastic_onset(force, approach, fraction,
                         threshold: float = FULLY_PLASTIC_FRACTION) -> dict[str, Any] | None:
     """Fp (SPEC section 4): the first loading step on which the yielded fraction reaches
@@ -418,6 +455,7 @@ def run_history(
     mesh_rule: str = "yield",
     kinematics: str = "small",
     step_rule: str = "segment",
+    max_step_ratio: float | None = None,
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -443,7 +481,10 @@ def run_history(
     elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
     loading curve of a weak grain). ``kinematics``: "small" (default) or "finite" (finite-strain
     elastoplasticity, ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
-    (``load_schedule``). All three are part of the run's identity.
+    (``load_schedule``). ``max_step_ratio``: None (default) or a cap > 1 on the force ratio of
+    one solve on loading above the first-yield force (``sub_steps``: the requested steps are
+    solved through geometric sub-steps and recorded as before; summary.json ``step_control``).
+    All four are part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 
@@ -451,7 +492,8 @@ def run_history(
     identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
                                 tolerance=tolerance, volumetric=volumetric,
                                 mesh_force=mesh_force, mesh_rule=mesh_rule,
-                                kinematics=kinematics, step_rule=step_rule)
+                                kinematics=kinematics, step_rule=step_rule,
+                                max_step_ratio=max_step_ratio)
     forces, steps = list(identity.forces), identity.steps_per_segment
     if resume and out is not None and not keep_states:
         why: list[str] = []
@@ -523,7 +565,12 @@ def run_history(
     try:
         for k in range(done, len(targets)):
             step = k + 1
-            state = _advance(solver, state, targets[k], step)
+            if identity.max_step_ratio is None:
+                state = _advance(solver, state, targets[k], step)
+            else:
+                state = _advance(solver, state, targets[k], step,
+                                 sub_steps(state.force, targets[k], yield_force,
+                                           identity.max_step_ratio))
             run.record(step, state)
             if keep_states:
                 states.append(state)
@@ -575,6 +622,7 @@ def run_history(
         "contact_resolution": contact,
         "warnings": warnings,
         "steps": int(len(targets)),
+        "step_control": sub_step_record(targets, yield_force, identity.max_step_ratio),
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
         "version": __version__,
@@ -612,15 +660,20 @@ def _probe_yield_force(solver: ContactSolver, material: Material) -> float:
     return probe_force / phi**3
 
 
-def _advance(solver: ContactSolver, state: State, target: float, step: int) -> State:
-    """One load step with cutback: halve the increment on non-convergence."""
+def _advance(solver: ContactSolver, state: State, target: float, step: int,
+             goals: list[float] | None = None) -> State:
+    """One load step through the forces ``goals`` (``sub_steps``; default: ``target``) with
+    cutback: halve the increment on non-convergence. With ``goals`` the state returned counts
+    the Newton iterations of all the step's solves (curve.csv ``iterations``)."""
     current = state
-    pending = [target]
+    pending = list(reversed(goals)) if goals else [target]
     cutbacks = 0
+    iterations = 0
     while pending:
         goal = pending[-1]
         try:
             current = solver.solve_step(current, goal)
+            iterations += current.iterations
             pending.pop()
         except ConvergenceError as exc:
             cutbacks += 1
@@ -630,6 +683,8 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int) -> S
                     f"{MAX_CUTBACKS} cutbacks (last converged F = {current.force:.6g} N): {exc}"
                 ) from None
             pending.append(0.5 * (current.force + goal))
+    if goals:
+        current = dataclasses.replace(current, iterations=iterations)
     return current
 
 
@@ -697,5 +752,6 @@ __all__ = [
     "CURVE_COLUMNS", "FULLY_PLASTIC_CORE", "FULLY_PLASTIC_FRACTION", "FemResult", "PRESETS",
     "contact_resolution", "fully_plastic_onset", "history_from_dict", "history_mesh",
     "load_history",
-    "load_schedule", "preset_history", "run_history", "write_result",
+    "load_schedule", "preset_history", "run_history", "sub_step_record", "sub_steps",
+    "write_result",
 ]

@@ -7,6 +7,8 @@ samples other risers. Two measures, on the loading branch above a force floor:
 
 - ``force_gap``: |F_a / F_b - 1| of two runs at the same approach (each curve interpolated
   linearly in ln F - ln delta at the approaches of the other, both ways), max and RMS;
+- ``approach_gap``: |delta_a / delta_b - 1| at the forces both runs recorded (no interpolation
+  over the risers), and ``gap_by_decade``: where along the curve the force gap is;
 - ``slope_measures``: the local log-slope s_k = d ln F / d ln delta between consecutive steps,
   its largest jump |s_k+1 - s_k| and total variation sum |s_k+1 - s_k|: a smooth
   power-law-like curve has a slowly drifting s (total variation about the change of the
@@ -42,20 +44,70 @@ def _interp_loglog(x_new, x, y):
     return np.exp(np.interp(np.log(x_new), np.log(x), np.log(y)))
 
 
+def force_gap_profile(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                      floor_force: float) -> tuple[np.ndarray, np.ndarray]:
+    """(F, F_a/F_b - 1) at the same approach, both ways (at the points of a, then of b), where
+    both curves exist and F > ``floor_force``."""
+    forces, gaps = [np.empty(0)], [np.empty(0)]
+    for (xa, fa), (xb, fb), sign in ((a, b, 1.0), (b, a, -1.0)):
+        lo, hi = max(xa[0], xb[0]), min(xa[-1], xb[-1])
+        sel = (xa >= lo) & (xa <= hi) & (fa > floor_force)
+        forces.append(fa[sel])
+        gaps.append(sign * (fa[sel] / _interp_loglog(xa[sel], xb, fb) - 1.0))
+    return np.concatenate(forces), np.concatenate(gaps)
+
+
 def force_gap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
               floor_force: float) -> tuple[float, float]:
     """(max, rms) of |F_a/F_b - 1| at the same approach, both ways, where both curves exist and
     F > ``floor_force``."""
-    gaps = []
-    for (xa, fa), (xb, fb) in ((a, b), (b, a)):
-        lo, hi = max(xa[0], xb[0]), min(xa[-1], xb[-1])
-        sel = (xa >= lo) & (xa <= hi) & (fa > floor_force)
-        if np.any(sel):
-            gaps.append(fa[sel] / _interp_loglog(xa[sel], xb, fb) - 1.0)
-    if not gaps:
+    g = force_gap_profile(a, b, floor_force)[1]
+    if not g.size:
         return float("nan"), float("nan")
-    g = np.concatenate(gaps)
     return float(np.max(np.abs(g))), float(np.sqrt(np.mean(g**2)))
+
+
+def approach_gap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                 floor_force: float) -> dict[str, float]:
+    """|delta_a / delta_b - 1| at the forces both runs recorded (above ``floor_force``): no
+    interpolation, so a riser of the node staircase sampled differently by the two runs does
+    not count, only a different state at the same load. A schedule of 2n steps per segment
+    holds those of n (``fem.run.load_schedule``), so 24 and 48 steps share about 40 forces."""
+    (xa, fa), (xb, fb) = a, b
+    j = np.clip(np.searchsorted(fb, fa), 0, len(fb) - 1)
+    common = (np.abs(fb[j] / fa - 1.0) < 1e-9) & (fa > floor_force)
+    if not np.any(common):
+        return {"approach_gap_max": float("nan"), "approach_gap_rms": float("nan"),
+                "common_forces": 0, "approach_gap_max_at_N": float("nan")}
+    g = xa[common] / xb[j[common]] - 1.0
+    k = int(np.argmax(np.abs(g)))
+    return {"approach_gap_max": float(np.abs(g[k])), "approach_gap_rms": float(
+        np.sqrt(np.mean(g**2))), "common_forces": int(common.sum()),
+        "approach_gap_max_at_N": float(fa[common][k])}
+
+
+def sampling_gap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                 floor_force: float) -> tuple[float, float]:
+    """The part of ``force_gap(a, b)`` that is sampling alone: the run with more points against
+    itself kept only at the forces the other recorded (and below ``floor_force``). Two runs in
+    the same state at every shared force still differ by this much in the force gap, from
+    interpolating a curve with kinks (the risers of the node staircase) over fewer points."""
+    (fine, coarse) = (a, b) if len(a[1]) >= len(b[1]) else (b, a)
+    x, f = fine
+    j = np.clip(np.searchsorted(coarse[1], f), 0, len(coarse[1]) - 1)
+    keep = (np.abs(coarse[1][j] / f - 1.0) < 1e-9) | (f <= floor_force)
+    if keep.sum() < 2 or keep.all():
+        return float("nan"), float("nan")
+    return force_gap(fine, (x[keep], f[keep]), floor_force)
+
+
+def gap_by_decade(forces: np.ndarray, gaps: np.ndarray) -> dict[str, float]:
+    """Largest |gap| per decade of force ("1e2-1e3": 100 N <= F < 1000 N)."""
+    out = {}
+    decades = np.floor(np.log10(forces)).astype(int)
+    for d in np.unique(decades):
+        out[f"1e{d}-1e{d + 1}"] = float(np.max(np.abs(gaps[decades == d])))
+    return out
 
 
 def slope_measures(approach: np.ndarray, force: np.ndarray,
@@ -80,8 +132,15 @@ def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float
         out["runs"][name] = slope_measures(x, f, floor_force)
     for p, q in itertools.combinations(branches, 2):
         gmax, grms = force_gap(branches[p], branches[q], floor_force)
-        out["pairs"][f"{p} vs {q}"] = {"force_gap_max": gmax, "force_gap_rms": grms}
+        pair = {"force_gap_max": gmax, "force_gap_rms": grms,
+                "force_gap_max_by_decade": gap_by_decade(
+                    *force_gap_profile(branches[p], branches[q], floor_force))}
+        pair.update(approach_gap(branches[p], branches[q], floor_force))
+        pair["sampling_gap_max"], pair["sampling_gap_rms"] = sampling_gap(
+            branches[p], branches[q], floor_force)
+        out["pairs"][f"{p} vs {q}"] = pair
     return out
 
 
-__all__ = ["force_gap", "loading_branch", "log_slopes", "slope_measures", "staircase_measures"]
+__all__ = ["approach_gap", "force_gap", "force_gap_profile", "gap_by_decade", "loading_branch",
+           "log_slopes", "sampling_gap", "slope_measures", "staircase_measures"]
