@@ -52,7 +52,8 @@ def test_cli_writes_a_valid_calibrated_parameter_file(calibrated):
     assert doc["schema"] == "geocontact.law/1"
     fe = doc["provenance"]["fe"]
     assert fe["mesh"] == "coarse" and fe["steps_per_segment"] == 4
-    assert (fe["kinematics"], fe["mesh_rule"], fe["step_rule"]) == ("small", "yield", "segment")
+    assert (fe["kinematics"], fe["mesh_rule"], fe["step_rule"], fe["max_step_ratio"]) == (
+        "small", "yield", "segment", None)
     assert doc["provenance"]["inputs"]["kinematics"] == "small"
     assert len(fe["peak_forces_N"]) == 4 and len(fe["cache_keys"]) == 4
     assert all((root / "cache" / key / "summary.json").exists() for key in fe["cache_keys"])
@@ -139,6 +140,7 @@ def test_rerun_reads_the_cache_and_runs_no_fe(calibrated, capsys, monkeypatch):
     (["--steps", "0"], "--steps"),
     (["--workers", "0"], "--workers"),
     (["--kinematics", "large"], "--kinematics"),
+    (["--max-step-ratio", "0.9"], "max_step_ratio"),
 ])
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, message):
     args = ["calibrate", "--material", "reference", "--mesh", "coarse", "--cache",
@@ -164,7 +166,8 @@ def test_fe_model_reaches_every_run_of_a_calibration():
     from geocontact.calibrate.campaign import calibration_jobs, cyclic_job
 
     m = load_material("reference-weak")
-    model = {"kinematics": "finite", "mesh_rule": "contact", "step_rule": "decade"}
+    model = {"kinematics": "finite", "mesh_rule": "contact", "step_rule": "decade",
+             "max_step_ratio": 1.02}
     peaks = peak_forces(m, 3, 300.0)
 
     def every(fe_model):
@@ -174,8 +177,8 @@ def test_fe_model_reaches_every_run_of_a_calibration():
 
     finite, small = every(model), every(None)
     assert len(finite) == len(small) > 5
-    assert all((j.kinematics, j.mesh_rule, j.step_rule) == tuple(model.values())
-               for j in finite)
+    assert all((j.kinematics, j.mesh_rule, j.step_rule, j.max_step_ratio)
+               == tuple(model.values()) for j in finite)
     assert all(j.kinematics == "small" for j in small)
     assert not {j.key() for j in finite} & {j.key() for j in small}
 

@@ -94,8 +94,9 @@ def shared_mesh_force(peaks) -> float | None:
 def calibration_jobs(material: Material, peaks, mesh: str = "default",
                      steps_per_segment: int | None = None,
                      fe_model: dict[str, str] | None = None) -> list[FemJob]:
-    """The calibration levels' FE runs; ``fe_model``: kinematics, mesh_rule, step_rule of
-    ``FemJob`` (the FE defaults when None: small strain, the verified meshes)."""
+    """The calibration levels' FE runs; ``fe_model``: kinematics, mesh_rule, step_rule,
+    max_step_ratio of ``FemJob`` (the FE defaults when None: small strain, the verified meshes,
+    no sub-steps)."""
     shape = settings()["campaign"]["history"]
     mesh_force = shared_mesh_force(peaks)
     return [FemJob(material, tuple(float(s) * peak for s in shape), mesh=mesh,
@@ -209,7 +210,8 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
               progress: bool = True, fe_model: dict[str, str] | None = None,
               ) -> tuple[LawParams, list[CalibrationRun]]:
     """FE campaign + extraction + fit. Returns the law and the runs it was fitted to.
-    ``fe_model``: the FE's kinematics, mesh_rule and step_rule (``FemJob``; default the FE's)."""
+    ``fe_model``: the FE's kinematics, mesh_rule, step_rule and max_step_ratio (``FemJob``;
+    default the FE's)."""
     peaks = (check_peaks(material, peaks) if peaks is not None
              else peak_forces(material, levels, max_force))
     jobs = calibration_jobs(material, peaks, mesh, steps_per_segment, fe_model)
@@ -309,7 +311,7 @@ def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
         "fe": {
             "mesh": job.mesh,
             "kinematics": job.kinematics, "mesh_rule": job.mesh_rule,
-            "step_rule": job.step_rule,
+            "step_rule": job.step_rule, "max_step_ratio": job.max_step_ratio,
             "steps_per_segment": job.steps_per_segment
             or runs[0].result.summary["inputs"]["steps_per_segment"],
             "elements": [r.result.summary["mesh"]["elements"] for r in runs],

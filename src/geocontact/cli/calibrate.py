@@ -91,9 +91,9 @@ def run(args) -> int:
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache),
               "kinematics": args.kinematics, "mesh_rule": args.mesh_rule,
-              "step_rule": args.step_rule}
+              "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio}
     fe_model = {"kinematics": args.kinematics, "mesh_rule": args.mesh_rule,
-                "step_rule": args.step_rule}
+                "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio}
     params, runs, table = calibrate_to_file(
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
         acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
@@ -107,7 +107,8 @@ def run(args) -> int:
     e = params.fit_errors
     model = ("" if args.kinematics == "small" else f", {args.kinematics} strain") + (
         "" if args.mesh_rule == "yield" else f", {args.mesh_rule} mesh rule") + (
-        "" if args.step_rule == "segment" else f", {args.step_rule} step rule")
+        "" if args.step_rule == "segment" else f", {args.step_rule} step rule") + (
+        "" if args.max_step_ratio is None else f", load-step ratio <= {args.max_step_ratio:g}")
     print(f"wrote {out} ({len(runs)} FE levels, {args.mesh} mesh{model}, {wall:.1f} s)")
     print(f"yield: FE {e['yield']['fe_force_N']:.4g} N, analytic "
           f"{e['yield']['analytic_force_N']:.4g} N; FE Fp "
