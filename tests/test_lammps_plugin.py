@@ -257,6 +257,58 @@ def test_viscous_damping_lowers_restitution_below_yield():
     assert e_damped < e_undamped - 0.05
 
 
+def test_dissipation_tally_keeps_a_contact_that_left_the_neighbour_list(tmp_path):
+    """compute pair geocontact's [1] (the law's dissipation) is cumulative: after a plastic
+    collision the grains part, grain 2 moves beyond the neighbour cutoff and the pair's record is
+    dropped, but its dissipation stays in the tally (before: it fell to 0), equal to the kinetic
+    energy the collision lost, and a restart file carries it."""
+    speed = 10.0 * yield_velocity()
+    m_eff = DENSITY * 4.0 / 3.0 * math.pi * RADIUS**3 / 2.0
+    e_star = PARAMS.material.effective_modulus
+    dt = 2.87 * (m_eff**2 / (PARAMS.material.effective_radius * e_star**2 * speed)) ** 0.2 / 400
+    lmp = two_spheres(gap=0.0)
+    lmp.command(f"timestep {dt!r}")
+    lmp.command("fix integrate all nve/sphere")
+    lmp.command("compute law all pair geocontact")
+    lmp.command("thermo_style custom step c_law[1]")  # evaluated at every run's last step
+    lmp.command("velocity all set 0 0 0")
+    lmp.command(f"set atom 1 vx {0.5 * speed!r}")
+    lmp.command(f"set atom 2 vx {-0.5 * speed!r}")
+    lmp.command("run 0")
+    tally = []
+    for block in range(4000):
+        lmp.command(f"run 50 pre {'yes' if block == 0 else 'no'} post no")
+        tally.append(float(lmp.numpy.extract_compute("law", 0, 1)[0]))
+        x = lmp.numpy.extract_atom("x")
+        v = lmp.numpy.extract_atom("v")
+        if x[1][0] - x[0][0] > 2 * RADIUS and v[1][0] - v[0][0] > 0:
+            break
+    restitution = (v[1][0] - v[0][0]) / speed
+    # the grains apart, grain 2 moved beyond the neighbour cutoff (2 R + skin 0.01 m): the list
+    # is rebuilt and the pair's record dropped
+    lmp.command(f"set atom 2 x {float(x[0][0]) + 2 * RADIUS + 0.05!r}")
+    lmp.command("run 10 pre yes post no")
+    records = lmp.numpy.extract_compute("law", 0, 1).copy()
+    tally.append(float(records[0]))
+    restart = tmp_path / "apart.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+    lmp = open_lammps()
+    lmp.command(f"read_restart {restart}")
+    lmp.command("comm_modify vel yes")
+    lmp.command("compute law all pair geocontact")
+    lmp.command("thermo_style custom step c_law[1]")
+    lmp.command("run 0")
+    restarted = float(lmp.numpy.extract_compute("law", 0, 1)[0])
+    lmp.close()
+    assert restarted == tally[-1]
+    lost = 0.5 * m_eff * speed**2 * (1.0 - restitution**2)
+    assert 0.0 < restitution < 1.0 - 1e-3
+    assert tally[-1] == pytest.approx(lost, rel=1e-4)  # the integrator keeps energy to ~1e-6
+    assert min(np.diff(tally)) >= -1e-12 * lost
+    assert records[2] == 0  # [3]: no contact left
+
+
 # --- tangential force ------------------------------------------------------------------------
 
 def test_tangential_force_follows_mindlin_then_coulomb():
@@ -669,8 +721,8 @@ def test_one_restart_carries_several_parameter_files(cycled_runs):
 # keep the file's length except for one: the pair section has no length prefix in the restart
 # format, so removing its 8 tag bytes leaves exactly an older plugin's pair section, which
 # began with the number of parameter documents.
-PAIR_TAG = b"GCPS" + struct.pack("<i", 2)
-HISTORY_TAG = struct.pack("<q", (int.from_bytes(b"GCHS", "little") << 32) | 2)
+PAIR_TAG = b"GCPS" + struct.pack("<i", 3)
+HISTORY_TAG = struct.pack("<q", (int.from_bytes(b"GCHS", "little") << 32) | 3)
 
 
 def _replace(old: bytes, new: bytes, expected: int):
@@ -684,11 +736,11 @@ def _replace(old: bytes, new: bytes, expected: int):
     (None, None),
     (_replace(PAIR_TAG, b"", 1), "pair section has no geocontact layout tag \\(0x00000001 "
                                  "where the tag 0x53504347 belongs"),
-    (_replace(PAIR_TAG, b"GCPS" + struct.pack("<i", 3), 1),
-     "pair section has layout version 3; this plugin reads pair layout versions 1 to 2 only"),
-    (_replace(HISTORY_TAG, HISTORY_TAG[:4].replace(b"\x02", b"\x03") + HISTORY_TAG[4:], 2),
-     "per-atom contact history has contact-history layout version 3; this plugin reads "
-     "contact-history layout versions 1 to 2 only"),
+    (_replace(PAIR_TAG, b"GCPS" + struct.pack("<i", 4), 1),
+     "pair section has layout version 4; this plugin reads pair layout versions 1 to 3 only"),
+    (_replace(HISTORY_TAG, HISTORY_TAG[:4].replace(b"\x03", b"\x04") + HISTORY_TAG[4:], 2),
+     "per-atom contact history has contact-history layout version 4; this plugin reads "
+     "contact-history layout versions 1 to 3 only"),
     (_replace(HISTORY_TAG, struct.pack("<d", 1.0), 2),
      "per-atom contact history has no geocontact layout tag \\(0x3ff0000000000000"),
 ], ids=["intact", "pair-older-layout", "pair-other-version", "history-other-version",

@@ -266,19 +266,20 @@ def test_restart_with_rolling_and_twist_history_continues_as_the_uninterrupted_r
     assert np.abs(before[-1, 3 * n:]).max() > 0.1 * np.abs(torques).max()
 
 
-def test_restart_files_of_layout_version_1_are_still_read():
-    """Files written by the plugin before rolling (tests/data/make_layout_v1_restarts.py): the
-    pair's and the wall's contacts carry on as the same run with this plugin, with zero rolling
-    and twist history."""
+@pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart"])
+def test_pair_restart_files_of_older_layouts_are_still_read(name):
+    """Files written by older plugins (tests/data/make_layout_restarts.py): version 1, before
+    rolling, and version 2, before the cumulative dissipation tally: the pair's contacts carry on
+    as the same run with this plugin (zero rolling and twist history; the energy scale set at
+    the next step)."""
     import test_lammps_plugin as pair_tests
-    import test_lammps_wall as wall_tests
 
     path = pair_tests.approach_path(pair_tests.PARAMS.yield_approach)[:50]
     lmp = pair_tests.slipping_pair()
     uninterrupted = pair_tests.drive_slipping_pair(lmp, path)
     lmp.close()
     lmp = open_lammps()
-    lmp.command(f"read_restart {DATA / 'pair-v1.restart'}")
+    lmp.command(f"read_restart {DATA / name}")
     for line in ("comm_modify vel yes", "neighbor 0.01 bin",
                  "neigh_modify every 1 delay 0 check yes",
                  "compute pl all pair/local p1 p2 p3 p4 p5 p6"):
@@ -287,6 +288,12 @@ def test_restart_files_of_layout_version_1_are_still_read():
     lmp.close()
     assert abs(uninterrupted[32, 1]) > 0  # a tangential force carried by the file
     assert np.abs(after - uninterrupted[33:]).max() <= 1e-12 * np.abs(uninterrupted).max()
+
+
+def test_wall_restart_file_of_layout_version_1_is_still_read():
+    """The wall's file written by the plugin before rolling (tests/data/make_layout_restarts.py)
+    carries on as the same contact with this plugin."""
+    import test_lammps_wall as wall_tests
 
     radius = 0.1
     w = 10 * wall_tests.BASE.for_radius(radius).yield_approach

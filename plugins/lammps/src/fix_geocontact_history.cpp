@@ -81,7 +81,8 @@ void FixGeocontactHistory::set_arrays(int i)
   tables[i].clear();
 }
 
-// Layout: [count, (partner, 13 law slots, 3 tangential, 3 rolling, twist) x count]
+// Layout: [count, (partner, 13 law slots, 3 tangential, 3 rolling, twist, energy scale, law
+// index) x count]
 int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, double *buf)
 {
   int m = 0;
@@ -94,13 +95,16 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = r.tangential[2];
     for (int k = 0; k < 3; ++k) buf[m++] = r.rolling[k];
     buf[m++] = r.twist;
+    buf[m++] = r.energy_scale;
+    buf[m++] = static_cast<double>(r.law_index);
   }
   return m;
 }
 
 int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const double *buf,
-                                       bool with_rolling)
+                                       int layout_version)
 {
+  const bool with_rolling = layout_version >= 2, with_scale = layout_version >= 3;
   int m = 0;
   const int n = static_cast<int>(buf[m++]);
   table.resize(n);
@@ -112,6 +116,8 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     r.tangential[2] = buf[m++];
     for (int k = 0; k < 3; ++k) r.rolling[k] = with_rolling ? buf[m++] : 0.0;
     r.twist = with_rolling ? buf[m++] : 0.0;
+    r.energy_scale = with_scale ? buf[m++] : 0.0;
+    r.law_index = with_scale ? static_cast<int>(buf[m++]) : 0;
   }
   return m;
 }
@@ -141,7 +147,8 @@ int FixGeocontactHistory::pack_restart(int i, double *buf)
 
 // A record of another layout (an older plugin's file has the count where the tag is now) is
 // never unpacked: the atom is left without history, and init() refuses the run on every rank.
-// Layout version 1 (no rolling and twist slots) is read with both at zero.
+// Layout version 1 (no rolling and twist slots) is read with both at zero, version 2 (no
+// energy scale) with the scale unknown until the record's next step.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -151,23 +158,26 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
   const double *record = &extra[nlocal][m];
   const int64_t tag = ubuf(record[1]).i;
   const int length = static_cast<int>(record[0]);
-  constexpr int64_t kTagV1 = kRestartTagBase | 1;
-  const bool v1 = tag == kTagV1;
-  const int count = tag == kRestartTag || v1 ? static_cast<int>(record[2]) : -1;
-  if (count < 0 || length != kRestartHeader + count * (v1 ? kRecordSizeV1 : kRecordSize)) {
+  const int version = (tag & ~int64_t(0xffffffff)) == kRestartTagBase
+                          ? static_cast<int>(tag & 0xffffffff) : 0;
+  const int size = version == 1 ? kRecordSizeV1 : version == 2 ? kRecordSizeV2 : kRecordSize;
+  const int count =
+      version >= 1 && version <= kRestartLayoutVersion ? static_cast<int>(record[2]) : -1;
+  if (count < 0 || length != kRestartHeader + count * size) {
     if (!unreadable_restart_) unreadable_tag_ = tag;
     unreadable_restart_ = true;
     tables[nlocal].clear();
     return;
   }
-  unpack_table(tables[nlocal], record + 2, !v1);
+  unpack_table(tables[nlocal], record + 2, version);
 }
 
 // What a restart record's tag says, for the error message.
 static std::string describe_tag(int64_t tag)
 {
-  if (tag == FixGeocontactHistory::kRestartTag ||
-      tag == (FixGeocontactHistory::kRestartTagBase | 1))
+  const int64_t version = tag & 0xffffffff;
+  if ((tag & ~int64_t(0xffffffff)) == FixGeocontactHistory::kRestartTagBase && version >= 1 &&
+      version <= FixGeocontactHistory::kRestartLayoutVersion)
     return "the right layout tag but a record length that does not match its contact count";
   if ((tag & ~int64_t(0xffffffff)) == FixGeocontactHistory::kRestartTagBase)
     return fmt::format("contact-history layout version {}", tag & 0xffffffff);

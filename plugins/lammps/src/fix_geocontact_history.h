@@ -36,18 +36,25 @@ struct ContactRecord {
   double tangential[3];          // accumulated tangential force on this atom (N)
   double rolling[3];             // rolling displacement (m), the same on both atoms
   double twist;                  // twist angle (rad), the same on both atoms
+  // s^3 of the pair's similarity scale (energies of the law's state are s^3 times) and the
+  // index of its law, set at every step: what the pair's dissipation in J needs once the record
+  // is dropped (the partner may be gone by then); 0 = not known yet (an older restart's record)
+  double energy_scale = 0.0;
+  int law_index = 0;
 };
 
 class FixGeocontactHistory : public Fix {
  public:
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
-  // rolling components, the twist angle
-  static constexpr int kRecordSize = 21;
-  // Per-atom restart layout: bumped whenever the packed record changes. Version 1 (records
-  // without rolling and twist, kRecordSizeV1 doubles) is still read, as contacts that have not
-  // rolled or twisted yet.
-  static constexpr int kRestartLayoutVersion = 2;
+  // rolling components, the twist angle, the energy scale and the law index
+  static constexpr int kRecordSize = 23;
+  // Per-atom restart layout: bumped whenever the packed record changes. Versions 1 (records
+  // without rolling and twist, kRecordSizeV1 doubles) and 2 (without the energy scale and law
+  // index, kRecordSizeV2) are still read: contacts that have not rolled or twisted yet, and
+  // whose energy scale the next step sets.
+  static constexpr int kRestartLayoutVersion = 3;
   static constexpr int kRecordSizeV1 = 17;
+  static constexpr int kRecordSizeV2 = 21;
   // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
   // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
   // it travels as the bit pattern of a (normal, finite) double.
@@ -120,7 +127,7 @@ class FixGeocontactHistory : public Fix {
   void update_maxexchange();
   static int pack_table(const std::vector<ContactRecord> &table, double *buf);
   static int unpack_table(std::vector<ContactRecord> &table, const double *buf,
-                          bool with_rolling = true);
+                          int layout_version = kRestartLayoutVersion);
 };
 
 }  // namespace LAMMPS_NS

@@ -34,7 +34,7 @@ constexpr double kDefaultFriction = 0.5;
 constexpr int kRestartTag = 0x53504347;
 // Version 2 adds the rolling and twisting coefficients of each type pair; version 1 is read
 // without them.
-constexpr int kRestartLayoutVersion = 2;
+constexpr int kRestartLayoutVersion = 3;
 
 // Grains of any size by similarity (SPEC 10): two spheres of radii ri, rj behave as two
 // identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
@@ -295,13 +295,26 @@ void PairGeocontact::index_contacts()
       }
     }
   }
+  // A dropped record takes its pair's dissipation with it: each pair has one record per grain
+  // (newton off: a pair across ranks keeps one on each), so each dropped record carries half.
+  double departed = 0.0;
   for (int i = 0; i < nlocal; ++i) {
     auto &table = tables[i];
     size_t kept = 0;
-    for (size_t k = 0; k < table.size(); ++k)
-      if (keep[first_record[i] + k]) table[kept++] = table[k];
+    for (size_t k = 0; k < table.size(); ++k) {
+      if (keep[first_record[i] + k]) {
+        table[kept++] = table[k];
+      } else if (table[k].energy_scale > 0.0) {
+        const ContactRecord &gone = table[k];
+        departed += 0.5 * gone.energy_scale *
+                    geocontact::dissipated_energy(laws_[gone.law_index], gone.law);
+      }
+    }
     table.resize(kept);
   }
+  double departed_all = 0.0;
+  MPI_Allreduce(&departed, &departed_all, 1, MPI_DOUBLE, MPI_SUM, world);
+  departed_dissipation_ += departed_all;
   for (int ii = 0; ii < inum; ++ii) {
     const int i = ilist[ii];
     const int *jlist = firstneigh[i];
@@ -411,8 +424,10 @@ void PairGeocontact::compute(int eflag, int vflag)
   // the first step of the run then moves from the stored state.
   const bool commit = !update->setupflag;
   const double dt = update->dt;
-  if (eflag_global)
+  if (eflag_global) {
     for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
+    if (comm->me == 0) pvector[GV_DISSIPATED] = departed_dissipation_;  // summed over ranks
+  }
 
   double **x = atom->x;
   double **v = atom->v;
@@ -462,6 +477,8 @@ void PairGeocontact::compute(int eflag, int vflag)
       }
       const double r = std::sqrt(rsq);
       const geocontact::StepResult res = geocontact::step(law, rec.law, (radsum - r) / scale);
+      rec.energy_scale = scale * scale * scale;
+      rec.law_index = tp.law;
       const double law_force = scale * scale * res.force;
 
       double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
@@ -542,7 +559,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so
 // a restart is self-contained, then per type pair the law index, friction and damping, and
-// (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag.
+// (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, and (version
+// 3) the dissipation of the contacts already dropped.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -568,6 +586,7 @@ void PairGeocontact::write_restart(FILE *fp)
         fwrite(resistance, sizeof(double), 5, fp);
       }
     }
+  fwrite(&departed_dissipation_, sizeof(double), 1, fp);  // version 3
 }
 
 void PairGeocontact::read_restart(FILE *fp)
@@ -625,6 +644,10 @@ void PairGeocontact::read_restart(FILE *fp)
                         resistance[4] != 0.0};
       }
     }
+  departed_dissipation_ = 0.0;  // versions 1-2: not recorded (contacts dropped before are lost)
+  if (layout[1] >= 3 && me == 0)
+    utils::sfread(FLERR, &departed_dissipation_, sizeof(double), 1, fp, nullptr, error);
+  MPI_Bcast(&departed_dissipation_, 1, MPI_DOUBLE, 0, world);
 }
 
 double PairGeocontact::memory_usage()

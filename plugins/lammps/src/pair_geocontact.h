@@ -89,6 +89,10 @@ class PairGeocontact : public Pair {
   std::vector<ContactRecord> pair_records_;
   std::vector<char> has_record_;
   std::vector<int> first_pair_;
+  // The law's dissipation (J) carried away by contacts whose records were dropped (pairs that
+  // separated beyond the neighbor skin), summed over all ranks: compute pair geocontact's [1]
+  // adds it, so the total never falls when a contact leaves the neighbor list.
+  double departed_dissipation_ = 0.0;
 };
 
 }  // namespace LAMMPS_NS

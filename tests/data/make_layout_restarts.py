@@ -1,10 +1,14 @@
-"""Write the restart files of layout version 1 (before rolling and twisting) that the restart
-tests read: run with the plugin of a version-1 checkout (commit cfc27db, `make plugin` there):
+"""Write the restart files of older layouts that the restart tests read, with the plugin of a
+checkout of that layout (`make plugin` there):
 
-    GEOCONTACT_LAMMPS_PLUGIN=/path/to/v1/geocontactplugin.so \
-        .venv/bin/python tests/data/make_layout_v1_restarts.py
+    GEOCONTACT_LAMMPS_PLUGIN=/path/to/old/geocontactplugin.so \
+        .venv/bin/python tests/data/make_layout_restarts.py VERSION
 
-pair-v1.restart: the slipping pair of test_lammps_plugin.py after PAIR_STEPS steps of its
+Version 1 (before rolling and twisting; commit cfc27db): pair-v1.restart and wall-v1.restart.
+Version 2 (before the cumulative dissipation tally; commit e6b383e): pair-v2.restart (the wall's
+layout did not change).
+
+pair-vN.restart: the slipping pair of test_lammps_plugin.py after PAIR_STEPS steps of its
 approach path (plastic, unloading, a tangential force built up); wall-v1.restart: the grain of
 test_lammps_wall.py pressed 10 wall yield interferences into a zplane 0.0 0.5 wall.
 """
@@ -28,12 +32,14 @@ def wall_interference() -> float:
     return 10 * wall_tests.BASE.for_radius(WALL_RADIUS).yield_approach
 
 
-def main() -> None:
+def main(version: int) -> None:
     lmp = pair_tests.slipping_pair()
     pair_tests.drive_slipping_pair(lmp, pair_tests.approach_path(
         pair_tests.PARAMS.yield_approach)[:PAIR_STEPS])
-    lmp.command(f"write_restart {HERE / 'pair-v1.restart'}")
+    lmp.command(f"write_restart {HERE / f'pair-v{version}.restart'}")
     lmp.close()
+    if version != 1:
+        return
     w = wall_interference()
     lmp = wall_tests.grains([WALL_RADIUS], [(0.0, 0.0, WALL_RADIUS - w)], "zplane 0.0 0.5")
     lmp.command("run 1")
@@ -42,4 +48,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 1)
