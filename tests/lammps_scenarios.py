@@ -33,6 +33,19 @@ YIELD_APPROACH = json.loads(PARAMS_FILE.read_text())["yield"]["approach_m"]
 DENSITY = 2650.0
 
 
+def reopen_from_restart(lmp, path, *settings: str):
+    """Write ``lmp``'s restart file to ``path``, close it, and return a new LAMMPS that read
+    the file back, with ghost velocities on and ``settings`` (what read_restart does not
+    restore) applied."""
+    lmp.command(f"write_restart {path}")
+    lmp.close()
+    lmp = open_lammps()
+    lmp.command(f"read_restart {path}")
+    for line in ("comm_modify vel yes", *settings):
+        lmp.command(line)
+    return lmp
+
+
 def run_scenario(ranks: int, *args: str) -> dict:
     """Run this script under ``mpiexec -n ranks`` (the venv's, from the mpich wheel) in a
     temporary folder; returns rank 0's JSON result."""

@@ -290,14 +290,9 @@ def test_dissipation_tally_keeps_a_contact_that_left_the_neighbour_list(tmp_path
     lmp.command("run 10 pre yes post no")
     records = lmp.numpy.extract_compute("law", 0, 1).copy()
     tally.append(float(records[0]))
-    restart = tmp_path / "apart.restart"
-    lmp.command(f"write_restart {restart}")
-    lmp.close()
-    lmp = open_lammps()
-    lmp.command(f"read_restart {restart}")
-    lmp.command("comm_modify vel yes")
-    lmp.command("compute law all pair geocontact")
-    lmp.command("thermo_style custom step c_law[1]")
+    lmp = scenarios.reopen_from_restart(lmp, tmp_path / "apart.restart",
+                                        "compute law all pair geocontact",
+                                        "thermo_style custom step c_law[1]")
     lmp.command("run 0")
     restarted = float(lmp.numpy.extract_compute("law", 0, 1)[0])
     lmp.close()
@@ -382,16 +377,10 @@ def test_restart_written_mid_cycle_continues_with_the_same_forces(tmp_path, bran
     assert before[-1, 7] == branch  # p6: the contact is mid-cycle when the file is written
     assert before[-1, 5] > 20 * PARAMS.yield_approach  # p4: past yield (plastic envelope)
     assert abs(before[-1, 1]) > 0.0  # a tangential force to carry over
-    restart = tmp_path / "mid-cycle.restart"
-    lmp.command(f"write_restart {restart}")
-    lmp.close()
-
-    lmp = open_lammps()
-    lmp.command(f"read_restart {restart}")
-    for line in ("comm_modify vel yes", "neighbor 0.01 bin",
-                 "neigh_modify every 1 delay 0 check yes",
-                 "compute pl all pair/local p1 p2 p3 p4 p5 p6"):
-        lmp.command(line)
+    lmp = scenarios.reopen_from_restart(lmp, tmp_path / "mid-cycle.restart",
+                                        "neighbor 0.01 bin",
+                                        "neigh_modify every 1 delay 0 check yes",
+                                        "compute pl all pair/local p1 p2 p3 p4 p5 p6")
     after = drive_slipping_pair(lmp, path[stop:])
     lmp.close()
     resumed = np.vstack([before, after])

@@ -369,13 +369,7 @@ def test_restart_written_mid_history_continues_as_the_uninterrupted_run(tmp_path
     lmp, wall = wiggling_grain()
     before = restart_run(lmp, stop)
     assert before[-1, 6 + 5] == 2 and abs(before[-1, 0]) > 0  # unloading, sliding
-    restart = tmp_path / "wall.restart"
-    lmp.command(f"write_restart {restart}")
-    lmp.close()
-
-    lmp = open_lammps()
-    lmp.command(f"read_restart {restart}")
-    lmp.command("comm_modify vel yes")
+    lmp = scenarios.reopen_from_restart(lmp, tmp_path / "wall.restart")
     lmp.command(f"fix wall all wall/geocontact {CALIBRATED_FILE} friction 0.5 damping 0.1 "
                 f"{wall}")
     after = restart_run(lmp, total - stop)

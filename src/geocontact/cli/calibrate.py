@@ -89,11 +89,10 @@ def run(args) -> int:
     cache = Path(args.cache) if args.cache else DEFAULT_CACHE
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
-              "max_force": args.max_force, "cache": str(cache),
-              "kinematics": args.kinematics, "mesh_rule": args.mesh_rule,
-              "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio}
-    fe_model = {"kinematics": args.kinematics, "mesh_rule": args.mesh_rule,
-                "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio}
+              "max_force": args.max_force, "cache": str(cache)}
+    fe_model = {key: getattr(args, key)
+                for key in ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")}
+    inputs.update(fe_model)
     params, runs, table = calibrate_to_file(
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
         acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,

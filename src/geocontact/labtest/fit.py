@@ -38,7 +38,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from ..calibrate.fit import LevelData, _trapezoid_weights, fit_law
+from ..calibrate.fit import LevelData, fit_law
 from ..errors import InputError
 from ..hertz import hertz_coefficient, incipient_yield
 from ..law.params import HERTZ_EXPONENT, LawParams
@@ -49,8 +49,6 @@ DEFAULT_POISSONS_RATIO = 0.25
 DEFAULT_FRICTION_ANGLE = 30.0
 DEFAULT_HARDENING_RATIO = 0.0
 MIN_LEVELS = 3
-# model error of the virgin form in the weights: a point weighs 1/(sigma^2 + (e F)^2)
-FORM_ERROR = 0.01
 UNLOAD_KEEP = (0.05, 0.98)  # share of the peak force over which the unloading law is fitted
 BETA_PROFILE = (0.0, 15.0, 30.0, 45.0, 60.0)
 
@@ -145,23 +143,8 @@ def _virgin(test: LabTest):
     return vd[order], vf[order]
 
 
-# a force resolution in the weights of at least this share of the largest force (a record
-# without noise, or with its noise estimate below the digits written, still has one)
-RESOLUTION_FLOOR = 1e-4
 DEPARTURE = 0.03  # the virgin curve has left Hertz when it lies this share below it
 DEPARTURE_BINS = 60
-
-
-def _weighted_virgin(vd, vf, noise: float):
-    """The virgin points above the noise with their weights 1/(sigma^2 + (FORM_ERROR F)^2) x
-    log-depth share (every decade of depth counts the same, as in ``fit_loading``)."""
-    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
-    sigma = max(noise, RESOLUTION_FLOOR * float(vf.max()))
-    use = (vf > 5.0 * noise) & (vd > 0)
-    d, f = vd[use], vf[use]
-    if d.size < 10:
-        raise InputError("curve: fewer than 10 virgin loading points above the noise")
-    return d, f, _trapezoid_weights(np.log(d)) / (sigma**2 + (FORM_ERROR * f) ** 2)
 
 
 def departure(vd, vf, kh: float, noise: float) -> dict:

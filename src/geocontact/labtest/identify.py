@@ -32,6 +32,7 @@ import numpy as np
 from scipy.interpolate import UnivariateSpline
 from scipy.optimize import least_squares
 
+from ..calibrate.fit import _trapezoid_weights
 from ..errors import InputError
 from ..hertz import incipient_yield
 from ..law.params import HERTZ_EXPONENT
@@ -44,6 +45,24 @@ FE_STEPS = 40       # load steps of the FE run: the curve's shape between steps 
 DEPTH_MARGIN = 3.0  # the FE run loads this far beyond the test's largest force (in Fy units)
 WHOLE_RANGE = 1.5  # the whole-record search of the universal mode: this factor about the
                    # virgin-loading estimate of sigma_c
+
+# model error of the virgin form in the weights: a point weighs 1/(sigma^2 + (e F)^2)
+FORM_ERROR = 0.01
+# a force resolution in the weights of at least this share of the largest force (a record
+# without noise, or with its noise estimate below the digits written, still has one)
+RESOLUTION_FLOOR = 1e-4
+
+
+def _weighted_virgin(vd, vf, noise: float):
+    """The virgin points above the noise with their weights 1/(sigma^2 + (FORM_ERROR F)^2) x
+    log-depth share (every decade of depth counts the same, as in ``fit_loading``)."""
+    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    sigma = max(noise, RESOLUTION_FLOOR * float(vf.max()))
+    use = (vf > 5.0 * noise) & (vd > 0)
+    d, f = vd[use], vf[use]
+    if d.size < 10:
+        raise InputError("curve: fewer than 10 virgin loading points above the noise")
+    return d, f, _trapezoid_weights(np.log(d)) / (sigma**2 + (FORM_ERROR * f) ** 2)
 
 
 def universal_law():
@@ -98,8 +117,6 @@ def _residual_of(curve: dict, vd, vf, noise: float):
     def shape(x):
         return np.where((x >= lx[0]) & (x <= lx[-1]), spline(x), np.nan)
     fy, dy = curve["yield_force_N"], curve["yield_approach_m"]
-    from .fit import _weighted_virgin
-
     d, f, w = _weighted_virgin(vd, vf, noise)
     sw = np.sqrt(w / np.sum(w))
 
@@ -121,7 +138,7 @@ def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, l
     """s and e of sigma_c = s sigma_c(trial), E* = e E*(trial) laying the FE master curve on the
     measured virgin loading: F = Fy g(d / dy) with Fy = s^3 / e^2 Fy(trial) and
     dy = s^2 / e^2 dy(trial) (Hertz at p0 = sigma_c / C), weighted least squares in force
-    (``fit._weighted_virgin``). The Hertz part fixes e, the bend past yield s. Returns
+    (``_weighted_virgin``). The Hertz part fixes e, the bend past yield s. Returns
     (s, e, misfit, profile of the misfit over s at the best e)."""
     residual = _residual_of(curve, vd, vf, noise)
 
@@ -259,8 +276,6 @@ UNIVERSAL_BETAS = (0.0, 15.0, 30.0, 45.0, 55.0)  # the profile over beta when no
 
 
 def _universal_misfit(law, material: Material, vd, vf, noise: float) -> float:
-    from .fit import _weighted_virgin
-
     d, f, w = _weighted_virgin(vd, vf, noise)
     params = law(material)
     return float(np.sum(w * (params.virgin_force(d) - f) ** 2) / np.sum(w))
