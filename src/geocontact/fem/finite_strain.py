@@ -88,7 +88,41 @@ def sym_unblock(m: np.ndarray, hoop: np.ndarray) -> np.ndarray:
 
 
 def _eig(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return np.linalg.eigh(m)
+    """Eigenvalues (ascending, (..., 2)) and eigenvectors (columns, (..., 2, 2)) of symmetric
+    2x2 blocks, in closed form (as numpy.linalg.eigh, without its per-matrix overhead)."""
+    a, d = m[..., 0, 0], m[..., 1, 1]
+    c = 0.5 * (m[..., 0, 1] + m[..., 1, 0])
+    half = 0.5 * (a - d)
+    radius, mean = np.hypot(half, c), 0.5 * (a + d)
+    theta = 0.5 * np.arctan2(c, half)  # direction of the larger eigenvalue
+    cos, sin = np.cos(theta), np.sin(theta)
+    lam = np.stack([mean - radius, mean + radius], axis=-1)
+    vec = np.empty(m.shape)
+    vec[..., 0, 0], vec[..., 1, 0] = -sin, cos
+    vec[..., 0, 1], vec[..., 1, 1] = cos, sin
+    return lam, vec
+
+
+def _inverse(m: np.ndarray) -> np.ndarray:
+    """Inverse of 2x2 blocks (..., 2, 2) in closed form."""
+    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
+    inv = np.empty(m.shape)
+    inv[..., 0, 0], inv[..., 1, 1] = m[..., 1, 1] / det, m[..., 0, 0] / det
+    inv[..., 0, 1], inv[..., 1, 0] = -m[..., 0, 1] / det, -m[..., 1, 0] / det
+    return inv
+
+
+def _element_products(left: np.ndarray, a: np.ndarray, right: np.ndarray,
+                      dv: np.ndarray) -> np.ndarray:
+    """Element matrices sum_q left_j . (a dv) right_k, (e, 12, 12), of test gradients
+    (12, 5, e, q) and a point tangent (5, 5, e, q): one batched product per element."""
+    n, comps, e, q = left.shape
+    weighted = np.moveaxis(a * dv, (2, 3), (0, 1))  # (e, q, 5, 5)
+    lt = np.moveaxis(left, (2, 3), (0, 1))  # (e, q, 12, 5)
+    y = np.matmul(lt, weighted)  # (e, q, 12, 5)
+    y = np.ascontiguousarray(y.transpose(0, 2, 1, 3)).reshape(e, n, q * comps)
+    rt = np.ascontiguousarray(right.transpose(2, 3, 1, 0)).reshape(e, q * comps, n)
+    return np.matmul(y, rt)
 
 
 def _log_derivative_weights(lam: np.ndarray) -> np.ndarray:
@@ -156,7 +190,7 @@ class FiniteUpdate:
         e = sym_block(self.elastic_strain * np.array([1.0, 1.0, 1.0, 0.5]).reshape(
             (4,) + (1,) * (trial.ndim - 1)))
         be_minus = _matrix_function(e, lambda x: np.expm1(2.0 * x))
-        finv = np.linalg.inv(eye + hm)
+        finv = _inverse(eye + hm)
         k = -hm @ finv
         cp_new = (k + np.swapaxes(k, -1, -2) + k @ np.swapaxes(k, -1, -2)
                   + finv @ be_minus @ np.swapaxes(finv, -1, -2))
@@ -167,21 +201,28 @@ class FiniteUpdate:
     def material_tangent(self) -> np.ndarray:
         """d tau / d h (4, 5, ...): the change of the Kirchhoff stress [rr, zz, tt, rz] with the
         spatial velocity gradient h = dF F^-1 (a 5-vector), through
-        d b_e^trial = h b + b h^T, d eps^trial = d ln(b) / 2 and the return mapping's D^ep."""
-        b, bt, vec = self.b, self.bt, self.vec
-        weights = _log_derivative_weights(self.lam)
-        shape = bt.shape
-        d_strain = np.empty((4, 5) + shape)
-        for k in range(5):
-            unit = np.zeros((5,) + shape)
-            unit[k] = 1.0
-            hm = block(unit)
-            db = hm @ b + b @ np.swapaxes(hm, -1, -2)
-            rotated = np.swapaxes(vec, -1, -2) @ db @ vec
-            deps = 0.5 * vec @ (weights * rotated) @ np.swapaxes(vec, -1, -2)
-            col = sym_unblock(deps, unit[TT] * 1.0)  # d eps_tt = h_tt (db_t = 2 h_tt b_t)
-            col[3] *= 2.0
-            d_strain[:, k] = col
+        d b_e^trial = h b + b h^T, d eps^trial = d ln(b) / 2 and the return mapping's D^ep.
+
+        In the eigenbasis V of b (eigenvalues lambda), an in-plane unit h = e_i (x) e_m gives
+        V^T db V = v_i (x) w + w (x) v_i with v_i = V^T e_i (row i of V) and w_a = lambda_a V_ma;
+        then d eps = V (f o (V^T db V)) V^T / 2 with the weights f of ln."""
+        lam, vec = self.lam, self.vec
+        f = _log_derivative_weights(lam)
+        shape = self.bt.shape
+        d_strain = np.zeros((4, 5) + shape)
+        for i in range(2):
+            for m in range(2):
+                k = _IN_PLANE[i][m]
+                v = [vec[..., i, 0], vec[..., i, 1]]
+                w = [lam[..., 0] * vec[..., m, 0], lam[..., 1] * vec[..., m, 1]]
+                rot = [[f[..., a, b] * (v[a] * w[b] + w[a] * v[b]) for b in range(2)]
+                       for a in range(2)]
+                deps = [[0.5 * sum(vec[..., x, a] * rot[a][b] * vec[..., y, b]
+                                   for a in range(2) for b in range(2))
+                         for y in range(2)] for x in range(2)]
+                d_strain[0, k], d_strain[1, k] = deps[0][0], deps[1][1]
+                d_strain[3, k] = deps[0][1] + deps[1][0]  # engineering shear
+        d_strain[2, TT] = 1.0  # d eps_tt = h_tt (db_t = 2 h_tt b_t)
         return np.einsum("cd...,dk...->ck...", self.d_ep, d_strain)
 
 
@@ -230,7 +271,10 @@ class FiniteStrainSolver(ContactSolver):
     def kinematics(self, displacement: np.ndarray):
         """H = F - I (5, e, q), H_bar = F_bar - I, and the spatial test gradients
         g (12, 5, e, q) and g_bar."""
-        H = np.einsum("jkeq,je->keq", self.G0, displacement[self.element_dofs], optimize=True)
+        ue = displacement[self.element_dofs]  # (12, e)
+        H = self.G0[0] * ue[0, :, None]
+        for j in range(1, len(ue)):
+            H += self.G0[j] * ue[j, :, None]
         # ln J = ln det(F_in-plane) + ln F_tt, without forming 1 + small
         log_j = (np.log1p(H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR])
                  + np.log1p(H[TT]))
@@ -238,9 +282,13 @@ class FiniteStrainSolver(ContactSolver):
         h_bar = H * (1.0 + scale_minus)[None]
         for c in (RR, ZZ, TT):
             h_bar[c] += scale_minus
-        finv = np.linalg.inv(np.eye(2) + block(H))  # (e, q, 2, 2)
-        g_in = block(self.G0.transpose(1, 0, 2, 3)) @ finv[None]  # (12, e, q, 2, 2)
-        g = np.moveaxis(unblock(g_in, self.G0[:, TT] / (1.0 + H[TT])[None]), 0, 1)
+        finv = _inverse(np.eye(2) + block(H))  # (e, q, 2, 2)
+        g = np.empty_like(self.G0)  # g_ik = sum_m Grad_im N F^-1_mk
+        for i in range(2):
+            for k in range(2):
+                g[:, _IN_PLANE[i][k]] = (self.G0[:, _IN_PLANE[i][0]] * finv[..., 0, k]
+                                         + self.G0[:, _IN_PLANE[i][1]] * finv[..., 1, k])
+        g[:, TT] = self.G0[:, TT] / (1.0 + H[TT])
         trace = g[:, RR] + g[:, ZZ] + g[:, TT]
         shift = ((self._project_volumetric(trace) if self.bbar else trace) - trace) / 3.0
         g_bar = g.copy()
@@ -262,8 +310,8 @@ class FiniteStrainSolver(ContactSolver):
             mean = (stress[0] + stress[1] + stress[2]) / 3.0
             a_geo = geometric_tangent(stress, mean - self._project(mean))
             dv = self.dvolume
-            local = (np.einsum("jceq,cdeq,kdeq,eq->ejk", g_bar, a_mat, g_bar, dv, optimize=True)
-                     + np.einsum("jceq,cdeq,kdeq,eq->ejk", g, a_geo, g, dv, optimize=True))
+            local = (_element_products(g_bar, a_mat, g_bar, dv)
+                     + _element_products(g, a_geo, g, dv))
         return update, f_int, local
 
     def _force(self, g_bar: np.ndarray, stress: np.ndarray) -> np.ndarray:

@@ -204,17 +204,25 @@ class ContactSolver:
         if self.volumetric_order == 0:
             mean = np.sum(vol * dv, axis=2) / np.sum(dv, axis=1)
             return np.broadcast_to(mean[:, :, None], vol.shape)
-        r, z = self.radius_qp, self.z_qp
-        rc = np.sum(r * dv, axis=1, keepdims=True) / np.sum(dv, axis=1, keepdims=True)
-        zc = np.sum(z * dv, axis=1, keepdims=True) / np.sum(dv, axis=1, keepdims=True)
-        size = np.sqrt(np.abs(np.max(r, axis=1, keepdims=True) - np.min(r, axis=1, keepdims=True))
-                       ** 2 + (np.max(z, axis=1, keepdims=True)
-                               - np.min(z, axis=1, keepdims=True)) ** 2)
-        psi = np.stack([np.ones_like(r), (r - rc) / size, (z - zc) / size])  # (3, e, q)
-        mass = np.einsum("meq,neq,eq->emn", psi, psi, dv)
-        rhs = np.einsum("meq,jeq,eq->ejm", psi, vol, dv)
-        coef = np.linalg.solve(mass[:, None], rhs[..., None])[..., 0]  # (e, j, m)
-        return np.einsum("ejm,meq->jeq", coef, psi)
+        return np.matmul(self._projection_operator(), vol[..., None])[..., 0]
+
+    def _projection_operator(self) -> np.ndarray:
+        """The P1 projection as a matrix per element, (e, q, q): the value at point q of the
+        projection of a field given at the points p (psi M^-1 psi^T dv, formed once)."""
+        if "projection" not in self._cache:
+            dv = self.dvolume
+            r, z = self.radius_qp, self.z_qp
+            rc = np.sum(r * dv, axis=1, keepdims=True) / np.sum(dv, axis=1, keepdims=True)
+            zc = np.sum(z * dv, axis=1, keepdims=True) / np.sum(dv, axis=1, keepdims=True)
+            size = np.sqrt(np.abs(np.max(r, axis=1, keepdims=True)
+                                  - np.min(r, axis=1, keepdims=True)) ** 2
+                           + (np.max(z, axis=1, keepdims=True)
+                              - np.min(z, axis=1, keepdims=True)) ** 2)
+            psi = np.stack([np.ones_like(r), (r - rc) / size, (z - zc) / size])  # (3, e, q)
+            mass = np.einsum("meq,neq,eq->emn", psi, psi, dv)
+            weights = np.linalg.solve(mass, np.einsum("meq,eq->emq", psi, dv))  # (e, 3, q)
+            self._cache["projection"] = np.einsum("meq,emp->eqp", psi, weights)
+        return self._cache["projection"]
 
     def _pattern(self) -> _Assembly:
         edofs = self.element_dofs
