@@ -1,0 +1,144 @@
+"""The committed FE-run datasets (``datasets/fe-runs/<campaign>/``): what is finished, what is
+under way, and whether the runs are still current.
+
+A long FE campaign (the weak grain's finite-strain recalibration: many hours of CPU) outlasts one
+working session. Its FE cache is a folder in the repository: every finished run
+(``<key>/curve.csv``, ``summary.json`` and the result manifest, ~20 KB) is committed, so the
+next session's ``geocontact calibrate --cache datasets/fe-runs/<campaign>`` reuses it and runs
+only what is missing. A run under way keeps its checkpoint beside it (``<key>.checkpoint.npz``,
+not committed: .gitignore); an interrupted run resumes from it within the session.
+
+    PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py [CAMPAIGN_DIR ...] [--json]
+
+For each campaign folder (default: every folder under datasets/fe-runs): the finished runs
+(peak force, load-step solves, Newton iterations, wall time) and whether each was computed by
+the current FE sources and libraries (``current``) or not (``stale``: a calibration with this
+cache would recompute it); the runs under way (steps done of the steps requested, from their
+checkpoint); entries that are neither (reported, never touched). Exit status 0, or 1 if a run
+folder is not a complete, self-consistent result (its key is not the hash of its identity, its
+manifest or curve is missing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+from geocontact.fem.reuse import fe_code_hash, library_versions, load_result  # noqa: E402
+from geocontact.io import RESULT_MANIFEST  # noqa: E402
+
+DATASETS = ROOT / "datasets" / "fe-runs"
+
+
+def identity_key(record: dict) -> str:
+    """The key an FE identity record was written under (fem.reuse.FeRunIdentity.to_dict)."""
+    body = {name: value for name, value in record.items() if name != "key"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def check_run(folder: Path) -> dict:
+    """One finished run folder: its figures, or ``problem`` (why it is not a sound result)."""
+    entry: dict = {"key": folder.name}
+    if not (folder / RESULT_MANIFEST).is_file():
+        return {**entry, "problem": f"no {RESULT_MANIFEST}: not written by geocontact"}
+    try:
+        result = load_result(folder)
+    except Exception as exc:  # noqa: BLE001 - any unreadable result is reported, not raised
+        return {**entry, "problem": f"unreadable result: {exc}"}
+    summary = result.summary
+    identity = summary.get("identity")
+    if not isinstance(identity, dict) or identity.get("key") != folder.name:
+        return {**entry, "problem": "summary.json identity key differs from the folder name"}
+    if identity_key(identity) != folder.name:
+        return {**entry, "problem": "identity record does not hash to its key (edited?)"}
+    forces = identity["inputs"]["forces_N"]
+    current = (identity.get("fe_code") == fe_code_hash()
+               and identity.get("libraries") == library_versions())
+    control = summary.get("step_control") or {}
+    return {**entry, "peak_force_N": max(forces), "history_points": len(forces),
+            "solves": control.get("solves"), "newton_iterations": summary.get("newton_iterations"),
+            "wall_time_s": summary.get("wall_time_s"), "fe_code": identity.get("fe_code"),
+            "state": "current" if current else "stale"}
+
+
+def check_pending(checkpoint: Path) -> dict:
+    """A run under way: the steps its checkpoint holds."""
+    entry = {"key": checkpoint.name.removesuffix(".checkpoint.npz")}
+    try:
+        with np.load(checkpoint) as data:
+            identity = json.loads(str(data["identity"]))
+            done = int(data["done"])
+    except Exception as exc:  # noqa: BLE001 - a checkpoint being rewritten, or a broken one
+        return {**entry, "problem": f"unreadable checkpoint: {exc}"}
+    forces = identity.get("inputs", {}).get("forces_N", [])
+    return {**entry, "peak_force_N": max(forces) if forces else None, "steps_done": done}
+
+
+def campaign_status(folder: Path) -> dict:
+    finished, pending, other = [], [], []
+    for path in sorted(folder.iterdir()):
+        if path.name.startswith("."):
+            continue  # a result being written (io.atomic_directory's temporaries)
+        if path.is_dir() and (path / "summary.json").exists():
+            finished.append(check_run(path))
+        elif path.name.endswith(".checkpoint.npz"):
+            pending.append(check_pending(path))
+        elif not path.name.endswith(".checkpoint.fields") and path.name != "README.md":
+            other.append(path.name)
+    return {"campaign": folder.name, "finished": finished, "pending": pending, "other": other}
+
+
+def _print(status: dict) -> None:
+    finished = status["finished"]
+    current = sum(1 for run in finished if run.get("state") == "current")
+    print(f"{status['campaign']}: {len(finished)} finished ({current} current), "
+          f"{len(status['pending'])} under way")
+    for run in sorted(finished, key=lambda r: r.get("peak_force_N") or 0.0):
+        if "problem" in run:
+            print(f"  {run['key']}  PROBLEM: {run['problem']}")
+            continue
+        wall = run["wall_time_s"]
+        print(f"  {run['key']}  peak {run['peak_force_N']:.4g} N, {run['history_points']} points,"
+              f" {run['solves']} solves, {run['newton_iterations']} iterations, "
+              f"{wall:.0f} s, {run['state']}")
+    for run in status["pending"]:
+        if "problem" in run:
+            print(f"  {run['key']}  under way, {run['problem']}")
+        else:
+            print(f"  {run['key']}  under way: peak {run['peak_force_N']:.4g} N, "
+                  f"{run['steps_done']} steps done")
+    for name in status["other"]:
+        print(f"  {name}  (not an FE run: left alone)")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("campaigns", nargs="*", type=Path,
+                        help="campaign folders (default: every folder in datasets/fe-runs)")
+    parser.add_argument("--json", action="store_true", help="print the status as JSON")
+    args = parser.parse_args(argv)
+    folders = args.campaigns or sorted(p for p in DATASETS.iterdir() if p.is_dir())
+    for folder in folders:
+        if not folder.is_dir():
+            print(f"error: campaign folder {folder} does not exist", file=sys.stderr)
+            return 2
+    statuses = [campaign_status(folder) for folder in folders]
+    if args.json:
+        print(json.dumps(statuses, indent=1))
+    else:
+        for status in statuses:
+            _print(status)
+    bad = any("problem" in run for status in statuses for run in status["finished"])
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,68 @@
+"""The committed FE-run datasets (datasets/fe-runs, scripts/fe_dataset.py): every run folder in
+them is a complete result whose key is the hash of its identity record, so a campaign resumed
+from the repository never reuses a half-written or hand-edited run; and the status script tells
+such a folder, a run under way and a foreign file apart."""
+
+import importlib.util
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geocontact.fem.run import run_history
+from geocontact.material import preset
+
+ROOT = Path(__file__).resolve().parent.parent
+_spec = importlib.util.spec_from_file_location("fe_dataset", ROOT / "scripts" / "fe_dataset.py")
+fe_dataset = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = fe_dataset
+_spec.loader.exec_module(fe_dataset)
+
+COMMITTED = sorted(p for p in fe_dataset.DATASETS.glob("*/*") if p.is_dir()
+                   and not p.name.startswith(".") and (p / "summary.json").exists())
+
+
+@pytest.mark.parametrize("folder", COMMITTED, ids=[f"{p.parent.name}/{p.name}" for p in COMMITTED])
+def test_committed_run_is_a_complete_result(folder):
+    run = fe_dataset.check_run(folder)
+    assert "problem" not in run, run.get("problem")
+    assert run["newton_iterations"] > 0 and run["peak_force_N"] > 0
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """A tiny campaign folder: one finished elastic run, as calibrate's cache writes it."""
+    folder = tmp_path_factory.mktemp("fe-runs") / "tiny"
+    result = run_history(preset("reference"), [0.0, 0.5 * 1e-3, 0.0], "coarse",
+                         folder / "probe", steps_per_segment=2, write_fields=False)
+    key = result.summary["identity"]["key"]
+    (folder / "probe").rename(folder / key)
+    return folder, key
+
+
+def test_status_of_a_finished_run_and_of_problems(campaign, tmp_path, capsys):
+    folder, key = campaign
+    status = fe_dataset.campaign_status(folder)
+    (run,) = status["finished"]
+    assert run["key"] == key and run["state"] == "current" and "problem" not in run
+    assert fe_dataset.main([str(folder)]) == 0
+
+    edited = tmp_path / "edited"
+    shutil.copytree(folder, edited)
+    summary = edited / key / "summary.json"
+    record = json.loads(summary.read_text())
+    record["identity"]["inputs"]["mesh"] = "fine"  # a hand edit that keeps the key
+    summary.write_text(json.dumps(record))
+    (edited / "foreign.txt").write_text("not ours")
+    np.savez(edited / "0123.checkpoint.npz", identity=np.array(json.dumps(
+        {"inputs": {"forces_N": [0.0, 2.0]}})), done=np.array(7))
+    status = fe_dataset.campaign_status(edited)
+    assert "hash" in status["finished"][0]["problem"]
+    assert status["pending"] == [{"key": "0123", "peak_force_N": 2.0, "steps_done": 7}]
+    assert status["other"] == ["foreign.txt"]
+    assert fe_dataset.main([str(edited)]) == 1
+    assert (edited / "foreign.txt").read_text() == "not ours"
+    assert "PROBLEM" in capsys.readouterr().out
