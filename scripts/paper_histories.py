@@ -28,6 +28,7 @@ from pathlib import Path
 from geocontact.analyses.cycles import with_cyclic
 from geocontact.analyses.paper_histories import format_value as fmt
 from geocontact.analyses.paper_histories import run_paper_histories, write_study
+from geocontact.cli.common import add_fe_model_flags, fe_model_of
 from geocontact.errors import InputError
 from geocontact.io import (
     atomic_directory,
@@ -90,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
                          "cyclic quantities)")
     ap.add_argument("--force", action="store_true",
                     help="replace --out even if it holds files geocontact did not write")
+    add_fe_model_flags(ap)
     args = ap.parse_args(argv)
     out = Path(args.out)
     check_replaceable(out, "paper-histories", overwrite=args.force)  # before the FE runs
@@ -97,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
     runs = run_paper_histories(args.mesh, args.cache, steps_per_segment=args.steps,
                                tolerance=args.tolerance, workers=args.workers, only=args.only,
                                mesh_checks=({"repeated-10MPa": args.check_mesh}
-                                            if args.check_mesh else None))
+                                            if args.check_mesh else None),
+                               fe_model=fe_model_of(args))
     # the whole study lands as one folder: an interrupted rerun never mixes old and new files
     with atomic_directory(out, "paper-histories", overwrite=args.force,
                           inputs=vars(args)) as tmp:
@@ -136,6 +139,7 @@ def main(argv: list[str] | None = None) -> int:
         wall = time.perf_counter() - started
         write_json_atomic(tmp / "index.json", {
             "wall_time_s": wall, "mesh": args.mesh, "steps_per_segment": args.steps,
+            "fe_model": fe_model_of(args),
             "tolerance": args.tolerance, "files": files, "mesh_check": mesh_check,
             "fe_wall_time_s": {n: r.summary.get("wall_time_s") for n, r in runs.items()},
             "provenance": record,

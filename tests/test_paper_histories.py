@@ -234,3 +234,22 @@ def test_report_leaves_out_statements_whose_runs_are_missing(paper_like, tmp_pat
     assert "not available" not in text and "n/a" not in text
     assert f"{len(missing)} more of the paper's statements need runs" in text
     assert "repeated-1MPa" in text and "scripts/paper_histories.py" in text
+
+
+def test_fe_model_reaches_every_run_of_the_study():
+    """--kinematics/--mesh-rule/--step-rule/--max-step-ratio of scripts/paper_histories.py reach
+    every history run and the single loads beside the mono-increasing ones (their cache keys
+    differ from the default model's)."""
+    from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
+
+    model = {"kinematics": "finite", "mesh_rule": "contact", "step_rule": "segment",
+             "max_step_ratio": 1.01}
+    plan, jobs = study_jobs("coarse", only=["repeated-1MPa", "mono-increasing-1MPa"],
+                            fe_model=model)
+    _, plain = study_jobs("coarse", only=["repeated-1MPa", "mono-increasing-1MPa"])
+    singles = single_load_jobs(jobs[1])
+    assert [label for label, _, _ in plan] == ["repeated-1MPa", "mono-increasing-1MPa"]
+    assert len(singles) == 7  # the peaks of the mono-increasing history, 100 -> 3000 N
+    for job in jobs + singles:
+        assert {key: getattr(job, key) for key in model} == model
+    assert {j.key() for j in jobs}.isdisjoint(j.key() for j in plain)

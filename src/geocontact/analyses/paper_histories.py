@@ -82,8 +82,11 @@ class PaperRun:
 
 
 def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
-               only: list[str] | None = None, mesh_checks: dict[str, str] | None = None):
-    """The study's FE jobs: ``(plan, jobs)``, plan = [(label, run name, mesh)] in job order."""
+               only: list[str] | None = None, mesh_checks: dict[str, str] | None = None,
+               fe_model: dict[str, Any] | None = None):
+    """The study's FE jobs: ``(plan, jobs)``, plan = [(label, run name, mesh)] in job order.
+    ``fe_model``: kinematics, mesh_rule, step_rule and max_step_ratio of every run (``FemJob``;
+    the FE defaults when None)."""
     from ..fem.campaign import FemJob
 
     runs = study()["runs"]
@@ -98,38 +101,44 @@ def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
         spec = runs[name]
         forces = preset_history(spec["history"], float(spec["peak_force"]))
         jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=run_mesh,
-                           steps_per_segment=steps_per_segment, label=label))
+                           steps_per_segment=steps_per_segment, label=label,
+                           **(fe_model or {})))
     return plan, jobs
 
 
 def single_load_jobs(job) -> list:
     """For a history job: one single load 0 -> F_k -> 0 per peak F_k of the history, on the
-    history's own mesh (sized for its largest force), so the two differ only by the path."""
+    history's own mesh (sized for its largest force) and FE model, so the two differ only by
+    the path."""
     from ..fem.campaign import FemJob
 
     forces = list(job.forces)
     peaks = [f for i, f in enumerate(forces[1:-1], 1) if f > forces[i - 1] and f > forces[i + 1]]
     return [FemJob(job.material, (0.0, p, 0.0), mesh=job.mesh,
                    steps_per_segment=job.steps_per_segment, mesh_force=max(forces),
-                   label=f"single load {p:.4g} N @ {job.label}") for p in peaks]
+                   label=f"single load {p:.4g} N @ {job.label}", kinematics=job.kinematics,
+                   mesh_rule=job.mesh_rule, step_rule=job.step_rule,
+                   max_step_ratio=job.max_step_ratio) for p in peaks]
 
 
 def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
                         steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                         workers: int | None = None, only: list[str] | None = None,
                         mesh_checks: dict[str, str] | None = None, single_loads: bool = True,
-                        progress: bool = True) -> dict[str, PaperRun]:
+                        progress: bool = True,
+                        fe_model: dict[str, Any] | None = None) -> dict[str, PaperRun]:
     """Run (or read from the cache) the FE runs of the study and analyse their cycles.
 
     ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
     returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities).
+    ``fe_model``: the FE model of every run (``study_jobs``).
     ``single_loads``: also run, for every monotonically increasing history, a single load to
     each of its peaks on its mesh (the paper compares the two)."""
     from ..fem.campaign import run_campaign
 
     runs = study()["runs"]
     plan, jobs = study_jobs(mesh, steps_per_segment=steps_per_segment, only=only,
-                            mesh_checks=mesh_checks)
+                            mesh_checks=mesh_checks, fe_model=fe_model)
     singles = {label: single_load_jobs(job)
                for (label, name, _), job in zip(plan, jobs, strict=True)
                if single_loads and runs[name]["history"] == "mono-increasing"}

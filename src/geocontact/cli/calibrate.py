@@ -13,6 +13,7 @@ from .common import (
     check_resolved_force,
     check_steps,
     check_workers,
+    fe_model_of,
     print_json,
 )
 
@@ -90,8 +91,7 @@ def run(args) -> int:
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache)}
-    fe_model = {key: getattr(args, key)
-                for key in ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")}
+    fe_model = fe_model_of(args)
     inputs.update(fe_model)
     params, runs, table = calibrate_to_file(
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,

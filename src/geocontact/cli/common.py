@@ -70,6 +70,15 @@ def check_resolved_force(material, force: float | None, field: str) -> None:
                      f"whose contact radius the FE mesh resolves, a <= R/2), got {force:g}")
 
 
+# The attributes add_fe_model_flags adds (the FemJob / run_history keywords of the FE model).
+FE_MODEL = ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")
+
+
+def fe_model_of(args) -> dict:
+    """The FE model the flags of ``add_fe_model_flags`` chose, as FemJob keywords."""
+    return {key: getattr(args, key) for key in FE_MODEL}
+
+
 def add_fe_model_flags(p) -> None:
     """--kinematics, --mesh-rule, --step-rule and --max-step-ratio of the FE engine
     (docs/fem.md)."""
