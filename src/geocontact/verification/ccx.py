@@ -292,6 +292,32 @@ def loading_force_at(run: dict, approaches) -> np.ndarray:
     return np.interp(approaches, d, f, right=np.nan)
 
 
+def loading_approach_at(run: dict, forces) -> np.ndarray:
+    """The loading approach at each force: the inverse of ``loading_force_at`` on the running
+    maximum of the force (a displacement-controlled run's force can dip as a node engages;
+    the first approach that reaches the force counts); NaN beyond the largest loading force."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    top = np.maximum.accumulate(f)
+    out = []
+    for x in np.atleast_1d(forces):
+        if x > top[-1] * (1 + 1e-12) or x < 0:
+            out.append(np.nan)
+            continue
+        k = int(np.searchsorted(top, x))  # first point with running maximum >= x
+        if k == 0:
+            out.append(float(d[0]))
+            continue
+        lo, hi = f[k - 1], f[k]  # f[k] = top[k] >= x > top[k - 1] >= f[k - 1]
+        t = (x - lo) / (hi - lo)
+        out.append(float(d[k - 1] + t * (d[k] - d[k - 1])))
+    return np.array(out)
+
+
+def elastic_recovery(run: dict) -> float:
+    """Largest minus residual approach of one load-unload cycle (m)."""
+    return float(run["max_approach_m"] - run["residual_approach_m"])
+
+
 def smoothed_force_at(run: dict, approaches, window: float = 0.2) -> np.ndarray:
     """The loading force at each approach d from a power law F = C x^b fitted (least squares in
     log-log) to the loading points within (1 -/+ window) d: the force without the step-to-step
@@ -440,6 +466,6 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
 
 
 __all__ = ["AxisymmetricMesh", "CcxResult", "branches", "ccx_executable", "ccx_version",
-           "force_difference", "loading_force_at", "loading_work_at", "read_dat",
-           "residual_approach", "run_ccx", "smoothed_force_at", "sphere_faces",
-           "unloading_exponent", "unloading_shape", "write_deck"]
+           "elastic_recovery", "force_difference", "loading_approach_at", "loading_force_at",
+           "loading_work_at", "read_dat", "residual_approach", "run_ccx", "smoothed_force_at",
+           "sphere_faces", "unloading_exponent", "unloading_shape", "write_deck"]

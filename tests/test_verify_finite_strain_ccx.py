@@ -1,0 +1,73 @@
+"""scripts/verify_finite_strain_ccx.py's command line (no CalculiX needed): the material from a
+preset or a TOML file, the largest force from --force or JG's w_max, one-line errors; and the
+comparison measures it adds to verification.ccx (approach at equal force, elastic recovery)."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geocontact.material import preset
+from geocontact.verification import published_fits as fits
+from geocontact.verification.ccx import elastic_recovery, loading_approach_at
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location(
+    "verify_finite_strain_ccx", ROOT / "scripts" / "verify_finite_strain_ccx.py")
+script = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(script)
+WEAK = ROOT / "docs" / "verification" / "finite_strain_ccx_weak.toml"
+
+
+def test_default_is_the_e_over_sigma_200_sphere_to_100_critical_interferences():
+    args = script.parse_args([])
+    material = preset("von-mises-large")
+    jg = fits.jackson_green_critical(material)
+    assert args.material == material
+    assert args.peak == pytest.approx(float(fits.jackson_green_load(material, 100.0)) * jg.force)
+    assert args.name == "finite_strain_ccx" and args.penalty == 100.0
+    assert args.work == Path("out/finite_strain_ccx/coarse-contact-24-24-w100")
+
+
+def test_weak_grain_from_a_toml_file_and_a_force():
+    args = script.parse_args(["--material", str(WEAK), "--force", "3000", "--mesh-rule", "yield",
+                              "--steps", "6", "--max-step-ratio", "1.02", "--penalty", "1",
+                              "--name", "finite_strain_ccx_weak"])
+    m = args.material
+    assert m.youngs_modulus / m.compressive_yield_stress == pytest.approx(1e4)
+    assert m.friction_angle_deg == 0.0 and m.poissons_ratio == 0.25 and m.radius == 0.1
+    assert args.peak == 3000.0 and args.max_step_ratio == 1.02 and args.penalty == 1.0
+    assert args.name == "finite_strain_ccx_weak"
+    assert args.work.name == "finite_strain_ccx_weak-coarse-yield-6-24-F3000-r1.02"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--material", "reference-weak"], "--material: CalculiX's *PLASTIC is von Mises"),
+    (["--material", "no-such.toml"], "--material: material: file not found"),
+    (["--force", "-1"], "--force: must be > 0"),
+    (["--penalty", "0"], "--penalty: must be > 0"),
+    (["--unload-to", "1"], "--unload-to: must be in [0, 1)"),
+    (["--max-step-ratio", "0.9"], "--max-step-ratio: must be > 1"),
+])
+def test_bad_input_is_one_line_naming_the_option(argv, message, capsys):
+    with pytest.raises(SystemExit):
+        script.parse_args(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert message in err[-1] and "Traceback" not in "".join(err)
+
+
+def test_approach_at_equal_force_inverts_the_loading_branch():
+    # loading F = d^1.5 with a dip (a node engaging under displacement control), then unloading
+    approach = np.array([0.0, 1.0, 2.0, 2.5, 3.0, 3.5, 3.0, 2.8])
+    force = np.array([0.0, 1.0, 2.0 ** 1.5, 2.5, 3.0 ** 1.5, 3.5 ** 1.5, 2.0, 0.0])
+    run = {"approach": approach, "force": force}
+    got = loading_approach_at(run, [0.0, 1.0, 2.0, 3.5, 3.0 ** 1.5, 7.0])
+    # 2.0 lies on 1 -> 2; 3.5 is past the dip (2.5 at d = 2.5 after 2^1.5 at d = 2): the first
+    # crossing is on 2.5 -> 3, and 2.6 (reached at d = 2 already) is not looked up in the dip
+    assert got[:2] == pytest.approx([0.0, 1.0])
+    assert got[2] == pytest.approx(1.0 + (2.0 - 1.0) / (2.0 ** 1.5 - 1.0))
+    assert got[3] == pytest.approx(2.5 + (3.5 - 2.5) / (3.0 ** 1.5 - 2.5) * 0.5)
+    assert loading_approach_at(run, [2.6])[0] < 2.0
+    assert got[4] == pytest.approx(3.0) and np.isnan(got[5])
+    assert elastic_recovery({"max_approach_m": 3.5, "residual_approach_m": 2.75}) == 0.75
