@@ -25,12 +25,12 @@ force, contact radius) and Etsion, Kligerman & Kadin (2005) / Jackson, Chusoipin
 
 Another von Mises material (``--material``: a preset name or a material TOML file) and a
 largest force in N (``--force``) instead of JG's ``--w-max``, e.g. the weak regime
-(E/sigma_c = 1e4, a/R = 0.18 at 7000 N; docs/verification.md item 15, "weak regime")::
+(E/sigma_c = 1e4; docs/verification.md item 15, "weak regime")::
 
     PYTHONPATH=src nice -n 5 .venv/bin/python scripts/verify_finite_strain_ccx.py \
-        --material docs/verification/finite_strain_ccx_weak_hardening.toml --force 7000 \
-        --mesh-rule yield --steps 6 --max-step-ratio 1.02 --penalty 1 --unload-to 0.95 \
-        --name finite_strain_ccx_weak_hardening   # ~15 min
+        --material docs/verification/finite_strain_ccx_weak_hardening.toml --force 3000 \
+        --mesh-rule yield --steps 6 --max-step-ratio 1.02 --penalty 1 --unload-to 0.96 \
+        --name finite_strain_ccx_weak_hardening   # ~12 min
 
 Beyond the published fits' range (omega > 110 omega_c) their comparison is left out; the
 approach at equal force and the elastic recovery delta_max - delta_res are compared instead
@@ -114,17 +114,120 @@ def run_peer(material, fe_mesh, approach, args, nlgeom: bool, mesh_force: float)
         saved = json.loads(path.read_text())
         if saved.get("inputs") == json.loads(json.dumps(inputs)):
             print(f"{name}: reusing {path}", flush=True)
+            if "failed" in saved:
+                return _failed_record(saved["failed"], saved["partial"])
             return _peer_record(saved["curve"], saved["summary"])
     try:
         result = ccx.run_ccx(material, fe_mesh, waypoints, [args.increments] * 2,
                              nlgeom=nlgeom, penalty=args.penalty)
     except ConvergenceError as exc:  # e.g. the perfectly plastic grain at E/sigma_c = 1e4
-        raise SystemExit(f"verify_finite_strain_ccx: {name}: {exc}") from None
+        partial = {k: np.asarray(v).tolist() for k, v in getattr(exc, "partial", {}).items()}
+        write_json_atomic(path, {"inputs": inputs, "failed": str(exc), "partial": partial})
+        print(f"{name}: {exc}", flush=True)
+        return _failed_record(str(exc), partial)
     write_json_atomic(path, {"inputs": inputs, "summary": result.summary,
                              "curve": {k: v.tolist() for k, v in result.curve.items()}})
     print(f"{name}: {result.summary['increments']} increments, "
           f"{result.summary['wall_time_s']:.1f} s", flush=True)
     return _peer_record(result.curve, result.summary)
+
+
+def _failed_record(message: str, partial: dict) -> dict:
+    """A CalculiX run that stopped early: its message and the loading it did converge on."""
+    return {"failed": message, "approach": np.asarray(partial.get("approach_m", [0.0])),
+            "force": np.asarray(partial.get("force_N", [0.0])),
+            "cpu_time_s": partial.get("cpu_time_s"), "wall_time_s": partial.get("wall_time_s")}
+
+
+def failure_report(args, material, ours: dict, peers: dict) -> dict:
+    """What can be compared when a CalculiX run stopped early: our three runs (finite / small
+    strain at equal force, residual approach, elastic recovery) and each CalculiX run's
+    loading as far as it converged (approach at equal force, where reached)."""
+    peak = args.peak
+    forces = np.array(FORCE_PROBES) * peak
+    loading = {"ours_small": ours["small_to_peak"], "ours_finite": ours["finite"], **peers}
+    approach = {k: ccx.loading_approach_at(r, forces) for k, r in loading.items()}
+    fin, s2p = ours["finite"], ours["small_to_peak"]
+    record = {
+        **provenance("scripts/verify_finite_strain_ccx.py", _inputs(args, material)),
+        "largest_contact_radius_over_R": float(np.max(fin["contact_radius"]) / material.radius),
+        "force_probes": {"force_over_peak": list(FORCE_PROBES), "force_N": forces.tolist(),
+                         "approach_m": {k: v.tolist() for k, v in approach.items()}},
+        "finite_over_small": {
+            "approach_at_force": {
+                "ours": (approach["ours_finite"] / approach["ours_small"] - 1.0).tolist(),
+                "calculix": (approach["ccx_nlgeom"] / approach["ccx_small"] - 1.0).tolist()},
+            "ours_residual_approach": fin["residual_approach_m"] / s2p["residual_approach_m"]
+            - 1.0,
+            "ours_elastic_recovery": ccx.elastic_recovery(fin) / ccx.elastic_recovery(s2p)
+            - 1.0},
+        "ours_over_calculix_same_kinematics": {
+            "small": (approach["ours_small"] / approach["ccx_small"] - 1.0).tolist(),
+            "finite": (approach["ours_finite"] / approach["ccx_nlgeom"] - 1.0).tolist()},
+        "ours": {k: {q: v for q, v in r.items() if q not in ("approach", "force", "contact_radius")}
+                 for k, r in ours.items()},
+        "calculix": {k: {"failed": r.get("failed"),
+                         "largest_loading_approach_m": float(np.max(r["approach"])),
+                         "largest_force_N": float(np.max(r["force"])),
+                         "cpu_time_s": r.get("cpu_time_s")} for k, r in peers.items()},
+    }
+    return record
+
+
+def failure_table(record: dict) -> str:
+    inputs, fp = record["inputs"], record["force_probes"]
+    m = inputs["material"]
+    lines = [
+        "# Finite strain in the weak regime: CalculiX NLGEOM did not run through",
+        "",
+        f"Made by `{record['command']}` (geocontact {record['geocontact_version']}, "
+        f"{record['created_utc']}); inputs in the .json beside this file.",
+        "",
+        f"Material `{inputs['preset']}` (E/sigma_c = "
+        f"{m['youngs_modulus'] / m['compressive_yield_stress']:g}, nu = {m['poissons_ratio']:g}, "
+        f"hardening ratio {m['hardening_ratio']:g}, R = {m['radius']:g} m), mesh "
+        f"`{inputs['mesh']}` rule `{inputs['mesh_rule']}`, 0 -> {inputs['peak_force_N']:g} N -> 0"
+        f" (ours: {inputs['steps_per_segment']} steps per segment, force-step cap "
+        f"{inputs['max_step_ratio']}; largest a/R = "
+        f"{record['largest_contact_radius_over_R']:.3f}); CalculiX: "
+        f"{inputs['ccx_increments_per_step']} increments per step, contact slope "
+        f"{inputs['ccx_penalty_factor']:g} E / smallest edge"
+        + ("" if inputs.get("ccx_peer_approach_m") is None
+           else f", to {1e3 * inputs['ccx_peer_approach_m']:g} mm") + ".",
+        "",
+        "| CalculiX run | status | largest loading approach | force there |",
+        "| --- | --- | --- | --- |"]
+    for k, r in record["calculix"].items():
+        lines.append(f"| {LABELS[k]} | {r['failed'] or 'ran through'} | "
+                     f"{1e3 * r['largest_loading_approach_m']:.4f} mm | "
+                     f"{r['largest_force_N']:.4g} N |")
+    lines += ["", "Loading approach at equal force (n/a: not reached):", "",
+              "| force (N) | " + " | ".join(f"{f:.4g}" for f in fp["force_N"]) + " |",
+              "| --- " * (len(fp["force_N"]) + 1) + "|"]
+    for k in CODES:
+        lines.append(f"| {LABELS[k]} (mm) | " + " | ".join(
+            "n/a" if not np.isfinite(x) else f"{1e3 * x:.4f}" for x in fp["approach_m"][k])
+            + " |")
+    fs, same = record["finite_over_small"], record["ours_over_calculix_same_kinematics"]
+    for label, values in (("finite / small - 1, geocontact", fs["approach_at_force"]["ours"]),
+                          ("finite / small - 1, CalculiX", fs["approach_at_force"]["calculix"]),
+                          ("geocontact / CalculiX - 1, small strain", same["small"]),
+                          ("geocontact / CalculiX - 1, finite strain", same["finite"])):
+        lines.append(f"| {label} | " + " | ".join(_pct(x) for x in values) + " |")
+    lines += ["", f"Ours, finite / small - 1 at the peak force: residual approach "
+              f"{_pct(fs['ours_residual_approach'])}, elastic recovery "
+              f"{_pct(fs['ours_elastic_recovery'])}."]
+    return "\n".join(lines) + "\n"
+
+
+def _inputs(args, material) -> dict:
+    return {"material": material.to_dict(), "preset": args.material_name, "mesh": args.mesh,
+            "mesh_rule": args.mesh_rule,
+            "steps_per_segment": args.steps, "ccx_increments_per_step": args.increments,
+            "w_max_JG": None if args.force is not None else args.w_max,
+            "peak_force_N": args.peak, "max_step_ratio": args.max_step_ratio,
+            "ccx_penalty_factor": args.penalty, "ccx_unload_to": args.unload_to,
+            "ccx_peer_approach_m": args.peer_approach}
 
 
 def _peer_record(curve, s) -> dict:
@@ -142,7 +245,8 @@ def compare(runs: dict, material, loading: dict) -> dict:
     histories 0 -> F -> 0 with the same load steps, so that small and finite strain differ by
     the kinematics alone)."""
     jg, ke = fits.jackson_green_critical(material), fits.kogut_etsion_critical(material)
-    d_max = runs["ccx_nlgeom"]["max_approach_m"]
+    # the largest approach every loading branch reaches (CalculiX's unless --peer-approach)
+    d_max = min(float(np.max(r["approach"])) for r in loading.values())
     scale = runs["ccx_nlgeom"]["max_force_N"]
     probes = np.array(PROBES) * d_max
     # the largest force every loading branch reaches: approach at equal force up to it
@@ -249,13 +353,18 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--unload-to", type=float, default=UNLOAD_TO,
                         help="CalculiX unloads to this fraction of the largest approach (just "
                              "below the residual approach ratio)")
+    parser.add_argument("--peer-approach", type=float, default=None,
+                        help="CalculiX's largest approach (m) instead of our finite-strain run's "
+                             "(a path CalculiX converges on); the unloading is then not "
+                             "compared")
     parser.add_argument("--name", default=None,
                         help="output stem (default finite_strain_ccx[_MESH])")
     parser.add_argument("--work", type=Path, default=Path("out/finite_strain_ccx"))
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args(argv)
     for option, value, low in (("--force", args.force, 0.0), ("--w-max", args.w_max, 1.0),
-                               ("--penalty", args.penalty, 0.0)):
+                               ("--penalty", args.penalty, 0.0),
+                               ("--peer-approach", args.peer_approach, 0.0)):
         if value is not None and not (np.isfinite(value) and value > low):
             parser.error(f"{option}: must be > {low:g}, got {value:g}")
     if not 0.0 <= args.unload_to < 1.0:
@@ -307,19 +416,25 @@ def main(argv=None) -> int:
         min_force=smallest_resolved_force(material, sized, args.steps), rule=args.mesh_rule))
     if len(fe_mesh.points) != finite["nodes"] or len(fe_mesh.triangles) != finite["elements"]:
         raise SystemExit("verify_finite_strain_ccx: the CalculiX mesh is not the FE run's")
-    runs = {"ours_small": small, "ours_finite": finite,
-            "ccx_small": run_peer(material, fe_mesh, d_f, args, False, peak),
-            "ccx_nlgeom": run_peer(material, fe_mesh, d_f, args, True, peak)}
+    peers = {"ccx_small": run_peer(material, fe_mesh, args.peer_approach or d_f, args, False,
+                                   peak),
+             "ccx_nlgeom": run_peer(material, fe_mesh, args.peer_approach or d_f, args, True,
+                                    peak)}
+    args.out.mkdir(parents=True, exist_ok=True)
+    failed = [k for k, r in peers.items() if "failed" in r]
+    if failed:
+        report = failure_report(args, material, {"finite": finite, "small_to_peak": small_to_peak,
+                                                 "small": small}, peers)
+        write_json_atomic(args.out / f"{args.name}.json", report)
+        write_text_atomic(args.out / f"{args.name}.md", failure_table(report))
+        print(failure_table(report))
+        raise SystemExit(f"verify_finite_strain_ccx: CalculiX stopped early ({', '.join(failed)});"
+                         f" what compares is in {args.out / args.name}.md")
+    runs = {"ours_small": small, "ours_finite": finite, **peers}
     result = compare(runs, material, {**runs, "ours_small": small_to_peak})
     ke = fits.kogut_etsion_critical(material)
     record = {
-        **provenance("scripts/verify_finite_strain_ccx.py", {
-            "material": material.to_dict(), "preset": args.material_name, "mesh": args.mesh,
-            "mesh_rule": args.mesh_rule,
-            "steps_per_segment": args.steps, "ccx_increments_per_step": args.increments,
-            "w_max_JG": None if args.force is not None else args.w_max, "peak_force_N": peak,
-            "max_step_ratio": args.max_step_ratio, "ccx_penalty_factor": args.penalty,
-            "ccx_unload_to": args.unload_to}),
+        **provenance("scripts/verify_finite_strain_ccx.py", _inputs(args, material)),
         "critical_JG": {"interference_m": jg.interference, "force_N": jg.force},
         "critical_KE": {"interference_m": ke.interference, "force_N": ke.force},
         "largest_contact_radius_over_R": float(np.max(finite["contact_radius"])
@@ -329,7 +444,6 @@ def main(argv=None) -> int:
                  for k, r in runs.items()},
         **result,
     }
-    args.out.mkdir(parents=True, exist_ok=True)
     stem = args.name
     write_csv(args.out / f"{stem}.csv", {
         **{f"{k}_approach_m": r["approach"] for k, r in runs.items()},
@@ -374,8 +488,11 @@ def table(record: dict, stem: str = "finite_strain_ccx") -> str:
         + ("" if inputs.get("max_step_ratio") is None
            else f", plastic force steps capped at x {inputs['max_step_ratio']:g}")
         + "); CalculiX: "
-        f"{inputs['ccx_increments_per_step']} increments per step (displacement control to our "
-        "finite-strain run's largest approach and back to "
+        f"{inputs['ccx_increments_per_step']} increments per step (displacement control to "
+        + ("our finite-strain run's largest approach" if _like_for_like(inputs) else
+           f"{1e3 * inputs['ccx_peer_approach_m']:g} mm (--peer-approach: our runs' unloading "
+           "starts elsewhere, so unloading is compared only within each code)")
+        + " and back to "
         f"{inputs.get('ccx_unload_to', UNLOAD_TO):g} of it; contact slope "
         f"{inputs.get('ccx_penalty_factor', ccx.PENALTY_DEFAULT):g} E / smallest edge).",
         "",
@@ -390,14 +507,16 @@ def table(record: dict, stem: str = "finite_strain_ccx") -> str:
         "| d(delta_res/delta_max) | unloading shape max \\|d(P/P_max)\\| |",
         "| --- " * (len(PROBES) + 6) + "|",
     ]
+    like = _like_for_like(inputs)
     for name, pair in record["pairs"].items():
         ours, peer = name.split("-")
         fd = pair["max_force_difference"]
+        unloading = (f"{_pct(fd['unloading'])} | {pair['residual_ratio_difference']:+.4f} | "
+                     f"{pair['unloading_shape_difference']:.4f}") if like else "- | - | -"
         lines.append(f"| {LABELS[ours]} vs {LABELS[peer]} | "
                      + " | ".join(_pct(x) for x in pair["smoothed_force_relative"])
                      + f" | {_pct(pair['loading_work_relative'][-1])} | {_pct(fd['loading'])} | "
-                     f"{_pct(fd['unloading'])} | {pair['residual_ratio_difference']:+.4f} | "
-                     f"{pair['unloading_shape_difference']:.4f} |")
+                     f"{unloading} |")
     fs = record["finite_over_small"]
     for who, label in (("ours", "geocontact"), ("calculix", "CalculiX")):
         lines.append(f"| finite / small strain - 1, {label} | "
@@ -451,14 +570,21 @@ def _equal_force_table(record: dict) -> list[str]:
                      + f" | {1e3 * record['elastic_recovery_m'][k]:.4f} mm |")
     for name, pair in record["pairs"].items():
         ours, peer = name.split("-")
+        recovery = (_pct(pair["elastic_recovery_relative"]) if _like_for_like(record["inputs"])
+                    else "-")
         lines.append(f"| {LABELS[ours]} vs {LABELS[peer]} | "
                      + " | ".join(_pct(x) for x in pair["approach_at_force_relative"])
-                     + f" | {_pct(pair['elastic_recovery_relative'])} |")
+                     + f" | {recovery} |")
     for who, label in (("ours", "geocontact"), ("calculix", "CalculiX")):
         lines.append(f"| finite / small strain - 1, {label} | "
                      + " | ".join(_pct(x) for x in fs["approach_at_force"][who])
                      + f" | {_pct(fs['elastic_recovery'][who])} |")
     return lines
+
+
+def _like_for_like(inputs: dict) -> bool:
+    """Both codes unload from the same largest approach (no --peer-approach)."""
+    return inputs.get("ccx_peer_approach_m") is None
 
 
 def _runs_table(lines: list[str], runs: dict) -> str:

@@ -27,6 +27,7 @@ def test_default_is_the_e_over_sigma_200_sphere_to_100_critical_interferences():
     assert args.material == material
     assert args.peak == pytest.approx(float(fits.jackson_green_load(material, 100.0)) * jg.force)
     assert args.name == "finite_strain_ccx" and args.penalty == 100.0
+    assert args.unload_to == 0.5 and args.peer_approach is None and args.max_step_ratio is None
     assert args.work == Path("out/finite_strain_ccx/coarse-contact-24-24-w100")
 
 
@@ -47,6 +48,7 @@ def test_weak_grain_from_a_toml_file_and_a_force():
     (["--material", "no-such.toml"], "--material: material: file not found"),
     (["--force", "-1"], "--force: must be > 0"),
     (["--penalty", "0"], "--penalty: must be > 0"),
+    (["--peer-approach", "nan"], "--peer-approach: must be > 0"),
     (["--unload-to", "1"], "--unload-to: must be in [0, 1)"),
     (["--max-step-ratio", "0.9"], "--max-step-ratio: must be > 1"),
 ])
@@ -71,3 +73,37 @@ def test_approach_at_equal_force_inverts_the_loading_branch():
     assert loading_approach_at(run, [2.6])[0] < 2.0
     assert got[4] == pytest.approx(3.0) and np.isnan(got[5])
     assert elastic_recovery({"max_approach_m": 3.5, "residual_approach_m": 2.75}) == 0.75
+
+
+def _run(stiffness, d_max, recovery):
+    """A load-unload record: F = k d on loading to d_max, then back to F = 0 over recovery."""
+    up = np.linspace(0.0, d_max, 41)
+    down = np.linspace(d_max, d_max - recovery, 11)[1:]
+    force = np.concatenate([stiffness * up, stiffness * d_max * np.linspace(1, 0, 11)[1:]])
+    return {"approach": np.concatenate([up, down]), "force": force,
+            "contact_radius": 0.1 * np.sqrt(np.concatenate([up, down])),
+            "max_approach_m": d_max, "residual_approach_m": d_max - recovery,
+            "max_force_N": stiffness * d_max}
+
+
+def test_failure_report_compares_what_converged():
+    args = script.parse_args(["--material", str(WEAK), "--force", "3000"])
+    # ours: finite strain 10 % stiffer on loading; CalculiX: small ran through, NLGEOM stopped
+    # at 40 % of the peak force, 20 % stiffer than CalculiX small strain
+    finite, small = _run(3000.0 / 0.9, 0.9, 0.02), _run(3000.0, 1.0, 0.025)
+    peers = {"ccx_small": _run(3000.0, 1.0, 0.025),
+             "ccx_nlgeom": script._failed_record("ccx: run stopped at total time 0.4 of 2", {
+                 "approach_m": [0.0, 0.2, 0.4], "force_N": [0.0, 720.0, 1440.0]})}
+    report = script.failure_report(args, args.material,
+                                   {"finite": finite, "small_to_peak": small, "small": small},
+                                   peers)
+    fs = report["finite_over_small"]
+    assert fs["approach_at_force"]["ours"] == pytest.approx([-0.1] * 5)
+    calculix = fs["approach_at_force"]["calculix"]
+    assert calculix[:2] == pytest.approx([1 / 1.2 - 1] * 2) and np.isnan(calculix[2:]).all()
+    assert report["ours_over_calculix_same_kinematics"]["small"] == pytest.approx([0.0] * 5)
+    assert fs["ours_elastic_recovery"] == pytest.approx(0.02 / 0.025 - 1)
+    assert report["calculix"]["ccx_nlgeom"]["largest_loading_approach_m"] == 0.4
+    table = script.failure_table(report)
+    assert "ccx: run stopped at total time 0.4 of 2" in table and "| n/a |" in table
+    assert "-16.67 %" in table and "-10.00 %" in table

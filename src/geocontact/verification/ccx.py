@@ -403,7 +403,9 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
             residual_tolerance: float | None = None, threads: int = 1,
             workdir: str | Path | None = None, nlgeom: bool = False) -> CcxResult:
     """Run CalculiX through the approach (ball-ball) waypoints ``approaches`` (loading and
-    unloading steps); wall and CPU time are those of the ``ccx`` process alone. ``nlgeom``:
+    unloading steps); wall and CPU time are those of the ``ccx`` process alone. A run that
+    stops early raises ConvergenceError whose ``partial`` holds the increments that converged
+    (time, approach_m, force_N, wall_time_s, cpu_time_s). ``nlgeom``:
     geometrically nonlinear (``write_deck``)."""
     exe = ccx_executable()
     if exe is None:
@@ -431,9 +433,16 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
         if proc.returncode != 0 or "*ERROR" in proc.stdout or len(times) == 0 or \
                 times[-1] < len(approaches) - 1e-9:
             tail = " ".join((proc.stdout + proc.stderr).strip().splitlines()[-3:])
-            raise ConvergenceError(f"ccx: run stopped at total time "
-                                   f"{times[-1] if len(times) else 0:g} of {len(approaches)}: "
-                                   f"{tail}")
+            error = ConvergenceError(f"ccx: run stopped at total time "
+                                     f"{times[-1] if len(times) else 0:g} of "
+                                     f"{len(approaches)}: {tail}")
+            # the increments that did converge: time, approach_m (pair), force_N from 0
+            t = np.concatenate([[0.0], times])
+            error.partial = {"time": t,
+                             "approach_m": PAIR * interference_path(t, interferences),
+                             "force_N": np.concatenate([[0.0], force]),
+                             "wall_time_s": wall, "cpu_time_s": cpu}
+            raise error
         times = np.concatenate([[0.0], times])
         force = np.concatenate([[0.0], force])
         approach = PAIR * interference_path(times, interferences)
