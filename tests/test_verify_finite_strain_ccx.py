@@ -107,3 +107,28 @@ def test_failure_report_compares_what_converged():
     table = script.failure_table(report)
     assert "ccx: run stopped at total time 0.4 of 2" in table and "| n/a |" in table
     assert "-16.67 %" in table and "-10.00 %" in table
+
+
+def test_a_ccx_run_that_stops_early_keeps_the_increments_that_converged(tmp_path, monkeypatch):
+    """run_ccx on a stand-in executable that converges two increments and then reports
+    CalculiX's error: ConvergenceError, with those two increments in ``partial``."""
+    from geocontact.errors import ConvergenceError
+    from geocontact.fem.run import history_mesh
+    from geocontact.verification import ccx
+
+    block = ("\n total force (fx,fy,fz) for set TOP and time  {t:.7E}\n\n"
+             "       -2.366413E-04 {f:.6E} -3.663881E-14\n")
+    dat = block.format(t=0.25, f=-1e-3) + block.format(t=0.5, f=-3e-3)
+    fake = tmp_path / "ccx"
+    fake.write_text(f"#!/bin/sh\nprintf '%s' '{dat}' > sphere.dat\n"
+                    "echo ' *ERROR: too many cutbacks'\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(ccx, "ccx_executable", lambda: str(fake))
+    material = preset("von-mises")
+    mesh = ccx.AxisymmetricMesh.from_skfem(history_mesh(material, 1000.0, "coarse"))
+    with pytest.raises(ConvergenceError, match="total time 0.5 of 2") as info:
+        ccx.run_ccx(material, mesh, [4e-6, 2e-6], [4, 4])
+    partial = info.value.partial
+    assert partial["time"].tolist() == [0.0, 0.25, 0.5]
+    assert partial["approach_m"] == pytest.approx([0.0, 1e-6, 2e-6])
+    assert partial["force_N"] == pytest.approx([0.0, 0.18, 0.54])
