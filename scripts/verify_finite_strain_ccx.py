@@ -482,7 +482,7 @@ def table(record: dict, stem: str = "finite_strain_ccx") -> str:
         f"mesh `{inputs['mesh']}` ({runs['ours_finite']['elements']} elements, rule "
         f"`{inputs['mesh_rule']}`, the same in both "
         f"codes), 0 -> {target} (JG: omega_c = "
-        f"{jg['interference_m']:.4e} m, P_c = {jg['force_N']:.4g} N) -> 0; largest a/R = "
+        f"{jg['interference_m']:.4e} m, P_c = {jg['force_N']:.5g} N) -> 0; largest a/R = "
         f"{record['largest_contact_radius_over_R']:.3f}. Ours: {inputs['steps_per_segment']} "
         "load steps per segment (force control"
         + ("" if inputs.get("max_step_ratio") is None
