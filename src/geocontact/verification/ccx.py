@@ -292,6 +292,32 @@ def loading_force_at(run: dict, approaches) -> np.ndarray:
     return np.interp(approaches, d, f, right=np.nan)
 
 
+def loading_approach_at(run: dict, forces) -> np.ndarray:
+    """The loading approach at each force: the inverse of ``loading_force_at`` on the running
+    maximum of the force (a displacement-controlled run's force can dip as a node engages;
+    the first approach that reaches the force counts); NaN beyond the largest loading force."""
+    (d, f), _ = branches(run["approach"], run["force"])
+    top = np.maximum.accumulate(f)
+    out = []
+    for x in np.atleast_1d(forces):
+        if x > top[-1] * (1 + 1e-12) or x < 0:
+            out.append(np.nan)
+            continue
+        k = int(np.searchsorted(top, x))  # first point with running maximum >= x
+        if k == 0:
+            out.append(float(d[0]))
+            continue
+        lo, hi = f[k - 1], f[k]  # f[k] = top[k] >= x > top[k - 1] >= f[k - 1]
+        t = (x - lo) / (hi - lo)
+        out.append(float(d[k - 1] + t * (d[k] - d[k - 1])))
+    return np.array(out)
+
+
+def elastic_recovery(run: dict) -> float:
+    """Largest minus residual approach of one load-unload cycle (m)."""
+    return float(run["max_approach_m"] - run["residual_approach_m"])
+
+
 def smoothed_force_at(run: dict, approaches, window: float = 0.2) -> np.ndarray:
     """The loading force at each approach d from a power law F = C x^b fitted (least squares in
     log-log) to the loading points within (1 -/+ window) d: the force without the step-to-step
@@ -377,7 +403,9 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
             residual_tolerance: float | None = None, threads: int = 1,
             workdir: str | Path | None = None, nlgeom: bool = False) -> CcxResult:
     """Run CalculiX through the approach (ball-ball) waypoints ``approaches`` (loading and
-    unloading steps); wall and CPU time are those of the ``ccx`` process alone. ``nlgeom``:
+    unloading steps); wall and CPU time are those of the ``ccx`` process alone. A run that
+    stops early raises ConvergenceError whose ``partial`` holds the increments that converged
+    (time, approach_m, force_N, wall_time_s, cpu_time_s). ``nlgeom``:
     geometrically nonlinear (``write_deck``)."""
     exe = ccx_executable()
     if exe is None:
@@ -405,9 +433,16 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
         if proc.returncode != 0 or "*ERROR" in proc.stdout or len(times) == 0 or \
                 times[-1] < len(approaches) - 1e-9:
             tail = " ".join((proc.stdout + proc.stderr).strip().splitlines()[-3:])
-            raise ConvergenceError(f"ccx: run stopped at total time "
-                                   f"{times[-1] if len(times) else 0:g} of {len(approaches)}: "
-                                   f"{tail}")
+            error = ConvergenceError(f"ccx: run stopped at total time "
+                                     f"{times[-1] if len(times) else 0:g} of "
+                                     f"{len(approaches)}: {tail}")
+            # the increments that did converge: time, approach_m (pair), force_N from 0
+            t = np.concatenate([[0.0], times])
+            error.partial = {"time": t,
+                             "approach_m": PAIR * interference_path(t, interferences),
+                             "force_N": np.concatenate([[0.0], force]),
+                             "wall_time_s": wall, "cpu_time_s": cpu}
+            raise error
         times = np.concatenate([[0.0], times])
         force = np.concatenate([[0.0], force])
         approach = PAIR * interference_path(times, interferences)
@@ -440,6 +475,6 @@ def run_ccx(material: Material, mesh: AxisymmetricMesh, approaches: list[float],
 
 
 __all__ = ["AxisymmetricMesh", "CcxResult", "branches", "ccx_executable", "ccx_version",
-           "force_difference", "loading_force_at", "loading_work_at", "read_dat",
-           "residual_approach", "run_ccx", "smoothed_force_at", "sphere_faces",
-           "unloading_exponent", "unloading_shape", "write_deck"]
+           "elastic_recovery", "force_difference", "loading_approach_at", "loading_force_at",
+           "loading_work_at", "read_dat", "residual_approach", "run_ccx", "smoothed_force_at",
+           "sphere_faces", "unloading_exponent", "unloading_shape", "write_deck"]
