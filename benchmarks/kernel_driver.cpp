@@ -7,6 +7,9 @@
 //   g++ -std=c++17 -O3 -fno-math-errno -g -Iplugins/lammps/include -Ibuild/kernel
 //       benchmarks/kernel_driver.cpp -o build/kernel/driver -lpthread   (one command)
 //   build/kernel/driver examples/params-reference.json 1000000 100 1 3     # contacts steps threads repeats
+//   build/kernel/driver examples/params-reference.json 100000 100 1 1 check
+//       (then also replays every contact with the one-contact step<false> of law.hpp and
+//        compares each state field bit for bit, the arrays' envelopes brought up to date)
 //   valgrind --tool=callgrind --toggle-collect='*step_block*'
 //       build/kernel/driver examples/params-reference.json 20000 100 1 1   (one command)
 //
@@ -20,6 +23,8 @@
 #include <cstdlib>
 #include <ctime>
 #include <random>
+#include <string>
+#include <cstring>
 #include <vector>
 
 int main(int argc, char **argv)
@@ -61,6 +66,27 @@ int main(int argc, char **argv)
     wall = std::min(wall,
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     cpu = std::min(cpu, double(std::clock() - start_cpu) / CLOCKS_PER_SEC);
+  }
+  if (argc > 6 && std::string(argv[6]) == "check") {
+    geocontact::refresh_envelopes(p, state);
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      geocontact::ContactState s;
+      for (int t = 0; t < steps; ++t) geocontact::step(p, s, path[t * n + i]);
+      const double ours[] = {state.approach[i], state.force[i], state.max_approach[i],
+                             state.max_force[i], state.residual_approach[i],
+                             state.unloading_exponent[i], state.reloading_exponent[i],
+                             state.branch_value[i], state.ratchet_shift[i],
+                             state.pending_ratchet[i], state.cycles[i], state.work[i]};
+      const double theirs[] = {s.approach, s.force, s.max_approach, s.max_force,
+                               s.residual_approach, s.unloading_exponent, s.reloading_exponent,
+                               s.branch_value, s.ratchet_shift, s.pending_ratchet, s.cycles,
+                               s.work};
+      differ += std::memcmp(ours, theirs, sizeof ours) != 0 || state.branch[i] != s.branch;
+    }
+    std::printf("check: %zu of %zu contacts differ in some bit from the one-contact step\n",
+                differ, n);
+    if (differ) return 1;
   }
   double checksum = 0.0;
   for (std::size_t i = 0; i < n; ++i) checksum += state.work[i] + state.force[i];

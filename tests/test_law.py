@@ -387,6 +387,38 @@ def test_state_is_named_arrays_matching_the_reference_state():
     assert np.all(arrays.state.work == 0.0) and np.all(arrays.state.unloading_exponent == 1.5)
 
 
+def test_state_of_contacts_on_the_virgin_curve_is_up_to_date_when_read():
+    """The array step computes a climbing contact's envelope (residual approach, n_u, n_r, the
+    cycle count) only when it leaves the virgin curve; reading ``state`` brings it up to date:
+    at every step the envelope matches the reference's, and a run whose state is never read
+    ends bitwise the same (reading changes nothing that follows)."""
+    n, steps = 40, 70
+    rng = np.random.default_rng(11)
+    # mostly climbing (the virgin curve), with reversals and new excursions beyond the envelope
+    paths = np.cumsum(rng.normal(0.4, 1.0, size=(steps, n)), axis=0) * DY
+    for params in (CYCLIC, DEEP):
+        read, unread = ContactArrays(params, n), ContactArrays(params, n)
+        contacts = [Contact(params) for _ in range(n)]
+        on_virgin = 0
+        for row in paths:
+            read.step(row)
+            unread.step(row)
+            state = read.state
+            for i, contact in enumerate(contacts):
+                contact.update(row[i])
+                if state.branch[i] != 1 or state.max_approach[i] <= DY:
+                    continue
+                on_virgin += 1
+                for name in ("residual_approach", "unloading_exponent", "reloading_exponent",
+                             "cycles"):
+                    expected = getattr(contact.state, name)
+                    assert state.as_dict()[name][i] == pytest.approx(expected, rel=1e-11), name
+        assert on_virgin > steps  # the check really saw contacts climbing past yield
+        ours, theirs = read.state.as_dict(), unread.state.as_dict()
+        for name in ours:
+            assert np.array_equal(ours[name].view(np.uint8), theirs[name].view(np.uint8)), name
+
+
 def test_core_derives_the_constants_of_the_python_parameters():
     from geocontact.law.kernel import core_params
 

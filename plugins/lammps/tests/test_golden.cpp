@@ -48,6 +48,28 @@ double max_abs(const Value &arr)
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+// The arrays' state, their virgin contacts' envelopes brought up to date (the array step
+// computes them lazily), against the one-contact step's: every field, bit for bit.
+void check_state(const geocontact::LawParams &p, geocontact::StateArrays &arrays,
+                 const std::vector<geocontact::ContactState> &single, const std::string &what)
+{
+  geocontact::refresh_envelopes(p, arrays);
+  for (std::size_t j = 0; j < single.size(); ++j) {
+    const geocontact::ContactState &s = single[j];
+    check(same_bits(arrays.approach[j], s.approach) && same_bits(arrays.force[j], s.force) &&
+              same_bits(arrays.max_approach[j], s.max_approach) &&
+              same_bits(arrays.max_force[j], s.max_force) &&
+              same_bits(arrays.residual_approach[j], s.residual_approach) &&
+              same_bits(arrays.unloading_exponent[j], s.unloading_exponent) &&
+              same_bits(arrays.reloading_exponent[j], s.reloading_exponent) &&
+              same_bits(arrays.work[j], s.work) && same_bits(arrays.cycles[j], s.cycles) &&
+              same_bits(arrays.ratchet_shift[j], s.ratchet_shift) &&
+              same_bits(arrays.pending_ratchet[j], s.pending_ratchet) &&
+              same_bits(arrays.branch_value[j], s.branch_value) && arrays.branch[j] == s.branch,
+          what + ", contact " + std::to_string(j), "state (work)", arrays.work[j], s.work);
+  }
+}
+
 // The array path (arrays.hpp, what the Python binding runs) on all cases of one parameter
 // variant at once, on 1 and 3 threads: bit for bit the one-contact path of the loop in main().
 // Histories are right-aligned; an untouched contact held at approach 0 stays as it was.
@@ -77,17 +99,13 @@ void check_arrays(const geocontact::LawParams &p, const std::vector<const Value 
         check(arrays.branch[j] == single[j].branch, where, "branch", arrays.branch[j],
               single[j].branch);
       }
+      // the state read between steps (from a copy: the steps that follow must not depend on it)
+      if (k % 7 == 3) {
+        geocontact::StateArrays copy = arrays;
+        check_state(p, copy, single, variant + " step " + std::to_string(k));
+      }
     }
-    for (std::size_t j = 0; j < n; ++j) {
-      const std::string where = variant + " arrays final, contact " + std::to_string(j);
-      const geocontact::ContactState &s = single[j];
-      check(same_bits(arrays.max_approach[j], s.max_approach) &&
-                same_bits(arrays.residual_approach[j], s.residual_approach) &&
-                same_bits(arrays.work[j], s.work) && same_bits(arrays.cycles[j], s.cycles) &&
-                same_bits(arrays.ratchet_shift[j], s.ratchet_shift) &&
-                same_bits(arrays.branch_value[j], s.branch_value),
-            where, "state", arrays.work[j], s.work);
-    }
+    check_state(p, arrays, single, variant + " arrays final");
   }
 }
 

@@ -51,6 +51,12 @@ struct Contacts {
       geocontact::step(params, state, approach, force.data(), stiffness.data(), threads);
   }
 
+  // the envelopes of contacts on the virgin curve, which the array step computes lazily
+  void refresh_envelopes()
+  {
+    if (!hertz_only) geocontact::refresh_envelopes(params, state);
+  }
+
   void reset()
   {
     // same size: assign() keeps every vector's buffer, so the numpy views stay valid
@@ -174,6 +180,9 @@ NB_MODULE(_core, m)
           "approach"_a,
           "Advance contact i to approach[i]; the results are in force and stiffness.")
       .def("reset", &Contacts::reset, "Every contact back to untouched.")
+      .def("refresh_envelopes", &Contacts::refresh_envelopes,
+           "Bring the envelope (residual approach, n_u, n_r, cycles) of every contact on the "
+           "virgin curve up to date: the step computes it when a contact leaves the curve.")
       .def_prop_ro("force", [](nb::handle h) {
         return view(nb::cast<Contacts &>(h).force, h);
       }, nb::rv_policy::reference_internal)

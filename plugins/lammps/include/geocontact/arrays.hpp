@@ -9,6 +9,12 @@
 // (docs/law.md, "State per contact"), stepped in place (ContactRef): a contact's fields are
 // loaded where the law reads them and stored where it writes them.
 //
+// Envelopes: the arrays are stepped by step<true> (law.hpp), which computes the envelope of a
+// contact climbing the virgin curve only when it leaves the curve; refresh_envelopes() brings
+// every such contact's residual approach, n_u, n_r and cycle count up to date (bitwise those of
+// the one-contact step<false>). Call it before reading those fields (the Python binding does,
+// whenever its state is read).
+//
 // Threads: contacts are independent, so a step splits them into `threads` contiguous blocks, one
 // per std::thread; no sum or order depends on the split, and the results are bitwise the same
 // for any thread count.
@@ -114,7 +120,7 @@ inline void step_block(const LawParams &p, StateArrays &a, const double *approac
   const StatePointers pointers(a);
   for (std::size_t i = begin; i < end; ++i) {
     ContactRef s(pointers, i);
-    const StepResult r = step(p, s, approach[i]);
+    const StepResult r = step<true>(p, s, approach[i]);
     force[i] = r.force;
     stiffness[i] = r.stiffness;
   }
@@ -167,6 +173,17 @@ inline void step(const LawParams &p, StateArrays &state, const double *approach,
   detail::parallel_blocks(state.size(), threads, [&](std::size_t begin, std::size_t end) {
     detail::step_block(p, state, approach, force, stiffness, begin, end);
   });
+}
+
+// Bring the envelope of every contact on the virgin curve up to date (see the top of this file).
+inline void refresh_envelopes(const LawParams &p, StateArrays &state)
+{
+  const StatePointers pointers(state);
+  for (std::size_t i = 0, n = state.size(); i < n; ++i) {
+    if (pointers.branch[i] != VIRGIN) continue;
+    ContactRef s(pointers, i);
+    refresh_envelope(p, s);
+  }
 }
 
 // Plain Hertz of coefficient kh through the same structure (no hysteresis, no dissipation).
