@@ -141,6 +141,10 @@ struct LawParams {
   double log_fully_plastic_ratio = 0.0;  // log r_p
   double log_deep_plastic_ratio = 0.0;   // log r_q (max double without one)
   double log_band = 0.0;                 // log(1 - tol) of the cyclic extension's band
+  // the envelope while delta_max <= delta_y (x = 1): delta_res / delta_max, n_u, n_r
+  double yield_residual_ratio = 0.0;
+  double yield_unloading_exponent = kHertzExponent;
+  double yield_reloading_exponent = kHertzExponent;
 
   void derive()
   {
@@ -164,6 +168,14 @@ struct LawParams {
                                  ? std::log(deep_plastic_approach_ratio)
                                  : std::numeric_limits<double>::max();
     log_band = std::log1p(-cyclic.tolerance);
+    // the virgin step's envelope formulas at x = 1 (log x = 0), the same operations, so the
+    // same bits as evaluating them at every virgin step within delta_y
+    yield_residual_ratio = -residual_limit * std::expm1(-residual_power * residual_log_depth(1.0));
+    yield_unloading_exponent = kHertzExponent * std::exp(unloading_power * 0.0);
+    yield_reloading_exponent =
+        reloading_power >= unloading_power
+            ? yield_unloading_exponent
+            : std::min(kHertzExponent * std::exp(reloading_power * 0.0), yield_unloading_exponent);
   }
 
   // --- the fitted functions of the plastic depth x = delta_max / delta_y --------------------
@@ -367,16 +379,22 @@ namespace detail {
 inline void virgin_envelope(const LawParams &p, double dmax, double lx, double start,
                             double &dres, double &nu, double &nr, double &cycles)
 {
-  // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
-  const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
-                        ? lx
-                        : p.residual_log_depth(dmax / p.yield_approach);
-  dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
-  nu = kHertzExponent * std::exp(p.unloading_power * lx);
-  // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
-  nr = p.reloading_power >= p.unloading_power
-           ? nu
-           : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+  if (dmax <= p.yield_approach) {  // x = 1: derived once (LawParams::derive)
+    dres = p.yield_residual_ratio * dmax;
+    nu = p.yield_unloading_exponent;
+    nr = p.yield_reloading_exponent;
+  } else {
+    // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
+    const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
+                          ? lx
+                          : p.residual_log_depth(dmax / p.yield_approach);
+    dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
+    nu = kHertzExponent * std::exp(p.unloading_power * lx);
+    // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
+    nr = p.reloading_power >= p.unloading_power
+             ? nu
+             : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+  }
   // an excursion wider than the band is a new envelope: the count restarts; within the band it
   // is the same cycle
   if (dmax - start > envelope_band(p, dmax, dres)) cycles = 1.0;
@@ -434,7 +452,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       }
       // one log of the depth, shared by the force (one exp), the work from the force, and the
       // envelope
-      const double lx = std::log(std::max(target / dy, 1.0));
+      const double lx = target > dy ? std::log(std::max(target / dy, 1.0)) : 0.0;
       fmax = p.virgin_force_from_log(target, lx);
       work += p.virgin_work_from_force(target, fmax) - p.virgin_work_from_force(d, force);
       dmax = target;
