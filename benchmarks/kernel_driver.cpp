@@ -73,23 +73,23 @@ int main(int argc, char **argv)
     for (std::size_t i = 0; i < n; ++i) {
       geocontact::ContactState s;
       for (int t = 0; t < steps; ++t) geocontact::step(p, s, path[t * n + i]);
-      const double ours[] = {state.approach[i], state.force[i], state.max_approach[i],
-                             state.max_force[i], state.residual_approach[i],
-                             state.unloading_exponent[i], state.reloading_exponent[i],
-                             state.branch_value[i], state.ratchet_shift[i],
-                             state.pending_ratchet[i], state.cycles[i], state.work[i]};
+      const double ours[] = {state[i].approach, state[i].force, state[i].max_approach,
+                             state[i].max_force, state[i].residual_approach,
+                             state[i].unloading_exponent, state[i].reloading_exponent,
+                             state[i].branch_value, state[i].ratchet_shift,
+                             state[i].pending_ratchet, state[i].cycles, state[i].work};
       const double theirs[] = {s.approach, s.force, s.max_approach, s.max_force,
                                s.residual_approach, s.unloading_exponent, s.reloading_exponent,
                                s.branch_value, s.ratchet_shift, s.pending_ratchet, s.cycles,
                                s.work};
-      differ += std::memcmp(ours, theirs, sizeof ours) != 0 || state.branch[i] != s.branch;
+      differ += std::memcmp(ours, theirs, sizeof ours) != 0 || state[i].branch != s.branch;
     }
     std::printf("check: %zu of %zu contacts differ in some bit from the one-contact step\n",
                 differ, n);
     if (differ) return 1;
   }
   double checksum = 0.0;
-  for (std::size_t i = 0; i < n; ++i) checksum += state.work[i] + state.force[i];
+  for (std::size_t i = 0; i < n; ++i) checksum += state[i].work + state[i].force;
   const double updates = double(n) * steps;
   std::printf("%zu contacts x %d steps, %d thread(s): %.4g updates/s wall, %.4g per CPU-second; "
               "checksum %.17g\n",

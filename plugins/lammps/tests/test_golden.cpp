@@ -56,17 +56,17 @@ void check_state(const geocontact::LawParams &p, geocontact::StateArrays &arrays
   geocontact::refresh_envelopes(p, arrays);
   for (std::size_t j = 0; j < single.size(); ++j) {
     const geocontact::ContactState &s = single[j];
-    check(same_bits(arrays.approach[j], s.approach) && same_bits(arrays.force[j], s.force) &&
-              same_bits(arrays.max_approach[j], s.max_approach) &&
-              same_bits(arrays.max_force[j], s.max_force) &&
-              same_bits(arrays.residual_approach[j], s.residual_approach) &&
-              same_bits(arrays.unloading_exponent[j], s.unloading_exponent) &&
-              same_bits(arrays.reloading_exponent[j], s.reloading_exponent) &&
-              same_bits(arrays.work[j], s.work) && same_bits(arrays.cycles[j], s.cycles) &&
-              same_bits(arrays.ratchet_shift[j], s.ratchet_shift) &&
-              same_bits(arrays.pending_ratchet[j], s.pending_ratchet) &&
-              same_bits(arrays.branch_value[j], s.branch_value) && arrays.branch[j] == s.branch,
-          what + ", contact " + std::to_string(j), "state (work)", arrays.work[j], s.work);
+    check(same_bits(arrays[j].approach, s.approach) && same_bits(arrays[j].force, s.force) &&
+              same_bits(arrays[j].max_approach, s.max_approach) &&
+              same_bits(arrays[j].max_force, s.max_force) &&
+              same_bits(arrays[j].residual_approach, s.residual_approach) &&
+              same_bits(arrays[j].unloading_exponent, s.unloading_exponent) &&
+              same_bits(arrays[j].reloading_exponent, s.reloading_exponent) &&
+              same_bits(arrays[j].work, s.work) && same_bits(arrays[j].cycles, s.cycles) &&
+              same_bits(arrays[j].ratchet_shift, s.ratchet_shift) &&
+              same_bits(arrays[j].pending_ratchet, s.pending_ratchet) &&
+              same_bits(arrays[j].branch_value, s.branch_value) && arrays[j].branch == s.branch,
+          what + ", contact " + std::to_string(j), "state (work)", arrays[j].work, s.work);
   }
 }
 
@@ -96,7 +96,7 @@ void check_arrays(const geocontact::LawParams &p, const std::vector<const Value 
         check(same_bits(force[j], r.force), where, "force", force[j], r.force);
         check(same_bits(stiffness[j], r.stiffness), where, "stiffness", stiffness[j],
               r.stiffness);
-        check(arrays.branch[j] == single[j].branch, where, "branch", arrays.branch[j],
+        check(arrays[j].branch == single[j].branch, where, "branch", arrays[j].branch,
               single[j].branch);
       }
       // the state read between steps (from a copy: the steps that follow must not depend on it)

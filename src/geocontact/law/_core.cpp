@@ -59,7 +59,7 @@ struct Contacts {
 
   void reset()
   {
-    // same size: assign() keeps every vector's buffer, so the numpy views stay valid
+    // same size: assign() keeps the records' buffer, so the numpy views stay valid
     state.resize(state.size());
     std::fill(force.begin(), force.end(), 0.0);
     std::fill(stiffness.begin(), stiffness.end(), 0.0);
@@ -70,6 +70,17 @@ template <class T>
 View<T> view(std::vector<T> &v, nb::handle owner)
 {
   return View<T>(v.data(), {v.size()}, owner);
+}
+
+// One field of every contact record, as a strided numpy view (stride: one record).
+template <class T>
+View<T> field_view(geocontact::StateArrays &s, T geocontact::ContactRecord::*field,
+                   nb::handle owner)
+{
+  static_assert(sizeof(geocontact::ContactRecord) % sizeof(T) == 0, "record stride");
+  T *first = &(s.contacts.data()->*field);
+  const std::int64_t stride = sizeof(geocontact::ContactRecord) / sizeof(T);
+  return View<T>(first, {s.size()}, owner, {stride});
 }
 
 int checked_threads(int threads)
@@ -192,11 +203,13 @@ NB_MODULE(_core, m)
       .def(
           "state_views",
           [](nb::handle h) {
-            // every ContactState field as a numpy view of this object's array, by name, in
-            // the order of ContactState (docs/law.md "State per contact")
+            // every ContactState field as a numpy view of this object's records (strided: one
+            // record per contact), by name, in the order of ContactState (docs/law.md "State
+            // per contact")
             geocontact::StateArrays &s = nb::cast<Contacts &>(h).state;
             nb::dict views;
-#define GEOCONTACT_FIELD(name) views[#name] = nb::cast(view(s.name, h));
+#define GEOCONTACT_FIELD(name) \
+  views[#name] = nb::cast(field_view(s, &geocontact::ContactRecord::name, h));
             GEOCONTACT_FIELD(approach)
             GEOCONTACT_FIELD(force)
             GEOCONTACT_FIELD(max_approach)

@@ -402,8 +402,7 @@ inline void virgin_envelope(const LawParams &p, double dmax, double lx, double s
 
 // The general step: branch moves until the target approach is reached (at most a few branch
 // ends are crossed). Inlined into step() like the fast paths: for arrays of contacts
-// (ContactRef) the references then resolve to array elements; a call would pass them through
-// memory.
+// (arrays.hpp's ContactRecord) the fields then resolve to the record's memory.
 template <bool Lazy, class State>
 GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, double approach_new)
 {
@@ -603,7 +602,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
 // Advance one contact to a new approach (m): the rules of the reference (reference.py), the
 // arithmetic the Python reference is checked against by the golden vectors. The caller
 // guarantees a finite approach. `State` is ContactState, or any type with its members as
-// assignable lvalues (arrays.hpp's ContactRef: one contact of a struct of arrays, read and
+// assignable lvalues (arrays.hpp's ContactRecord: one contact of an array of them, read and
 // written in place), so the law exists once for one contact and for arrays of them.
 //
 // Lazy = true (what arrays.hpp runs): while a contact climbs the virgin curve beyond delta_y,
