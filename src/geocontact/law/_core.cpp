@@ -35,17 +35,18 @@ struct Contacts {
   int threads = 1;
   geocontact::StateArrays state;
   std::vector<double> force, stiffness;
+  std::vector<double> hertz_approach;  // plain Hertz's one history, the approach
 
   Contacts(const geocontact::LawParams &p, std::size_t n, bool hertz, int threads_)
       : params(p), hertz_only(hertz), threads(threads_), state(n), force(n, 0.0),
-        stiffness(n, 0.0)
+        stiffness(n, 0.0), hertz_approach(hertz ? n : 0, 0.0)
   {
   }
 
   void step(const double *approach)
   {
     if (hertz_only)
-      geocontact::hertz_step(params.hertz_coefficient, state, approach, force.data(),
+      geocontact::hertz_step(params.hertz_coefficient, hertz_approach, approach, force.data(),
                              stiffness.data(), threads);
     else
       geocontact::step(params, state, approach, force.data(), stiffness.data(), threads);
@@ -61,6 +62,7 @@ struct Contacts {
   {
     // same size: assign() keeps the records' buffer, so the numpy views stay valid
     state.resize(state.size());
+    std::fill(hertz_approach.begin(), hertz_approach.end(), 0.0);
     std::fill(force.begin(), force.end(), 0.0);
     std::fill(stiffness.begin(), stiffness.end(), 0.0);
   }

@@ -92,17 +92,17 @@ inline void step_block(const LawParams &p, StateArrays &a, const double *approac
 }
 
 // Plain elastic Hertz, F = Kh d^1.5 (the speed floor of a normal law): no history but the
-// approach. Force and tangent are those of law.hpp's elastic fast path.
-inline void hertz_block(double kh, StateArrays &a, const double *approach, double *force,
+// approach, kept in an array of its own. Force and tangent are those of law.hpp's elastic fast
+// path.
+inline void hertz_block(double kh, double *kept, const double *approach, double *force,
                         double *stiffness, std::size_t begin, std::size_t end)
 {
-  ContactRecord *contacts = a.contacts.data();
   for (std::size_t i = begin; i < end; ++i) {
     const double d = approach[i];
     const double root = std::sqrt(std::max(d, 0.0));
     force[i] = kh * std::max(d, 0.0) * root;
     stiffness[i] = kHertzExponent * kh * root;
-    contacts[i].approach = d;
+    kept[i] = d;
   }
 }
 
@@ -149,12 +149,13 @@ inline void refresh_envelopes(const LawParams &p, StateArrays &state)
     if (c.branch == VIRGIN) refresh_envelope(p, c);
 }
 
-// Plain Hertz of coefficient kh through the same structure (no hysteresis, no dissipation).
-inline void hertz_step(double kh, StateArrays &state, const double *approach, double *force,
-                       double *stiffness, int threads = 1)
+// Plain Hertz of coefficient kh through the same entry point and thread split (no hysteresis,
+// no dissipation); `kept` (one per contact) keeps the approach, its only history.
+inline void hertz_step(double kh, std::vector<double> &kept, const double *approach,
+                       double *force, double *stiffness, int threads = 1)
 {
-  detail::parallel_blocks(state.size(), threads, [&](std::size_t begin, std::size_t end) {
-    detail::hertz_block(kh, state, approach, force, stiffness, begin, end);
+  detail::parallel_blocks(kept.size(), threads, [&](std::size_t begin, std::size_t end) {
+    detail::hertz_block(kh, kept.data(), approach, force, stiffness, begin, end);
   });
 }
 
