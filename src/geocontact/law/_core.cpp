@@ -36,6 +36,7 @@ struct Contacts {
   geocontact::StateArrays state;
   std::vector<double> force, stiffness;
   std::vector<double> hertz_approach;  // plain Hertz's one history, the approach
+  bool envelopes_current = true;       // no step since the last refresh_envelopes()
 
   Contacts(const geocontact::LawParams &p, std::size_t n, bool hertz, int threads_)
       : params(p), hertz_only(hertz), threads(threads_), state(n), force(n, 0.0),
@@ -50,12 +51,16 @@ struct Contacts {
                              stiffness.data(), threads);
     else
       geocontact::step(params, state, approach, force.data(), stiffness.data(), threads);
+    envelopes_current = hertz_only;
   }
 
   // the envelopes of contacts on the virgin curve, which the array step computes lazily
+  // (a pass over every contact: done once after a step, however often the state is read)
   void refresh_envelopes()
   {
-    if (!hertz_only) geocontact::refresh_envelopes(params, state);
+    if (envelopes_current) return;
+    geocontact::refresh_envelopes(params, state);
+    envelopes_current = true;
   }
 
   void reset()
