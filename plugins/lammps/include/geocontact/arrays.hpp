@@ -83,9 +83,11 @@ namespace detail {
 inline void step_block(const LawParams &p, StateArrays &a, const double *approach,
                        double *force, double *stiffness, std::size_t begin, std::size_t end)
 {
+  // a local copy: the records' stores cannot alias it, so its constants stay in registers
+  const LawParams local = p;
   ContactRecord *contacts = a.contacts.data();
   for (std::size_t i = begin; i < end; ++i) {
-    const StepResult r = step<true>(p, contacts[i], approach[i]);
+    const StepResult r = step<true>(local, contacts[i], approach[i]);
     force[i] = r.force;
     stiffness[i] = r.stiffness;
   }
