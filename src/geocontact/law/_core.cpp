@@ -34,12 +34,12 @@ struct Contacts {
   bool hertz_only = false;
   int threads = 1;
   geocontact::StateArrays state;
-  std::vector<double> force, stiffness;
-  std::vector<double> hertz_approach;  // plain Hertz's one history, the approach
+  std::vector<double> force, stiffness;  // the law's forces are its records' (force: Hertz's)
+  std::vector<double> hertz_approach;    // plain Hertz's one history, the approach
   bool envelopes_current = true;       // no step since the last refresh_envelopes()
 
   Contacts(const geocontact::LawParams &p, std::size_t n, bool hertz, int threads_)
-      : params(p), hertz_only(hertz), threads(threads_), state(n), force(n, 0.0),
+      : params(p), hertz_only(hertz), threads(threads_), state(n), force(hertz ? n : 0, 0.0),
         stiffness(n, 0.0), hertz_approach(hertz ? n : 0, 0.0)
   {
   }
@@ -50,7 +50,7 @@ struct Contacts {
       geocontact::hertz_step(params.hertz_coefficient, hertz_approach, approach, force.data(),
                              stiffness.data(), threads);
     else
-      geocontact::step(params, state, approach, force.data(), stiffness.data(), threads);
+      geocontact::step(params, state, approach, nullptr, stiffness.data(), threads);
     envelopes_current = hertz_only;
   }
 
@@ -202,7 +202,10 @@ NB_MODULE(_core, m)
            "Bring the envelope (residual approach, n_u, n_r, cycles) of every contact on the "
            "virgin curve up to date: the step computes it when a contact leaves the curve.")
       .def_prop_ro("force", [](nb::handle h) {
-        return view(nb::cast<Contacts &>(h).force, h);
+        // the law's: its records' force field (strided), which the step writes; Hertz's array
+        Contacts &c = nb::cast<Contacts &>(h);
+        return c.hertz_only ? view(c.force, h)
+                            : field_view(c.state, &geocontact::ContactRecord::force, h);
       }, nb::rv_policy::reference_internal)
       .def_prop_ro("stiffness", [](nb::handle h) {
         return view(nb::cast<Contacts &>(h).stiffness, h);

@@ -88,7 +88,7 @@ inline void step_block(const LawParams &p, StateArrays &a, const double *approac
   ContactRecord *contacts = a.contacts.data();
   for (std::size_t i = begin; i < end; ++i) {
     const StepResult r = step<true>(local, contacts[i], approach[i]);
-    force[i] = r.force;
+    if (force) force[i] = r.force;
     stiffness[i] = r.stiffness;
   }
 }
@@ -135,7 +135,9 @@ void parallel_blocks(std::size_t n, int threads, const Block &block)
 }  // namespace detail
 
 // Advance contact i of `state` to approach[i] for every i; force[i], stiffness[i] as step().
-// The caller guarantees finite approaches and arrays of state.size() elements.
+// The caller guarantees finite approaches and arrays of state.size() elements. `force` may be
+// null: the force of contact i is also state[i].force (what the Python binding returns, 16 B
+// of memory traffic per update fewer than a separate array: its write and write-allocate read).
 inline void step(const LawParams &p, StateArrays &state, const double *approach, double *force,
                  double *stiffness, int threads = 1)
 {
