@@ -71,10 +71,11 @@ struct StateArrays {
 };
 
 // Bytes a step moves per contact, counted from the layout: the state record read and written
-// back, the approach read, force and stiffness written. What the hardware moves can be less
-// (lines left unchanged are not written back) or more (write-allocate reads of the outputs).
+// back (its force is the output force, as the binding steps), the approach read, the stiffness
+// written. What the hardware moves can be less (lines left unchanged are not written back) or
+// more (the write-allocate read of the stiffness).
 constexpr std::size_t kStateBytes = sizeof(ContactRecord);
-constexpr std::size_t kStepBytes = 2 * kStateBytes + 3 * sizeof(double);
+constexpr std::size_t kStepBytes = 2 * kStateBytes + 2 * sizeof(double);
 // Plain Hertz through the same structure: approach in, force and stiffness out, approach kept.
 constexpr std::size_t kHertzStepBytes = 4 * sizeof(double);
 
