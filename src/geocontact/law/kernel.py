@@ -139,8 +139,9 @@ class ContactArrays:
 
     def step(self, approach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Advance every contact to ``approach`` (m, shape (n,)); returns views of the force (N)
-        and tangent stiffness (N/m) arrays, overwritten by the next call (the force is the
-        state's ``force`` field, a strided view of the core's per-contact records)."""
+        and tangent stiffness (N/m) arrays, overwritten by the next call (without ``radii`` the
+        force is the state's ``force`` field, a strided view of the core's per-contact
+        records)."""
         approach = np.ascontiguousarray(approach, dtype=np.float64)
         if approach.shape != (self.n,):
             raise InputError(f"approach: expected shape ({self.n},), got {approach.shape}")
