@@ -90,8 +90,9 @@ def main(params: LawParams, n: int = 1_000_000, steps: int = 100) -> list[dict]:
     common = dict(
         contacts=n, steps=steps,
         bytes_per_update_law=_core.STEP_BYTES, bytes_per_update_hertz=_core.HERTZ_STEP_BYTES,
-        bytes_note=("counted from the layout: state (12 doubles + int8 branch) read and "
-                    "written, approach read, force and stiffness written"),
+        bytes_note=("counted from the layout: state record (12 doubles + int8 branch, "
+                    f"{_core.STATE_BYTES} B, its force the output force) read and written, "
+                    "approach read, stiffness written"),
         memory_bandwidth_GBps={"before": bandwidth, "after": bandwidth_after},
         load_average_1min={"before": load_before, "after": os.getloadavg()[0]},
         cores=os.cpu_count(),

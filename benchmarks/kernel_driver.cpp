@@ -7,6 +7,9 @@
 //   g++ -std=c++17 -O3 -fno-math-errno -g -Iplugins/lammps/include -Ibuild/kernel
 //       benchmarks/kernel_driver.cpp -o build/kernel/driver -lpthread   (one command)
 //   build/kernel/driver examples/params-reference.json 1000000 100 1 3     # contacts steps threads repeats
+//   build/kernel/driver examples/params-reference.json 100000 100 1 1 check
+//       (then also replays every contact with the one-contact step<false> of law.hpp and
+//        compares each state field bit for bit, the arrays' envelopes brought up to date)
 //   valgrind --tool=callgrind --toggle-collect='*step_block*'
 //       build/kernel/driver examples/params-reference.json 20000 100 1 1   (one command)
 //
@@ -20,6 +23,8 @@
 #include <cstdlib>
 #include <ctime>
 #include <random>
+#include <string>
+#include <cstring>
 #include <vector>
 
 int main(int argc, char **argv)
@@ -49,7 +54,7 @@ int main(int argc, char **argv)
       path[t * n + i] = offset + amplitude * std::sin(2.0 * pi * t / period + phase);
   }
 
-  std::vector<double> force(n), stiffness(n);
+  std::vector<double> stiffness(n);  // the forces: the records' force fields (as the binding)
   geocontact::StateArrays state(n);
   double wall = 1e300, cpu = 1e300;
   for (int r = 0; r < repeats; ++r) {
@@ -57,13 +62,34 @@ int main(int argc, char **argv)
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t start_cpu = std::clock();
     for (int t = 0; t < steps; ++t)
-      geocontact::step(p, state, &path[t * n], force.data(), stiffness.data(), threads);
+      geocontact::step(p, state, &path[t * n], nullptr, stiffness.data(), threads);
     wall = std::min(wall,
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     cpu = std::min(cpu, double(std::clock() - start_cpu) / CLOCKS_PER_SEC);
   }
+  if (argc > 6 && std::string(argv[6]) == "check") {
+    geocontact::refresh_envelopes(p, state);
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      geocontact::ContactState s;
+      for (int t = 0; t < steps; ++t) geocontact::step(p, s, path[t * n + i]);
+      const double ours[] = {state[i].approach, state[i].force, state[i].max_approach,
+                             state[i].max_force, state[i].residual_approach,
+                             state[i].unloading_exponent, state[i].reloading_exponent,
+                             state[i].branch_value, state[i].ratchet_shift,
+                             state[i].pending_ratchet, state[i].cycles, state[i].work};
+      const double theirs[] = {s.approach, s.force, s.max_approach, s.max_force,
+                               s.residual_approach, s.unloading_exponent, s.reloading_exponent,
+                               s.branch_value, s.ratchet_shift, s.pending_ratchet, s.cycles,
+                               s.work};
+      differ += std::memcmp(ours, theirs, sizeof ours) != 0 || state[i].branch != s.branch;
+    }
+    std::printf("check: %zu of %zu contacts differ in some bit from the one-contact step\n",
+                differ, n);
+    if (differ) return 1;
+  }
   double checksum = 0.0;
-  for (std::size_t i = 0; i < n; ++i) checksum += state.work[i] + state.force[i];
+  for (std::size_t i = 0; i < n; ++i) checksum += state[i].work + state[i].force;
   const double updates = double(n) * steps;
   std::printf("%zu contacts x %d steps, %d thread(s): %.4g updates/s wall, %.4g per CPU-second; "
               "checksum %.17g\n",

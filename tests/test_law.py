@@ -335,6 +335,11 @@ def _random_walks(params, n, steps, seed):
     return paths
 
 
+def _bits(values: np.ndarray) -> np.ndarray:
+    """The bytes of an array (state views are strided: one record per contact)."""
+    return np.ascontiguousarray(values).view(np.uint8)
+
+
 def test_results_are_bitwise_the_same_for_any_thread_count():
     """Contacts are independent: splitting them over threads changes no bit of any output or
     state field (compared as integers, so -0.0 != 0.0 would count)."""
@@ -352,7 +357,7 @@ def test_results_are_bitwise_the_same_for_any_thread_count():
     for threads in (2, 3, 4):
         for ours, one in zip(runs[threads], runs[1], strict=True):
             assert ours.dtype == one.dtype
-            assert np.array_equal(ours.view(np.uint8), one.view(np.uint8))
+            assert np.array_equal(_bits(ours), _bits(one))
     # the population really went through every branch
     assert seen == {0, 1, 2, 3, 4}
 
@@ -385,6 +390,38 @@ def test_state_is_named_arrays_matching_the_reference_state():
     assert f[0] == pytest.approx(PARAMS.hertz_coefficient * (0.5 * DY) ** 1.5, rel=1e-14)
     arrays.reset()
     assert np.all(arrays.state.work == 0.0) and np.all(arrays.state.unloading_exponent == 1.5)
+
+
+def test_state_of_contacts_on_the_virgin_curve_is_up_to_date_when_read():
+    """The array step computes a climbing contact's envelope (residual approach, n_u, n_r, the
+    cycle count) only when it leaves the virgin curve; reading ``state`` brings it up to date:
+    at every step the envelope matches the reference's, and a run whose state is never read
+    ends bitwise the same (reading changes nothing that follows)."""
+    n, steps = 40, 70
+    rng = np.random.default_rng(11)
+    # mostly climbing (the virgin curve), with reversals and new excursions beyond the envelope
+    paths = np.cumsum(rng.normal(0.4, 1.0, size=(steps, n)), axis=0) * DY
+    for params in (CYCLIC, DEEP):
+        read, unread = ContactArrays(params, n), ContactArrays(params, n)
+        contacts = [Contact(params) for _ in range(n)]
+        on_virgin = 0
+        for row in paths:
+            read.step(row)
+            unread.step(row)
+            state = read.state
+            for i, contact in enumerate(contacts):
+                contact.update(row[i])
+                if state.branch[i] != 1 or state.max_approach[i] <= DY:
+                    continue
+                on_virgin += 1
+                for name in ("residual_approach", "unloading_exponent", "reloading_exponent",
+                             "cycles"):
+                    expected = getattr(contact.state, name)
+                    assert state.as_dict()[name][i] == pytest.approx(expected, rel=1e-11), name
+        assert on_virgin > steps  # the check really saw contacts climbing past yield
+        ours, theirs = read.state.as_dict(), unread.state.as_dict()
+        for name in ours:
+            assert np.array_equal(_bits(ours[name]), _bits(theirs[name])), name
 
 
 def test_core_derives_the_constants_of_the_python_parameters():

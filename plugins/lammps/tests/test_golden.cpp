@@ -48,6 +48,28 @@ double max_abs(const Value &arr)
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+// The arrays' state, their virgin contacts' envelopes brought up to date (the array step
+// computes them lazily), against the one-contact step's: every field, bit for bit.
+void check_state(const geocontact::LawParams &p, geocontact::StateArrays &arrays,
+                 const std::vector<geocontact::ContactState> &single, const std::string &what)
+{
+  geocontact::refresh_envelopes(p, arrays);
+  for (std::size_t j = 0; j < single.size(); ++j) {
+    const geocontact::ContactState &s = single[j];
+    check(same_bits(arrays[j].approach, s.approach) && same_bits(arrays[j].force, s.force) &&
+              same_bits(arrays[j].max_approach, s.max_approach) &&
+              same_bits(arrays[j].max_force, s.max_force) &&
+              same_bits(arrays[j].residual_approach, s.residual_approach) &&
+              same_bits(arrays[j].unloading_exponent, s.unloading_exponent) &&
+              same_bits(arrays[j].reloading_exponent, s.reloading_exponent) &&
+              same_bits(arrays[j].work, s.work) && same_bits(arrays[j].cycles, s.cycles) &&
+              same_bits(arrays[j].ratchet_shift, s.ratchet_shift) &&
+              same_bits(arrays[j].pending_ratchet, s.pending_ratchet) &&
+              same_bits(arrays[j].branch_value, s.branch_value) && arrays[j].branch == s.branch,
+          what + ", contact " + std::to_string(j), "state (work)", arrays[j].work, s.work);
+  }
+}
+
 // The array path (arrays.hpp, what the Python binding runs) on all cases of one parameter
 // variant at once, on 1 and 3 threads: bit for bit the one-contact path of the loop in main().
 // Histories are right-aligned; an untouched contact held at approach 0 stays as it was.
@@ -72,22 +94,21 @@ void check_arrays(const geocontact::LawParams &p, const std::vector<const Value 
         const std::string where = variant + " arrays, " + std::to_string(threads) +
             " thread(s), contact " + std::to_string(j) + " step " + std::to_string(k);
         check(same_bits(force[j], r.force), where, "force", force[j], r.force);
+        // the record holds the returned force (the binding returns the records' forces)
+        check(same_bits(arrays[j].force, r.force), where, "record force", arrays[j].force,
+              r.force);
         check(same_bits(stiffness[j], r.stiffness), where, "stiffness", stiffness[j],
               r.stiffness);
-        check(arrays.branch[j] == single[j].branch, where, "branch", arrays.branch[j],
+        check(arrays[j].branch == single[j].branch, where, "branch", arrays[j].branch,
               single[j].branch);
       }
+      // the state read between steps (from a copy: the steps that follow must not depend on it)
+      if (k % 7 == 3) {
+        geocontact::StateArrays copy = arrays;
+        check_state(p, copy, single, variant + " step " + std::to_string(k));
+      }
     }
-    for (std::size_t j = 0; j < n; ++j) {
-      const std::string where = variant + " arrays final, contact " + std::to_string(j);
-      const geocontact::ContactState &s = single[j];
-      check(same_bits(arrays.max_approach[j], s.max_approach) &&
-                same_bits(arrays.residual_approach[j], s.residual_approach) &&
-                same_bits(arrays.work[j], s.work) && same_bits(arrays.cycles[j], s.cycles) &&
-                same_bits(arrays.ratchet_shift[j], s.ratchet_shift) &&
-                same_bits(arrays.branch_value[j], s.branch_value),
-            where, "state", arrays.work[j], s.work);
-    }
+    check_state(p, arrays, single, variant + " arrays final");
   }
 }
 

@@ -34,27 +34,40 @@ struct Contacts {
   bool hertz_only = false;
   int threads = 1;
   geocontact::StateArrays state;
-  std::vector<double> force, stiffness;
+  std::vector<double> force, stiffness;  // the law's forces are its records' (force: Hertz's)
+  std::vector<double> hertz_approach;    // plain Hertz's one history, the approach
+  bool envelopes_current = true;       // no step since the last refresh_envelopes()
 
   Contacts(const geocontact::LawParams &p, std::size_t n, bool hertz, int threads_)
-      : params(p), hertz_only(hertz), threads(threads_), state(n), force(n, 0.0),
-        stiffness(n, 0.0)
+      : params(p), hertz_only(hertz), threads(threads_), state(n), force(hertz ? n : 0, 0.0),
+        stiffness(n, 0.0), hertz_approach(hertz ? n : 0, 0.0)
   {
   }
 
   void step(const double *approach)
   {
     if (hertz_only)
-      geocontact::hertz_step(params.hertz_coefficient, state, approach, force.data(),
+      geocontact::hertz_step(params.hertz_coefficient, hertz_approach, approach, force.data(),
                              stiffness.data(), threads);
     else
-      geocontact::step(params, state, approach, force.data(), stiffness.data(), threads);
+      geocontact::step(params, state, approach, nullptr, stiffness.data(), threads);
+    envelopes_current = hertz_only;
+  }
+
+  // the envelopes of contacts on the virgin curve, which the array step computes lazily
+  // (a pass over every contact: done once after a step, however often the state is read)
+  void refresh_envelopes()
+  {
+    if (envelopes_current) return;
+    geocontact::refresh_envelopes(params, state);
+    envelopes_current = true;
   }
 
   void reset()
   {
-    // same size: assign() keeps every vector's buffer, so the numpy views stay valid
+    // same size: assign() keeps the records' buffer, so the numpy views stay valid
     state.resize(state.size());
+    std::fill(hertz_approach.begin(), hertz_approach.end(), 0.0);
     std::fill(force.begin(), force.end(), 0.0);
     std::fill(stiffness.begin(), stiffness.end(), 0.0);
   }
@@ -64,6 +77,17 @@ template <class T>
 View<T> view(std::vector<T> &v, nb::handle owner)
 {
   return View<T>(v.data(), {v.size()}, owner);
+}
+
+// One field of every contact record, as a strided numpy view (stride: one record).
+template <class T>
+View<T> field_view(geocontact::StateArrays &s, T geocontact::ContactRecord::*field,
+                   nb::handle owner)
+{
+  static_assert(sizeof(geocontact::ContactRecord) % sizeof(T) == 0, "record stride");
+  T *first = &(s.contacts.data()->*field);
+  const std::int64_t stride = sizeof(geocontact::ContactRecord) / sizeof(T);
+  return View<T>(first, {s.size()}, owner, {stride});
 }
 
 int checked_threads(int threads)
@@ -174,8 +198,14 @@ NB_MODULE(_core, m)
           "approach"_a,
           "Advance contact i to approach[i]; the results are in force and stiffness.")
       .def("reset", &Contacts::reset, "Every contact back to untouched.")
+      .def("refresh_envelopes", &Contacts::refresh_envelopes,
+           "Bring the envelope (residual approach, n_u, n_r, cycles) of every contact on the "
+           "virgin curve up to date: the step computes it when a contact leaves the curve.")
       .def_prop_ro("force", [](nb::handle h) {
-        return view(nb::cast<Contacts &>(h).force, h);
+        // the law's: its records' force field (strided), which the step writes; Hertz's array
+        Contacts &c = nb::cast<Contacts &>(h);
+        return c.hertz_only ? view(c.force, h)
+                            : field_view(c.state, &geocontact::ContactRecord::force, h);
       }, nb::rv_policy::reference_internal)
       .def_prop_ro("stiffness", [](nb::handle h) {
         return view(nb::cast<Contacts &>(h).stiffness, h);
@@ -183,11 +213,13 @@ NB_MODULE(_core, m)
       .def(
           "state_views",
           [](nb::handle h) {
-            // every ContactState field as a numpy view of this object's array, by name, in
-            // the order of ContactState (docs/law.md "State per contact")
+            // every ContactState field as a numpy view of this object's records (strided: one
+            // record per contact), by name, in the order of ContactState (docs/law.md "State
+            // per contact")
             geocontact::StateArrays &s = nb::cast<Contacts &>(h).state;
             nb::dict views;
-#define GEOCONTACT_FIELD(name) views[#name] = nb::cast(view(s.name, h));
+#define GEOCONTACT_FIELD(name) \
+  views[#name] = nb::cast(field_view(s, &geocontact::ContactRecord::name, h));
             GEOCONTACT_FIELD(approach)
             GEOCONTACT_FIELD(force)
             GEOCONTACT_FIELD(max_approach)

@@ -98,8 +98,8 @@ class ContactArrays:
         self.n = int(n)
         self._core = (_core.Contacts(core_params(params), self.n, threads)
                       if _core_contacts is None else _core_contacts)
-        self.state = StateArrays(**self._core.state_views())
-        self.branch = self.state.branch
+        self._state = StateArrays(**self._core.state_views())
+        self.branch = self._state.branch
         self._scale = None if radii is None else _scales(params, radii, self.n)
         if self._scale is None:
             self.force = self._core.force
@@ -119,6 +119,16 @@ class ContactArrays:
         return cls(None, n, threads=threads, _core_contacts=_core.Contacts.hertz(kh, n, threads))
 
     @property
+    def state(self) -> StateArrays:
+        """The state arrays (views of the compiled core's memory), up to date: the step computes
+        the envelope of a contact climbing the virgin curve (residual approach, n_u, n_r,
+        cycles) only when it leaves the curve, so reading the state brings those of the
+        contacts on the curve up to date first (the values the one-contact step would hold,
+        bitwise; the step's results do not depend on whether or when the state is read)."""
+        self._core.refresh_envelopes()
+        return self._state
+
+    @property
     def threads(self) -> int:
         return self._core.threads
 
@@ -129,7 +139,9 @@ class ContactArrays:
 
     def step(self, approach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Advance every contact to ``approach`` (m, shape (n,)); returns views of the force (N)
-        and tangent stiffness (N/m) arrays, overwritten by the next call."""
+        and tangent stiffness (N/m) arrays, overwritten by the next call (without ``radii`` the
+        force is the state's ``force`` field, a strided view of the core's per-contact
+        records)."""
         approach = np.ascontiguousarray(approach, dtype=np.float64)
         if approach.shape != (self.n,):
             raise InputError(f"approach: expected shape ({self.n},), got {approach.shape}")
@@ -161,11 +173,13 @@ class ContactArrays:
 
     @property
     def max_approach(self) -> np.ndarray:
-        return self._length(self.state.max_approach + self.state.ratchet_shift)
+        s = self.state
+        return self._length(s.max_approach + s.ratchet_shift)
 
     @property
     def residual_approach(self) -> np.ndarray:
-        return self._length(self.state.residual_approach + self.state.ratchet_shift)
+        s = self.state
+        return self._length(s.residual_approach + s.ratchet_shift)
 
     @property
     def cycles(self) -> np.ndarray:

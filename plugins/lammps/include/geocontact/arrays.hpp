@@ -1,13 +1,20 @@
 // geocontact: the law over many contacts at once, header-only C++17 (what the Python binding
 // `geocontact.law.ContactArrays` runs; any DEM code that keeps its contacts in arrays can too).
 //
-//     geocontact::StateArrays state(n);                   // one array per ContactState field
+//     geocontact::StateArrays state(n);                   // one ContactRecord per contact
 //     geocontact::step(params, state, approach, force, stiffness, threads);
+//     state[i].work, state[i].branch, ...                 // after refresh_envelopes (below)
 //
 // Each contact is advanced by `geocontact::step` of law.hpp, the same function the LAMMPS pair
-// style calls, so there is one implementation of the law. The state is a struct of arrays
-// (docs/law.md, "State per contact"), stepped in place (ContactRef): a contact's fields are
+// style calls, so there is one implementation of the law. The state is an array of records,
+// one per contact (docs/law.md, "State per contact"), stepped in place: a contact's fields are
 // loaded where the law reads them and stored where it writes them.
+//
+// Envelopes: the arrays are stepped by step<true> (law.hpp), which computes the envelope of a
+// contact climbing the virgin curve only when it leaves the curve; refresh_envelopes() brings
+// every such contact's residual approach, n_u, n_r and cycle count up to date (bitwise those of
+// the one-contact step<false>). Call it before reading those fields (the Python binding does,
+// whenever its state is read).
 //
 // Threads: contacts are independent, so a step splits them into `threads` contiguous blocks, one
 // per std::thread; no sum or order depends on the split, and the results are bitwise the same
@@ -26,83 +33,49 @@
 
 namespace geocontact {
 
-// ContactState of n contacts as a struct of arrays (same names, same meaning).
+// One contact's state in the arrays: ContactState's fields in its order, the branch as int8.
+struct ContactRecord {
+  double approach, force, max_approach, max_force, residual_approach, unloading_exponent,
+      reloading_exponent, branch_value, ratchet_shift, pending_ratchet, cycles, work;
+  std::int8_t branch;
+};
+
+// The state of n contacts: one ContactRecord per contact, contiguous (an array of structures).
+// A contact's fields share one or two cache lines, so a step reads and writes one memory
+// stream, not one per field: a struct of arrays (one array per field, 16 streams with the
+// approach, force and stiffness) ran 1.25x slower on 10^6 contacts (docs/benchmarks.md).
 struct StateArrays {
-  std::vector<double> approach, force, max_approach, max_force, residual_approach,
-      unloading_exponent, reloading_exponent, branch_value, ratchet_shift, pending_ratchet,
-      cycles, work;
-  std::vector<std::int8_t> branch;
+  std::vector<ContactRecord> contacts;
 
   StateArrays() = default;
   explicit StateArrays(std::size_t n) { resize(n); }
 
-  std::size_t size() const { return approach.size(); }
+  std::size_t size() const { return contacts.size(); }
+  ContactRecord &operator[](std::size_t i) { return contacts[i]; }
+  const ContactRecord &operator[](std::size_t i) const { return contacts[i]; }
 
-  // n untouched contacts (the values of a default ContactState)
+  // n untouched contacts (the values of a default ContactState); the same size keeps the buffer
   void resize(std::size_t n)
   {
-    const ContactState fresh;
-    approach.assign(n, fresh.approach);
-    force.assign(n, fresh.force);
-    max_approach.assign(n, fresh.max_approach);
-    max_force.assign(n, fresh.max_force);
-    residual_approach.assign(n, fresh.residual_approach);
-    unloading_exponent.assign(n, fresh.unloading_exponent);
-    reloading_exponent.assign(n, fresh.reloading_exponent);
-    branch_value.assign(n, fresh.branch_value);
-    ratchet_shift.assign(n, fresh.ratchet_shift);
-    pending_ratchet.assign(n, fresh.pending_ratchet);
-    cycles.assign(n, fresh.cycles);
-    work.assign(n, fresh.work);
-    branch.assign(n, static_cast<std::int8_t>(fresh.branch));
+    const ContactState f;
+    const ContactRecord fresh{f.approach,           f.force,
+                              f.max_approach,       f.max_force,
+                              f.residual_approach,  f.unloading_exponent,
+                              f.reloading_exponent, f.branch_value,
+                              f.ratchet_shift,      f.pending_ratchet,
+                              f.cycles,             f.work,
+                              static_cast<std::int8_t>(f.branch)};
+    contacts.reserve(std::max<std::size_t>(n, 1));  // data() never null (the binding's views)
+    contacts.assign(n, fresh);
   }
 };
 
-// The data pointers of StateArrays, taken once per block of contacts. A loop that indexes the
-// vectors themselves reloads their pointers after every store to the int8 branch array (a char
-// type may alias anything, the vectors' own pointers included); a local copy cannot be aliased.
-struct StatePointers {
-  double *approach, *force, *max_approach, *max_force, *residual_approach, *unloading_exponent,
-      *reloading_exponent, *branch_value, *ratchet_shift, *pending_ratchet, *cycles, *work;
-  std::int8_t *branch;
-
-  explicit StatePointers(StateArrays &a)
-      : approach(a.approach.data()), force(a.force.data()), max_approach(a.max_approach.data()),
-        max_force(a.max_force.data()), residual_approach(a.residual_approach.data()),
-        unloading_exponent(a.unloading_exponent.data()),
-        reloading_exponent(a.reloading_exponent.data()), branch_value(a.branch_value.data()),
-        ratchet_shift(a.ratchet_shift.data()), pending_ratchet(a.pending_ratchet.data()),
-        cycles(a.cycles.data()), work(a.work.data()), branch(a.branch.data())
-  {
-  }
-};
-
-// One contact of StateArrays, read and written in place by law.hpp's step(): a field is loaded
-// where the law reads it and stored where the law writes it (the fast paths touch four or five
-// of the thirteen), with no copy of the state in between.
-struct ContactRef {
-  double &approach, &force, &max_approach, &max_force, &residual_approach, &unloading_exponent,
-      &reloading_exponent, &branch_value, &ratchet_shift, &pending_ratchet, &cycles, &work;
-  std::int8_t &branch;
-
-  ContactRef(const StatePointers &a, std::size_t i)
-      : approach(a.approach[i]), force(a.force[i]), max_approach(a.max_approach[i]),
-        max_force(a.max_force[i]), residual_approach(a.residual_approach[i]),
-        unloading_exponent(a.unloading_exponent[i]),
-        reloading_exponent(a.reloading_exponent[i]), branch_value(a.branch_value[i]),
-        ratchet_shift(a.ratchet_shift[i]), pending_ratchet(a.pending_ratchet[i]),
-        cycles(a.cycles[i]), work(a.work[i]), branch(a.branch[i])
-  {
-  }
-  ContactRef(StateArrays &a, std::size_t i) : ContactRef(StatePointers(a), i) {}
-};
-
-// Bytes a step moves per contact, counted from the layout: the state read and written back
-// (all fields: a population's contacts share cache lines), the approach read, force and
-// stiffness written. What the hardware moves can be less (lines of unchanged fields are not
-// written back) or more (write-allocate reads of the outputs).
-constexpr std::size_t kStateBytes = 12 * sizeof(double) + sizeof(std::int8_t);
-constexpr std::size_t kStepBytes = 2 * kStateBytes + 3 * sizeof(double);
+// Bytes a step moves per contact, counted from the layout: the state record read and written
+// back (its force is the output force, as the binding steps), the approach read, the stiffness
+// written. What the hardware moves can be less (lines left unchanged are not written back) or
+// more (the write-allocate read of the stiffness).
+constexpr std::size_t kStateBytes = sizeof(ContactRecord);
+constexpr std::size_t kStepBytes = 2 * kStateBytes + 2 * sizeof(double);
 // Plain Hertz through the same structure: approach in, force and stiffness out, approach kept.
 constexpr std::size_t kHertzStepBytes = 4 * sizeof(double);
 
@@ -111,18 +84,20 @@ namespace detail {
 inline void step_block(const LawParams &p, StateArrays &a, const double *approach,
                        double *force, double *stiffness, std::size_t begin, std::size_t end)
 {
-  const StatePointers pointers(a);
+  // a local copy: the records' stores cannot alias it, so its constants stay in registers
+  const LawParams local = p;
+  ContactRecord *contacts = a.contacts.data();
   for (std::size_t i = begin; i < end; ++i) {
-    ContactRef s(pointers, i);
-    const StepResult r = step(p, s, approach[i]);
-    force[i] = r.force;
+    const StepResult r = step<true>(local, contacts[i], approach[i]);
+    if (force) force[i] = r.force;
     stiffness[i] = r.stiffness;
   }
 }
 
 // Plain elastic Hertz, F = Kh d^1.5 (the speed floor of a normal law): no history but the
-// approach. Force and tangent are those of law.hpp's elastic fast path.
-inline void hertz_block(double kh, StateArrays &a, const double *approach, double *force,
+// approach, kept in an array of its own. Force and tangent are those of law.hpp's elastic fast
+// path.
+inline void hertz_block(double kh, double *kept, const double *approach, double *force,
                         double *stiffness, std::size_t begin, std::size_t end)
 {
   for (std::size_t i = begin; i < end; ++i) {
@@ -130,12 +105,13 @@ inline void hertz_block(double kh, StateArrays &a, const double *approach, doubl
     const double root = std::sqrt(std::max(d, 0.0));
     force[i] = kh * std::max(d, 0.0) * root;
     stiffness[i] = kHertzExponent * kh * root;
-    a.approach[i] = d;
+    kept[i] = d;
   }
 }
 
 // Run block(begin, end) over [0, n) on `threads` threads; blocks start on multiples of 64
-// contacts (a cache line of the int8 branch array), so no two threads write one line.
+// contacts (whole cache lines of the outputs, and of the records if the buffer is aligned), so
+// threads rarely write one line.
 template <class Block>
 void parallel_blocks(std::size_t n, int threads, const Block &block)
 {
@@ -160,7 +136,9 @@ void parallel_blocks(std::size_t n, int threads, const Block &block)
 }  // namespace detail
 
 // Advance contact i of `state` to approach[i] for every i; force[i], stiffness[i] as step().
-// The caller guarantees finite approaches and arrays of state.size() elements.
+// The caller guarantees finite approaches and arrays of state.size() elements. `force` may be
+// null: the force of contact i is also state[i].force (what the Python binding returns, 16 B
+// of memory traffic per update fewer than a separate array: its write and write-allocate read).
 inline void step(const LawParams &p, StateArrays &state, const double *approach, double *force,
                  double *stiffness, int threads = 1)
 {
@@ -169,12 +147,20 @@ inline void step(const LawParams &p, StateArrays &state, const double *approach,
   });
 }
 
-// Plain Hertz of coefficient kh through the same structure (no hysteresis, no dissipation).
-inline void hertz_step(double kh, StateArrays &state, const double *approach, double *force,
-                       double *stiffness, int threads = 1)
+// Bring the envelope of every contact on the virgin curve up to date (see the top of this file).
+inline void refresh_envelopes(const LawParams &p, StateArrays &state)
 {
-  detail::parallel_blocks(state.size(), threads, [&](std::size_t begin, std::size_t end) {
-    detail::hertz_block(kh, state, approach, force, stiffness, begin, end);
+  for (ContactRecord &c : state.contacts)
+    if (c.branch == VIRGIN) refresh_envelope(p, c);
+}
+
+// Plain Hertz of coefficient kh through the same entry point and thread split (no hysteresis,
+// no dissipation); `kept` (one per contact) keeps the approach, its only history.
+inline void hertz_step(double kh, std::vector<double> &kept, const double *approach,
+                       double *force, double *stiffness, int threads = 1)
+{
+  detail::parallel_blocks(kept.size(), threads, [&](std::size_t begin, std::size_t end) {
+    detail::hertz_block(kh, kept.data(), approach, force, stiffness, begin, end);
   });
 }
 

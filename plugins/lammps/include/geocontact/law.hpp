@@ -141,6 +141,10 @@ struct LawParams {
   double log_fully_plastic_ratio = 0.0;  // log r_p
   double log_deep_plastic_ratio = 0.0;   // log r_q (max double without one)
   double log_band = 0.0;                 // log(1 - tol) of the cyclic extension's band
+  // the envelope while delta_max <= delta_y (x = 1): delta_res / delta_max, n_u, n_r
+  double yield_residual_ratio = 0.0;
+  double yield_unloading_exponent = kHertzExponent;
+  double yield_reloading_exponent = kHertzExponent;
 
   void derive()
   {
@@ -164,6 +168,14 @@ struct LawParams {
                                  ? std::log(deep_plastic_approach_ratio)
                                  : std::numeric_limits<double>::max();
     log_band = std::log1p(-cyclic.tolerance);
+    // the virgin step's envelope formulas at x = 1 (log x = 0), the same operations, so the
+    // same bits as evaluating them at every virgin step within delta_y
+    yield_residual_ratio = -residual_limit * std::expm1(-residual_power * residual_log_depth(1.0));
+    yield_unloading_exponent = kHertzExponent * std::exp(unloading_power * 0.0);
+    yield_reloading_exponent =
+        reloading_power >= unloading_power
+            ? yield_unloading_exponent
+            : std::min(kHertzExponent * std::exp(reloading_power * 0.0), yield_unloading_exponent);
   }
 
   // --- the fitted functions of the plastic depth x = delta_max / delta_y --------------------
@@ -361,11 +373,37 @@ inline double envelope_band(const LawParams &p, double dmax, double dres)
 
 namespace detail {
 
+// The envelope of a contact on the virgin curve at d_max (shifted), lx = log(max(d_max/delta_y,
+// 1)): residual approach, n_u, n_r, and the cycle count, which restarts when the excursion
+// (from `start`, where the contact left its old envelope) is wider than the envelope band.
+inline void virgin_envelope(const LawParams &p, double dmax, double lx, double start,
+                            double &dres, double &nu, double &nr, double &cycles)
+{
+  if (dmax <= p.yield_approach) {  // x = 1: derived once (LawParams::derive)
+    dres = p.yield_residual_ratio * dmax;
+    nu = p.yield_unloading_exponent;
+    nr = p.yield_reloading_exponent;
+  } else {
+    // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
+    const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
+                          ? lx
+                          : p.residual_log_depth(dmax / p.yield_approach);
+    dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
+    nu = kHertzExponent * std::exp(p.unloading_power * lx);
+    // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
+    nr = p.reloading_power >= p.unloading_power
+             ? nu
+             : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+  }
+  // an excursion wider than the band is a new envelope: the count restarts; within the band it
+  // is the same cycle
+  if (dmax - start > envelope_band(p, dmax, dres)) cycles = 1.0;
+}
+
 // The general step: branch moves until the target approach is reached (at most a few branch
 // ends are crossed). Inlined into step() like the fast paths: for arrays of contacts
-// (ContactRef) the references then resolve to array elements; a call would pass them through
-// memory.
-template <class State>
+// (arrays.hpp's ContactRecord) the fields then resolve to the record's memory.
+template <bool Lazy, class State>
 GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
@@ -404,29 +442,23 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
     }
     if (b == VIRGIN) {
       if (!up) {
+        if (Lazy && dmax > dy)  // leaving the virgin curve: its envelope, computed once
+          virgin_envelope(p, dmax, std::log(std::max(dmax / dy, 1.0)), bval, dres, nu, nr,
+                          cycles);
         b = UNLOADING;
         bval = 1.0;
         continue;
       }
       // one log of the depth, shared by the force (one exp), the work from the force, and the
-      // envelope (one or two exp; the residual's log1p, expm1 and power where x0 or b is not 1)
-      const double lx = std::log(std::max(target / dy, 1.0));
+      // envelope
+      const double lx = target > dy ? std::log(std::max(target / dy, 1.0)) : 0.0;
       fmax = p.virgin_force_from_log(target, lx);
       work += p.virgin_work_from_force(target, fmax) - p.virgin_work_from_force(d, force);
       dmax = target;
       force = fmax;
-      const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
-                            ? lx
-                            : p.residual_log_depth(target / dy);
-      dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * target;
-      nu = kHertzExponent * std::exp(p.unloading_power * lx);
-      // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
-      nr = p.reloading_power >= p.unloading_power
-               ? nu
-               : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
-      // an excursion (from bval, where it left the old envelope) wider than the band is a new
-      // envelope: the count restarts; within the band it is the same cycle
-      if (target - bval > detail::envelope_band(p, dmax, dres)) cycles = 1.0;
+      // Lazy: computed when the contact leaves the curve (step<true> below); within delta_y
+      // it is that of delta_y (the elastic fast path may take the contact off the curve)
+      if (!Lazy || target <= dy) virgin_envelope(p, dmax, lx, bval, dres, nu, nr, cycles);
       d = target;
       continue;
     }
@@ -570,9 +602,18 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
 // Advance one contact to a new approach (m): the rules of the reference (reference.py), the
 // arithmetic the Python reference is checked against by the golden vectors. The caller
 // guarantees a finite approach. `State` is ContactState, or any type with its members as
-// assignable lvalues (arrays.hpp's ContactRef: one contact of a struct of arrays, read and
+// assignable lvalues (arrays.hpp's ContactRecord: one contact of an array of them, read and
 // written in place), so the law exists once for one contact and for arrays of them.
-template <class State>
+//
+// Lazy = true (what arrays.hpp runs): while a contact climbs the virgin curve beyond delta_y,
+// its envelope (residual approach, n_u, n_r, and the cycle count's restart) is computed once,
+// when it leaves the curve, instead of at every step: no step reads it on the curve, it is a
+// function of delta_max alone, and the restart test is monotone along an excursion (its band
+// tol (d - d_res(d)) grows slower than the excursion d - start), so the results are bitwise
+// those of Lazy = false. The state of a contact on the virgin curve then holds the envelope of
+// where it entered the curve: refresh_envelope() below brings it up to date, and must run before
+// anything else reads it (energies, restart files, the arrays' views).
+template <bool Lazy = false, class State>
 GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
@@ -625,7 +666,26 @@ GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double ap
       return {f, f > 0.0 ? expo * f / (target - dres) : 0.0};
     }
   }
-  return detail::step_moves(p, s, approach_new);
+  return detail::step_moves<Lazy>(p, s, approach_new);
+}
+
+// The envelope of a contact stepped with Lazy = true, brought up to date: on the virgin curve
+// beyond delta_y, the residual approach, n_u, n_r and the cycle count of its delta_max, as
+// step<false> would have left them (bitwise). Changes nothing on any other branch, and nothing
+// when called twice.
+template <class State>
+inline void refresh_envelope(const LawParams &p, State &s)
+{
+  const double dmax = s.max_approach;
+  if (s.branch != VIRGIN || !(dmax > p.yield_approach)) return;
+  double dres = s.residual_approach, nu = s.unloading_exponent, nr = s.reloading_exponent;
+  double cycles = s.cycles;
+  detail::virgin_envelope(p, dmax, std::log(std::max(dmax / p.yield_approach, 1.0)),
+                          s.branch_value, dres, nu, nr, cycles);
+  s.residual_approach = dres;
+  s.unloading_exponent = nu;
+  s.reloading_exponent = nr;
+  s.cycles = cycles;
 }
 
 // --- diagnostics of a contact state ---------------------------------------------------------
