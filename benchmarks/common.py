@@ -16,6 +16,7 @@ os.environ.setdefault("GEOCONTACT_LAMMPS_PLUGIN",
                       str(ROOT / "build" / "lammps-plugin" / "geocontactplugin.so"))
 OUT = ROOT / "out" / "bench"
 DOC = ROOT / "docs" / "benchmarks.md"
+RECORDED: list[str] = []  # the benchmarks this process measured (record), in order
 
 
 def record(name: str, value: float, unit: str, peer: str, peer_value: float, **extra) -> dict:
@@ -33,14 +34,16 @@ def record(name: str, value: float, unit: str, peer: str, peer_value: float, **e
         **extra,
     }
     write_json_atomic(OUT / f"{name}.json", document)
+    RECORDED.append(name)
     print(f"{name}: {value:.4g} {unit}; {peer}: {peer_value:.4g} {unit}; "
           f"cost ratio {document['ratio']:.3f}")
     return document
 
 
 def write_table() -> None:
-    """Update the results table (the end of docs/benchmarks.md) with every out/bench/*.json;
-    rows of benchmarks not run this time stay as they were."""
+    """Update the results table (the end of docs/benchmarks.md) with the benchmarks this
+    process measured (their out/bench/*.json); rows of benchmarks not run this time stay as
+    they were (an out/bench/*.json of an earlier run, perhaps of other sources, is not used)."""
     text = DOC.read_text() if DOC.exists() else "# Benchmarks\n\n<!-- results -->\n"
     head, _, tail = text.partition("<!-- results -->")
     rows = {}
@@ -48,8 +51,8 @@ def write_table() -> None:
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if line.startswith("|") and cells[0] not in ("benchmark", "---"):
             rows[cells[0]] = line
-    for path in sorted(OUT.glob("*.json")):
-        d = json.loads(path.read_text())
+    for name in RECORDED:
+        d = json.loads((OUT / f"{name}.json").read_text())
         rows[d["name"]] = (f"| {d['name']} | {d['value']:.4g} {d['unit']} | {d['peer']} | "
                            f"{d['peer_value']:.4g} {d['unit']} | {d['ratio']:.3f} | "
                            f"{d.get('note', '')} |")
