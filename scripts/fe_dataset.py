@@ -22,7 +22,6 @@ manifest or curve is missing).
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 from pathlib import Path
@@ -32,16 +31,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from geocontact.fem.reuse import fe_code_hash, library_versions, load_result  # noqa: E402
+from geocontact.fem.reuse import (  # noqa: E402
+    fe_code_hash,
+    identity_key,
+    library_versions,
+    load_result,
+)
 from geocontact.io import RESULT_MANIFEST  # noqa: E402
 
 DATASETS = ROOT / "datasets" / "fe-runs"
-
-
-def identity_key(record: dict) -> str:
-    """The key an FE identity record was written under (fem.reuse.FeRunIdentity.to_dict)."""
-    body = {name: value for name, value in record.items() if name != "key"}
-    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()[:20]
 
 
 def check_run(folder: Path) -> dict:

@@ -162,8 +162,7 @@ class FeRunIdentity:
         """Inputs, FE source hash and library versions, and the key of them all."""
         record = {"schema": SCHEMA, "inputs": self.inputs(), "fe_code": fe_code_hash(),
                   "libraries": library_versions()}
-        text = json.dumps(record, sort_keys=True)
-        return {"key": hashlib.sha256(text.encode()).hexdigest()[:20], **record}
+        return {"key": identity_key(record), **record}
 
     def key(self) -> str:
         """Hash of everything that decides the result (the cache entry's name)."""
@@ -193,6 +192,13 @@ class FeRunIdentity:
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "
                         f"R = {m.radius:g} m")
         return "; ".join(settings)
+
+
+def identity_key(record: dict[str, Any]) -> str:
+    """The key of an identity record (``FeRunIdentity.to_dict`` without or with its ``key``):
+    the hash of everything else in it."""
+    body = {name: value for name, value in record.items() if name != "key"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()[:20]
 
 
 def difference(recorded: Any, identity: FeRunIdentity) -> str | None:
@@ -264,4 +270,5 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
 
 
 __all__ = ["FE_SOURCES", "LIBRARIES", "FeRunIdentity", "difference", "distribution_version",
-           "fe_code_hash", "finished_run", "library_versions", "load_result"]
+           "fe_code_hash", "finished_run", "identity_key", "library_versions",
+           "load_result"]
