@@ -208,10 +208,12 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
               steps_per_segment: int | None = None, cache_dir=DEFAULT_CACHE,
               scheduler: str | None = None, workers: int | None = None,
               progress: bool = True, fe_model: dict[str, str] | None = None,
+              forms: dict[str, str] | None = None,
               ) -> tuple[LawParams, list[CalibrationRun]]:
     """FE campaign + extraction + fit. Returns the law and the runs it was fitted to.
     ``fe_model``: the FE's kinematics, mesh_rule, step_rule and max_step_ratio (``FemJob``;
-    default the FE's)."""
+    default the FE's); ``forms``: the law's forms (``fit_law``'s keywords, e.g.
+    ``{"loading_form": "segments"}``; default its defaults)."""
     peaks = (check_peaks(material, peaks) if peaks is not None
              else peak_forces(material, levels, max_force))
     jobs = calibration_jobs(material, peaks, mesh, steps_per_segment, fe_model)
@@ -220,7 +222,7 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
                            workers=workers, progress=progress)
     runs = [extract_run(job, result)
             for job, result in zip(jobs, results[:len(jobs)], strict=True)]
-    params = fit_runs(material, runs)
+    params = fit_runs(material, runs, forms)
     if cyclic is not None:
         params = fit_cyclic(params, cyclic, results[-1])
     return params, runs
@@ -300,8 +302,10 @@ def virgin_curve(runs: list[CalibrationRun]) -> tuple[np.ndarray, np.ndarray, li
     return np.concatenate(approach), np.concatenate(force), stitches
 
 
-def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
-    """Fit the law to extracted calibration runs (no FE work: reruns from cached results)."""
+def fit_runs(material: Material, runs: list[CalibrationRun],
+             forms: dict[str, str] | None = None) -> LawParams:
+    """Fit the law to extracted calibration runs (no FE work: reruns from cached results);
+    ``forms``: ``fit_law``'s form keywords."""
     yield_info = fe_yield(material, runs)
     top = max(runs, key=lambda r: r.level.max_force)
     job = top.job
@@ -327,7 +331,7 @@ def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
         "fully_plastic_fe": fe_fully_plastic(runs),
     }
     params = fit_law(material, yield_info["approach_m"], loading_approach, loading_force,
-                     [r.level for r in runs], provenance=provenance)
+                     [r.level for r in runs], provenance=provenance, **(forms or {}))
     extra = {k: v for k, v in yield_info.items() if k != "approach_m"}
     errors = dict(params.fit_errors)
     fp = provenance["fully_plastic_fe"]["force_N"]

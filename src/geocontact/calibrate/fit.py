@@ -16,7 +16,7 @@ from scipy.optimize import least_squares
 
 from ..errors import InputError
 from ..hertz import hertz_coefficient
-from ..law.params import HERTZ_EXPONENT, LawParams, saturating_ratio
+from ..law.params import HERTZ_EXPONENT, MAX_SEGMENTS, LawParams, saturating_ratio
 from ..material import Material
 
 # Upper bound of a saturating ratio's limit (the JSON allows [0, 1)).
@@ -63,9 +63,22 @@ THIRD_REGIME_GAIN = 0.75
 MIN_TAIL_DECADES = 0.5
 
 
-def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_slope=None):
+# The segments form of the virgin curve: this many power-law segments per decade of plastic
+# depth the data span (at least 3, at most law.params.MAX_SEGMENTS), starts equally spaced in
+# log depth from yield.
+SEGMENTS_PER_DECADE = 1.0
+LOADING_FORMS = ("regimes", "segments")
+
+
+def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_slope=None,
+                form="regimes"):
     """n1, delta_p/delta_y, n2 (and, where it pays, delta_q/delta_y, n3) of the virgin curve:
     power laws continuous at dy, dp (and dq).
+
+    ``form="segments"``: instead, ``loading_segments`` (depths, exponents): one power law per
+    decade of plastic depth the data span (``SEGMENTS_PER_DECADE``; 3 to MAX_SEGMENTS), starts
+    equally spaced in log depth from yield, exponents by the same weighted least squares; the
+    curve of a weak grain bends over five decades, which three regimes follow to 2-5 % only.
 
     For each candidate break (pair) on a log grid, the exponents are a linear least-squares
     problem in log space (anchored at the yield point); the best breaks win. Points are
@@ -84,6 +97,11 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_sl
     order = np.argsort(d[use])
     x, y = np.log(d[use][order] / dy), np.log(f[use][order] / fy)
     w = _trapezoid_weights(x)
+    if form == "segments":
+        return _fit_segments(x, y, w, max_first_slope)
+    if form != "regimes":
+        raise InputError(f"calibration: loading form must be one of {', '.join(LOADING_FORMS)}, "
+                         f"got {form!r}")
     top = max(np.log(2.0), np.log(0.95) + x.max())
     grid = np.log(np.geomspace(1.5, np.exp(top), 240))
     two = min((_broken_power_fit(x, y, w, (lp,), max_first_slope) for lp in grid),
@@ -104,6 +122,28 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_sl
         out["deep_plastic_approach_ratio"] = float(np.exp(breaks[1]))
         out["deep_plastic_exponent"] = slopes[2]
     return out
+
+
+def _fit_segments(x, y, w, max_first_slope=None):
+    """``fit_loading``'s segments form on log depth x and log force ratio y (from yield)."""
+    decades = x.max() / np.log(10.0)
+    count = int(min(max(math.ceil(SEGMENTS_PER_DECADE * decades), 3), MAX_SEGMENTS))
+    # fewer segments where the data leave one with fewer than 3 points or an exponent out of
+    # (0, 3] (the file's range)
+    for k in range(count, 1, -1):
+        breaks = tuple(np.linspace(0.0, x.max(), k + 1)[1:-1])
+        starts = np.concatenate([[-np.inf], breaks, [np.inf]])
+        enough = all(np.sum((x > a) & (x <= b)) >= 3 for a, b in zip(starts[:-1], starts[1:]))
+        err, slopes, breaks = _broken_power_fit(x, y, w, breaks, max_first_slope)
+        if enough and np.isfinite(err):
+            depth = (1.0, *(float(np.exp(b)) for b in breaks))
+            # the regime fields mirror the first segments (LawParams sets them so too)
+            return {"elastic_plastic_exponent": slopes[0],
+                    "fully_plastic_approach_ratio": depth[1],
+                    "fully_plastic_exponent": slopes[1],
+                    "loading_segments": (depth, tuple(slopes)),
+                    "rms_relative_error": err}
+    raise InputError("calibration: no segments fit of the loading curve has exponents in (0, 3]")
 
 
 def _broken_power_fit(x, y, w, breaks, max_first_slope=None):
@@ -217,15 +257,19 @@ def _saturating(depth, values, what, starts=None, max_log_power=5.0, original=Fa
 
 def fit_law(material: Material, yield_approach: float, loading_approach, loading_force,
             levels: list[LevelData], provenance: dict | None = None,
-            starts: dict | None = None) -> LawParams:
+            starts: dict | None = None, loading_form: str = "regimes") -> LawParams:
     """Every parameter of the law from FE (or test) cycles; returns validated LawParams.
+
+    ``loading_form``: the virgin curve's form, "regimes" (two or three power laws) or
+    "segments" (one power law per decade of depth; ``fit_loading``).
 
     ``starts``: optional warm starts of the saturating fits, {"residual": [(limit, power,
     transition, log_power), ...], "plastic_work": [...]} (see ``_saturating``)."""
     if len(levels) < 3:
         raise InputError(f"calibration: needs >= 3 load levels, got {len(levels)}")
     kh = hertz_coefficient(material)
-    loading = fit_loading(loading_approach, loading_force, yield_approach, kh)
+    loading = fit_loading(loading_approach, loading_force, yield_approach, kh,
+                          form=loading_form)
     loading_inputs = (loading_approach, loading_force, yield_approach, kh)
     depth = np.array([lv.max_approach / yield_approach for lv in levels])
     if np.any(depth <= 1.0):
@@ -250,6 +294,7 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     w_lim, w_pow, w_x0, w_b, work_err = _saturating(depth, work, "plastic work",
                                                     starts.get("plastic_work"))
     fit_errors = {
+        **({} if loading_form == "regimes" else {"loading_form": loading_form}),
         "loading_rms_relative": loading.pop("rms_relative_error"),
         "unloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_u)))),
         "reloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_r)))),
@@ -296,10 +341,10 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     # set the check accepts is never changed.
     bound = HERTZ_EXPONENT + 0.6 * p_u - 0.005
     if loading["elastic_plastic_exponent"] > bound:
-        capped = fit_loading(*loading_inputs, max_first_slope=bound)
+        capped = fit_loading(*loading_inputs, max_first_slope=bound, form=loading_form)
         capped_error = capped.pop("rms_relative_error")
         trial = {**values, **capped}
-        if "deep_plastic_approach_ratio" not in capped:
+        if "deep_plastic_approach_ratio" not in capped and "loading_segments" not in capped:
             trial.update(deep_plastic_approach_ratio=math.inf, deep_plastic_exponent=1.0)
         try:
             params = LawParams(**trial)

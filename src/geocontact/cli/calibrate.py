@@ -48,6 +48,9 @@ def register(sub) -> None:
                    help="local Dask workers (default: one per core)")
     p.add_argument("--cache", default=None, metavar="DIR",
                    help="FE result cache (default out/cache/fem)")
+    p.add_argument("--loading-form", default="regimes", choices=["regimes", "segments"],
+                   help="form of the virgin curve: two or three power laws (regimes, default) "
+                   "or one power law per decade of depth (segments; docs/law.md)")
     add_fe_model_flags(p)
     add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print the parameter file on stdout")
@@ -91,13 +94,16 @@ def run(args) -> int:
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache)}
+    if args.loading_form != "regimes":  # recorded when not the default (shipped files unchanged)
+        inputs["loading_form"] = args.loading_form
     fe_model = fe_model_of(args)
     inputs.update(fe_model)
     params, runs, table = calibrate_to_file(
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
         acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
         cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
-        progress=not args.json, overwrite=args.force, fe_model=fe_model)
+        progress=not args.json, overwrite=args.force, fe_model=fe_model,
+        forms={"loading_form": args.loading_form})
     acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:

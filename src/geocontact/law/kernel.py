@@ -66,6 +66,8 @@ def core_params(params: LawParams) -> _core.LawParams:
                  "plastic_work_log_power", "deep_plastic_approach_ratio",
                  "deep_plastic_exponent"):
         setattr(p, name, float(getattr(params, name)))
+    if params.loading_segments is not None:
+        p.set_loading_segments(*(list(part) for part in params.loading_segments))
     cyclic = _core.CyclicLaw()
     for name in ("enabled", "residual_ratio_coefficient", "residual_ratio_power",
                  "plastic_work_ratio_coefficient", "plastic_work_ratio_power", "tolerance"):

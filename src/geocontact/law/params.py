@@ -161,6 +161,61 @@ def _scale_by_unit(value: Any, s: float, power: int = 0) -> Any:
     return value
 
 
+# At most this many virgin-curve segments (the C++ header's LawParams::kMaxSegments).
+MAX_SEGMENTS = 16
+
+
+def _check_segments(depth: tuple[float, ...], exponent: tuple[float, ...]) -> None:
+    """The rules of ``loading.segments`` beyond each number's range (the schema's): equal
+    lengths, the first segment at yield, strictly increasing starts."""
+    if len(depth) != len(exponent):
+        raise InputError(f"loading.segments: depth and exponent must have the same length, got "
+                         f"{len(depth)} and {len(exponent)}")
+    if not 2 <= len(depth) <= MAX_SEGMENTS:
+        raise InputError(f"loading.segments: must hold 2 to {MAX_SEGMENTS} segments, got "
+                         f"{len(depth)}")
+    if depth[0] != 1.0:
+        raise InputError(f"loading.segments.depth: the first segment starts at yield (1), got "
+                         f"{depth[0]:g}")
+    for k in range(1, len(depth)):
+        if not depth[k] > depth[k - 1]:
+            raise InputError(f"loading.segments.depth: must be strictly increasing, got "
+                             f"{depth[k]:g} after {depth[k - 1]:g}")
+    for k, n in enumerate(exponent):
+        if not 0.0 < n <= 3.0:
+            raise InputError(f"loading.segments.exponent: must be in (0, 3], got {n:g} "
+                             f"(segment {k})")
+
+
+@dataclass(frozen=True)
+class _Segments:
+    """Starts of the virgin curve's power-law segments: approach x_k delta_y, force F_k
+    (F_0 = Fy, F_k+1 = F_k (x_k+1/x_k)^n_k), exact virgin work W_k there (a power law's work
+    is (F d - F_start d_start) / (n + 1)); the C++ header's
+    LawParams::derive_segments, the same operations."""
+
+    approach: np.ndarray
+    exponent: np.ndarray
+    force: np.ndarray
+    work: np.ndarray
+
+    @classmethod
+    def of(cls, depth, exponent, yield_approach: float, yield_force: float) -> _Segments:
+        force, work = [yield_force], [yield_force * yield_approach / (HERTZ_EXPONENT + 1.0)]
+        for k in range(1, len(depth)):
+            ratio, n = depth[k] / depth[k - 1], exponent[k - 1]
+            force.append(force[-1] * ratio**n)
+            work.append(work[-1] + (force[-1] * depth[k] - force[-2] * depth[k - 1])
+                        * yield_approach / (n + 1.0))
+        return cls(approach=np.asarray(depth, dtype=float) * yield_approach,
+                   exponent=np.asarray(exponent, dtype=float),
+                   force=np.asarray(force), work=np.asarray(work))
+
+    def index(self, approach):
+        """Segment k of each approach: x_k delta_y < d <= x_k+1 delta_y (0 at or below yield)."""
+        return np.maximum(np.searchsorted(self.approach, approach, side="left") - 1, 0)
+
+
 @dataclass(frozen=True)
 class LawParams:
     """Every parameter of the law, with the material and incipient yield it belongs to."""
@@ -183,6 +238,10 @@ class LawParams:
     # optional third loading regime beyond delta_q = deep_ratio delta_y: F = Fq (d/dq)^n3
     deep_plastic_approach_ratio: float = math.inf
     deep_plastic_exponent: float = 1.0
+    # optional: the virgin curve as power-law segments, ((x_0 = 1, x_1, ...), (n_0, n_1, ...)):
+    # segment k starts at depth x_k with exponent n_k (``loading.segments``); the regime fields
+    # above then mirror its first three segments
+    loading_segments: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
@@ -190,6 +249,17 @@ class LawParams:
     label: str = ""
 
     def __post_init__(self) -> None:
+        if self.loading_segments is not None:
+            depth, exponent = (tuple(float(v) for v in part) for part in self.loading_segments)
+            _check_segments(depth, exponent)
+            mirror = {"loading_segments": (depth, exponent),
+                      "elastic_plastic_exponent": exponent[0],
+                      "fully_plastic_approach_ratio": depth[1],
+                      "fully_plastic_exponent": exponent[1],
+                      "deep_plastic_approach_ratio": depth[2] if len(depth) > 2 else math.inf,
+                      "deep_plastic_exponent": exponent[2] if len(depth) > 2 else 1.0}
+            for name, value in mirror.items():
+                object.__setattr__(self, name, value)
         self._check_energy()
 
     # --- derived constants ---------------------------------------------------------------
@@ -268,51 +338,55 @@ class LawParams:
             self.deep_plastic_approach_ratio / self.fully_plastic_approach_ratio
         ) ** self.fully_plastic_exponent
 
+    @property
+    def segments(self) -> _Segments:
+        """The virgin curve's power-law segments beyond delta_y (from ``loading_segments`` or
+        the regimes: (1, n1), (r_p, n2)[, (r_q, n3)])."""
+        cached = self.__dict__.get("_segments")
+        if cached is None:
+            if self.loading_segments is not None:
+                depth, exponent = self.loading_segments
+            else:
+                depth, exponent = [1.0, self.fully_plastic_approach_ratio], [
+                    self.elastic_plastic_exponent, self.fully_plastic_exponent]
+                if math.isfinite(self.deep_plastic_approach_ratio):
+                    depth.append(self.deep_plastic_approach_ratio)
+                    exponent.append(self.deep_plastic_exponent)
+            cached = _Segments.of(depth, exponent, self.yield_approach, self.yield_force)
+            object.__setattr__(self, "_segments", cached)
+        return cached
+
     def virgin_force(self, approach):
-        """Virgin loading curve F(delta): Hertz, then power laws continuous at delta_y, delta_p
-        (and delta_q when the optional third regime is set)."""
+        """Virgin loading curve F(delta): Hertz, then the power-law segments, continuous at
+        delta_y and at every segment's start."""
         d = np.maximum(np.asarray(approach, dtype=float), 0.0)
-        dy, dp, dq = self.yield_approach, self.fully_plastic_approach, self.deep_plastic_approach
-        with np.errstate(invalid="ignore", over="ignore"):
-            deep = (self.deep_plastic_force * (d / dq) ** self.deep_plastic_exponent
-                    if math.isfinite(dq) else 0.0)
-            return np.where(
-                d <= dy,
-                self.hertz_coefficient * d**HERTZ_EXPONENT,
-                np.where(
-                    d <= dp,
-                    self.yield_force * (d / dy) ** self.elastic_plastic_exponent,
-                    np.where(d <= dq,
-                             self.fully_plastic_force * (d / dp) ** self.fully_plastic_exponent,
-                             deep),
-                ),
-            )
+        seg = self.segments
+        k = seg.index(d)
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            return np.where(d <= self.yield_approach,
+                            self.hertz_coefficient * d**HERTZ_EXPONENT,
+                            seg.force[k] * (d / seg.approach[k]) ** seg.exponent[k])
 
     def virgin_work(self, approach):
         """Work of the force along the virgin curve from 0 to delta (exact integral)."""
         d = np.maximum(np.asarray(approach, dtype=float), 0.0)
-        dy, dp, dq = self.yield_approach, self.fully_plastic_approach, self.deep_plastic_approach
-        fy, fp = self.yield_force, self.fully_plastic_force
-        n1, n2 = self.elastic_plastic_exponent, self.fully_plastic_exponent
-        w_y = fy * dy / (HERTZ_EXPONENT + 1.0)
-        w_p = w_y + fy * dy / (n1 + 1.0) * (self.fully_plastic_approach_ratio ** (n1 + 1.0) - 1.0)
-        with np.errstate(invalid="ignore", over="ignore"):
-            if math.isfinite(dq):
-                fq, n3 = self.deep_plastic_force, self.deep_plastic_exponent
-                w_q = w_p + (fq * dq - fp * dp) / (n2 + 1.0)
-                deep = w_q + fq * dq / (n3 + 1.0) * ((d / dq) ** (n3 + 1.0) - 1.0)
-            else:
-                deep = 0.0
+        seg = self.segments
+        k = seg.index(d)
+        n = seg.exponent[k]
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
             return np.where(
-                d <= dy,
+                d <= self.yield_approach,
                 self.hertz_coefficient * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0),
-                np.where(
-                    d <= dp,
-                    w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0),
-                    np.where(d <= dq, w_p + fp * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0),
-                             deep),
-                ),
-            )
+                seg.work[k] + seg.force[k] * seg.approach[k] / (n + 1.0)
+                * ((d / seg.approach[k]) ** (n + 1.0) - 1.0))
+
+    def virgin_exponent(self, approach: float) -> float:
+        """Local log-slope d ln F / d ln delta of the virgin curve at ``approach``."""
+        d = float(approach)
+        if d <= self.yield_approach:
+            return HERTZ_EXPONENT
+        seg = self.segments
+        return float(seg.exponent[seg.index(d)])
 
     def virgin_approach(self, force: float) -> float:
         """Inverse of the virgin loading curve: the approach at which it carries ``force``."""
@@ -321,14 +395,9 @@ class LawParams:
             return 0.0
         if f <= self.yield_force:
             return (f / self.hertz_coefficient) ** (1.0 / HERTZ_EXPONENT)
-        if f <= self.fully_plastic_force:
-            return self.yield_approach * (
-                f / self.yield_force) ** (1.0 / self.elastic_plastic_exponent)
-        if f <= self.deep_plastic_force:
-            return self.fully_plastic_approach * (
-                f / self.fully_plastic_force) ** (1.0 / self.fully_plastic_exponent)
-        return self.deep_plastic_approach * (
-            f / self.deep_plastic_force) ** (1.0 / self.deep_plastic_exponent)
+        seg = self.segments
+        k = int(np.searchsorted(seg.force, f, side="left")) - 1
+        return float(seg.approach[k] * (f / seg.force[k]) ** (1.0 / seg.exponent[k]))
 
     def envelope_plastic_work(self, max_approach):
         """Plastic work of a full load-unload cycle to delta_max, as the law computes it:
@@ -367,7 +436,10 @@ class LawParams:
             "label": self.label,
             "material": self.material.to_dict(),
             "yield": ydict,
-            "loading": {
+            "loading": {"segments": {
+                "depth": list(self.loading_segments[0]),
+                "exponent": list(self.loading_segments[1])}}
+            if self.loading_segments is not None else {
                 "elastic_plastic_exponent": self.elastic_plastic_exponent,
                 "fully_plastic_approach_ratio": self.fully_plastic_approach_ratio,
                 "fully_plastic_exponent": self.fully_plastic_exponent,

@@ -128,6 +128,13 @@ struct LawParams {
   // optional third loading regime beyond delta_q = r_q delta_y (infinite: none)
   double deep_plastic_approach_ratio = std::numeric_limits<double>::infinity();
   double deep_plastic_exponent = 1.0;  // n3
+  // The virgin curve as power-law segments (`loading.segments`): segment k starts at depth
+  // x_k = segment_depth[k] (x_0 = 1, strictly increasing) with exponent n_k. Without them
+  // (loading_segments == 0) derive() takes the regimes above: (1, n1), (r_p, n2)[, (r_q, n3)].
+  static constexpr int kMaxSegments = 16;
+  int loading_segments = 0;
+  double segment_depth[kMaxSegments] = {};
+  double segment_exponent[kMaxSegments] = {};
   CyclicLaw cyclic;
   std::string label;
 
@@ -138,8 +145,14 @@ struct LawParams {
   double fully_plastic_force = 0.0;     // Fp = Fy r_p^n1
   double deep_plastic_approach = 0.0;   // delta_q = r_q delta_y (max double without one)
   double deep_plastic_force = 0.0;      // Fq = Fp (r_q / r_p)^n2 (max double without one)
-  double log_fully_plastic_ratio = 0.0;  // log r_p
-  double log_deep_plastic_ratio = 0.0;   // log r_q (max double without one)
+  // the segments' starts: approach x_k delta_y, log x_k, force F_k and virgin work W_k there
+  // (F_0 = Fy, F_k+1 = F_k (x_k+1 / x_k)^n_k; W exact: a power law's work is
+  // (F d - F_start d_start) / (n + 1)); one past the last start: max double
+  int segments = 0;
+  double segment_approach[kMaxSegments + 1] = {};
+  double segment_log_depth[kMaxSegments] = {};
+  double segment_force[kMaxSegments] = {};
+  double segment_work[kMaxSegments] = {};
   double log_band = 0.0;                 // log(1 - tol) of the cyclic extension's band
   // the envelope while delta_max <= delta_y (x = 1): delta_res / delta_max, n_u, n_r
   double yield_residual_ratio = 0.0;
@@ -151,6 +164,7 @@ struct LawParams {
     hertz_coefficient =
         4.0 / 3.0 * material.effective_modulus() * std::sqrt(material.effective_radius());
     yield_force = hertz_coefficient * std::pow(yield_approach, kHertzExponent);
+    derive_segments();
     fully_plastic_approach = fully_plastic_approach_ratio * yield_approach;
     fully_plastic_force =
         yield_force * std::pow(fully_plastic_approach_ratio, elastic_plastic_exponent);
@@ -163,10 +177,6 @@ struct LawParams {
       deep_plastic_approach = std::numeric_limits<double>::max();
       deep_plastic_force = std::numeric_limits<double>::max();
     }
-    log_fully_plastic_ratio = std::log(fully_plastic_approach_ratio);
-    log_deep_plastic_ratio = std::isfinite(deep_plastic_approach_ratio)
-                                 ? std::log(deep_plastic_approach_ratio)
-                                 : std::numeric_limits<double>::max();
     log_band = std::log1p(-cyclic.tolerance);
     // the virgin step's envelope formulas at x = 1 (log x = 0), the same operations, so the
     // same bits as evaluating them at every virgin step within delta_y
@@ -176,6 +186,56 @@ struct LawParams {
         reloading_power >= unloading_power
             ? yield_unloading_exponent
             : std::min(kHertzExponent * std::exp(reloading_power * 0.0), yield_unloading_exponent);
+  }
+
+  // The virgin curve's segments from `loading.segments` or from the regimes (same operations
+  // as the regimes' own formulas: the same bits).
+  void derive_segments()
+  {
+    if (loading_segments == 0) {
+      segment_depth[0] = 1.0;
+      segment_exponent[0] = elastic_plastic_exponent;
+      segment_depth[1] = fully_plastic_approach_ratio;
+      segment_exponent[1] = fully_plastic_exponent;
+      segments = 2;
+      if (std::isfinite(deep_plastic_approach_ratio)) {
+        segment_depth[2] = deep_plastic_approach_ratio;
+        segment_exponent[2] = deep_plastic_exponent;
+        segments = 3;
+      }
+    } else {
+      segments = loading_segments;
+      // the regimes' fields mirror the first three segments (for readers of n1, r_p, n2)
+      elastic_plastic_exponent = segment_exponent[0];
+      fully_plastic_approach_ratio = segment_depth[1];
+      fully_plastic_exponent = segment_exponent[1];
+      deep_plastic_approach_ratio =
+          segments > 2 ? segment_depth[2] : std::numeric_limits<double>::infinity();
+      deep_plastic_exponent = segments > 2 ? segment_exponent[2] : 1.0;
+    }
+    segment_approach[0] = yield_approach;
+    segment_log_depth[0] = 0.0;
+    segment_force[0] = yield_force;
+    segment_work[0] = yield_force * yield_approach / (kHertzExponent + 1.0);
+    for (int k = 1; k < segments; ++k) {
+      const double ratio = segment_depth[k] / segment_depth[k - 1];
+      const double n = segment_exponent[k - 1];
+      segment_approach[k] = segment_depth[k] * yield_approach;
+      segment_log_depth[k] = std::log(segment_depth[k]);
+      segment_force[k] = segment_force[k - 1] * std::pow(ratio, n);
+      segment_work[k] = segment_work[k - 1] + (segment_force[k] * segment_depth[k] -
+                                               segment_force[k - 1] * segment_depth[k - 1]) *
+                                                  yield_approach / (n + 1.0);
+    }
+    segment_approach[segments] = std::numeric_limits<double>::max();
+  }
+
+  // The segment of the virgin curve that holds approach d > delta_y: k with x_k < d/dy <= x_k+1.
+  int segment_of(double d) const
+  {
+    int k = 0;
+    while (d > segment_approach[k + 1]) ++k;
+    return k;
   }
 
   // --- the fitted functions of the plastic depth x = delta_max / delta_y --------------------
@@ -203,17 +263,14 @@ struct LawParams {
     return -residual_limit * std::expm1(-residual_power * residual_log_depth(depth));
   }
 
-  // Virgin loading curve, three regimes, continuous at delta_y and delta_p.
+  // Virgin loading curve: Hertz to delta_y, then the power-law segments, continuous at their
+  // starts.
   double virgin_force(double d) const
   {
     if (d <= 0.0) return 0.0;
     if (d <= yield_approach) return hertz_coefficient * d * std::sqrt(d);
-    if (d <= fully_plastic_approach)
-      return yield_force * positive_pow(d / yield_approach, elastic_plastic_exponent);
-    if (d <= deep_plastic_approach)
-      return fully_plastic_force *
-             positive_pow(d / fully_plastic_approach, fully_plastic_exponent);
-    return deep_plastic_force * positive_pow(d / deep_plastic_approach, deep_plastic_exponent);
+    const int k = segment_of(d);
+    return segment_force[k] * positive_pow(d / segment_approach[k], segment_exponent[k]);
   }
 
   // virgin_force(d) given lx = log(d / delta_y), which the step needs anyway: each power law
@@ -223,53 +280,36 @@ struct LawParams {
   {
     if (d <= 0.0) return 0.0;
     if (d <= yield_approach) return hertz_coefficient * d * std::sqrt(d);
-    if (d <= fully_plastic_approach) return yield_force * std::exp(elastic_plastic_exponent * lx);
-    if (d <= deep_plastic_approach)
-      return fully_plastic_force *
-             std::exp(fully_plastic_exponent * (lx - log_fully_plastic_ratio));
-    return deep_plastic_force * std::exp(deep_plastic_exponent * (lx - log_deep_plastic_ratio));
+    const int k = segment_of(d);
+    return segment_force[k] * std::exp(segment_exponent[k] * (lx - segment_log_depth[k]));
   }
 
   // Exact work of the force along the virgin curve from 0 to d.
   double virgin_work(double d) const
   {
     if (d <= 0.0) return 0.0;
-    const double dy = yield_approach, dp = fully_plastic_approach, fy = yield_force;
-    const double n1 = elastic_plastic_exponent, n2 = fully_plastic_exponent;
-    if (d <= dy)
+    if (d <= yield_approach)
       return hertz_coefficient * std::pow(d, kHertzExponent + 1.0) / (kHertzExponent + 1.0);
-    const double w_y = fy * dy / (kHertzExponent + 1.0);
-    if (d <= dp) return w_y + fy * dy / (n1 + 1.0) * (std::pow(d / dy, n1 + 1.0) - 1.0);
-    const double w_p = w_y + fy * dy / (n1 + 1.0) * (std::pow(dp / dy, n1 + 1.0) - 1.0);
-    if (d <= deep_plastic_approach)
-      return w_p + fully_plastic_force * dp / (n2 + 1.0) * (std::pow(d / dp, n2 + 1.0) - 1.0);
-    const double dq = deep_plastic_approach, fq = deep_plastic_force, n3 = deep_plastic_exponent;
-    const double w_q = w_p + (fq * dq - fully_plastic_force * dp) / (n2 + 1.0);
-    return w_q + fq * dq / (n3 + 1.0) * (std::pow(d / dq, n3 + 1.0) - 1.0);
+    const int k = segment_of(d);
+    const double n = segment_exponent[k];
+    return segment_work[k] + segment_force[k] * segment_approach[k] / (n + 1.0) *
+                                 (std::pow(d / segment_approach[k], n + 1.0) - 1.0);
   }
 
-  // The same work given the virgin force f at d: each regime is a power law, so
+  // The same work given the virgin force f at d: each segment is a power law, so
   // int F = (F d - F_start d_start)/(n + 1) needs no further pow (one pow per virgin step).
   double virgin_work_from_force(double d, double f) const
   {
-    const double dy = yield_approach, dp = fully_plastic_approach, fy = yield_force;
-    const double w_y = fy * dy / (kHertzExponent + 1.0);
-    if (d <= dy) return f * d / (kHertzExponent + 1.0);
-    if (d <= dp) return w_y + (f * d - fy * dy) / (elastic_plastic_exponent + 1.0);
-    const double w_p = w_y + (fully_plastic_force * dp - fy * dy) / (elastic_plastic_exponent + 1.0);
-    if (d <= deep_plastic_approach)
-      return w_p + (f * d - fully_plastic_force * dp) / (fully_plastic_exponent + 1.0);
-    const double w_q = w_p + (deep_plastic_force * deep_plastic_approach - fully_plastic_force * dp) /
-                                 (fully_plastic_exponent + 1.0);
-    return w_q + (f * d - deep_plastic_force * deep_plastic_approach) / (deep_plastic_exponent + 1.0);
+    if (d <= yield_approach) return f * d / (kHertzExponent + 1.0);
+    const int k = segment_of(d);
+    return segment_work[k] +
+           (f * d - segment_force[k] * segment_approach[k]) / (segment_exponent[k] + 1.0);
   }
 
   double virgin_exponent(double d) const
   {
     if (d <= yield_approach) return kHertzExponent;
-    if (d <= fully_plastic_approach) return elastic_plastic_exponent;
-    if (d <= deep_plastic_approach) return fully_plastic_exponent;
-    return deep_plastic_exponent;
+    return segment_exponent[segment_of(d)];
   }
 
   // Plastic work of a full load-unload cycle to dmax, as the law computes it (docs/law.md).
