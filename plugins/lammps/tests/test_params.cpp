@@ -62,6 +62,7 @@ int replay_corpus(const std::string &dir)
     }
   }
   geocontact::load_params(dir + "/base.json");  // the document every case changes is valid
+  geocontact::load_params(dir + "/base-table.json");  // and the one of the table's cases
   return cases;
 }
 

@@ -72,6 +72,10 @@ def core_params(params: LawParams) -> _core.LawParams:
         setattr(cyclic, name, getattr(params.cyclic, name))
     cyclic.shakedown = params.cyclic.form == SHAKEDOWN
     p.cyclic = cyclic
+    table = _core.ResidualTable()
+    table.depth = list(params.residual_table.depth)
+    table.ratio = list(params.residual_table.ratio)
+    p.residual_table = table
     p.derive()
     return p
 

@@ -9,7 +9,8 @@ Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (d
   unload curve, so a closed reload-unload loop cannot create energy);
 * residual approach ``d_res / d_max = rho_inf (1 - (1 + (x - 1)/x0)^-s)`` (zero at yield,
   below 1 everywhere; x0 = 1 is the original ``rho_inf (1 - x^-s)``, a larger transition depth
-  x0 gives the slow start and log-like rise the FE shows);
+  x0 gives the slow start and log-like rise the FE shows), or tabulated: a monotone cubic
+  through knots in (ln ln x, logit rho) (``residual_table.ResidualTable``);
 * plastic work ratio ``Wp / W_total = w_inf (1 - (1 + (x - 1)/x0w)^-e)`` (the FE's; reported
   beside the law's own loop area, which follows from the curves above);
 * cyclic extension: residual-approach increment of cycle N over the first cycle's residual
@@ -32,6 +33,7 @@ from ..errors import InputError
 from ..hertz import hertz_coefficient
 from ..io import read_text_input, write_text_atomic
 from ..material import Material
+from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
 HERTZ_EXPONENT = 1.5
@@ -172,8 +174,10 @@ class LawParams:
     fully_plastic_exponent: float
     unloading_power: float
     reloading_power: float
-    residual_limit: float
-    residual_power: float
+    # the closed residual form (limit, power, transition, log power; the defaults stand for the
+    # unused values beside a table, as in the file)
+    residual_limit: float = 0.0
+    residual_power: float = 1.0
     plastic_work_limit: float = 0.0
     plastic_work_power: float = 1.0
     residual_transition: float = 1.0
@@ -184,13 +188,28 @@ class LawParams:
     deep_plastic_approach_ratio: float = math.inf
     deep_plastic_exponent: float = 1.0
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
+    # the tabulated residual form instead of the closed one (empty: the closed form)
+    residual_table: ResidualTable = field(default_factory=ResidualTable)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
     fit_errors: dict[str, Any] = field(default_factory=dict)
     label: str = ""
 
     def __post_init__(self) -> None:
+        if self.residual_table:
+            # a table built in code is held to the file's rules (schema messages)
+            table = self.residual_table
+            depth = schema.check_array("residual_approach.table.depth", table.depth,
+                                       schema.field("residual_approach.table.depth"))
+            schema.check_array("residual_approach.table.ratio", table.ratio,
+                               schema.field("residual_approach.table.ratio"),
+                               {"residual_approach.table.depth": depth})
         self._check_energy()
+
+    @property
+    def residual_tabulated(self) -> bool:
+        """Whether the residual ratio is the table (else the closed saturating form)."""
+        return bool(self.residual_table)
 
     # --- derived constants ---------------------------------------------------------------
     @property
@@ -246,6 +265,8 @@ class LawParams:
         return np.minimum(HERTZ_EXPONENT * x**self.reloading_power, self.unloading_exponent(x))
 
     def residual_ratio(self, depth):
+        if self.residual_table:
+            return self.residual_table(depth)
         return saturating_ratio(depth, self.residual_limit, self.residual_power,
                                 self.residual_transition, self.residual_log_power)
 
@@ -347,10 +368,12 @@ class LawParams:
         bad = np.flatnonzero((wp < -1e-9) | (np.diff(wp, prepend=wp[0]) < -1e-9))
         if bad.size:
             x = _CHECK_DEPTHS[bad[0]]
+            what = ("the ratios of residual_approach.table" if self.residual_table
+                    else "residual_approach.limit")
             raise InputError(
                 "unloading/residual_approach: this parameter set creates energy (the cycle's "
                 f"plastic work decreases) at delta_max/delta_y = {x:.4g}; "
-                "raise residual_approach.limit or lower loading.elastic_plastic_exponent"
+                f"raise {what} or lower loading.elastic_plastic_exponent"
             )
 
     # --- JSON ----------------------------------------------------------------------------
@@ -381,9 +404,11 @@ class LawParams:
             },
             "unloading": {"exponent_power": self.unloading_power},
             "reloading": {"exponent_power": self.reloading_power},
-            "residual_approach": _saturating_dict(self.residual_limit, self.residual_power,
-                                                  self.residual_transition,
-                                                  self.residual_log_power),
+            "residual_approach": ({"table": self.residual_table.to_dict()}
+                                  if self.residual_table else
+                                  _saturating_dict(self.residual_limit, self.residual_power,
+                                                   self.residual_transition,
+                                                   self.residual_log_power)),
             "plastic_work": _saturating_dict(self.plastic_work_limit, self.plastic_work_power,
                                              self.plastic_work_transition,
                                              self.plastic_work_log_power),
@@ -406,7 +431,7 @@ class LawParams:
         (``geocontact.schema``, the same table and messages as the C++ reader), then the rules
         between fields. ``source`` is kept for callers; messages name the fields."""
         values = schema.validate(data)
-        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}}
+        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}, "residual_table": {}}
         top: dict[str, Any] = {}
         for name, value in schema.named_values(values).items():
             group, _, attribute = name.rpartition(".")
@@ -420,6 +445,7 @@ class LawParams:
         cyclic = CyclicLaw(**groups["cyclic"])
         cyclic.check_second_cycle()
         params = cls(material=Material(**groups["material"]), cyclic=cyclic,
+                     residual_table=ResidualTable(**groups["residual_table"]),
                      yield_extra=values["yield.*"], **top)
         if "yield.force_N" in values:
             given = values["yield.force_N"]
