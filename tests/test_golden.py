@@ -24,7 +24,8 @@ def test_golden_vectors_cover_every_branch_and_every_parameter_variant():
     branches = {b for case in golden["cases"] for b in case["branches"]}
     assert branches == {0, 1, 2, 3, 4}  # apart, virgin, unloading, reloading, ratchet
     assert {case["params"] for case in golden["cases"]} == {"cyclic_on", "cyclic_off",
-                                                            "transition", "deep", "shakedown"}
+                                                            "transition", "deep", "shakedown",
+                                                            "table", "segments"}
     # the shakedown form: its histories reload from zero force after the first cycle (k_N)
     assert golden["params"]["shakedown"]["cyclic"]["form"] == "shakedown"
     assert any(3 in c["branches"] and c["final_state"]["cycles"] >= 3.0
@@ -36,6 +37,15 @@ def test_golden_vectors_cover_every_branch_and_every_parameter_variant():
     assert deep["residual_approach"]["log_power"] != 1.0
     dq = deep["loading"]["deep_plastic_approach_ratio"] * deep["yield"]["approach_m"]
     assert any(max(c["approaches"]) > dq for c in golden["cases"] if c["params"] == "deep")
+    # the table variant: a residual table, its histories leaving the curve below its first
+    # knot, between knots and beyond its last (both straight-line ends of the spline)
+    table = golden["params"]["table"]
+    knots = table["residual_approach"]["table"]["depth"]
+    assert set(table["residual_approach"]) == {"table"} and len(knots) >= 3
+    depths = [c["final_state"]["max_approach"] / table["yield"]["approach_m"]
+              for c in golden["cases"] if c["params"] == "table"]
+    assert any(1.0 < x < knots[0] for x in depths) and max(depths) > knots[-1]
+    assert any(knots[0] < x < knots[-1] for x in depths)
 
 
 def test_golden_vectors_through_the_compiled_binding():
@@ -89,3 +99,11 @@ def test_golden_vectors_through_the_compiled_binding():
                 assert abs(values[j] - c[key]) <= tolerance * scale_f * scale_d, (c["name"], key)
             checked += 1
     assert checked == len(golden["cases"])
+    # the segments variant: the virgin curve as segments, every segment reached by some history
+    segments = golden["params"]["segments"]
+    starts = segments["loading"]["segments"]["depth"]
+    assert set(segments["loading"]) == {"segments"} and len(starts) >= 4
+    reached = [max(c["approaches"]) / segments["yield"]["approach_m"]
+               for c in golden["cases"] if c["params"] == "segments"]
+    assert max(reached) > starts[-1]
+    assert all(any(a < x < b for x in reached) for a, b in zip(starts[:-1], starts[1:]))

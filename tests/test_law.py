@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from geocontact.analyses.force_driven import drive_by_force
 from geocontact.errors import InputError
 from geocontact.law import Contact, ContactArrays, CyclicLaw, LawParams, force_history
+from geocontact.law.params import LoadingSegments
 
 DY = YIELD_APPROACH
 
@@ -32,8 +33,8 @@ DEEP = make_params(deep_plastic_approach_ratio=60.0, deep_plastic_exponent=0.95,
 
 # the segments form of the virgin curve (loading.segments): five power laws, the last three
 # inside the histories' range, exponents falling and rising again
-SEGMENTED = make_params(loading_segments=((1.0, 3.0, 12.0, 40.0, 90.0),
-                                          (1.35, 1.22, 1.05, 1.15, 0.9)),
+SEGMENTED = make_params(loading_segments=LoadingSegments((1.0, 3.0, 12.0, 40.0, 90.0),
+                                                         (1.35, 1.22, 1.05, 1.15, 0.9)),
                         cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=0.3,
                                          residual_ratio_power=1.2, tolerance=0.01))
 
@@ -315,7 +316,7 @@ def test_loading_segments_are_continuous_and_their_work_exact():
     regimes written as segments are the same curve; the file round-trips."""
     from scipy.integrate import quad
 
-    depth, exponent = SEGMENTED.loading_segments
+    depth, exponent = SEGMENTED.loading_segments.depth, SEGMENTED.loading_segments.exponent
     starts = [x * DY for x in depth]
     for k, d in enumerate(starts):
         below, above = SEGMENTED.virgin_force([d * (1 - 1e-12), d * (1 + 1e-12)])
@@ -336,7 +337,7 @@ def test_loading_segments_are_continuous_and_their_work_exact():
             SEGMENTED.fully_plastic_exponent, SEGMENTED.deep_plastic_approach_ratio) == (
                 1.35, 3.0, 1.22, 12.0)
     # three regimes written as segments: the same curve and work
-    as_segments = make_params(loading_segments=(
+    as_segments = make_params(loading_segments=LoadingSegments(
         (1.0, DEEP.fully_plastic_approach_ratio, DEEP.deep_plastic_approach_ratio),
         (DEEP.elastic_plastic_exponent, DEEP.fully_plastic_exponent,
          DEEP.deep_plastic_exponent)), deep_plastic_approach_ratio=60.0,
@@ -352,15 +353,18 @@ def test_loading_segments_are_continuous_and_their_work_exact():
 
 
 @pytest.mark.parametrize("segments, message", [
-    (((1.0,), (1.3,)), "2 to 16 segments"),
-    (((1.0, 3.0), (1.3,)), "same length"),
-    (((2.0, 3.0), (1.3, 1.2)), "starts at yield"),
-    (((1.0, 3.0, 3.0), (1.3, 1.2, 1.1)), "strictly increasing"),
-    (((1.0, 3.0), (1.3, 3.5)), r"\(0, 3\]"),
+    (((1.0,), (1.3,)), r"^loading\.segments\.depth: must have 2 to 16 entries, got 1$"),
+    (((1.0, 3.0), (1.3, 1.2, 1.1)), r"^loading\.segments\.exponent: must have as many "
+                                    r"entries as loading\.segments\.depth \(2\), got 3$"),
+    (((2.0, 3.0), (1.3, 1.2)), r"^loading\.segments\.depth\[0\]: the first segment starts at "
+                               r"yield, must be 1, got 2$"),
+    (((1.0, 3.0, 3.0), (1.3, 1.2, 1.1)), r"^loading\.segments\.depth\[2\]: must be above "),
+    (((1.0, 3.0), (1.3, 3.5)), r"^loading\.segments\.exponent\[1\]: "),
 ])
 def test_bad_loading_segments_are_one_line_errors(segments, message):
+    """Segments built in code meet the file's rules, with the readers' messages."""
     with pytest.raises(InputError, match=message):
-        make_params(loading_segments=segments)
+        make_params(loading_segments=LoadingSegments(*segments))
 
 
 def test_stretched_residual_form_reduces_to_the_original_with_b_1():
@@ -497,8 +501,8 @@ def test_core_derives_the_constants_of_the_python_parameters():
                                                                  rel=1e-15)
     assert core_params(DEEP).segment_depths == [1.0, 20.0, 60.0]
     core = core_params(SEGMENTED)
-    assert (core.segment_depths, core.segment_exponents) == tuple(
-        list(part) for part in SEGMENTED.loading_segments)
+    assert core.segment_depths == list(SEGMENTED.loading_segments.depth)
+    assert core.segment_exponents == list(SEGMENTED.loading_segments.exponent)
 
 
 def test_threads_argument_is_checked():

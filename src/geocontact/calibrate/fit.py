@@ -16,7 +16,13 @@ from scipy.optimize import least_squares
 
 from ..errors import InputError
 from ..hertz import hertz_coefficient
-from ..law.params import HERTZ_EXPONENT, MAX_SEGMENTS, LawParams, saturating_ratio
+from ..law.params import (
+    HERTZ_EXPONENT,
+    MAX_SEGMENTS,
+    LawParams,
+    LoadingSegments,
+    saturating_ratio,
+)
 from ..material import Material
 
 # Upper bound of a saturating ratio's limit (the JSON allows [0, 1)).
@@ -75,7 +81,7 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_sl
     """n1, delta_p/delta_y, n2 (and, where it pays, delta_q/delta_y, n3) of the virgin curve:
     power laws continuous at dy, dp (and dq).
 
-    ``form="segments"``: instead, ``loading_segments`` (depths, exponents): one power law per
+    ``form="segments"``: instead, ``loading_segments`` (``LoadingSegments``): one power law per
     decade of plastic depth the data span (``SEGMENTS_PER_DECADE``; 3 to MAX_SEGMENTS), starts
     equally spaced in log depth from yield, exponents by the same weighted least squares; the
     curve of a weak grain bends over five decades, which three regimes follow to 2-5 % only.
@@ -141,7 +147,7 @@ def _fit_segments(x, y, w, max_first_slope=None):
             return {"elastic_plastic_exponent": slopes[0],
                     "fully_plastic_approach_ratio": depth[1],
                     "fully_plastic_exponent": slopes[1],
-                    "loading_segments": (depth, tuple(slopes)),
+                    "loading_segments": LoadingSegments(depth, tuple(slopes)),
                     "rms_relative_error": err}
     raise InputError("calibration: no segments fit of the loading curve has exponents in (0, 3]")
 

@@ -111,6 +111,7 @@ NB_MODULE(_core, m)
   using geocontact::CyclicLaw;
   using geocontact::LawParams;
   using geocontact::Material;
+  using geocontact::ResidualTable;
   nb::class_<Material>(m, "Material")
       .def(nb::init<>())
       .def_rw("youngs_modulus", &Material::youngs_modulus)
@@ -128,6 +129,11 @@ NB_MODULE(_core, m)
       .def_rw("plastic_work_ratio_power", &CyclicLaw::plastic_work_ratio_power)
       .def_rw("tolerance", &CyclicLaw::tolerance)
       .def_rw("shakedown", &CyclicLaw::shakedown);
+  nb::class_<ResidualTable>(m, "ResidualTable")
+      .def(nb::init<>())
+      .def_rw("depth", &ResidualTable::depth)
+      .def_rw("ratio", &ResidualTable::ratio)
+      .def_ro("slope", &ResidualTable::slope, "dg/du at the knots (derived)");
   nb::class_<LawParams>(m, "LawParams")
       .def(nb::init<>())
       .def_rw("material", &LawParams::material)
@@ -173,6 +179,9 @@ NB_MODULE(_core, m)
                      return std::vector<double>(p.segment_exponent,
                                                 p.segment_exponent + p.segments);
                    })
+      .def_rw("residual_table", &LawParams::residual_table)
+      .def("residual_ratio", &LawParams::residual_ratio, "depth"_a,
+           "delta_res / delta_max at the plastic depth x (closed form or table).")
       .def("derive", &LawParams::derive, "Set the derived constants from the fields.")
       .def_ro("hertz_coefficient", &LawParams::hertz_coefficient)
       .def_ro("yield_force", &LawParams::yield_force)

@@ -9,7 +9,8 @@ Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (d
   unload curve, so a closed reload-unload loop cannot create energy);
 * residual approach ``d_res / d_max = rho_inf (1 - (1 + (x - 1)/x0)^-s)`` (zero at yield,
   below 1 everywhere; x0 = 1 is the original ``rho_inf (1 - x^-s)``, a larger transition depth
-  x0 gives the slow start and log-like rise the FE shows);
+  x0 gives the slow start and log-like rise the FE shows), or tabulated: a monotone cubic
+  through knots in (ln ln x, logit rho) (``residual_table.ResidualTable``);
 * plastic work ratio ``Wp / W_total = w_inf (1 - (1 + (x - 1)/x0w)^-e)`` (the FE's; reported
   beside the law's own loop area, which follows from the curves above);
 * cyclic extension: residual-approach increment of cycle N over the first cycle's residual
@@ -32,6 +33,7 @@ from ..errors import InputError
 from ..hertz import hertz_coefficient
 from ..io import read_text_input, write_text_atomic
 from ..material import Material
+from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
 HERTZ_EXPONENT = 1.5
@@ -161,30 +163,41 @@ def _scale_by_unit(value: Any, s: float, power: int = 0) -> Any:
     return value
 
 
-# At most this many virgin-curve segments (the C++ header's LawParams::kMaxSegments).
-MAX_SEGMENTS = 16
+# At most this many virgin-curve segments (the schema's; the C++ header's
+# LawParams::kMaxSegments holds them, params.hpp checks the two agree).
+MAX_SEGMENTS = int(schema.field("loading.segments.depth")["maxItems"])
 
 
-def _check_segments(depth: tuple[float, ...], exponent: tuple[float, ...]) -> None:
-    """The rules of ``loading.segments`` beyond each number's range (the schema's): equal
-    lengths, the first segment at yield, strictly increasing starts."""
-    if len(depth) != len(exponent):
-        raise InputError(f"loading.segments: depth and exponent must have the same length, got "
-                         f"{len(depth)} and {len(exponent)}")
-    if not 2 <= len(depth) <= MAX_SEGMENTS:
-        raise InputError(f"loading.segments: must hold 2 to {MAX_SEGMENTS} segments, got "
-                         f"{len(depth)}")
+def _check_segments(depth, exponent) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``loading.segments`` held to the file's rules (the schema's messages, as a document
+    read by either reader gets them), plus the rule between its entries: the first segment
+    starts at yield."""
+    depth = schema.check_array("loading.segments.depth", depth,
+                               schema.field("loading.segments.depth"))
+    exponent = schema.check_array("loading.segments.exponent", exponent,
+                                  schema.field("loading.segments.exponent"),
+                                  {"loading.segments.depth": depth})
     if depth[0] != 1.0:
-        raise InputError(f"loading.segments.depth: the first segment starts at yield (1), got "
-                         f"{depth[0]:g}")
-    for k in range(1, len(depth)):
-        if not depth[k] > depth[k - 1]:
-            raise InputError(f"loading.segments.depth: must be strictly increasing, got "
-                             f"{depth[k]:g} after {depth[k - 1]:g}")
-    for k, n in enumerate(exponent):
-        if not 0.0 < n <= 3.0:
-            raise InputError(f"loading.segments.exponent: must be in (0, 3], got {n:g} "
-                             f"(segment {k})")
+        raise InputError(f"loading.segments.depth[0]: the first segment starts at yield, "
+                         f"must be 1, got {depth[0]:g}")
+    return depth, exponent
+
+
+@dataclass(frozen=True)
+class LoadingSegments:
+    """The virgin curve as power-law segments (``loading.segments``): segment k starts at the
+    plastic depth ``depth[k]`` (``depth[0]`` = 1, yield) with exponent ``exponent[k]``
+    (empty: the law uses the regimes)."""
+
+    depth: tuple[float, ...] = ()
+    exponent: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "depth", tuple(float(v) for v in self.depth))
+        object.__setattr__(self, "exponent", tuple(float(v) for v in self.exponent))
+
+    def __bool__(self) -> bool:
+        return bool(self.depth)
 
 
 @dataclass(frozen=True)
@@ -227,8 +240,10 @@ class LawParams:
     fully_plastic_exponent: float
     unloading_power: float
     reloading_power: float
-    residual_limit: float
-    residual_power: float
+    # the closed residual form (limit, power, transition, log power; the defaults stand for the
+    # unused values beside a table, as in the file)
+    residual_limit: float = 0.0
+    residual_power: float = 1.0
     plastic_work_limit: float = 0.0
     plastic_work_power: float = 1.0
     residual_transition: float = 1.0
@@ -238,29 +253,42 @@ class LawParams:
     # optional third loading regime beyond delta_q = deep_ratio delta_y: F = Fq (d/dq)^n3
     deep_plastic_approach_ratio: float = math.inf
     deep_plastic_exponent: float = 1.0
-    # optional: the virgin curve as power-law segments, ((x_0 = 1, x_1, ...), (n_0, n_1, ...)):
-    # segment k starts at depth x_k with exponent n_k (``loading.segments``); the regime fields
-    # above then mirror its first three segments
-    loading_segments: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    # optional: the virgin curve as power-law segments (``loading.segments``; empty: the
+    # regimes above); with them the regime fields mirror its first three segments
+    loading_segments: LoadingSegments = field(default_factory=LoadingSegments)
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
+    # the tabulated residual form instead of the closed one (empty: the closed form)
+    residual_table: ResidualTable = field(default_factory=ResidualTable)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
     fit_errors: dict[str, Any] = field(default_factory=dict)
     label: str = ""
 
     def __post_init__(self) -> None:
-        if self.loading_segments is not None:
-            depth, exponent = (tuple(float(v) for v in part) for part in self.loading_segments)
-            _check_segments(depth, exponent)
-            mirror = {"loading_segments": (depth, exponent),
-                      "elastic_plastic_exponent": exponent[0],
+        if self.loading_segments:
+            depth, exponent = _check_segments(self.loading_segments.depth,
+                                              self.loading_segments.exponent)
+            mirror = {"elastic_plastic_exponent": exponent[0],
                       "fully_plastic_approach_ratio": depth[1],
                       "fully_plastic_exponent": exponent[1],
                       "deep_plastic_approach_ratio": depth[2] if len(depth) > 2 else math.inf,
                       "deep_plastic_exponent": exponent[2] if len(depth) > 2 else 1.0}
             for name, value in mirror.items():
                 object.__setattr__(self, name, value)
+        if self.residual_table:
+            # a table built in code is held to the file's rules (schema messages)
+            table = self.residual_table
+            depth = schema.check_array("residual_approach.table.depth", table.depth,
+                                       schema.field("residual_approach.table.depth"))
+            schema.check_array("residual_approach.table.ratio", table.ratio,
+                               schema.field("residual_approach.table.ratio"),
+                               {"residual_approach.table.depth": depth})
         self._check_energy()
+
+    @property
+    def residual_tabulated(self) -> bool:
+        """Whether the residual ratio is the table (else the closed saturating form)."""
+        return bool(self.residual_table)
 
     # --- derived constants ---------------------------------------------------------------
     @property
@@ -316,6 +344,8 @@ class LawParams:
         return np.minimum(HERTZ_EXPONENT * x**self.reloading_power, self.unloading_exponent(x))
 
     def residual_ratio(self, depth):
+        if self.residual_table:
+            return self.residual_table(depth)
         return saturating_ratio(depth, self.residual_limit, self.residual_power,
                                 self.residual_transition, self.residual_log_power)
 
@@ -344,8 +374,8 @@ class LawParams:
         the regimes: (1, n1), (r_p, n2)[, (r_q, n3)])."""
         cached = self.__dict__.get("_segments")
         if cached is None:
-            if self.loading_segments is not None:
-                depth, exponent = self.loading_segments
+            if self.loading_segments:
+                depth, exponent = self.loading_segments.depth, self.loading_segments.exponent
             else:
                 depth, exponent = [1.0, self.fully_plastic_approach_ratio], [
                     self.elastic_plastic_exponent, self.fully_plastic_exponent]
@@ -416,10 +446,12 @@ class LawParams:
         bad = np.flatnonzero((wp < -1e-9) | (np.diff(wp, prepend=wp[0]) < -1e-9))
         if bad.size:
             x = _CHECK_DEPTHS[bad[0]]
+            what = ("the ratios of residual_approach.table" if self.residual_table
+                    else "residual_approach.limit")
             raise InputError(
                 "unloading/residual_approach: this parameter set creates energy (the cycle's "
                 f"plastic work decreases) at delta_max/delta_y = {x:.4g}; "
-                "raise residual_approach.limit or lower loading.elastic_plastic_exponent"
+                f"raise {what} or lower loading.elastic_plastic_exponent"
             )
 
     # --- JSON ----------------------------------------------------------------------------
@@ -437,9 +469,9 @@ class LawParams:
             "material": self.material.to_dict(),
             "yield": ydict,
             "loading": {"segments": {
-                "depth": list(self.loading_segments[0]),
-                "exponent": list(self.loading_segments[1])}}
-            if self.loading_segments is not None else {
+                "depth": list(self.loading_segments.depth),
+                "exponent": list(self.loading_segments.exponent)}}
+            if self.loading_segments else {
                 "elastic_plastic_exponent": self.elastic_plastic_exponent,
                 "fully_plastic_approach_ratio": self.fully_plastic_approach_ratio,
                 "fully_plastic_exponent": self.fully_plastic_exponent,
@@ -453,9 +485,11 @@ class LawParams:
             },
             "unloading": {"exponent_power": self.unloading_power},
             "reloading": {"exponent_power": self.reloading_power},
-            "residual_approach": _saturating_dict(self.residual_limit, self.residual_power,
-                                                  self.residual_transition,
-                                                  self.residual_log_power),
+            "residual_approach": ({"table": self.residual_table.to_dict()}
+                                  if self.residual_table else
+                                  _saturating_dict(self.residual_limit, self.residual_power,
+                                                   self.residual_transition,
+                                                   self.residual_log_power)),
             "plastic_work": _saturating_dict(self.plastic_work_limit, self.plastic_work_power,
                                              self.plastic_work_transition,
                                              self.plastic_work_log_power),
@@ -478,11 +512,17 @@ class LawParams:
         (``geocontact.schema``, the same table and messages as the C++ reader), then the rules
         between fields. ``source`` is kept for callers; messages name the fields."""
         values = schema.validate(data)
-        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}}
+        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}, "residual_table": {},
+                                             "loading_segments": {}}
         top: dict[str, Any] = {}
         for name, value in schema.named_values(values).items():
             group, _, attribute = name.rpartition(".")
             (groups[group] if group else top)[attribute] = value
+        segments = LoadingSegments(**groups["loading_segments"])
+        if segments:  # the regime fields are left out: they mirror the first segments
+            top.update(elastic_plastic_exponent=segments.exponent[0],
+                       fully_plastic_approach_ratio=segments.depth[1],
+                       fully_plastic_exponent=segments.exponent[1])
         ratio_p = top["fully_plastic_approach_ratio"]
         if top["deep_plastic_approach_ratio"] <= ratio_p:
             raise InputError(
@@ -492,6 +532,8 @@ class LawParams:
         cyclic = CyclicLaw(**groups["cyclic"])
         cyclic.check_second_cycle()
         params = cls(material=Material(**groups["material"]), cyclic=cyclic,
+                     residual_table=ResidualTable(**groups["residual_table"]),
+                     loading_segments=segments,
                      yield_extra=values["yield.*"], **top)
         if "yield.force_N" in values:
             given = values["yield.force_N"]

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #if defined(__GNUC__) || defined(__clang__)
 #define GEOCONTACT_ALWAYS_INLINE inline __attribute__((always_inline))
@@ -107,6 +108,74 @@ struct CyclicLaw {
   }
 };
 
+// The tabulated residual ratio rho = delta_res / delta_max (residual_approach.table; docs/law.md,
+// "Tabulated residual approach"; law/residual_table.py is the same, in Python): a monotone cubic
+// Hermite spline (PCHIP) of g = logit(rho) against u = log(log x) through the knots, interior
+// slopes the Fritsch-Butland weighted harmonic mean of the two secants (0 where they change sign
+// or one vanishes), end slopes the end segment's secant, straight lines in (u, g) beyond the end
+// knots (C1); rho = 1 / (1 + exp(-min(g, 36))), 0 for x <= 1.
+struct ResidualTable {
+  std::vector<double> depth, ratio;  // the knots x_k, rho_k of the file (empty: no table)
+  // derived (derive()): u_k, g_k, the slopes dg/du at the knots, and per segment the
+  // coefficients of g = g_k + s (m_k + s (c2_k + s c3_k)), s = u - u_k
+  std::vector<double> u, g, slope, quadratic, cubic;
+
+  // g is capped before the logistic: 1/(1 + e^-36) rounds below 1, so delta_res < delta_max
+  static constexpr double kLogitCap = 36.0;
+
+  bool empty() const { return depth.empty(); }
+
+  void derive()
+  {
+    const size_t n = depth.size();
+    u.assign(n, 0.0);
+    g.assign(n, 0.0);
+    slope.assign(n, 0.0);
+    quadratic.assign(n > 0 ? n - 1 : 0, 0.0);
+    cubic.assign(n > 0 ? n - 1 : 0, 0.0);
+    if (n < 2) return;
+    for (size_t k = 0; k < n; ++k) {
+      u[k] = std::log(std::log(depth[k]));
+      g[k] = std::log(ratio[k]) - std::log1p(-ratio[k]);
+    }
+    std::vector<double> h(n - 1), secant(n - 1);
+    for (size_t k = 0; k + 1 < n; ++k) {
+      h[k] = u[k + 1] - u[k];
+      secant[k] = (g[k + 1] - g[k]) / h[k];
+    }
+    slope[0] = secant[0];
+    slope[n - 1] = secant[n - 2];
+    for (size_t k = 1; k + 1 < n; ++k) {
+      const double before = secant[k - 1], after = secant[k];
+      const double w1 = 2.0 * h[k] + h[k - 1], w2 = h[k] + 2.0 * h[k - 1];
+      slope[k] = before * after <= 0.0 ? 0.0 : 1.0 / ((w1 / before + w2 / after) / (w1 + w2));
+    }
+    for (size_t k = 0; k + 1 < n; ++k) {
+      quadratic[k] = (3.0 * secant[k] - 2.0 * slope[k] - slope[k + 1]) / h[k];
+      cubic[k] = (slope[k] + slope[k + 1] - 2.0 * secant[k]) / (h[k] * h[k]);
+    }
+  }
+
+  // rho given lx = log x (x = delta_max / delta_y): one log, one exp and a binary search
+  double ratio_from_log_depth(double lx) const
+  {
+    if (!(lx > 0.0)) return 0.0;
+    const double v = std::log(lx);
+    const size_t last = u.size() - 1;
+    double logit;
+    if (v <= u[0]) {
+      logit = g[0] + slope[0] * (v - u[0]);
+    } else if (v >= u[last]) {
+      logit = g[last] + slope[last] * (v - u[last]);
+    } else {
+      const size_t k = static_cast<size_t>(std::upper_bound(u.begin(), u.end(), v) - u.begin() - 1);
+      const double s = v - u[k];
+      logit = g[k] + s * (slope[k] + s * (quadratic[k] + s * cubic[k]));
+    }
+    return 1.0 / (1.0 + std::exp(-std::min(logit, kLogitCap)));
+  }
+};
+
 // Every parameter of the law (`geocontact.law/1`), plus the derived constants the step uses.
 // Build it with load_params()/parse_params() (params.hpp), or fill the fields and call derive().
 struct LawParams {
@@ -136,6 +205,7 @@ struct LawParams {
   double segment_depth[kMaxSegments] = {};
   double segment_exponent[kMaxSegments] = {};
   CyclicLaw cyclic;
+  ResidualTable residual_table;  // non-empty: the residual ratio is this table (limit etc unused)
   std::string label;
 
   // derived (derive())
@@ -178,9 +248,14 @@ struct LawParams {
       deep_plastic_force = std::numeric_limits<double>::max();
     }
     log_band = std::log1p(-cyclic.tolerance);
+    residual_table.derive();
     // the virgin step's envelope formulas at x = 1 (log x = 0), the same operations, so the
     // same bits as evaluating them at every virgin step within delta_y
-    yield_residual_ratio = -residual_limit * std::expm1(-residual_power * residual_log_depth(1.0));
+    // (the table's ratio is 0 at x = 1)
+    yield_residual_ratio =
+        residual_table.empty()
+            ? -residual_limit * std::expm1(-residual_power * residual_log_depth(1.0))
+            : 0.0;
     yield_unloading_exponent = kHertzExponent * std::exp(unloading_power * 0.0);
     yield_reloading_exponent =
         reloading_power >= unloading_power
@@ -257,9 +332,11 @@ struct LawParams {
         residual_transition == 1.0 ? std::log(x) : std::log1p((x - 1.0) / residual_transition);
     return residual_log_power == 1.0 ? l : positive_pow(l, residual_log_power);
   }
-  // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield
+  // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield; or the table
   double residual_ratio(double depth) const
   {
+    if (!residual_table.empty())
+      return residual_table.ratio_from_log_depth(std::log(std::max(depth, 1.0)));
     return -residual_limit * std::expm1(-residual_power * residual_log_depth(depth));
   }
 
@@ -424,11 +501,16 @@ inline void virgin_envelope(const LawParams &p, double dmax, double lx, double s
     nu = p.yield_unloading_exponent;
     nr = p.yield_reloading_exponent;
   } else {
-    // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
-    const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
-                          ? lx
-                          : p.residual_log_depth(dmax / p.yield_approach);
-    dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
+    if (!p.residual_table.empty()) {
+      // the table: one log, one exp and a binary search over the knots
+      dres = p.residual_table.ratio_from_log_depth(lx) * dmax;
+    } else {
+      // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
+      const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
+                            ? lx
+                            : p.residual_log_depth(dmax / p.yield_approach);
+      dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
+    }
     nu = kHertzExponent * std::exp(p.unloading_power * lx);
     // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
     nr = p.reloading_power >= p.unloading_power
