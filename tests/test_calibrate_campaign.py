@@ -130,6 +130,31 @@ def test_rerun_reads_the_cache_and_runs_no_fe(calibrated, capsys, monkeypatch):
         assert a[key] == b[key]
 
 
+def test_loading_form_segments_refits_from_the_cache(calibrated, monkeypatch):
+    """--loading-form segments: the same FE runs (from the cache, none started), the virgin
+    curve written as segments, the form recorded in the inputs and the fit errors."""
+    import geocontact.fem.campaign as fem_campaign
+
+    root, out = calibrated
+
+    def no_fe_run(*args, **kwargs):
+        raise AssertionError("an FE run started on a cached rerun")
+
+    monkeypatch.setattr(fem_campaign, "run_history", no_fe_run)
+    monkeypatch.setattr(fem_campaign, "_run_on_dask", no_fe_run)
+    segmented = root / "segments.json"
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(segmented),
+                 "--loading-form", "segments"]) == 0
+    doc = json.loads(segmented.read_text())
+    assert set(doc["loading"]) == {"segments"}
+    assert doc["loading"]["segments"]["depth"][0] == 1.0
+    assert doc["provenance"]["inputs"]["loading_form"] == "segments"
+    assert doc["fit_errors"]["loading_form"] == "segments"
+    regimes = json.loads(out.read_text())
+    assert "loading_form" not in regimes["provenance"]["inputs"]
+    assert doc["residual_approach"] == regimes["residual_approach"]
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--levels", "2"], "--levels"),
     (["--peak-forces", "10,abc"], "--peak-forces"),
