@@ -106,4 +106,5 @@ def test_golden_vectors_through_the_compiled_binding():
     reached = [max(c["approaches"]) / segments["yield"]["approach_m"]
                for c in golden["cases"] if c["params"] == "segments"]
     assert max(reached) > starts[-1]
-    assert all(any(a < x < b for x in reached) for a, b in zip(starts[:-1], starts[1:]))
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        assert any(a < x < b for x in reached), (a, b)

@@ -143,3 +143,42 @@ def test_a_tabulated_law_unloads_to_the_tables_residual_approach():
         assert contact.state.residual_approach == pytest.approx(
             float(tabulated.residual_ratio(x)) * dmax, rel=1e-14)
     assert tabulated.residual_ratio(depth[3]) == pytest.approx(ratio[3], rel=1e-13)
+
+
+def _tabulated_weak() -> LawParams:
+    law = load_params(EXAMPLES / "params-reference-weak.json")
+    depth, ratio = _weak_levels()
+    doc = law.to_dict()
+    doc["residual_approach"] = {"table": {"depth": depth, "ratio": ratio}}
+    return LawParams.from_dict(doc)
+
+
+def test_closed_form_consumers_refuse_a_table_in_one_line():
+    """Code that works on the closed form's parameters (the laboratory fit's reported values,
+    the universal law's warm starts) says so for a tabulated law; the closed form reads."""
+    from geocontact.errors import InputError
+    from geocontact.labtest.fit import fitted_values
+
+    tabulated = _tabulated_weak()
+    with pytest.raises(InputError, match=r"^residual_approach: the laboratory fit needs the "
+                                         r"closed form .*residual_approach.table\)$"):
+        fitted_values(tabulated)
+    closed = load_params(EXAMPLES / "params-reference-weak.json")
+    assert closed.residual_closed_form("x") == (closed.residual_limit, closed.residual_power,
+                                                closed.residual_transition,
+                                                closed.residual_log_power)
+    assert fitted_values(closed)["residual_limit"] == closed.residual_limit
+
+
+def test_report_of_a_tabulated_law_file(tmp_path):
+    """The report's law section draws a tabulated law and lists its table."""
+    from geocontact.report.html import Report
+    from geocontact.report.law import law_section
+
+    path = tmp_path / "tabulated.json"
+    _tabulated_weak().save(path)
+    report = Report("t", "", {})
+    law_section(report, path, tmp_path, tmp_path / "figures")
+    (heading, items), = report.sections
+    assert "table of 13 knots, δmax/δy 1.592 to 1.815e+05" in items[0]
+    assert "ρ∞" not in items[0]

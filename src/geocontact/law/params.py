@@ -290,6 +290,17 @@ class LawParams:
         """Whether the residual ratio is the table (else the closed saturating form)."""
         return bool(self.residual_table)
 
+    def residual_closed_form(self, needed_by: str) -> tuple[float, float, float, float]:
+        """(limit, power, transition, log power) of the closed residual form, for code that
+        works on those parameters (``needed_by`` says which); a tabulated law has none: a
+        one-line InputError."""
+        if self.residual_table:
+            raise InputError(f"residual_approach: {needed_by} needs the closed form (limit, "
+                             "power, transition_depth, log_power); this law tabulates it "
+                             "(residual_approach.table)")
+        return (self.residual_limit, self.residual_power, self.residual_transition,
+                self.residual_log_power)
+
     # --- derived constants ---------------------------------------------------------------
     @property
     def hertz_coefficient(self) -> float:

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -127,17 +128,20 @@ struct ResidualTable {
 
   void derive()
   {
+    // (a parameter file's table is validated by params.hpp: 3 to 64 knots, both increasing)
+    if (ratio.size() != depth.size())
+      throw std::invalid_argument("ResidualTable: depth and ratio must have the same length");
     const size_t n = depth.size();
     u.assign(n, 0.0);
     g.assign(n, 0.0);
     slope.assign(n, 0.0);
     quadratic.assign(n > 0 ? n - 1 : 0, 0.0);
     cubic.assign(n > 0 ? n - 1 : 0, 0.0);
-    if (n < 2) return;
     for (size_t k = 0; k < n; ++k) {
       u[k] = std::log(std::log(depth[k]));
       g[k] = std::log(ratio[k]) - std::log1p(-ratio[k]);
     }
+    if (n < 2) return;
     std::vector<double> h(n - 1), secant(n - 1);
     for (size_t k = 0; k + 1 < n; ++k) {
       h[k] = u[k + 1] - u[k];
