@@ -189,6 +189,8 @@ def test_a_table_built_in_code_is_held_to_the_files_rules():
             ((2.0, 3.0, 4.0, 5.0), (0.1, 0.2, 0.3),
              r"^residual_approach.table.ratio: must have as many"),
             ((2.0, 3.0, 4.0), (0.1, 0.2, 1.0), r"^residual_approach.table.ratio\[2\]: must be in"),
+            ((2.0, "3", 4.0), (0.1, 0.2, 0.3),
+             r"^residual_approach.table.depth\[1\]: expected a number, got a string$"),
     ):
         with pytest.raises(InputError, match=message):
             dataclasses.replace(params, residual_table=ResidualTable(depth, ratio))
