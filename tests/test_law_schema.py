@@ -214,9 +214,17 @@ def test_a_table_built_in_code_is_held_to_the_files_rules():
             ((2.0, 3.0, 4.0, 5.0), (0.1, 0.2, 0.3),
              r"^residual_approach.table.ratio: must have as many"),
             ((2.0, 3.0, 4.0), (0.1, 0.2, 1.0), r"^residual_approach.table.ratio\[2\]: must be in"),
+            ((2.0, "3", 4.0), (0.1, 0.2, 0.3),
+             r"^residual_approach.table.depth\[1\]: expected a number, got a string$"),
     ):
         with pytest.raises(InputError, match=message):
             dataclasses.replace(params, residual_table=ResidualTable(depth, ratio))
+    # beside a table the closed form's numbers are the (unused) defaults, as read from a file
+    tabulated = dataclasses.replace(params, residual_table=ResidualTable((2.0, 5.0, 40.0),
+                                                                         (0.1, 0.3, 0.6)))
+    assert (tabulated.residual_limit, tabulated.residual_power, tabulated.residual_transition,
+            tabulated.residual_log_power) == (0.0, 1.0, 1.0, 1.0)
+    assert LawParams.from_dict(tabulated.to_dict()).residual_table == tabulated.residual_table
 
 
 def test_schema_defaults_are_the_defaults_of_both_sides():

@@ -296,7 +296,7 @@ def residual_table_fit(depth, values) -> tuple[ResidualTable, dict]:
             "calibration: the tabulated residual form needs residual ratios rising strictly "
             f"with depth; the level at delta_max/delta_y = {x[k + 1]:.4g} has "
             f"{rho[k + 1]:.4g} after {rho[k]:.4g} at {x[k]:.4g}; use the saturating form")
-    table = ResidualTable(tuple(x), tuple(rho))
+    table = ResidualTable(tuple(map(float, x)), tuple(map(float, rho)))
     own = table(x)
     per_level = []
     for i in range(x.size):

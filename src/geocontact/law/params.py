@@ -283,6 +283,11 @@ class LawParams:
             schema.check_array("residual_approach.table.ratio", table.ratio,
                                schema.field("residual_approach.table.ratio"),
                                {"residual_approach.table.depth": depth})
+            # beside a table the closed form's fields hold their (unused) defaults, as a file
+            # read with one does: a law is one set of values, whichever way it was made
+            for key in ("limit", "power", "transition_depth", "log_power"):
+                spec = schema.field(f"residual_approach.{key}")
+                object.__setattr__(self, spec["name"], schema.default(spec))
         self._check_energy()
 
     @property

@@ -65,8 +65,10 @@ class ResidualTable:
     ratio: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "depth", tuple(float(v) for v in self.depth))
-        object.__setattr__(self, "ratio", tuple(float(v) for v in self.ratio))
+        # tuples (hashable, frozen); the entries are checked by LawParams, with the messages
+        # of the file's schema
+        object.__setattr__(self, "depth", tuple(self.depth))
+        object.__setattr__(self, "ratio", tuple(self.ratio))
 
     def __bool__(self) -> bool:
         return bool(self.depth)
