@@ -295,3 +295,38 @@ def test_finite_strain_run_resumes_to_the_uninterrupted_result(material, tmp_pat
     steps.clear()
     _run(material, other, resume=True, kinematics="finite", write_fields=False)
     assert steps[0] == 1
+
+
+def test_a_run_whose_inputs_agree_to_rounding_is_reused_by_a_campaign(material, tmp_path,
+                                                                      monkeypatch, capsys):
+    """The same campaign's inputs computed on another CPU can differ in the last bit (numpy's
+    SIMD log/exp): the committed run is reused, not recomputed; a real change of an input, a
+    hand-edited record or a run outside the folder of its key is not reused."""
+    import math
+
+    from geocontact.fem.campaign import run_campaign
+
+    cache = tmp_path / "cache"
+    job = FemJob(material, tuple(FORCES), mesh="coarse", steps_per_segment=STEPS)
+    [first] = run_campaign([job], cache, workers=1, progress=False)
+    peak = math.nextafter(FORCES[1], math.inf)  # one ulp up
+    near = FemJob(material, (0.0, peak, 0.0), mesh="coarse", steps_per_segment=STEPS)
+    assert near.key() != job.key()
+    assert reuse.difference(first.summary["identity"], near.identity(), rounding=True) is None
+    assert reuse.difference(first.summary["identity"], near.identity()) is not None
+    started = []
+    monkeypatch.setattr("geocontact.fem.campaign._run_job",
+                        lambda *a, **k: started.append(a) or first)
+    [again] = run_campaign([near], cache, workers=1, progress=True)
+    assert started == [] and again.curve["force_N"].tolist() == first.curve["force_N"].tolist()
+    assert f"reusing {job.key()}" in capsys.readouterr().err
+    # a real change of the inputs (1e-9 in force) is another run
+    other = FemJob(material, (0.0, FORCES[1] * (1 + 1e-9), 0.0), mesh="coarse",
+                   steps_per_segment=STEPS)
+    assert reuse.equivalent_run(cache, other.identity()) is None
+    # a hand-edited record (its key no longer the hash of the rest) is not trusted
+    summary_path = cache / job.key() / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["identity"]["inputs"]["tolerance"] *= 1 + 1e-14
+    summary_path.write_text(json.dumps(summary))
+    assert reuse.equivalent_run(cache, near.identity()) is None

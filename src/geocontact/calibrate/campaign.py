@@ -329,7 +329,7 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
             "elements": [r.result.summary["mesh"]["elements"] for r in runs],
             "history_shape": settings()["campaign"]["history"],
             "peak_forces_N": [r.level.max_force for r in runs],
-            "cache_keys": [r.job.key() for r in runs],
+            "cache_keys": [r.result.summary["identity"]["key"] for r in runs],
             "fe_versions": sorted({str(r.result.summary.get("version")) for r in runs}),
             "wall_time_s": [r.result.summary["wall_time_s"] for r in runs],
             "virgin_curve_from": "every run's loading segment, run k between the peaks of "

@@ -26,6 +26,7 @@ from ..material import Material
 from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
     FeRunIdentity,
     difference,
+    equivalent_run,
     fe_code_hash,
     finished_run,
     load_result,
@@ -146,6 +147,15 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
     cache.mkdir(parents=True, exist_ok=True)
     results: list[FemResult | None] = [finished_run(_cached(cache, job), job.identity())
                                        for job in jobs]
+    for i, job in enumerate(jobs):
+        if results[i] is None:
+            found = equivalent_run(cache, job.identity())
+            if found is not None:
+                results[i] = found[0]
+                if progress:
+                    print(f"campaign: {job.name()}: reusing {found[1]}, the same run with "
+                          f"inputs equal to rounding (computed on another machine)",
+                          file=sys.stderr)
     todo = [i for i, result in enumerate(results) if result is None]
     if progress:
         print(f"campaign: {len(jobs)} FE runs, {len(jobs) - len(todo)} cached, "

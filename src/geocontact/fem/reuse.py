@@ -201,14 +201,44 @@ def identity_key(record: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()[:20]
 
 
-def difference(recorded: Any, identity: FeRunIdentity) -> str | None:
+# Inputs computed on another machine can come out a few ulp apart: numpy picks SIMD code for
+# its log/exp/power at run time, so the calibration's geometric peak loads differed in the last
+# bit between two CPUs (591.6198855854117 against ...118 N) and a committed run of hours was not
+# reused. A run whose numbers agree with the job's to this relative rounding is the same run.
+ROUNDING = 1e-12
+
+
+def same_to_rounding(recorded: Any, current: Any) -> bool:
+    """Whether two JSON-like records are equal, floats to ``ROUNDING`` (relative), everything
+    else (keys, lengths, strings, integers, booleans) exactly."""
+    if isinstance(recorded, dict) and isinstance(current, dict):
+        return recorded.keys() == current.keys() and all(
+            same_to_rounding(recorded[k], current[k]) for k in current)
+    if isinstance(recorded, list) and isinstance(current, list):
+        return len(recorded) == len(current) and all(
+            same_to_rounding(a, b) for a, b in zip(recorded, current, strict=True))
+    if isinstance(recorded, float) and isinstance(current, float):
+        return math.isclose(recorded, current, rel_tol=ROUNDING, abs_tol=0.0)
+    return type(recorded) is type(current) and recorded == current
+
+
+def difference(recorded: Any, identity: FeRunIdentity, *,
+               rounding: bool = False) -> str | None:
     """What differs between a recorded identity (``to_dict()`` of an earlier run) and
-    ``identity``, in a few words; None when they are the same."""
+    ``identity``, in a few words; None when they are the same. With ``rounding``, numeric
+    inputs that agree to ``ROUNDING`` count as the same (the record must still be intact: its
+    key the hash of the rest)."""
     current = identity.to_dict()
     if not isinstance(recorded, dict) or recorded.get("schema") != SCHEMA:
         return "made by an older FE (no identity record)"
     if all(recorded.get(name) == value for name, value in current.items()):
         return None  # the whole record, not only its key: a hand-edited record is not trusted
+    if (rounding and recorded.get("key") == identity_key(recorded)
+            and recorded.keys() == current.keys()
+            and all(recorded[name] == value for name, value in current.items()
+                    if name not in ("key", "inputs"))
+            and same_to_rounding(recorded["inputs"], current["inputs"])):
+        return None
     if recorded.get("fe_code") != current["fe_code"]:
         return "made by other FE code"
     theirs = recorded.get("libraries") or {}
@@ -244,10 +274,11 @@ def load_result(directory: str | Path) -> FemResult:
 
 
 def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool = False,
-                 why: list[str] | None = None) -> FemResult | None:
+                 why: list[str] | None = None, rounding: bool = False) -> FemResult | None:
     """The finished FE run in ``directory`` if it may stand in for a run of ``identity`` (same
     key: same inputs, FE code and libraries; with ``fields`` also its ParaView files), else
-    None. ``why``: a list that receives the reason a run that is there is not reused."""
+    None. ``why``: a list that receives the reason a run that is there is not reused.
+    ``rounding``: numeric inputs equal to ``ROUNDING`` will do (``equivalent_run``)."""
     directory = Path(directory)
     if not (directory / "summary.json").exists():
         return None
@@ -256,7 +287,9 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
     except InputError as exc:
         reason = str(exc)
     else:
-        reason = difference(result.summary.get("identity"), identity)
+        reason = difference(result.summary.get("identity"), identity, rounding=rounding)
+        if reason is None and rounding and directory.name != result.summary["identity"]["key"]:
+            reason = "not in the folder of its key"
         if reason is None and fields:
             names = result.summary.get("fields")  # a run with fields has at least one
             if not isinstance(names, list) or not names or not all(
@@ -269,6 +302,24 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
     return None
 
 
-__all__ = ["FE_SOURCES", "LIBRARIES", "FeRunIdentity", "difference", "distribution_version",
-           "fe_code_hash", "finished_run", "identity_key", "library_versions",
-           "load_result"]
+def equivalent_run(cache: str | Path, identity: FeRunIdentity) -> tuple[FemResult, str] | None:
+    """A finished run in the cache folder ``cache`` (one ``<key>/`` folder per run) that is
+    ``identity``'s run up to the rounding of its numeric inputs (``ROUNDING``; same FE code,
+    libraries and every other input), with its key; None if there is none. For when the exact
+    key is not there: the same campaign's inputs computed on another CPU."""
+    for summary in sorted(Path(cache).glob("*/summary.json")):
+        try:  # the identity first (cheap), the whole result only for a candidate
+            recorded = json.loads(summary.read_text()).get("identity")
+        except (OSError, ValueError, AttributeError):
+            continue
+        if difference(recorded, identity, rounding=True) is not None:
+            continue
+        result = finished_run(summary.parent, identity, rounding=True)
+        if result is not None:
+            return result, summary.parent.name
+    return None
+
+
+__all__ = ["FE_SOURCES", "LIBRARIES", "ROUNDING", "FeRunIdentity", "difference",
+           "distribution_version", "equivalent_run", "fe_code_hash", "finished_run",
+           "identity_key", "library_versions", "load_result", "same_to_rounding"]
