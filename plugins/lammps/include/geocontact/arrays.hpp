@@ -122,22 +122,23 @@ inline void hertz_block(double kh, double *kept, const double *approach, double 
 
 // Run block(begin, end) over [0, n) on `threads` threads. The contacts are cut into chunks of
 // whole multiples of 64 contacts (whole cache lines of the outputs, and of the records if the
-// buffer is aligned, so threads rarely write one line), about kChunksPerThread per thread, and
-// each thread takes the next chunk left until none is: a thread that gets less of a core (a
-// shared machine) or slower contacts does fewer chunks instead of holding the others at the
-// end of the step. Which thread steps a contact changes nothing in its result.
+// buffer is aligned, so threads rarely write one line), about kChunksPerThread per thread and
+// at least kMinChunk contacts, and each thread takes the next chunk left until none is: a
+// thread that gets less of a core (a shared machine) or slower contacts does fewer chunks
+// instead of holding the others at the end of the step. Which thread steps a contact changes
+// nothing in its result.
 template <class Block>
 void parallel_blocks(std::size_t n, int threads, const Block &block)
 {
-  constexpr std::size_t kAlign = 64, kChunksPerThread = 16;
+  constexpr std::size_t kAlign = 64, kMinChunk = 4 * kAlign, kChunksPerThread = 16;
   const std::size_t wanted = threads > 1 ? static_cast<std::size_t>(threads) : 1;
-  const std::size_t workers = std::max<std::size_t>(1, std::min(wanted, n / (4 * kAlign)));
+  const std::size_t workers = std::max<std::size_t>(1, std::min(wanted, n / kMinChunk));
   if (workers == 1) {
     block(0, n);
     return;
   }
   const std::size_t chunk =
-      std::max(kAlign, (n / (workers * kChunksPerThread) + kAlign - 1) / kAlign * kAlign);
+      std::max(kMinChunk, (n / (workers * kChunksPerThread) + kAlign - 1) / kAlign * kAlign);
   std::atomic<std::size_t> next{0};
   const auto run = [&] {
     for (std::size_t begin; (begin = next.fetch_add(chunk, std::memory_order_relaxed)) < n;)
