@@ -111,6 +111,7 @@ WEAK_FINITE_FE := --kinematics finite --mesh-rule contact --max-step-ratio 1.01
 calibrate-weak-finite: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh default --levels 13 \
 	  --acceptance $(WEAK_FINITE_FE) --workers 1 --cache datasets/fe-runs/weak-finite \
+	  --residual-form table --loading-form segments \
 	  --out out/calibrate/params-reference-weak-finite.json
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE

@@ -130,7 +130,62 @@ def test_rerun_reads_the_cache_and_runs_no_fe(calibrated, capsys, monkeypatch):
         assert a[key] == b[key]
 
 
+def test_loading_form_segments_refits_from_the_cache(calibrated, monkeypatch):
+    """--loading-form segments: the same FE runs (from the cache, none started), the virgin
+    curve written as segments, the form recorded in the inputs and the fit errors."""
+    import geocontact.fem.campaign as fem_campaign
+
+    root, out = calibrated
+
+    def no_fe_run(*args, **kwargs):
+        raise AssertionError("an FE run started on a cached rerun")
+
+    monkeypatch.setattr(fem_campaign, "run_history", no_fe_run)
+    monkeypatch.setattr(fem_campaign, "_run_on_dask", no_fe_run)
+    segmented = root / "segments.json"
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(segmented),
+                 "--loading-form", "segments"]) == 0
+    doc = json.loads(segmented.read_text())
+    assert set(doc["loading"]) == {"segments"}
+    assert doc["loading"]["segments"]["depth"][0] == 1.0
+    assert doc["provenance"]["inputs"]["loading_form"] == "segments"
+    assert doc["provenance"]["loading_form"] == "segments"
+    regimes = json.loads(out.read_text())
+    assert "loading_form" not in regimes["provenance"]["inputs"]
+    assert doc["residual_approach"] == regimes["residual_approach"]
+
+
+def test_residual_form_table_from_the_same_runs(calibrated, capsys):
+    """--residual-form table (from the cached runs, no FE work): the residual approach is the
+    table through the levels, recorded in the provenance, with its leave-one-out errors; the
+    default file records no residual form (files of the saturating form read as before)."""
+    root, out = calibrated
+    table_file = root / "P-table.json"
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(table_file),
+                 "--residual-form", "table"]) == 0
+    printed = capsys.readouterr().out
+    assert "residual table through the levels, leave-one-out max" in printed
+    default, tabulated = json.loads(out.read_text()), json.loads(table_file.read_text())
+    assert "residual_form" not in default["provenance"]
+    assert "residual_form" not in default["provenance"]["inputs"]
+    assert tabulated["provenance"]["residual_form"] == "table"
+    assert tabulated["provenance"]["inputs"]["residual_form"] == "table"
+    table = tabulated["residual_approach"]["table"]
+    levels = default["fit_errors"]["per_level"]
+    assert table["depth"] == [lv["depth"] for lv in levels]
+    assert table["ratio"] == [lv["residual_ratio"] for lv in levels]
+    for key in ("unloading", "reloading", "yield"):
+        assert tabulated[key] == default[key]
+    # the loading too, unless one of the two needed the near-yield energy bound on n1
+    bounded = ["loading_first_exponent_bounded" in d["fit_errors"] for d in (default, tabulated)]
+    assert (tabulated["loading"] == default["loading"]) == (bounded[0] == bounded[1])
+    loo = tabulated["fit_errors"]["residual_table_leave_one_out"]
+    assert len(loo["per_level"]) == 4 and loo["residual_ratio_max_relative"] > 0.0
+    load_params(table_file)
+
+
 @pytest.mark.parametrize("extra, message", [
+    (["--residual-form", "spline"], "--residual-form"),
     (["--levels", "2"], "--levels"),
     (["--peak-forces", "10,abc"], "--peak-forces"),
     (["--peak-forces", "1,2,3"], "first yield"),

@@ -66,3 +66,22 @@ def test_status_of_a_finished_run_and_of_problems(campaign, tmp_path, capsys):
     assert fe_dataset.main([str(edited)]) == 1
     assert (edited / "foreign.txt").read_text() == "not ours"
     assert "PROBLEM" in capsys.readouterr().out
+
+
+def test_compare_law_forms_refuses_a_folder_without_runs(tmp_path, capsys):
+    """scripts/compare_law_forms.py: a missing folder, or one without finished runs of the
+    given inputs, is a one-line error (exit 2), never a traceback or an empty comparison."""
+    spec = importlib.util.spec_from_file_location("compare_law_forms",
+                                                  ROOT / "scripts" / "compare_law_forms.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    from geocontact.errors import run_reporting_errors
+
+    args = ["--material", "reference-weak", "--mesh", "coarse", "--levels", "13",
+            "--kinematics", "finite", "--mesh-rule", "contact", "--max-step-ratio", "1.02"]
+    missing = tmp_path / "nothing-here"
+    assert run_reporting_errors(lambda: module.main(["--dataset", str(missing), *args])) == 2
+    assert capsys.readouterr().err.strip().endswith(f"{missing} is not a folder")
+    assert run_reporting_errors(lambda: module.main(["--dataset", str(tmp_path), *args])) == 2
+    err = capsys.readouterr().err.strip()
+    assert "0 finished calibration runs" in err and "\n" not in err

@@ -84,9 +84,39 @@ def approach_path(dy: float) -> list[float]:
     return [a * dy for a in path]
 
 
-@pytest.mark.parametrize("params_file", [PARAMS_FILE, CALIBRATED_FILE],
-                         ids=["illustrative", "calibrated"])
-def test_two_spheres_reproduce_the_python_law_along_the_same_approach_history(params_file):
+def _tabulated(params_file: Path, out: Path) -> Path:
+    """``params_file`` with its residual approach a table (knots of its own closed form,
+    the middle ones moved off it), written to ``out``."""
+    doc = json.loads(params_file.read_text())
+    law = load_params(params_file)
+    depth = [1.5, 4.0, 12.0, 40.0]
+    ratio = [float(r) * s for r, s in zip(law.residual_ratio(np.array(depth)),
+                                         (1.0, 1.04, 0.98, 1.0), strict=True)]
+    doc["residual_approach"] = {"table": {"depth": depth, "ratio": ratio}}
+    out.write_text(json.dumps(doc))
+    return out
+
+
+def _segmented(params_file: Path, out: Path) -> Path:
+    """``params_file`` with its virgin curve as five power-law segments (starts within the
+    approach path's depths), written to ``out``."""
+    doc = json.loads(params_file.read_text())
+    doc["loading"] = {"segments": {"depth": [1.0, 3.0, 8.0, 20.0, 45.0],
+                                   "exponent": [1.4, 1.3, 1.2, 1.25, 1.1]}}
+    out.write_text(json.dumps(doc))
+    return out
+
+
+@pytest.mark.parametrize("params_file", [PARAMS_FILE, CALIBRATED_FILE, "tabulated", "segmented"],
+                         ids=["illustrative", "calibrated", "tabulated", "segmented"])
+def test_two_spheres_reproduce_the_python_law_along_the_same_approach_history(params_file,
+                                                                              tmp_path):
+    if params_file == "tabulated":  # the reference file with a residual table (docs/law.md)
+        params_file = _tabulated(CALIBRATED_FILE, tmp_path / "tabulated.json")
+        assert load_params(params_file).residual_tabulated
+    if params_file == "segmented":  # the reference file with loading segments (docs/law.md)
+        params_file = _segmented(CALIBRATED_FILE, tmp_path / "segmented.json")
+        assert load_params(params_file).loading_segments
     params = load_params(params_file)
     dy = params.yield_approach
     lmp = two_spheres(gap=0.5 * dy, params_file=params_file)

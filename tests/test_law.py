@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from geocontact.analyses.force_driven import drive_by_force
 from geocontact.errors import InputError
 from geocontact.law import Contact, ContactArrays, CyclicLaw, LawParams, force_history
+from geocontact.law.params import LoadingSegments
 
 DY = YIELD_APPROACH
 
@@ -29,6 +30,13 @@ DEEP = make_params(deep_plastic_approach_ratio=60.0, deep_plastic_exponent=0.95,
                    residual_log_power=1.7, residual_transition=3.0, residual_power=0.1,
                    cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=2.3,
                                     residual_ratio_power=4.0, tolerance=0.01))
+
+# the segments form of the virgin curve (loading.segments): five power laws, the last three
+# inside the histories' range, exponents falling and rising again
+SEGMENTED = make_params(loading_segments=LoadingSegments((1.0, 3.0, 12.0, 40.0, 90.0),
+                                                         (1.35, 1.22, 1.05, 1.15, 0.9)),
+                        cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=0.3,
+                                         residual_ratio_power=1.2, tolerance=0.01))
 
 
 def refine(path, per_step=7):
@@ -87,11 +95,11 @@ def test_force_continuous_in_approach(path, direction):
 
 
 @settings(max_examples=200, deadline=None)
-@given(histories, st.sampled_from(["plain", "cyclic", "deep"]))
+@given(histories, st.sampled_from(["plain", "cyclic", "deep", "segmented"]))
 def test_no_energy_created_on_any_path(path, which):
     """Dissipation never decreases step by step, and a path from apart to apart does
     non-negative work: the law's exact work against an independent trapezoid integration."""
-    params = {"plain": PARAMS, "cyclic": CYCLIC, "deep": DEEP}[which]
+    params = {"plain": PARAMS, "cyclic": CYCLIC, "deep": DEEP, "segmented": SEGMENTED}[which]
     contact = Contact(params)
     dense = refine(path, per_step=200)
     forces = []
@@ -214,7 +222,7 @@ def test_scalar_and_vectorised_paths_agree():
     increments = rng.normal(0.0, 3.0, size=(steps, n)) * DY
     paths = np.cumsum(increments, axis=0)
     paths[-10:] = -DY
-    for params in (PARAMS, CYCLIC, DEEP):
+    for params in (PARAMS, CYCLIC, DEEP, SEGMENTED):
         arrays = ContactArrays(params, n)
         forces = np.empty((steps, n))
         stiff = np.empty((steps, n))
@@ -300,6 +308,63 @@ def test_third_loading_regime_is_continuous_and_its_work_exact():
     again = LawParams.from_dict(DEEP.to_dict())
     assert again.deep_plastic_approach == pytest.approx(dq, rel=1e-15)
     assert again.residual_log_power == 1.7
+
+
+def test_loading_segments_are_continuous_and_their_work_exact():
+    """The segments form: F continuous at every start with the segment's slope beyond it, the
+    closed-form virgin work equal to a numerical integral of the force, the inverse exact; the
+    regimes written as segments are the same curve; the file round-trips."""
+    from scipy.integrate import quad
+
+    depth, exponent = SEGMENTED.loading_segments.depth, SEGMENTED.loading_segments.exponent
+    starts = [x * DY for x in depth]
+    for k, d in enumerate(starts):
+        below, above = SEGMENTED.virgin_force([d * (1 - 1e-12), d * (1 + 1e-12)])
+        assert above == pytest.approx(below, rel=1e-9)
+        slope = math.log(SEGMENTED.virgin_force(d * 1.01) / SEGMENTED.virgin_force(d)) / math.log(
+            1.01)
+        assert slope == pytest.approx(exponent[k], rel=1e-9)
+        assert SEGMENTED.virgin_exponent(d * 1.01) == exponent[k]
+    for d in (0.5 * DY, 2.0 * DY, 30.0 * DY, 500.0 * DY):
+        numeric = quad(lambda t: float(SEGMENTED.virgin_force(t)), 0.0, d,
+                       points=[s for s in starts if s < d], limit=200, epsabs=0.0,
+                       epsrel=1e-12)[0]
+        assert float(SEGMENTED.virgin_work(d)) == pytest.approx(numeric, rel=1e-9)
+        assert SEGMENTED.virgin_approach(float(SEGMENTED.virgin_force(d))) == pytest.approx(
+            d, rel=1e-12)
+    # the regime fields mirror the first segments (readers of n1, r_p, n2, r_q, n3)
+    assert (SEGMENTED.elastic_plastic_exponent, SEGMENTED.fully_plastic_approach_ratio,
+            SEGMENTED.fully_plastic_exponent, SEGMENTED.deep_plastic_approach_ratio) == (
+                1.35, 3.0, 1.22, 12.0)
+    # three regimes written as segments: the same curve and work
+    as_segments = make_params(loading_segments=LoadingSegments(
+        (1.0, DEEP.fully_plastic_approach_ratio, DEEP.deep_plastic_approach_ratio),
+        (DEEP.elastic_plastic_exponent, DEEP.fully_plastic_exponent,
+         DEEP.deep_plastic_exponent)), deep_plastic_approach_ratio=60.0,
+        residual_log_power=1.7, residual_transition=3.0, residual_power=0.1)
+    d = np.geomspace(0.1, 1e4, 200) * DY
+    np.testing.assert_allclose(as_segments.virgin_force(d), DEEP.virgin_force(d), rtol=1e-14)
+    np.testing.assert_allclose(as_segments.virgin_work(d), DEEP.virgin_work(d), rtol=1e-13)
+    document = SEGMENTED.to_dict()
+    assert set(document["loading"]) == {"segments"}
+    again = LawParams.from_dict(document)
+    assert again.loading_segments == SEGMENTED.loading_segments
+    np.testing.assert_array_equal(again.virgin_force(d), SEGMENTED.virgin_force(d))
+
+
+@pytest.mark.parametrize("segments, message", [
+    (((1.0,), (1.3,)), r"^loading\.segments\.depth: must have 2 to 16 entries, got 1$"),
+    (((1.0, 3.0), (1.3, 1.2, 1.1)), r"^loading\.segments\.exponent: must have as many "
+                                    r"entries as loading\.segments\.depth \(2\), got 3$"),
+    (((2.0, 3.0), (1.3, 1.2)), r"^loading\.segments\.depth\[0\]: the first segment starts at "
+                               r"yield, must be 1, got 2$"),
+    (((1.0, 3.0, 3.0), (1.3, 1.2, 1.1)), r"^loading\.segments\.depth\[2\]: must be above "),
+    (((1.0, 3.0), (1.3, 3.5)), r"^loading\.segments\.exponent\[1\]: "),
+])
+def test_bad_loading_segments_are_one_line_errors(segments, message):
+    """Segments built in code meet the file's rules, with the readers' messages."""
+    with pytest.raises(InputError, match=message):
+        make_params(loading_segments=LoadingSegments(*segments))
 
 
 def test_stretched_residual_form_reduces_to_the_original_with_b_1():
@@ -427,13 +492,17 @@ def test_state_of_contacts_on_the_virgin_curve_is_up_to_date_when_read():
 def test_core_derives_the_constants_of_the_python_parameters():
     from geocontact.law.kernel import core_params
 
-    for params in (PARAMS, CYCLIC, DEEP):
+    for params in (PARAMS, CYCLIC, DEEP, SEGMENTED):
         core = core_params(params)
         for name in ("hertz_coefficient", "yield_force", "fully_plastic_approach",
                      "fully_plastic_force"):
             assert getattr(core, name) == getattr(params, name), name
     assert core_params(DEEP).deep_plastic_force == pytest.approx(DEEP.deep_plastic_force,
                                                                  rel=1e-15)
+    assert core_params(DEEP).segment_depths == [1.0, 20.0, 60.0]
+    core = core_params(SEGMENTED)
+    assert core.segment_depths == list(SEGMENTED.loading_segments.depth)
+    assert core.segment_exponents == list(SEGMENTED.loading_segments.exponent)
 
 
 def test_threads_argument_is_checked():

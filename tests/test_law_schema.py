@@ -18,7 +18,7 @@ from geocontact import schema
 from geocontact.errors import InputError
 from geocontact.law import LawParams, _core, load_params
 from geocontact.law.bad_documents import DEFAULT_BASE, generate
-from geocontact.law.params import CyclicLaw
+from geocontact.law.params import CyclicLaw, LoadingSegments
 from geocontact.material import Material
 
 CORPUS = Path(__file__).resolve().parent / "data" / "bad-law-params"
@@ -67,11 +67,26 @@ def test_corpus_covers_every_field_and_every_bound():
             expected.append("array")
             if spec.get("keys") == "closed":
                 expected.append("unknown-key")
+        elif kind == "array":
+            expected += ["number", "too-few", "too-many", "entry-string", "entry-infinite"]
+            for side, closed, opened in (("below", "minimum", "exclusiveMinimum"),
+                                         ("above", "maximum", "exclusiveMaximum")):
+                if closed in spec:
+                    expected.append(f"{side}-closed-{closed}")
+                if opened in spec:
+                    expected.append(f"{side}-open-{closed}")
+            if spec.get("increasing"):
+                expected.append("not-increasing")
+            if "same_length_as" in spec:
+                expected.append("length-differs")
+        if "without" in spec:
+            expected.append(f"beside-{spec['without']}")
         for what in expected:
             assert f"{path}--{what}" in names, f"no bad document for {path}: {what}"
     # and the rules between fields, written as code on each side
     for rule in ("loading.deep_plastic_approach_ratio--not-beyond-fully-plastic",
                  "yield.force_N--disagrees-with-hertz", "unloading--creates-energy",
+                 "unloading--creates-energy-with-table",
                  "cyclic.residual_ratio--cycle-2-ratio-above-1",
                  "cyclic.plastic_work_ratio--cycle-2-ratio-above-1"):
         assert rule in names
@@ -138,6 +153,80 @@ def test_both_readers_read_the_same_numbers():
     assert cpp.cyclic.enabled == python.cyclic.enabled
 
 
+def test_both_readers_read_the_same_segments():
+    """The loading segments: the same starts and exponents, the same derived constants and the
+    same virgin curve on both sides; the file round-trips; and the base's regimes written as
+    segments are the base's curve."""
+    import numpy as np
+
+    document = json.loads((CORPUS / INDEX["segments_base"]).read_text())
+    python = LawParams.from_dict(document)
+    cpp = _core.parse_params(json.dumps(document))
+    assert python.loading_segments
+    assert tuple(cpp.segment_depths) == python.loading_segments.depth
+    assert tuple(cpp.segment_exponents) == python.loading_segments.exponent
+    for name in ("elastic_plastic_exponent", "fully_plastic_approach_ratio",
+                 "fully_plastic_exponent", "deep_plastic_approach_ratio",
+                 "deep_plastic_exponent", "fully_plastic_force"):
+        assert getattr(cpp, name) == getattr(python, name), name
+    regimes = LawParams.from_dict(_base())
+    depths = np.geomspace(0.1, 1e6, 500) * python.yield_approach
+    assert np.allclose(python.virgin_force(depths), regimes.virgin_force(depths), rtol=1e-13)
+    assert np.allclose(python.virgin_work(depths), regimes.virgin_work(depths), rtol=1e-12)
+    again = LawParams.from_dict(json.loads(python.to_json()))
+    assert again.loading_segments == python.loading_segments
+    assert again.to_dict()["loading"] == document["loading"]
+
+
+def test_both_readers_read_the_same_table():
+    """The tabulated residual form: the same knots, the same derived slopes (to rounding)
+    and the same ratio at every depth, on both sides; the table file round-trips."""
+    import numpy as np
+
+    document = json.loads((CORPUS / INDEX["table_base"]).read_text())
+    python = LawParams.from_dict(document)
+    cpp = _core.parse_params(json.dumps(document))
+    assert python.residual_tabulated
+    assert tuple(cpp.residual_table.depth) == python.residual_table.depth
+    assert tuple(cpp.residual_table.ratio) == python.residual_table.ratio
+    assert np.allclose(cpp.residual_table.slope, python.residual_table.spline.slope,
+                       rtol=1e-14, atol=0.0)
+    depths = np.concatenate([[0.5, 1.0, 1.0 + 1e-12], np.geomspace(1.001, 1e7, 400)])
+    ours = python.residual_ratio(depths)
+    theirs = np.array([cpp.residual_ratio(float(x)) for x in depths])
+    assert np.allclose(theirs, ours, rtol=1e-13, atol=1e-300)
+    again = LawParams.from_dict(json.loads(python.to_json()))
+    assert again.residual_table == python.residual_table
+    assert again.to_dict()["residual_approach"] == document["residual_approach"]
+    # the closed form's fields take their (unused) defaults beside a table, on both sides
+    assert (python.residual_limit, python.residual_power) == (0.0, 1.0)
+    assert (cpp.residual_limit, cpp.residual_power) == (0.0, 1.0)
+
+
+def test_a_table_built_in_code_is_held_to_the_files_rules():
+    """LawParams(residual_table=...) says what the file reader says."""
+    from geocontact.law.residual_table import ResidualTable
+
+    params = LawParams.from_dict(_base())
+    for depth, ratio, message in (
+            ((2.0, 3.0), (0.1, 0.2), r"^residual_approach.table.depth: must have 3 to 64"),
+            ((2.0, 3.0, 3.0), (0.1, 0.2, 0.3), r"^residual_approach.table.depth\[2\]: must be"),
+            ((2.0, 3.0, 4.0, 5.0), (0.1, 0.2, 0.3),
+             r"^residual_approach.table.ratio: must have as many"),
+            ((2.0, 3.0, 4.0), (0.1, 0.2, 1.0), r"^residual_approach.table.ratio\[2\]: must be in"),
+            ((2.0, "3", 4.0), (0.1, 0.2, 0.3),
+             r"^residual_approach.table.depth\[1\]: expected a number, got a string$"),
+    ):
+        with pytest.raises(InputError, match=message):
+            dataclasses.replace(params, residual_table=ResidualTable(depth, ratio))
+    # beside a table the closed form's numbers are the (unused) defaults, as read from a file
+    tabulated = dataclasses.replace(params, residual_table=ResidualTable((2.0, 5.0, 40.0),
+                                                                         (0.1, 0.3, 0.6)))
+    assert (tabulated.residual_limit, tabulated.residual_power, tabulated.residual_transition,
+            tabulated.residual_log_power) == (0.0, 1.0, 1.0, 1.0)
+    assert LawParams.from_dict(tabulated.to_dict()).residual_table == tabulated.residual_table
+
+
 def test_schema_defaults_are_the_defaults_of_both_sides():
     """A field left out of a file and a field left unset in code take the same value, in
     Python (the dataclasses) and in C++ (the structs of law.hpp)."""
@@ -159,7 +248,10 @@ def test_schema_defaults_are_the_defaults_of_both_sides():
 def test_every_named_field_has_a_place_on_both_sides():
     """A field added to the schema without its dataclass field (Python) or its slot in
     params.hpp (C++, a std::logic_error there) fails here."""
-    groups = {"": LawParams, "material": Material, "cyclic": CyclicLaw}
+    from geocontact.law.residual_table import ResidualTable
+
+    groups = {"": LawParams, "material": Material, "cyclic": CyclicLaw,
+              "residual_table": ResidualTable, "loading_segments": LoadingSegments}
     for spec in schema.fields().values():
         name = spec.get("name")
         if name is None:
@@ -167,6 +259,8 @@ def test_every_named_field_has_a_place_on_both_sides():
         group, _, attribute = name.rpartition(".")
         assert attribute in {f.name for f in dataclasses.fields(groups[group])}, name
     _core.parse_params(json.dumps(_base()))  # fills every named number
+    _core.parse_params((CORPUS / INDEX["table_base"]).read_text())  # and every named array
+    _core.parse_params((CORPUS / INDEX["segments_base"]).read_text())
 
 
 def test_material_checks_are_the_schema_ranges():

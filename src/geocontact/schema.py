@@ -122,6 +122,31 @@ def check_number(where: str, value: Any, spec: dict[str, Any], scale: float = 1.
     return number
 
 
+def check_array(where: str, value: Any, spec: dict[str, Any],
+                values: dict[str, Any] | None = None) -> tuple[float, ...]:
+    """``value`` as a tuple of floats: an array of ``minItems`` to ``maxItems`` numbers (as
+    many as its ``same_length_as`` field in ``values``), each inside the field's range
+    (named ``where[i]``, from 0) and, if ``increasing``, strictly above the one before; or the
+    one-line InputError."""
+    if not isinstance(value, (list, tuple)):
+        raise InputError(f"{where}: must be an array of numbers, got {kind_name(value)}")
+    low, high = spec["minItems"], spec["maxItems"]
+    if not low <= len(value) <= high:
+        raise InputError(f"{where}: must have {low} to {high} entries, got {len(value)}")
+    other = spec.get("same_length_as")
+    if other is not None and values is not None and len(value) != len(values[other]):
+        raise InputError(f"{where}: must have as many entries as {other} "
+                         f"({len(values[other])}), got {len(value)}")
+    out: list[float] = []
+    for i, item in enumerate(value):
+        number = check_number(f"{where}[{i}]", item, spec)
+        if spec.get("increasing") and out and number <= out[-1]:
+            raise InputError(f"{where}[{i}]: must be above {where}[{i - 1}] = {out[-1]:g} "
+                             f"(strictly increasing), got {number:g}")
+        out.append(number)
+    return tuple(out)
+
+
 def validate(document: Any) -> dict[str, Any]:
     """Every field of a ``geocontact.law/1`` document checked against the schema, in its order.
 
@@ -153,8 +178,13 @@ def _check_object(path: str, data: dict[str, Any], values: dict[str, Any]) -> No
 def _check_field(spec: dict[str, Any], parent: dict[str, Any] | None, present: bool, value: Any,
                  values: dict[str, Any]) -> None:
     path, kind = spec["path"], spec["type"]
+    excluded = spec.get("without") in (parent or {})
+    if present and excluded:
+        raise InputError(f"{path}: must be left out beside {path.rpartition('.')[0]}."
+                         f"{spec['without']}")
     if not present:
-        needed = spec.get("required") or spec.get("with") in (parent or {})
+        # beside its "without" sibling a field is neither required nor needed by a "with"
+        needed = not excluded and (spec.get("required") or spec.get("with") in (parent or {}))
         if parent is not None and needed:
             raise InputError(f"{path}: missing")
         if kind == "object":
@@ -163,11 +193,13 @@ def _check_field(spec: dict[str, Any], parent: dict[str, Any] | None, present: b
             for child in _children(path):
                 _check_field(child, None, False, None, values)
         elif "default" in spec:
-            values[path] = default(spec)
+            values[path] = tuple(default(spec)) if kind == "array" else default(spec)
         return
     if kind == "number":
         scale = values[spec["relative_to"]] if "relative_to" in spec else 1.0
         values[path] = check_number(path, value, spec, scale)
+    elif kind == "array":
+        values[path] = check_array(path, value, spec, values)
     elif kind == "bool":
         if not isinstance(value, bool):
             raise InputError(f"{path}: must be true or false, got {kind_name(value)}")

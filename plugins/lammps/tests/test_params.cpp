@@ -62,6 +62,8 @@ int replay_corpus(const std::string &dir)
     }
   }
   geocontact::load_params(dir + "/base.json");  // the document every case changes is valid
+  geocontact::load_params(dir + "/base-table.json");  // and the one of the table's cases
+  geocontact::load_params(dir + "/base-segments.json");  // and the one of the segments' cases
   return cases;
 }
 

@@ -26,7 +26,7 @@ from ..force_history import preset_history
 from ..hertz import hertz_coefficient, incipient_yield
 from ..law.params import LawParams
 from ..material import Material
-from .fit import LevelData, fit_law
+from .fit import LOADING_FORMS, REGIMES, RESIDUAL_FORMS, SATURATING, LevelData, fit_law
 
 MIN_LEVELS = 3
 # The shipped calibrations use 7 and 13 levels (two per decade); 50 levels is ~8 per decade
@@ -208,10 +208,18 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
               steps_per_segment: int | None = None, cache_dir=DEFAULT_CACHE,
               scheduler: str | None = None, workers: int | None = None,
               progress: bool = True, fe_model: dict[str, str] | None = None,
+              residual_form: str = SATURATING, loading_form: str = REGIMES,
               ) -> tuple[LawParams, list[CalibrationRun]]:
     """FE campaign + extraction + fit. Returns the law and the runs it was fitted to.
     ``fe_model``: the FE's kinematics, mesh_rule, step_rule and max_step_ratio (``FemJob``;
-    default the FE's)."""
+    default the FE's). ``residual_form``, ``loading_form``: of the residual approach and the
+    virgin curve (``fit_law``)."""
+    if residual_form not in RESIDUAL_FORMS:  # before the FE work
+        raise InputError(f"residual form: must be one of {', '.join(RESIDUAL_FORMS)}, got "
+                         f"{residual_form!r}")
+    if loading_form not in LOADING_FORMS:
+        raise InputError(f"loading form: must be one of {', '.join(LOADING_FORMS)}, got "
+                         f"{loading_form!r}")
     peaks = (check_peaks(material, peaks) if peaks is not None
              else peak_forces(material, levels, max_force))
     jobs = calibration_jobs(material, peaks, mesh, steps_per_segment, fe_model)
@@ -220,7 +228,7 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
                            workers=workers, progress=progress)
     runs = [extract_run(job, result)
             for job, result in zip(jobs, results[:len(jobs)], strict=True)]
-    params = fit_runs(material, runs)
+    params = fit_runs(material, runs, residual_form, loading_form)
     if cyclic is not None:
         params = fit_cyclic(params, cyclic, results[-1])
     return params, runs
@@ -300,8 +308,12 @@ def virgin_curve(runs: list[CalibrationRun]) -> tuple[np.ndarray, np.ndarray, li
     return np.concatenate(approach), np.concatenate(force), stitches
 
 
-def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
-    """Fit the law to extracted calibration runs (no FE work: reruns from cached results)."""
+def fit_runs(material: Material, runs: list[CalibrationRun],
+             residual_form: str = SATURATING, loading_form: str = REGIMES) -> LawParams:
+    """Fit the law to extracted calibration runs (no FE work: reruns from cached results).
+    ``residual_form``, ``loading_form``: of the residual approach and the virgin curve
+    (``fit_law``); recorded in the provenance when not the default (files of the default
+    forms read as before)."""
     yield_info = fe_yield(material, runs)
     top = max(runs, key=lambda r: r.level.max_force)
     job = top.job
@@ -326,8 +338,13 @@ def fit_runs(material: Material, runs: list[CalibrationRun]) -> LawParams:
         },
         "fully_plastic_fe": fe_fully_plastic(runs),
     }
+    if residual_form != SATURATING:
+        provenance["residual_form"] = residual_form
+    if loading_form != REGIMES:
+        provenance["loading_form"] = loading_form
     params = fit_law(material, yield_info["approach_m"], loading_approach, loading_force,
-                     [r.level for r in runs], provenance=provenance)
+                     [r.level for r in runs], provenance=provenance,
+                     residual_form=residual_form, loading_form=loading_form)
     extra = {k: v for k, v in yield_info.items() if k != "approach_m"}
     errors = dict(params.fit_errors)
     fp = provenance["fully_plastic_fe"]["force_N"]

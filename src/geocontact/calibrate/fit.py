@@ -14,15 +14,27 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from .. import schema
 from ..errors import InputError
 from ..hertz import hertz_coefficient
-from ..law.params import HERTZ_EXPONENT, LawParams, saturating_ratio
+from ..law.params import (
+    HERTZ_EXPONENT,
+    MAX_SEGMENTS,
+    LawParams,
+    LoadingSegments,
+    saturating_ratio,
+)
+from ..law.residual_table import ResidualTable
 from ..material import Material
 
 # Upper bound of a saturating ratio's limit (the JSON allows [0, 1)).
 MAX_LIMIT = 1.0 - 1e-9
 # Ratios (residual approach / max approach) below about this are near the FE's resolution.
 RATIO_FLOOR = 0.05
+# The residual-approach forms fit_law can fit (docs/law.md): the closed saturating form, or the
+# table through the calibration levels (law/residual_table.py).
+SATURATING, TABLE = "saturating", "table"
+RESIDUAL_FORMS = (SATURATING, TABLE)
 
 
 @dataclass
@@ -63,9 +75,23 @@ THIRD_REGIME_GAIN = 0.75
 MIN_TAIL_DECADES = 0.5
 
 
-def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_slope=None):
+# The segments form of the virgin curve: this many power-law segments per decade of plastic
+# depth the data span (at least 3, at most law.params.MAX_SEGMENTS), starts equally spaced in
+# log depth from yield.
+SEGMENTS_PER_DECADE = 1.0
+REGIMES, SEGMENTS = "regimes", "segments"
+LOADING_FORMS = (REGIMES, SEGMENTS)
+
+
+def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_slope=None,
+                form=REGIMES):
     """n1, delta_p/delta_y, n2 (and, where it pays, delta_q/delta_y, n3) of the virgin curve:
     power laws continuous at dy, dp (and dq).
+
+    ``form="segments"``: instead, ``loading_segments`` (``LoadingSegments``): one power law per
+    decade of plastic depth the data span (``SEGMENTS_PER_DECADE``; 3 to MAX_SEGMENTS), starts
+    equally spaced in log depth from yield, exponents by the same weighted least squares; the
+    curve of a weak grain bends over five decades, which three regimes follow to 2-5 % only.
 
     For each candidate break (pair) on a log grid, the exponents are a linear least-squares
     problem in log space (anchored at the yield point); the best breaks win. Points are
@@ -84,6 +110,11 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_sl
     order = np.argsort(d[use])
     x, y = np.log(d[use][order] / dy), np.log(f[use][order] / fy)
     w = _trapezoid_weights(x)
+    if form not in LOADING_FORMS:
+        raise InputError(f"loading form: must be one of {', '.join(LOADING_FORMS)}, got "
+                         f"{form!r}")
+    if form == SEGMENTS:
+        return _fit_segments(x, y, w, max_first_slope)
     top = max(np.log(2.0), np.log(0.95) + x.max())
     grid = np.log(np.geomspace(1.5, np.exp(top), 240))
     two = min((_broken_power_fit(x, y, w, (lp,), max_first_slope) for lp in grid),
@@ -104,6 +135,30 @@ def fit_loading(approach, force, yield_approach, hertz_coefficient, max_first_sl
         out["deep_plastic_approach_ratio"] = float(np.exp(breaks[1]))
         out["deep_plastic_exponent"] = slopes[2]
     return out
+
+
+def _fit_segments(x, y, w, max_first_slope=None):
+    """``fit_loading``'s segments form on log depth x and log force ratio y (from yield)."""
+    decades = x.max() / np.log(10.0)
+    count = int(min(max(math.ceil(SEGMENTS_PER_DECADE * decades), 3), MAX_SEGMENTS))
+    # fewer segments where the data leave one with fewer than 3 points or an exponent out of
+    # (0, 3] (the file's range)
+    for k in range(count, 1, -1):
+        breaks = tuple(np.linspace(0.0, x.max(), k + 1)[1:-1])
+        starts = np.concatenate([[-np.inf], breaks, [np.inf]])
+        counts = [np.sum((x > a) & (x <= b))
+                  for a, b in zip(starts[:-1], starts[1:], strict=True)]
+        enough = min(counts) >= 3
+        err, slopes, breaks = _broken_power_fit(x, y, w, breaks, max_first_slope)
+        if enough and np.isfinite(err):
+            depth = (1.0, *(float(np.exp(b)) for b in breaks))
+            # the regime fields mirror the first segments (LawParams sets them so too)
+            return {"elastic_plastic_exponent": slopes[0],
+                    "fully_plastic_approach_ratio": depth[1],
+                    "fully_plastic_exponent": slopes[1],
+                    "loading_segments": LoadingSegments(depth, tuple(slopes)),
+                    "rms_relative_error": err}
+    raise InputError("calibration: no segments fit of the loading curve has exponents in (0, 3]")
 
 
 def _broken_power_fit(x, y, w, breaks, max_first_slope=None):
@@ -215,17 +270,85 @@ def _saturating(depth, values, what, starts=None, max_log_power=5.0, original=Fa
     return limit, power, transition, log_power, errors
 
 
+def residual_table_fit(depth, values) -> tuple[ResidualTable, dict]:
+    """The tabulated residual form through the levels (knots at their depths and ratios) and
+    its errors: in sample zero by construction (the table passes through every level; what
+    rounding leaves is reported under names that say so), and leave-one-out, each interior
+    level predicted by the table of the others (max relative error of rho and of 1 - rho, the
+    elastic recovery); the end levels' predictions extrapolate and are listed apart."""
+    order = np.argsort(depth, kind="stable")
+    x = np.asarray(depth, dtype=float)[order]
+    rho = np.asarray(values, dtype=float)[order]
+    most = schema.field("residual_approach.table.depth")["maxItems"]
+    if x.size > most:
+        raise InputError(f"calibration: the tabulated residual form holds at most {most} "
+                         f"levels, got {x.size}; use the saturating form")
+    if np.any(np.diff(x) <= 0.0):
+        raise InputError("calibration: the tabulated residual form needs levels of distinct "
+                         "depths delta_max/delta_y")
+    if np.any(rho <= 0.0) or np.any(rho >= 1.0):
+        raise InputError("calibration: the tabulated residual form needs residual ratios in "
+                         "(0, 1)")
+    falls = np.flatnonzero(np.diff(rho) <= 0.0)
+    if falls.size:
+        k = int(falls[0])
+        raise InputError(
+            "calibration: the tabulated residual form needs residual ratios rising strictly "
+            f"with depth; the level at delta_max/delta_y = {x[k + 1]:.4g} has "
+            f"{rho[k + 1]:.4g} after {rho[k]:.4g} at {x[k]:.4g}; use the saturating form")
+    table = ResidualTable(tuple(map(float, x)), tuple(map(float, rho)))
+    own = table(x)
+    per_level = []
+    for i in range(x.size):
+        keep = np.arange(x.size) != i
+        predicted = float(ResidualTable(tuple(x[keep]), tuple(rho[keep]))(x[i]))
+        per_level.append({"depth": float(x[i]), "ratio": float(rho[i]),
+                          "predicted_ratio": predicted,
+                          "ratio_relative_error": predicted / rho[i] - 1.0,
+                          "elastic_recovery_relative_error": (1.0 - predicted) / (1.0 - rho[i])
+                          - 1.0,
+                          "extrapolated": i in (0, x.size - 1)})
+    interior = [lv for lv in per_level if not lv["extrapolated"]]
+    errors = {
+        "residual_ratio_in_sample_max_relative_zero_by_construction":
+            float(np.max(np.abs(own / rho - 1.0))),
+        "elastic_recovery_in_sample_max_relative_zero_by_construction":
+            float(np.max(np.abs((1.0 - own) / (1.0 - rho) - 1.0))),
+        "residual_table_leave_one_out": {
+            "levels": "each interior level predicted by the table of the other levels (the "
+                      "end levels' predictions extrapolate: listed, not in the maxima)",
+            "residual_ratio_max_relative": max(abs(lv["ratio_relative_error"])
+                                               for lv in interior),
+            "elastic_recovery_max_relative": max(abs(lv["elastic_recovery_relative_error"])
+                                                 for lv in interior),
+            "per_level": per_level,
+        },
+    }
+    return table, errors
+
+
 def fit_law(material: Material, yield_approach: float, loading_approach, loading_force,
             levels: list[LevelData], provenance: dict | None = None,
-            starts: dict | None = None) -> LawParams:
+            starts: dict | None = None, residual_form: str = SATURATING,
+            loading_form: str = REGIMES) -> LawParams:
     """Every parameter of the law from FE (or test) cycles; returns validated LawParams.
 
+    ``loading_form``: the virgin curve's form, "regimes" (two or three power laws) or
+    "segments" (one power law per decade of depth; ``fit_loading``).
+
     ``starts``: optional warm starts of the saturating fits, {"residual": [(limit, power,
-    transition, log_power), ...], "plastic_work": [...]} (see ``_saturating``)."""
+    transition, log_power), ...], "plastic_work": [...]} (see ``_saturating``).
+    ``residual_form``: ``"saturating"`` (the closed form, fitted) or ``"table"`` (knots at
+    the levels' depths and residual ratios, ``residual_table_fit``: needs ratios rising
+    strictly with depth)."""
+    if residual_form not in RESIDUAL_FORMS:
+        raise InputError(f"residual form: must be one of {', '.join(RESIDUAL_FORMS)}, got "
+                         f"{residual_form!r}")
     if len(levels) < 3:
         raise InputError(f"calibration: needs >= 3 load levels, got {len(levels)}")
     kh = hertz_coefficient(material)
-    loading = fit_loading(loading_approach, loading_force, yield_approach, kh)
+    loading = fit_loading(loading_approach, loading_force, yield_approach, kh,
+                          form=loading_form)
     loading_inputs = (loading_approach, loading_force, yield_approach, kh)
     depth = np.array([lv.max_approach / yield_approach for lv in levels])
     if np.any(depth <= 1.0):
@@ -244,8 +367,11 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     p_r, rms_nr = _power_of_depth(depth, np.array(n_r))
     residual = np.array([lv.residual_approach / lv.max_approach for lv in levels])
     starts = starts or {}
-    rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
-                                         starts.get("residual"))
+    if residual_form == TABLE:
+        table, table_errors = residual_table_fit(depth, residual)
+    else:
+        rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
+                                             starts.get("residual"))
     work = np.array([lv.plastic_work / lv.total_work for lv in levels])
     w_lim, w_pow, w_x0, w_b, work_err = _saturating(depth, work, "plastic work",
                                                     starts.get("plastic_work"))
@@ -255,9 +381,10 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         "reloading_curve_rms_of_peak": float(np.sqrt(np.mean(np.square(err_r)))),
         "unloading_exponent_rms": rms_nu,
         "reloading_exponent_rms": rms_nr,
-        "residual_ratio_rms": res_err["rms"],
-        "residual_ratio_max_relative": res_err["max_relative"],
-        "elastic_recovery_rms_relative": res_err["recovery"],
+        **(table_errors if residual_form == TABLE else {
+            "residual_ratio_rms": res_err["rms"],
+            "residual_ratio_max_relative": res_err["max_relative"],
+            "elastic_recovery_rms_relative": res_err["recovery"]}),
         "plastic_work_ratio_rms": work_err["rms"],
         "per_level": [{"depth": float(x), "unloading_exponent": nu, "reloading_exponent": nr,
                        "residual_ratio": float(r), "plastic_work_ratio": float(w)}
@@ -268,10 +395,9 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
         yield_approach=yield_approach,
         unloading_power=p_u,
         reloading_power=p_r,
-        residual_limit=rho,
-        residual_power=s,
-        residual_transition=x0,
-        residual_log_power=b,
+        **({"residual_table": table} if residual_form == TABLE else {
+            "residual_limit": rho, "residual_power": s, "residual_transition": x0,
+            "residual_log_power": b}),
         plastic_work_limit=w_lim,
         plastic_work_power=w_pow,
         plastic_work_transition=w_x0,
@@ -293,13 +419,16 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
     # x - 1 the plastic work grows only if n1 <= 1.5 + 0.6 p_u (n_u = 1.5 x^p_u). First refit
     # the loading with n1 at that bound (the residual form kept), then the residual form with
     # b <= 1, then in the original form (transition 1, b = 1), before giving up; a parameter
-    # set the check accepts is never changed.
+    # set the check accepts is never changed. A table (rho ~ (ln x)^m near yield: flat there
+    # when its first slope m in (ln ln x, logit rho) exceeds 1) is kept through the first
+    # step; it has nothing to restrict (it is the data), so the next steps are the saturating
+    # form's, recorded as the table given up.
     bound = HERTZ_EXPONENT + 0.6 * p_u - 0.005
     if loading["elastic_plastic_exponent"] > bound:
-        capped = fit_loading(*loading_inputs, max_first_slope=bound)
+        capped = fit_loading(*loading_inputs, max_first_slope=bound, form=loading_form)
         capped_error = capped.pop("rms_relative_error")
         trial = {**values, **capped}
-        if "deep_plastic_approach_ratio" not in capped:
+        if "deep_plastic_approach_ratio" not in capped and "loading_segments" not in capped:
             trial.update(deep_plastic_approach_ratio=math.inf, deep_plastic_exponent=1.0)
         try:
             params = LawParams(**trial)
@@ -311,16 +440,22 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
                 "loading_first_exponent_bounded": f"n1 <= {bound:.4g}: the free fit created "
                                                   f"energy just past yield ({refused})"})
             return params
+    if residual_form == TABLE:
+        for key in table_errors:
+            fit_errors.pop(key)
+        values.pop("residual_table")
     for original in (False, True):
         rho, s, x0, b, res_err = _saturating(depth, residual, "residual approach",
                                              None if original else starts.get("residual"),
                                              max_log_power=1.0, original=original)
+        given_up = ("the table through the levels given up for the saturating form, "
+                    if residual_form == TABLE else "")
         fit_errors.update({
             "residual_ratio_rms": res_err["rms"],
             "residual_ratio_max_relative": res_err["max_relative"],
             "elastic_recovery_rms_relative": res_err["recovery"],
-            "residual_form_restricted": ("original form (transition 1, log power 1)"
-                                         if original else "log power <= 1")
+            "residual_form_restricted": given_up + ("original form (transition 1, log power 1)"
+                                                    if original else "log power <= 1")
             + f": the free fit created energy just past yield ({refused})"})
         values.update(residual_limit=rho, residual_power=s, residual_transition=x0,
                       residual_log_power=b, fit_errors=fit_errors)

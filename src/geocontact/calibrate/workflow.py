@@ -29,16 +29,20 @@ from .acceptance import (
     write_comparison_data,
 )
 from .campaign import CalibrationRun, calibrate
+from .fit import REGIMES, SATURATING
 
 
 def calibrate_to_file(material: Material, out: str | Path, inputs: dict[str, Any], *,
                       peaks=None, levels: int | None = None, max_force: float | None = None,
-                      acceptance: bool = False, overwrite: bool = False, **campaign) -> tuple[
+                      acceptance: bool = False, overwrite: bool = False,
+                      residual_form: str = SATURATING, loading_form: str = REGIMES,
+                      **campaign) -> tuple[
                           LawParams, list[CalibrationRun], dict[str, Any] | None]:
     """Calibrate, write ``out`` (P.json) and, with ``acceptance``, ``out.acceptance.json`` and
     the folder ``out.acceptance/`` (one CSV + PNG per compared run). ``campaign``: mesh,
     steps_per_segment, cache_dir, scheduler, workers, progress, fe_model (see ``calibrate``;
-    the held-out runs use the same FE model).
+    the held-out runs use the same FE model). ``residual_form``, ``loading_form``: of the
+    fitted residual approach and virgin curve (``fit_law``).
 
     The three are one result: the figures folder lands first (whole, so no stale figure
     survives), then the table, then P.json; each names the other by hash (P.json's
@@ -51,6 +55,7 @@ def calibrate_to_file(material: Material, out: str | Path, inputs: dict[str, Any
     if acceptance:
         check_replaceable(folder, "calibrate", overwrite=overwrite)  # before the campaign
     params, runs = calibrate(material, peaks=peaks, levels=levels, max_force=max_force,
+                             residual_form=residual_form, loading_form=loading_form,
                              **campaign)
     record = provenance("calibrate", inputs)
     record.pop("geocontact_version")  # LawParams.to_dict writes it first

@@ -40,6 +40,10 @@ def register(sub) -> None:
                         help="explicit peak loads in N (comma-separated)")
     p.add_argument("--max-force", type=float, default=None, metavar="F",
                    help="highest peak load, N (default 6000)")
+    p.add_argument("--residual-form", default="saturating", choices=["saturating", "table"],
+                   help="residual approach: the closed saturating form fitted to the levels "
+                   "(default), or a table through the levels (monotone cubic in ln ln x, "
+                   "logit; needs residual ratios rising with depth; docs/law.md)")
     p.add_argument("--acceptance", action="store_true",
                    help="also compare the law with held-out FE runs (P.acceptance.json)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -48,6 +52,9 @@ def register(sub) -> None:
                    help="local Dask workers (default: one per core)")
     p.add_argument("--cache", default=None, metavar="DIR",
                    help="FE result cache (default out/cache/fem)")
+    p.add_argument("--loading-form", default="regimes", choices=["regimes", "segments"],
+                   help="form of the virgin curve: two or three power laws (regimes, default) "
+                   "or one power law per decade of depth (segments; docs/law.md)")
     add_fe_model_flags(p)
     add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print the parameter file on stdout")
@@ -91,13 +98,18 @@ def run(args) -> int:
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache)}
+    if args.loading_form != "regimes":  # recorded when not the default (shipped files unchanged)
+        inputs["loading_form"] = args.loading_form
     fe_model = fe_model_of(args)
     inputs.update(fe_model)
+    if args.residual_form != "saturating":  # files of the default form read as before
+        inputs["residual_form"] = args.residual_form
     params, runs, table = calibrate_to_file(
         material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
         acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
         cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
-        progress=not args.json, overwrite=args.force, fe_model=fe_model)
+        progress=not args.json, overwrite=args.force, fe_model=fe_model,
+        residual_form=args.residual_form, loading_form=args.loading_form)
     acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:
@@ -115,11 +127,21 @@ def run(args) -> int:
              else f"{e['fully_plastic']['fe_force_N']:.4g} N"))
     print(f"fit: loading {100 * e['loading_rms_relative']:.2f} % RMS, unloading "
           f"{100 * e['unloading_curve_rms_of_peak']:.2f} % of peak, reloading "
-          f"{100 * e['reloading_curve_rms_of_peak']:.2f} % of peak, elastic recovery "
-          f"{100 * e['elastic_recovery_rms_relative']:.2f} %")
+          f"{100 * e['reloading_curve_rms_of_peak']:.2f} % of peak, " + _recovery_text(e))
     if acceptance_note:
         print(acceptance_note, end="")
     return 0
+
+
+def _recovery_text(e: dict) -> str:
+    """How well the residual form holds the elastic recovery: the saturating fit's RMS, or the
+    table's leave-one-out maxima (in sample it passes through every level)."""
+    if "residual_table_leave_one_out" in e:
+        loo = e["residual_table_leave_one_out"]
+        return (f"residual table through the levels, leave-one-out max "
+                f"{100 * loo['residual_ratio_max_relative']:.2f} % in residual approach, "
+                f"{100 * loo['elastic_recovery_max_relative']:.2f} % in elastic recovery")
+    return f"elastic recovery {100 * e['elastic_recovery_rms_relative']:.2f} %"
 
 
 def _acceptance_lines(table: dict) -> str:

@@ -260,6 +260,7 @@ class LabFit:
 
 def fitted_values(params: LawParams) -> dict[str, float]:
     """The values a fit produces (what the bootstrap gives standard errors of)."""
+    residual_limit, residual_power, _, _ = params.residual_closed_form("the laboratory fit")
     out = {
         "youngs_modulus_Pa": params.material.youngs_modulus,
         "effective_modulus_Pa": params.material.effective_modulus,
@@ -271,8 +272,8 @@ def fitted_values(params: LawParams) -> dict[str, float]:
         "fully_plastic_exponent": params.fully_plastic_exponent,
         "unloading_power": params.unloading_power,
         "reloading_power": params.reloading_power,
-        "residual_limit": params.residual_limit,
-        "residual_power": params.residual_power,
+        "residual_limit": residual_limit,
+        "residual_power": residual_power,
         "plastic_work_limit": params.plastic_work_limit,
         "plastic_work_power": params.plastic_work_power,
     }

@@ -111,6 +111,7 @@ NB_MODULE(_core, m)
   using geocontact::CyclicLaw;
   using geocontact::LawParams;
   using geocontact::Material;
+  using geocontact::ResidualTable;
   nb::class_<Material>(m, "Material")
       .def(nb::init<>())
       .def_rw("youngs_modulus", &Material::youngs_modulus)
@@ -128,6 +129,11 @@ NB_MODULE(_core, m)
       .def_rw("plastic_work_ratio_power", &CyclicLaw::plastic_work_ratio_power)
       .def_rw("tolerance", &CyclicLaw::tolerance)
       .def_rw("shakedown", &CyclicLaw::shakedown);
+  nb::class_<ResidualTable>(m, "ResidualTable")
+      .def(nb::init<>())
+      .def_rw("depth", &ResidualTable::depth)
+      .def_rw("ratio", &ResidualTable::ratio)
+      .def_ro("slope", &ResidualTable::slope, "dg/du at the knots (derived)");
   nb::class_<LawParams>(m, "LawParams")
       .def(nb::init<>())
       .def_rw("material", &LawParams::material)
@@ -148,6 +154,34 @@ NB_MODULE(_core, m)
       .def_rw("deep_plastic_approach_ratio", &LawParams::deep_plastic_approach_ratio)
       .def_rw("deep_plastic_exponent", &LawParams::deep_plastic_exponent)
       .def_rw("cyclic", &LawParams::cyclic)
+      .def(
+          "set_loading_segments",
+          [](LawParams &p, const std::vector<double> &depth, const std::vector<double> &exponent) {
+            if (depth.size() != exponent.size() || depth.size() < 2 ||
+                depth.size() > static_cast<std::size_t>(LawParams::kMaxSegments))
+              throw std::invalid_argument("loading.segments: depth and exponent must have the "
+                                          "same length, 2 to " +
+                                          std::to_string(LawParams::kMaxSegments));
+            p.loading_segments = static_cast<int>(depth.size());
+            for (std::size_t k = 0; k < depth.size(); ++k) {
+              p.segment_depth[k] = depth[k];
+              p.segment_exponent[k] = exponent[k];
+            }
+          },
+          "depth"_a, "exponent"_a,
+          "The virgin curve as power-law segments (`loading.segments`); derive() after.")
+      .def_prop_ro("segment_depths",
+                   [](const LawParams &p) {
+                     return std::vector<double>(p.segment_depth, p.segment_depth + p.segments);
+                   })
+      .def_prop_ro("segment_exponents",
+                   [](const LawParams &p) {
+                     return std::vector<double>(p.segment_exponent,
+                                                p.segment_exponent + p.segments);
+                   })
+      .def_rw("residual_table", &LawParams::residual_table)
+      .def("residual_ratio", &LawParams::residual_ratio, "depth"_a,
+           "delta_res / delta_max at the plastic depth x (closed form or table).")
       .def("derive", &LawParams::derive, "Set the derived constants from the fields.")
       .def_ro("hertz_coefficient", &LawParams::hertz_coefficient)
       .def_ro("yield_force", &LawParams::yield_force)

@@ -6,7 +6,10 @@ just crossed (open bounds at the bound itself), a value of the wrong type, and m
 is required; for every closed object an unknown key; plus the rules between fields, written
 here by hand. Each bad document is the base document (a valid one with every optional field
 set, ``base.json``) with one change. The expected message is the Python loader's, checked here
-to name the field on one line; ``tests/test_law_schema.py`` replays the corpus through both
+to name the field on one line. The fields of the tabulated residual form change a second
+base, ``base-table.json`` (the base with ``residual_approach`` a table of its own closed form at
+a few depths), those of the loading segments a third, ``base-segments.json`` (the base's virgin
+curve written as segments). ``tests/test_law_schema.py`` replays the corpus through both
 readers and checks that the committed corpus is what this writes. Regenerate with::
 
     python -m geocontact.law.bad_documents --out tests/data/bad-law-params
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +38,44 @@ INDEX = "index.json"
 DEFAULT_BASE = Path("examples") / "params-reference.json"
 # a JSON number that reads as infinity on both sides (JSON has no literal for it)
 _INFINITE = 1e400
+# the depths of the table base's knots (its ratios: the base's closed form there)
+TABLE_DEPTHS = (1.5, 4.0, 20.0, 200.0, 5000.0)
+TABLE_BASE = "base-table.json"
+SEGMENTS_BASE = "base-segments.json"
+
+
+def table_base(base: dict) -> dict:
+    """``base`` with its residual approach tabulated: knots of its own closed form."""
+    document = copy.deepcopy(base)
+    ratio = LawParams.from_dict(base).residual_ratio(list(TABLE_DEPTHS))
+    document["residual_approach"] = {"table": {"depth": list(TABLE_DEPTHS),
+                                               "ratio": [float(r) for r in ratio]}}
+    return document
+
+
+def segments_base(base: dict) -> dict:
+    """``base`` with its virgin curve written as ``loading.segments``: its regimes, the last one
+    split in two at twice its start (the same curve, four segments)."""
+    document = copy.deepcopy(base)
+    loading = base["loading"]
+    depth = [1.0, loading["fully_plastic_approach_ratio"]]
+    exponent = [loading["elastic_plastic_exponent"], loading["fully_plastic_exponent"]]
+    if "deep_plastic_approach_ratio" in loading:
+        depth.append(loading["deep_plastic_approach_ratio"])
+        exponent.append(loading["deep_plastic_exponent"])
+    depth.append(2.0 * depth[-1])
+    exponent.append(exponent[-1])
+    document["loading"] = {"segments": {"depth": depth, "exponent": exponent}}
+    return document
+
+
+def _present(document: dict, path: str) -> bool:
+    node = document
+    for key in path.split("."):
+        if not isinstance(node, dict) or key not in node:
+            return False
+        node = node[key]
+    return True
 
 
 def _get(document: dict, path: str) -> tuple[dict, str]:
@@ -62,52 +104,103 @@ def _outside(bound: float, closed: bool, below: bool) -> float:
     return bound - step if below else bound + step
 
 
-def _field_cases(base: dict) -> list[tuple[str, str, Any]]:
-    """(name, field path, bad document) from the schema's table."""
+def _field_cases(base: dict, alternates: list[dict]) -> list[tuple[str, str, Any]]:
+    """(name, field path, bad document) from the schema's table: each field changed in the
+    base that holds it (one of ``alternates`` for the fields of the residual table and of the
+    loading segments)."""
     cases = []
     for path, spec in schema.fields().items():
         kind = spec["type"]
         if kind == "any":
             continue
         slug = path
-        node, key = _get(base, path) if path.split(".")[0] in base else (None, None)
+        doc = next((alt for alt in alternates
+                    if _present(alt, path) and not _present(base, path)), base)
+        if "without" in spec:
+            # given beside the sibling that excludes it (its value from the base), in the
+            # alternate base that holds that sibling
+            node, key = _get(base, path)
+            sibling = f"{path.rpartition('.')[0]}.{spec['without']}"
+            holder = next(alt for alt in alternates if _present(alt, sibling))
+            if key in node:
+                cases.append((f"{slug}--beside-{spec['without']}", path,
+                              _with(holder, path, node[key])))
+        node, key = _get(doc, path) if path.split(".")[0] in doc else (None, None)
         if spec.get("required") or (spec.get("with") and node is not None
                                     and spec["with"] in node):
-            cases.append((f"{slug}--missing", path, _with(base, path, remove=True)))
+            cases.append((f"{slug}--missing", path, _with(doc, path, remove=True)))
         if kind == "number":
             scale = 1.0
             if "relative_to" in spec:
-                scale = _get(base, spec["relative_to"])[0][spec["relative_to"].split(".")[-1]]
+                scale = _get(doc, spec["relative_to"])[0][spec["relative_to"].split(".")[-1]]
             lo, lo_open, hi, hi_open = schema.bounds(spec, scale)
             if lo is not None:
                 cases.append((f"{slug}--below-{'open' if lo_open else 'closed'}-minimum", path,
-                              _with(base, path, _outside(lo, not lo_open, True))))
+                              _with(doc, path, _outside(lo, not lo_open, True))))
             if hi is not None:
                 cases.append((f"{slug}--above-{'open' if hi_open else 'closed'}-maximum", path,
-                              _with(base, path, _outside(hi, not hi_open, False))))
-            cases.append((f"{slug}--string", path, _with(base, path, "1.0")))
-            cases.append((f"{slug}--bool", path, _with(base, path, True)))
+                              _with(doc, path, _outside(hi, not hi_open, False))))
+            cases.append((f"{slug}--string", path, _with(doc, path, "1.0")))
+            cases.append((f"{slug}--bool", path, _with(doc, path, True)))
+        elif kind == "array":
+            cases += _array_cases(path, spec, doc)
         elif kind == "bool":
-            cases.append((f"{slug}--number", path, _with(base, path, 0)))
+            cases.append((f"{slug}--number", path, _with(doc, path, 0)))
         elif kind == "string":
-            cases.append((f"{slug}--number", path, _with(base, path, 3)))
+            cases.append((f"{slug}--number", path, _with(doc, path, 3)))
         elif kind == "object":
-            cases.append((f"{slug}--array", path, _with(base, path, [1, 2])))
+            cases.append((f"{slug}--array", path, _with(doc, path, [1, 2])))
             if spec.get("keys") == "closed":
                 cases.append((f"{slug}--unknown-key", f"{path}.colour",
-                              _with(base, f"{path}.colour", 1)))
+                              _with(doc, f"{path}.colour", 1)))
         if "enum" in spec:
-            cases.append((f"{slug}--not-allowed", path, _with(base, path, "bogus")))
+            cases.append((f"{slug}--not-allowed", path, _with(doc, path, "bogus")))
         if "const" in spec:
-            cases.append((f"{slug}--other-version", path, _with(base, path, "geocontact.law/9")))
+            cases.append((f"{slug}--other-version", path, _with(doc, path, "geocontact.law/9")))
             cases.append((f"{slug}--long-non-ascii", path,
-                          _with(base, path, "g\u00e9ocontact.law/1 " + "x" * 40)))
+                          _with(doc, path, "g\u00e9ocontact.law/1 " + "x" * 40)))
     cases.append(("unknown-section", "colour", _with(base, "colour", 1)))
     return cases
 
 
-def _cross_field_cases(base: dict) -> list[tuple[str, str, Any]]:
+def _array_cases(path: str, spec: dict, doc: dict) -> list[tuple[str, str, Any]]:
+    """An array field of ``doc``: of the wrong type, too short, too long, as long as its
+    ``same_length_as`` field but one, an entry of the wrong type, beyond each bound (the
+    first entry below, the last above) or infinite, and not increasing."""
+    node, key = _get(doc, path)
+    good = list(node[key])
+    last = len(good) - 1
+
+    def entry(i: int, value: Any) -> dict:
+        return _with(doc, path, [value if j == i else g for j, g in enumerate(good)])
+
+    cases = [
+        (f"{path}--number", path, _with(doc, path, 3)),
+        (f"{path}--too-few", path, _with(doc, path, good[:spec["minItems"] - 1])),
+        (f"{path}--too-many", path, _with(doc, path, good + [good[-1]] * (spec["maxItems"]
+                                                                        + 1 - len(good)))),
+        (f"{path}--entry-string", f"{path}[1]", entry(1, "1.0")),
+        (f"{path}--entry-infinite", f"{path}[{last}]", entry(last, _INFINITE)),
+    ]
+    if "same_length_as" in spec:
+        cases.append((f"{path}--length-differs", path, _with(doc, path, good[:-1])))
+    lo, lo_open, hi, hi_open = schema.bounds(spec)
+    if lo is not None:
+        cases.append((f"{path}--below-{'open' if lo_open else 'closed'}-minimum", f"{path}[0]",
+                      entry(0, _outside(lo, not lo_open, True))))
+    if hi is not None:
+        cases.append((f"{path}--above-{'open' if hi_open else 'closed'}-maximum",
+                      f"{path}[{last}]", entry(last, _outside(hi, not hi_open, False))))
+    if spec.get("increasing"):
+        cases.append((f"{path}--not-increasing", f"{path}[2]", entry(2, good[1])))
+    return cases
+
+
+def _cross_field_cases(base: dict, tabulated: dict,
+                       segmented: dict) -> list[tuple[str, str, Any]]:
     """The rules between fields (code on both sides, LawParams.from_dict and params.hpp)."""
+    table = tabulated["residual_approach"]["table"]
+    low_table = {"depth": table["depth"], "ratio": [0.01 * r for r in table["ratio"]]}
     loading = base["loading"]
     cases = [
         ("loading.deep_plastic_approach_ratio--not-beyond-fully-plastic",
@@ -119,6 +212,15 @@ def _cross_field_cases(base: dict) -> list[tuple[str, str, Any]]:
         ("unloading--creates-energy", "unloading/residual_approach",
          _with(_with(base, "residual_approach.limit", 0.0), "loading.elastic_plastic_exponent",
                3.0)),
+        ("unloading--creates-energy-with-table", "unloading/residual_approach",
+         _with(_with(tabulated, "residual_approach.table", low_table),
+               "loading.elastic_plastic_exponent", 3.0)),
+        ("loading.segments.depth--first-not-at-yield", "loading.segments.depth[0]",
+         _with(segmented, "loading.segments.depth",
+               [1.5, *segmented["loading"]["segments"]["depth"][1:]])),
+        ("unloading--creates-energy-with-segments", "unloading/residual_approach",
+         _with(_with(segmented, "residual_approach.limit", 0.0), "loading.segments.exponent",
+               [3.0, *segmented["loading"]["segments"]["exponent"][1:]])),
         ("residual_approach.limit--infinite", "residual_approach.limit",
          _with(base, "residual_approach.limit", _INFINITE)),
         ("residual_approach.power--huge-integer", "residual_approach.power",
@@ -133,7 +235,9 @@ def _cross_field_cases(base: dict) -> list[tuple[str, str, Any]]:
 
 
 def _text(document: Any) -> str:
-    return json.dumps(document, indent=2).replace(": Infinity", ": 1e400") + "\n"
+    # Infinity (not JSON) as a number that reads as infinity, as a value or an array entry
+    text = json.dumps(document, indent=2)
+    return re.sub(r'(?m)^(\s*(?:"[^"\n]*": )?)Infinity', r"\g<1>1e400", text) + "\n"
 
 
 def generate(base_path: str | Path = DEFAULT_BASE) -> dict[str, str]:
@@ -145,7 +249,14 @@ def generate(base_path: str | Path = DEFAULT_BASE) -> dict[str, str]:
     LawParams.from_dict(base)  # the base itself is valid
     files = {"base.json": _text(base)}
     index = []
-    cases = [*_field_cases(base), *_cross_field_cases(base)]
+    tabulated = table_base(base)
+    LawParams.from_dict(tabulated)
+    files[TABLE_BASE] = _text(tabulated)
+    segmented = segments_base(base)
+    LawParams.from_dict(segmented)
+    files[SEGMENTS_BASE] = _text(segmented)
+    cases = [*_field_cases(base, [tabulated, segmented]),
+             *_cross_field_cases(base, tabulated, segmented)]
     cases.append(("document--not-an-object", "params", [base]))
     for name, path, document in cases:
         text = _text(document)
@@ -161,8 +272,9 @@ def generate(base_path: str | Path = DEFAULT_BASE) -> dict[str, str]:
         file = f"{name}.json"
         files[file] = text
         index.append({"file": file, "field": path, "message": message})
-    files[INDEX] = json.dumps({"schema": CORPUS_SCHEMA, "base": "base.json", "cases": index},
-                              indent=2) + "\n"
+    files[INDEX] = json.dumps({"schema": CORPUS_SCHEMA, "base": "base.json",
+                               "table_base": TABLE_BASE, "segments_base": SEGMENTS_BASE,
+                               "cases": index}, indent=2) + "\n"
     return files
 
 
@@ -205,7 +317,7 @@ def write(out: str | Path, base_path: str | Path = DEFAULT_BASE) -> int:
             stale.unlink()
     for name, text in files.items():
         write_text_atomic(out / name, text)
-    return len(files) - 2
+    return len(files) - 3  # the bases and the index
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -11,6 +11,9 @@ self-contained. The history families cover what a DEM contact meets: random walk
 separation and re-contact, partial reversals at every depth, deep plastic excursions beyond
 the fully plastic approach, many cycles to one peak with the cyclic (ratchet) extension on, and
 repeated cycles to the envelope point itself, exact or jittered by 1e-9 (the envelope band).
+The parameter variants include every optional form: the cyclic extension on and off, the
+transition depth, the third loading regime and log power, the shakedown form, and a tabulated
+residual approach.
 """
 
 from __future__ import annotations
@@ -31,7 +34,10 @@ GOLDEN_SCHEMA = "geocontact.golden/1"
 # installed package does not know where a checkout is
 DEFAULT_PARAMS = Path("examples") / "params-illustrative.json"
 SEED = 20250722
-# Histories per family: the shipped file uses 50; 10000 already makes a file of ~100 MB.
+# Histories per family, split over the parameter variants: the shipped file uses 60 (10 per
+# variant; a variant added at the end with the count per variant kept leaves the earlier
+# variants' histories as they were); 10000 already makes a file of ~100 MB.
+PER_FAMILY = 60
 MAX_PER_FAMILY = 10000
 STATE_KEYS = ("approach", "force", "max_approach", "max_force", "residual_approach",
               "unloading_exponent", "reloading_exponent", "branch", "branch_value",
@@ -144,7 +150,12 @@ FAMILIES = {
 }
 
 
-VARIANTS = ("cyclic_on", "cyclic_off", "transition", "deep", "shakedown")
+VARIANTS = ("cyclic_on", "cyclic_off", "transition", "deep", "shakedown", "table", "segments")
+# the knots of the table variant (plastic depths): the histories reach below the first (the
+# line towards x = 1) and far beyond the last (the line towards rho = 1)
+TABLE_DEPTHS = (4.0, 10.0, 30.0, 100.0, 400.0)
+# the loading segments of the segments variant: five power laws, the histories reach the last
+SEGMENTS = {"depth": [1.0, 5.0, 20.0, 60.0, 150.0], "exponent": [1.3, 1.22, 1.1, 1.15, 0.95]}
 
 
 def _variants(params: LawParams) -> dict[str, dict]:
@@ -173,13 +184,23 @@ def _variants(params: LawParams) -> dict[str, dict]:
     shakedown = copy.deepcopy(transition)
     shakedown["cyclic"].update(enabled=True, form="shakedown",
                                plastic_work_ratio={"coefficient": 0.3, "power": 1.5})
+    # the tabulated residual form (on the deep variant: three regimes, cyclic on), its knots
+    # on the deep variant's closed form, the middle ones moved off it so the two differ
+    table = copy.deepcopy(deep)
+    ratio = LawParams.from_dict(deep).residual_ratio(np.array(TABLE_DEPTHS))
+    ratio = ratio * np.array([1.0, 1.05, 0.97, 1.02, 1.0])
+    table["residual_approach"] = {"table": {"depth": list(TABLE_DEPTHS),
+                                            "ratio": [float(r) for r in ratio]}}
+    # the virgin curve as power-law segments (on the deep variant: cyclic on)
+    segments = copy.deepcopy(deep)
+    segments["loading"] = {"segments": copy.deepcopy(SEGMENTS)}
     out = {"cyclic_on": on, "cyclic_off": off, "transition": transition, "deep": deep,
-           "shakedown": shakedown}
+           "shakedown": shakedown, "table": table, "segments": segments}
     assert tuple(out) == VARIANTS
     return out
 
 
-def generate(params: LawParams, n_per_family: int = 50, seed: int = SEED) -> dict:
+def generate(params: LawParams, n_per_family: int = PER_FAMILY, seed: int = SEED) -> dict:
     rng = np.random.default_rng(seed)
     variants = _variants(params)
     cases = []
@@ -222,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True, help="output JSON file")
     parser.add_argument("--params", default=str(DEFAULT_PARAMS),
                         help="geocontact.law/1 parameter file (default: %(default)s)")
-    parser.add_argument("--per-family", type=int, default=50,
+    parser.add_argument("--per-family", type=int, default=PER_FAMILY,
                         help="histories per family, split over the parameter variants")
     parser.add_argument("--seed", type=int, default=SEED)
 

@@ -66,12 +66,19 @@ def core_params(params: LawParams) -> _core.LawParams:
                  "plastic_work_log_power", "deep_plastic_approach_ratio",
                  "deep_plastic_exponent"):
         setattr(p, name, float(getattr(params, name)))
+    if params.loading_segments:
+        p.set_loading_segments(list(params.loading_segments.depth),
+                               list(params.loading_segments.exponent))
     cyclic = _core.CyclicLaw()
     for name in ("enabled", "residual_ratio_coefficient", "residual_ratio_power",
                  "plastic_work_ratio_coefficient", "plastic_work_ratio_power", "tolerance"):
         setattr(cyclic, name, getattr(params.cyclic, name))
     cyclic.shakedown = params.cyclic.form == SHAKEDOWN
     p.cyclic = cyclic
+    table = _core.ResidualTable()
+    table.depth = list(params.residual_table.depth)
+    table.ratio = list(params.residual_table.ratio)
+    p.residual_table = table
     p.derive()
     return p
 

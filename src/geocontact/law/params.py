@@ -9,7 +9,8 @@ Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (d
   unload curve, so a closed reload-unload loop cannot create energy);
 * residual approach ``d_res / d_max = rho_inf (1 - (1 + (x - 1)/x0)^-s)`` (zero at yield,
   below 1 everywhere; x0 = 1 is the original ``rho_inf (1 - x^-s)``, a larger transition depth
-  x0 gives the slow start and log-like rise the FE shows);
+  x0 gives the slow start and log-like rise the FE shows), or tabulated: a monotone cubic
+  through knots in (ln ln x, logit rho) (``residual_table.ResidualTable``);
 * plastic work ratio ``Wp / W_total = w_inf (1 - (1 + (x - 1)/x0w)^-e)`` (the FE's; reported
   beside the law's own loop area, which follows from the curves above);
 * cyclic extension: residual-approach increment of cycle N over the first cycle's residual
@@ -32,6 +33,7 @@ from ..errors import InputError
 from ..hertz import hertz_coefficient
 from ..io import read_text_input, write_text_atomic
 from ..material import Material
+from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
 HERTZ_EXPONENT = 1.5
@@ -161,6 +163,72 @@ def _scale_by_unit(value: Any, s: float, power: int = 0) -> Any:
     return value
 
 
+# At most this many virgin-curve segments (the schema's; the C++ header's
+# LawParams::kMaxSegments holds them, params.hpp checks the two agree).
+MAX_SEGMENTS = int(schema.field("loading.segments.depth")["maxItems"])
+
+
+def _check_segments(depth, exponent) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``loading.segments`` held to the file's rules (the schema's messages, as a document
+    read by either reader gets them), plus the rule between its entries: the first segment
+    starts at yield."""
+    depth = schema.check_array("loading.segments.depth", depth,
+                               schema.field("loading.segments.depth"))
+    exponent = schema.check_array("loading.segments.exponent", exponent,
+                                  schema.field("loading.segments.exponent"),
+                                  {"loading.segments.depth": depth})
+    if depth[0] != 1.0:
+        raise InputError(f"loading.segments.depth[0]: the first segment starts at yield, "
+                         f"must be 1, got {depth[0]:g}")
+    return depth, exponent
+
+
+@dataclass(frozen=True)
+class LoadingSegments:
+    """The virgin curve as power-law segments (``loading.segments``): segment k starts at the
+    plastic depth ``depth[k]`` (``depth[0]`` = 1, yield) with exponent ``exponent[k]``
+    (empty: the law uses the regimes)."""
+
+    depth: tuple[float, ...] = ()
+    exponent: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "depth", tuple(float(v) for v in self.depth))
+        object.__setattr__(self, "exponent", tuple(float(v) for v in self.exponent))
+
+    def __bool__(self) -> bool:
+        return bool(self.depth)
+
+
+@dataclass(frozen=True)
+class _Segments:
+    """Starts of the virgin curve's power-law segments: approach x_k delta_y, force F_k
+    (F_0 = Fy, F_k+1 = F_k (x_k+1/x_k)^n_k), exact virgin work W_k there (a power law's work
+    is (F d - F_start d_start) / (n + 1)); the C++ header's
+    LawParams::derive_segments, the same operations."""
+
+    approach: np.ndarray
+    exponent: np.ndarray
+    force: np.ndarray
+    work: np.ndarray
+
+    @classmethod
+    def of(cls, depth, exponent, yield_approach: float, yield_force: float) -> _Segments:
+        force, work = [yield_force], [yield_force * yield_approach / (HERTZ_EXPONENT + 1.0)]
+        for k in range(1, len(depth)):
+            ratio, n = depth[k] / depth[k - 1], exponent[k - 1]
+            force.append(force[-1] * ratio**n)
+            work.append(work[-1] + (force[-1] * depth[k] - force[-2] * depth[k - 1])
+                        * yield_approach / (n + 1.0))
+        return cls(approach=np.asarray(depth, dtype=float) * yield_approach,
+                   exponent=np.asarray(exponent, dtype=float),
+                   force=np.asarray(force), work=np.asarray(work))
+
+    def index(self, approach):
+        """Segment k of each approach: x_k delta_y < d <= x_k+1 delta_y (0 at or below yield)."""
+        return np.maximum(np.searchsorted(self.approach, approach, side="left") - 1, 0)
+
+
 @dataclass(frozen=True)
 class LawParams:
     """Every parameter of the law, with the material and incipient yield it belongs to."""
@@ -172,8 +240,10 @@ class LawParams:
     fully_plastic_exponent: float
     unloading_power: float
     reloading_power: float
-    residual_limit: float
-    residual_power: float
+    # the closed residual form (limit, power, transition, log power; the defaults stand for the
+    # unused values beside a table, as in the file)
+    residual_limit: float = 0.0
+    residual_power: float = 1.0
     plastic_work_limit: float = 0.0
     plastic_work_power: float = 1.0
     residual_transition: float = 1.0
@@ -183,14 +253,58 @@ class LawParams:
     # optional third loading regime beyond delta_q = deep_ratio delta_y: F = Fq (d/dq)^n3
     deep_plastic_approach_ratio: float = math.inf
     deep_plastic_exponent: float = 1.0
+    # optional: the virgin curve as power-law segments (``loading.segments``; empty: the
+    # regimes above); with them the regime fields mirror its first three segments
+    loading_segments: LoadingSegments = field(default_factory=LoadingSegments)
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
+    # the tabulated residual form instead of the closed one (empty: the closed form)
+    residual_table: ResidualTable = field(default_factory=ResidualTable)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
     fit_errors: dict[str, Any] = field(default_factory=dict)
     label: str = ""
 
     def __post_init__(self) -> None:
+        if self.loading_segments:
+            depth, exponent = _check_segments(self.loading_segments.depth,
+                                              self.loading_segments.exponent)
+            mirror = {"elastic_plastic_exponent": exponent[0],
+                      "fully_plastic_approach_ratio": depth[1],
+                      "fully_plastic_exponent": exponent[1],
+                      "deep_plastic_approach_ratio": depth[2] if len(depth) > 2 else math.inf,
+                      "deep_plastic_exponent": exponent[2] if len(depth) > 2 else 1.0}
+            for name, value in mirror.items():
+                object.__setattr__(self, name, value)
+        if self.residual_table:
+            # a table built in code is held to the file's rules (schema messages)
+            table = self.residual_table
+            depth = schema.check_array("residual_approach.table.depth", table.depth,
+                                       schema.field("residual_approach.table.depth"))
+            schema.check_array("residual_approach.table.ratio", table.ratio,
+                               schema.field("residual_approach.table.ratio"),
+                               {"residual_approach.table.depth": depth})
+            # beside a table the closed form's fields hold their (unused) defaults, as a file
+            # read with one does: a law is one set of values, whichever way it was made
+            for key in ("limit", "power", "transition_depth", "log_power"):
+                spec = schema.field(f"residual_approach.{key}")
+                object.__setattr__(self, spec["name"], schema.default(spec))
         self._check_energy()
+
+    @property
+    def residual_tabulated(self) -> bool:
+        """Whether the residual ratio is the table (else the closed saturating form)."""
+        return bool(self.residual_table)
+
+    def residual_closed_form(self, needed_by: str) -> tuple[float, float, float, float]:
+        """(limit, power, transition, log power) of the closed residual form, for code that
+        works on those parameters (``needed_by`` says which); a tabulated law has none: a
+        one-line InputError."""
+        if self.residual_table:
+            raise InputError(f"residual_approach: {needed_by} needs the closed form (limit, "
+                             "power, transition_depth, log_power); this law tabulates it "
+                             "(residual_approach.table)")
+        return (self.residual_limit, self.residual_power, self.residual_transition,
+                self.residual_log_power)
 
     # --- derived constants ---------------------------------------------------------------
     @property
@@ -246,6 +360,8 @@ class LawParams:
         return np.minimum(HERTZ_EXPONENT * x**self.reloading_power, self.unloading_exponent(x))
 
     def residual_ratio(self, depth):
+        if self.residual_table:
+            return self.residual_table(depth)
         return saturating_ratio(depth, self.residual_limit, self.residual_power,
                                 self.residual_transition, self.residual_log_power)
 
@@ -268,51 +384,55 @@ class LawParams:
             self.deep_plastic_approach_ratio / self.fully_plastic_approach_ratio
         ) ** self.fully_plastic_exponent
 
+    @property
+    def segments(self) -> _Segments:
+        """The virgin curve's power-law segments beyond delta_y (from ``loading_segments`` or
+        the regimes: (1, n1), (r_p, n2)[, (r_q, n3)])."""
+        cached = self.__dict__.get("_segments")
+        if cached is None:
+            if self.loading_segments:
+                depth, exponent = self.loading_segments.depth, self.loading_segments.exponent
+            else:
+                depth, exponent = [1.0, self.fully_plastic_approach_ratio], [
+                    self.elastic_plastic_exponent, self.fully_plastic_exponent]
+                if math.isfinite(self.deep_plastic_approach_ratio):
+                    depth.append(self.deep_plastic_approach_ratio)
+                    exponent.append(self.deep_plastic_exponent)
+            cached = _Segments.of(depth, exponent, self.yield_approach, self.yield_force)
+            object.__setattr__(self, "_segments", cached)
+        return cached
+
     def virgin_force(self, approach):
-        """Virgin loading curve F(delta): Hertz, then power laws continuous at delta_y, delta_p
-        (and delta_q when the optional third regime is set)."""
+        """Virgin loading curve F(delta): Hertz, then the power-law segments, continuous at
+        delta_y and at every segment's start."""
         d = np.maximum(np.asarray(approach, dtype=float), 0.0)
-        dy, dp, dq = self.yield_approach, self.fully_plastic_approach, self.deep_plastic_approach
-        with np.errstate(invalid="ignore", over="ignore"):
-            deep = (self.deep_plastic_force * (d / dq) ** self.deep_plastic_exponent
-                    if math.isfinite(dq) else 0.0)
-            return np.where(
-                d <= dy,
-                self.hertz_coefficient * d**HERTZ_EXPONENT,
-                np.where(
-                    d <= dp,
-                    self.yield_force * (d / dy) ** self.elastic_plastic_exponent,
-                    np.where(d <= dq,
-                             self.fully_plastic_force * (d / dp) ** self.fully_plastic_exponent,
-                             deep),
-                ),
-            )
+        seg = self.segments
+        k = seg.index(d)
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            return np.where(d <= self.yield_approach,
+                            self.hertz_coefficient * d**HERTZ_EXPONENT,
+                            seg.force[k] * (d / seg.approach[k]) ** seg.exponent[k])
 
     def virgin_work(self, approach):
         """Work of the force along the virgin curve from 0 to delta (exact integral)."""
         d = np.maximum(np.asarray(approach, dtype=float), 0.0)
-        dy, dp, dq = self.yield_approach, self.fully_plastic_approach, self.deep_plastic_approach
-        fy, fp = self.yield_force, self.fully_plastic_force
-        n1, n2 = self.elastic_plastic_exponent, self.fully_plastic_exponent
-        w_y = fy * dy / (HERTZ_EXPONENT + 1.0)
-        w_p = w_y + fy * dy / (n1 + 1.0) * (self.fully_plastic_approach_ratio ** (n1 + 1.0) - 1.0)
-        with np.errstate(invalid="ignore", over="ignore"):
-            if math.isfinite(dq):
-                fq, n3 = self.deep_plastic_force, self.deep_plastic_exponent
-                w_q = w_p + (fq * dq - fp * dp) / (n2 + 1.0)
-                deep = w_q + fq * dq / (n3 + 1.0) * ((d / dq) ** (n3 + 1.0) - 1.0)
-            else:
-                deep = 0.0
+        seg = self.segments
+        k = seg.index(d)
+        n = seg.exponent[k]
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
             return np.where(
-                d <= dy,
+                d <= self.yield_approach,
                 self.hertz_coefficient * d ** (HERTZ_EXPONENT + 1.0) / (HERTZ_EXPONENT + 1.0),
-                np.where(
-                    d <= dp,
-                    w_y + fy * dy / (n1 + 1.0) * ((d / dy) ** (n1 + 1.0) - 1.0),
-                    np.where(d <= dq, w_p + fp * dp / (n2 + 1.0) * ((d / dp) ** (n2 + 1.0) - 1.0),
-                             deep),
-                ),
-            )
+                seg.work[k] + seg.force[k] * seg.approach[k] / (n + 1.0)
+                * ((d / seg.approach[k]) ** (n + 1.0) - 1.0))
+
+    def virgin_exponent(self, approach: float) -> float:
+        """Local log-slope d ln F / d ln delta of the virgin curve at ``approach``."""
+        d = float(approach)
+        if d <= self.yield_approach:
+            return HERTZ_EXPONENT
+        seg = self.segments
+        return float(seg.exponent[seg.index(d)])
 
     def virgin_approach(self, force: float) -> float:
         """Inverse of the virgin loading curve: the approach at which it carries ``force``."""
@@ -321,14 +441,9 @@ class LawParams:
             return 0.0
         if f <= self.yield_force:
             return (f / self.hertz_coefficient) ** (1.0 / HERTZ_EXPONENT)
-        if f <= self.fully_plastic_force:
-            return self.yield_approach * (
-                f / self.yield_force) ** (1.0 / self.elastic_plastic_exponent)
-        if f <= self.deep_plastic_force:
-            return self.fully_plastic_approach * (
-                f / self.fully_plastic_force) ** (1.0 / self.fully_plastic_exponent)
-        return self.deep_plastic_approach * (
-            f / self.deep_plastic_force) ** (1.0 / self.deep_plastic_exponent)
+        seg = self.segments
+        k = int(np.searchsorted(seg.force, f, side="left")) - 1
+        return float(seg.approach[k] * (f / seg.force[k]) ** (1.0 / seg.exponent[k]))
 
     def envelope_plastic_work(self, max_approach):
         """Plastic work of a full load-unload cycle to delta_max, as the law computes it:
@@ -347,10 +462,12 @@ class LawParams:
         bad = np.flatnonzero((wp < -1e-9) | (np.diff(wp, prepend=wp[0]) < -1e-9))
         if bad.size:
             x = _CHECK_DEPTHS[bad[0]]
+            what = ("the ratios of residual_approach.table" if self.residual_table
+                    else "residual_approach.limit")
             raise InputError(
                 "unloading/residual_approach: this parameter set creates energy (the cycle's "
                 f"plastic work decreases) at delta_max/delta_y = {x:.4g}; "
-                "raise residual_approach.limit or lower loading.elastic_plastic_exponent"
+                f"raise {what} or lower loading.elastic_plastic_exponent"
             )
 
     # --- JSON ----------------------------------------------------------------------------
@@ -367,7 +484,10 @@ class LawParams:
             "label": self.label,
             "material": self.material.to_dict(),
             "yield": ydict,
-            "loading": {
+            "loading": {"segments": {
+                "depth": list(self.loading_segments.depth),
+                "exponent": list(self.loading_segments.exponent)}}
+            if self.loading_segments else {
                 "elastic_plastic_exponent": self.elastic_plastic_exponent,
                 "fully_plastic_approach_ratio": self.fully_plastic_approach_ratio,
                 "fully_plastic_exponent": self.fully_plastic_exponent,
@@ -381,9 +501,11 @@ class LawParams:
             },
             "unloading": {"exponent_power": self.unloading_power},
             "reloading": {"exponent_power": self.reloading_power},
-            "residual_approach": _saturating_dict(self.residual_limit, self.residual_power,
-                                                  self.residual_transition,
-                                                  self.residual_log_power),
+            "residual_approach": ({"table": self.residual_table.to_dict()}
+                                  if self.residual_table else
+                                  _saturating_dict(self.residual_limit, self.residual_power,
+                                                   self.residual_transition,
+                                                   self.residual_log_power)),
             "plastic_work": _saturating_dict(self.plastic_work_limit, self.plastic_work_power,
                                              self.plastic_work_transition,
                                              self.plastic_work_log_power),
@@ -406,11 +528,17 @@ class LawParams:
         (``geocontact.schema``, the same table and messages as the C++ reader), then the rules
         between fields. ``source`` is kept for callers; messages name the fields."""
         values = schema.validate(data)
-        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}}
+        groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}, "residual_table": {},
+                                             "loading_segments": {}}
         top: dict[str, Any] = {}
         for name, value in schema.named_values(values).items():
             group, _, attribute = name.rpartition(".")
             (groups[group] if group else top)[attribute] = value
+        segments = LoadingSegments(**groups["loading_segments"])
+        if segments:  # the regime fields are left out: they mirror the first segments
+            top.update(elastic_plastic_exponent=segments.exponent[0],
+                       fully_plastic_approach_ratio=segments.depth[1],
+                       fully_plastic_exponent=segments.exponent[1])
         ratio_p = top["fully_plastic_approach_ratio"]
         if top["deep_plastic_approach_ratio"] <= ratio_p:
             raise InputError(
@@ -420,6 +548,8 @@ class LawParams:
         cyclic = CyclicLaw(**groups["cyclic"])
         cyclic.check_second_cycle()
         params = cls(material=Material(**groups["material"]), cyclic=cyclic,
+                     residual_table=ResidualTable(**groups["residual_table"]),
+                     loading_segments=segments,
                      yield_extra=values["yield.*"], **top)
         if "yield.force_N" in values:
             given = values["yield.force_N"]

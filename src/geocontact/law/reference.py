@@ -114,10 +114,7 @@ class Contact:
         if force <= 0.0:
             return 0.0
         if s.branch == VIRGIN:
-            n = (p.elastic_plastic_exponent if d <= p.fully_plastic_approach
-                 else p.fully_plastic_exponent if d <= p.deep_plastic_approach
-                 else p.deep_plastic_exponent)
-            return n * force / d
+            return p.virgin_exponent(d) * force / d
         return self._branch_exponent() * force / (d - s.residual_approach)
 
     def _band(self) -> float:

@@ -121,12 +121,15 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
                 "The law's forms" + (" against the FE levels they were fitted to." if per_level
                                      else " (no FE levels recorded in this file)."), data)
     save_to_figures(fig, figures, f2)
+    table_knots = params.residual_table
+    residual = ((("δres/δmax", f"table of {len(table_knots.depth)} knots, δmax/δy "
+                  f"{table_knots.depth[0]:.4g} to {table_knots.depth[-1]:.4g}"),)
+                if table_knots else (("ρ∞", params.residual_limit), ("s", params.residual_power)))
     rows = [[k, v] for k, v in (
         ("label", params.label), ("Fy (N)", fy), ("δy (µm)", dy * 1e6),
         ("n1", params.elastic_plastic_exponent), ("δp/δy", params.fully_plastic_approach_ratio),
         ("n2", params.fully_plastic_exponent), ("p_u", params.unloading_power),
-        ("p_r", params.reloading_power), ("ρ∞", params.residual_limit),
-        ("s", params.residual_power), ("w∞", params.plastic_work_limit),
+        ("p_r", params.reloading_power), *residual, ("w∞", params.plastic_work_limit),
         ("e", params.plastic_work_power))]
     errors = {k: v for k, v in (params.fit_errors or {}).items() if isinstance(v, float)}
     report.add(f"Law parameters {path.relative_to(root).as_posix()}",

@@ -341,8 +341,7 @@ def node_fit(data: dict[str, np.ndarray], i: int) -> dict[str, list[float]]:
     values = {c: float(data[c][i]) for c in law_columns()}
     yield_approach, d_virgin, f_virgin, levels, _, _ = rebuild(material, values)
     p = fit_law(material, yield_approach, d_virgin, f_virgin, levels)
-    return {"residual": [p.residual_limit, p.residual_power, p.residual_transition,
-                         p.residual_log_power],
+    return {"residual": list(p.residual_closed_form("the universal law's warm starts")),
             "plastic_work": [p.plastic_work_limit, p.plastic_work_power,
                              p.plastic_work_transition, p.plastic_work_log_power]}
 

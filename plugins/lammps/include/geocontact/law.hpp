@@ -19,7 +19,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #if defined(__GNUC__) || defined(__clang__)
 #define GEOCONTACT_ALWAYS_INLINE inline __attribute__((always_inline))
@@ -107,6 +109,77 @@ struct CyclicLaw {
   }
 };
 
+// The tabulated residual ratio rho = delta_res / delta_max (residual_approach.table; docs/law.md,
+// "Tabulated residual approach"; law/residual_table.py is the same, in Python): a monotone cubic
+// Hermite spline (PCHIP) of g = logit(rho) against u = log(log x) through the knots, interior
+// slopes the Fritsch-Butland weighted harmonic mean of the two secants (0 where they change sign
+// or one vanishes), end slopes the end segment's secant, straight lines in (u, g) beyond the end
+// knots (C1); rho = 1 / (1 + exp(-min(g, 36))), 0 for x <= 1.
+struct ResidualTable {
+  std::vector<double> depth, ratio;  // the knots x_k, rho_k of the file (empty: no table)
+  // derived (derive()): u_k, g_k, the slopes dg/du at the knots, and per segment the
+  // coefficients of g = g_k + s (m_k + s (c2_k + s c3_k)), s = u - u_k
+  std::vector<double> u, g, slope, quadratic, cubic;
+
+  // g is capped before the logistic: 1/(1 + e^-36) rounds below 1, so delta_res < delta_max
+  static constexpr double kLogitCap = 36.0;
+
+  bool empty() const { return depth.empty(); }
+
+  void derive()
+  {
+    // (a parameter file's table is validated by params.hpp: 3 to 64 knots, both increasing)
+    if (ratio.size() != depth.size())
+      throw std::invalid_argument("ResidualTable: depth and ratio must have the same length");
+    const size_t n = depth.size();
+    u.assign(n, 0.0);
+    g.assign(n, 0.0);
+    slope.assign(n, 0.0);
+    quadratic.assign(n > 0 ? n - 1 : 0, 0.0);
+    cubic.assign(n > 0 ? n - 1 : 0, 0.0);
+    for (size_t k = 0; k < n; ++k) {
+      u[k] = std::log(std::log(depth[k]));
+      g[k] = std::log(ratio[k]) - std::log1p(-ratio[k]);
+    }
+    if (n < 2) return;
+    std::vector<double> h(n - 1), secant(n - 1);
+    for (size_t k = 0; k + 1 < n; ++k) {
+      h[k] = u[k + 1] - u[k];
+      secant[k] = (g[k + 1] - g[k]) / h[k];
+    }
+    slope[0] = secant[0];
+    slope[n - 1] = secant[n - 2];
+    for (size_t k = 1; k + 1 < n; ++k) {
+      const double before = secant[k - 1], after = secant[k];
+      const double w1 = 2.0 * h[k] + h[k - 1], w2 = h[k] + 2.0 * h[k - 1];
+      slope[k] = before * after <= 0.0 ? 0.0 : 1.0 / ((w1 / before + w2 / after) / (w1 + w2));
+    }
+    for (size_t k = 0; k + 1 < n; ++k) {
+      quadratic[k] = (3.0 * secant[k] - 2.0 * slope[k] - slope[k + 1]) / h[k];
+      cubic[k] = (slope[k] + slope[k + 1] - 2.0 * secant[k]) / (h[k] * h[k]);
+    }
+  }
+
+  // rho given lx = log x (x = delta_max / delta_y): one log, one exp and a binary search
+  double ratio_from_log_depth(double lx) const
+  {
+    if (!(lx > 0.0)) return 0.0;
+    const double v = std::log(lx);
+    const size_t last = u.size() - 1;
+    double logit;
+    if (v <= u[0]) {
+      logit = g[0] + slope[0] * (v - u[0]);
+    } else if (v >= u[last]) {
+      logit = g[last] + slope[last] * (v - u[last]);
+    } else {
+      const size_t k = static_cast<size_t>(std::upper_bound(u.begin(), u.end(), v) - u.begin() - 1);
+      const double s = v - u[k];
+      logit = g[k] + s * (slope[k] + s * (quadratic[k] + s * cubic[k]));
+    }
+    return 1.0 / (1.0 + std::exp(-std::min(logit, kLogitCap)));
+  }
+};
+
 // Every parameter of the law (`geocontact.law/1`), plus the derived constants the step uses.
 // Build it with load_params()/parse_params() (params.hpp), or fill the fields and call derive().
 struct LawParams {
@@ -128,7 +201,15 @@ struct LawParams {
   // optional third loading regime beyond delta_q = r_q delta_y (infinite: none)
   double deep_plastic_approach_ratio = std::numeric_limits<double>::infinity();
   double deep_plastic_exponent = 1.0;  // n3
+  // The virgin curve as power-law segments (`loading.segments`): segment k starts at depth
+  // x_k = segment_depth[k] (x_0 = 1, strictly increasing) with exponent n_k. Without them
+  // (loading_segments == 0) derive() takes the regimes above: (1, n1), (r_p, n2)[, (r_q, n3)].
+  static constexpr int kMaxSegments = 16;
+  int loading_segments = 0;
+  double segment_depth[kMaxSegments] = {};
+  double segment_exponent[kMaxSegments] = {};
   CyclicLaw cyclic;
+  ResidualTable residual_table;  // non-empty: the residual ratio is this table (limit etc unused)
   std::string label;
 
   // derived (derive())
@@ -138,8 +219,14 @@ struct LawParams {
   double fully_plastic_force = 0.0;     // Fp = Fy r_p^n1
   double deep_plastic_approach = 0.0;   // delta_q = r_q delta_y (max double without one)
   double deep_plastic_force = 0.0;      // Fq = Fp (r_q / r_p)^n2 (max double without one)
-  double log_fully_plastic_ratio = 0.0;  // log r_p
-  double log_deep_plastic_ratio = 0.0;   // log r_q (max double without one)
+  // the segments' starts: approach x_k delta_y, log x_k, force F_k and virgin work W_k there
+  // (F_0 = Fy, F_k+1 = F_k (x_k+1 / x_k)^n_k; W exact: a power law's work is
+  // (F d - F_start d_start) / (n + 1)); one past the last start: max double
+  int segments = 0;
+  double segment_approach[kMaxSegments + 1] = {};
+  double segment_log_depth[kMaxSegments] = {};
+  double segment_force[kMaxSegments] = {};
+  double segment_work[kMaxSegments] = {};
   double log_band = 0.0;                 // log(1 - tol) of the cyclic extension's band
   // the envelope while delta_max <= delta_y (x = 1): delta_res / delta_max, n_u, n_r
   double yield_residual_ratio = 0.0;
@@ -151,6 +238,7 @@ struct LawParams {
     hertz_coefficient =
         4.0 / 3.0 * material.effective_modulus() * std::sqrt(material.effective_radius());
     yield_force = hertz_coefficient * std::pow(yield_approach, kHertzExponent);
+    derive_segments();
     fully_plastic_approach = fully_plastic_approach_ratio * yield_approach;
     fully_plastic_force =
         yield_force * std::pow(fully_plastic_approach_ratio, elastic_plastic_exponent);
@@ -163,19 +251,70 @@ struct LawParams {
       deep_plastic_approach = std::numeric_limits<double>::max();
       deep_plastic_force = std::numeric_limits<double>::max();
     }
-    log_fully_plastic_ratio = std::log(fully_plastic_approach_ratio);
-    log_deep_plastic_ratio = std::isfinite(deep_plastic_approach_ratio)
-                                 ? std::log(deep_plastic_approach_ratio)
-                                 : std::numeric_limits<double>::max();
     log_band = std::log1p(-cyclic.tolerance);
+    residual_table.derive();
     // the virgin step's envelope formulas at x = 1 (log x = 0), the same operations, so the
     // same bits as evaluating them at every virgin step within delta_y
-    yield_residual_ratio = -residual_limit * std::expm1(-residual_power * residual_log_depth(1.0));
+    // (the table's ratio is 0 at x = 1)
+    yield_residual_ratio =
+        residual_table.empty()
+            ? -residual_limit * std::expm1(-residual_power * residual_log_depth(1.0))
+            : 0.0;
     yield_unloading_exponent = kHertzExponent * std::exp(unloading_power * 0.0);
     yield_reloading_exponent =
         reloading_power >= unloading_power
             ? yield_unloading_exponent
             : std::min(kHertzExponent * std::exp(reloading_power * 0.0), yield_unloading_exponent);
+  }
+
+  // The virgin curve's segments from `loading.segments` or from the regimes (same operations
+  // as the regimes' own formulas: the same bits).
+  void derive_segments()
+  {
+    if (loading_segments == 0) {
+      segment_depth[0] = 1.0;
+      segment_exponent[0] = elastic_plastic_exponent;
+      segment_depth[1] = fully_plastic_approach_ratio;
+      segment_exponent[1] = fully_plastic_exponent;
+      segments = 2;
+      if (std::isfinite(deep_plastic_approach_ratio)) {
+        segment_depth[2] = deep_plastic_approach_ratio;
+        segment_exponent[2] = deep_plastic_exponent;
+        segments = 3;
+      }
+    } else {
+      segments = loading_segments;
+      // the regimes' fields mirror the first three segments (for readers of n1, r_p, n2)
+      elastic_plastic_exponent = segment_exponent[0];
+      fully_plastic_approach_ratio = segment_depth[1];
+      fully_plastic_exponent = segment_exponent[1];
+      deep_plastic_approach_ratio =
+          segments > 2 ? segment_depth[2] : std::numeric_limits<double>::infinity();
+      deep_plastic_exponent = segments > 2 ? segment_exponent[2] : 1.0;
+    }
+    segment_approach[0] = yield_approach;
+    segment_log_depth[0] = 0.0;
+    segment_force[0] = yield_force;
+    segment_work[0] = yield_force * yield_approach / (kHertzExponent + 1.0);
+    for (int k = 1; k < segments; ++k) {
+      const double ratio = segment_depth[k] / segment_depth[k - 1];
+      const double n = segment_exponent[k - 1];
+      segment_approach[k] = segment_depth[k] * yield_approach;
+      segment_log_depth[k] = std::log(segment_depth[k]);
+      segment_force[k] = segment_force[k - 1] * std::pow(ratio, n);
+      segment_work[k] = segment_work[k - 1] + (segment_force[k] * segment_depth[k] -
+                                               segment_force[k - 1] * segment_depth[k - 1]) *
+                                                  yield_approach / (n + 1.0);
+    }
+    segment_approach[segments] = std::numeric_limits<double>::max();
+  }
+
+  // The segment of the virgin curve that holds approach d > delta_y: k with x_k < d/dy <= x_k+1.
+  int segment_of(double d) const
+  {
+    int k = 0;
+    while (d > segment_approach[k + 1]) ++k;
+    return k;
   }
 
   // --- the fitted functions of the plastic depth x = delta_max / delta_y --------------------
@@ -197,23 +336,22 @@ struct LawParams {
         residual_transition == 1.0 ? std::log(x) : std::log1p((x - 1.0) / residual_transition);
     return residual_log_power == 1.0 ? l : positive_pow(l, residual_log_power);
   }
-  // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield
+  // rho_inf (1 - (1 + (x - 1)/x0)^-s) written with expm1: accurate just above yield; or the table
   double residual_ratio(double depth) const
   {
+    if (!residual_table.empty())
+      return residual_table.ratio_from_log_depth(std::log(std::max(depth, 1.0)));
     return -residual_limit * std::expm1(-residual_power * residual_log_depth(depth));
   }
 
-  // Virgin loading curve, three regimes, continuous at delta_y and delta_p.
+  // Virgin loading curve: Hertz to delta_y, then the power-law segments, continuous at their
+  // starts.
   double virgin_force(double d) const
   {
     if (d <= 0.0) return 0.0;
     if (d <= yield_approach) return hertz_coefficient * d * std::sqrt(d);
-    if (d <= fully_plastic_approach)
-      return yield_force * positive_pow(d / yield_approach, elastic_plastic_exponent);
-    if (d <= deep_plastic_approach)
-      return fully_plastic_force *
-             positive_pow(d / fully_plastic_approach, fully_plastic_exponent);
-    return deep_plastic_force * positive_pow(d / deep_plastic_approach, deep_plastic_exponent);
+    const int k = segment_of(d);
+    return segment_force[k] * positive_pow(d / segment_approach[k], segment_exponent[k]);
   }
 
   // virgin_force(d) given lx = log(d / delta_y), which the step needs anyway: each power law
@@ -223,53 +361,36 @@ struct LawParams {
   {
     if (d <= 0.0) return 0.0;
     if (d <= yield_approach) return hertz_coefficient * d * std::sqrt(d);
-    if (d <= fully_plastic_approach) return yield_force * std::exp(elastic_plastic_exponent * lx);
-    if (d <= deep_plastic_approach)
-      return fully_plastic_force *
-             std::exp(fully_plastic_exponent * (lx - log_fully_plastic_ratio));
-    return deep_plastic_force * std::exp(deep_plastic_exponent * (lx - log_deep_plastic_ratio));
+    const int k = segment_of(d);
+    return segment_force[k] * std::exp(segment_exponent[k] * (lx - segment_log_depth[k]));
   }
 
   // Exact work of the force along the virgin curve from 0 to d.
   double virgin_work(double d) const
   {
     if (d <= 0.0) return 0.0;
-    const double dy = yield_approach, dp = fully_plastic_approach, fy = yield_force;
-    const double n1 = elastic_plastic_exponent, n2 = fully_plastic_exponent;
-    if (d <= dy)
+    if (d <= yield_approach)
       return hertz_coefficient * std::pow(d, kHertzExponent + 1.0) / (kHertzExponent + 1.0);
-    const double w_y = fy * dy / (kHertzExponent + 1.0);
-    if (d <= dp) return w_y + fy * dy / (n1 + 1.0) * (std::pow(d / dy, n1 + 1.0) - 1.0);
-    const double w_p = w_y + fy * dy / (n1 + 1.0) * (std::pow(dp / dy, n1 + 1.0) - 1.0);
-    if (d <= deep_plastic_approach)
-      return w_p + fully_plastic_force * dp / (n2 + 1.0) * (std::pow(d / dp, n2 + 1.0) - 1.0);
-    const double dq = deep_plastic_approach, fq = deep_plastic_force, n3 = deep_plastic_exponent;
-    const double w_q = w_p + (fq * dq - fully_plastic_force * dp) / (n2 + 1.0);
-    return w_q + fq * dq / (n3 + 1.0) * (std::pow(d / dq, n3 + 1.0) - 1.0);
+    const int k = segment_of(d);
+    const double n = segment_exponent[k];
+    return segment_work[k] + segment_force[k] * segment_approach[k] / (n + 1.0) *
+                                 (std::pow(d / segment_approach[k], n + 1.0) - 1.0);
   }
 
-  // The same work given the virgin force f at d: each regime is a power law, so
+  // The same work given the virgin force f at d: each segment is a power law, so
   // int F = (F d - F_start d_start)/(n + 1) needs no further pow (one pow per virgin step).
   double virgin_work_from_force(double d, double f) const
   {
-    const double dy = yield_approach, dp = fully_plastic_approach, fy = yield_force;
-    const double w_y = fy * dy / (kHertzExponent + 1.0);
-    if (d <= dy) return f * d / (kHertzExponent + 1.0);
-    if (d <= dp) return w_y + (f * d - fy * dy) / (elastic_plastic_exponent + 1.0);
-    const double w_p = w_y + (fully_plastic_force * dp - fy * dy) / (elastic_plastic_exponent + 1.0);
-    if (d <= deep_plastic_approach)
-      return w_p + (f * d - fully_plastic_force * dp) / (fully_plastic_exponent + 1.0);
-    const double w_q = w_p + (deep_plastic_force * deep_plastic_approach - fully_plastic_force * dp) /
-                                 (fully_plastic_exponent + 1.0);
-    return w_q + (f * d - deep_plastic_force * deep_plastic_approach) / (deep_plastic_exponent + 1.0);
+    if (d <= yield_approach) return f * d / (kHertzExponent + 1.0);
+    const int k = segment_of(d);
+    return segment_work[k] +
+           (f * d - segment_force[k] * segment_approach[k]) / (segment_exponent[k] + 1.0);
   }
 
   double virgin_exponent(double d) const
   {
     if (d <= yield_approach) return kHertzExponent;
-    if (d <= fully_plastic_approach) return elastic_plastic_exponent;
-    if (d <= deep_plastic_approach) return fully_plastic_exponent;
-    return deep_plastic_exponent;
+    return segment_exponent[segment_of(d)];
   }
 
   // Plastic work of a full load-unload cycle to dmax, as the law computes it (docs/law.md).
@@ -387,11 +508,16 @@ GEOCONTACT_ALWAYS_INLINE void virgin_envelope(const LawParams &p, double dmax, d
     nu = p.yield_unloading_exponent;
     nr = p.yield_reloading_exponent;
   } else {
-    // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
-    const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
-                          ? lx
-                          : p.residual_log_depth(dmax / p.yield_approach);
-    dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
+    if (!p.residual_table.empty()) {
+      // the table: one log, one exp and a binary search over the knots
+      dres = p.residual_table.ratio_from_log_depth(lx) * dmax;
+    } else {
+      // the residual: one expm1 (and log1p and a power where x0 or b is not 1)
+      const double lr = p.residual_transition == 1.0 && p.residual_log_power == 1.0
+                            ? lx
+                            : p.residual_log_depth(dmax / p.yield_approach);
+      dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
+    }
     nu = kHertzExponent * std::exp(p.unloading_power * lx);
     // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
     nr = p.reloading_power >= p.unloading_power

@@ -83,6 +83,7 @@ struct Values {
   std::map<std::string, double> numbers;
   std::map<std::string, bool> bools;
   std::map<std::string, std::string> strings;
+  std::map<std::string, std::vector<double>> arrays;
 };
 
 inline double default_number(const json::Value &spec)
@@ -139,6 +140,39 @@ inline double check_number(const std::string &where, const json::Value &value,
   return x;
 }
 
+// An array of minItems to maxItems numbers (as many as its same_length_as field), each inside the
+// field's range (named path[i], from 0) and, if `increasing`, strictly above the one before.
+inline std::vector<double> check_array(const std::string &where, const json::Value &value,
+                                       const json::Value &spec, const Values &values)
+{
+  if (value.kind != json::Value::ARRAY)
+    throw InputError(where + ": must be an array of numbers, got " + json::kind_name(value.kind));
+  const size_t n = value.array.size();
+  const double low = spec.find("minItems")->number, high = spec.find("maxItems")->number;
+  if (static_cast<double>(n) < low || static_cast<double>(n) > high)
+    throw InputError(where + ": must have " + format_g(low) + " to " + format_g(high) +
+                     " entries, got " + std::to_string(n));
+  if (has(spec, "same_length_as")) {
+    const std::string other = text_of(spec, "same_length_as");
+    const size_t m = values.arrays.at(other).size();
+    if (n != m)
+      throw InputError(where + ": must have as many entries as " + other + " (" +
+                       std::to_string(m) + "), got " + std::to_string(n));
+  }
+  const bool increasing = has(spec, "increasing") && spec.find("increasing")->boolean;
+  std::vector<double> out;
+  for (size_t i = 0; i < n; ++i) {
+    const std::string entry = where + "[" + std::to_string(i) + "]";
+    const double x = check_number(entry, value.array[i], spec, 1.0);
+    if (increasing && !out.empty() && x <= out.back())
+      throw InputError(entry + ": must be above " + where + "[" + std::to_string(i - 1) +
+                       "] = " + format_g(out.back()) + " (strictly increasing), got " +
+                       format_g(x));
+    out.push_back(x);
+  }
+  return out;
+}
+
 inline void check_object(const std::string &path, const json::Value &data, Values &values);
 
 // One field: `parent` is the object holding it (null when that object is absent).
@@ -146,9 +180,17 @@ inline void check_field(const json::Value &spec, const json::Value *parent, Valu
 {
   const std::string path = text_of(spec, "path"), kind = text_of(spec, "type");
   const json::Value *value = parent ? parent->find(last_part(path)) : nullptr;
+  const json::Value *without = spec.find("without");
+  const bool excluded = without && parent && parent->find(without->string);
+  if (value && excluded) {
+    const std::string parent_path = path.substr(0, path.rfind('.'));
+    throw InputError(path + ": must be left out beside " + parent_path + "." + without->string);
+  }
   if (!value) {
     const json::Value *with = spec.find("with");
-    const bool needed = has(spec, "required") || (with && parent && parent->find(with->string));
+    // beside its "without" sibling a field is neither required nor needed by a "with"
+    const bool needed =
+        !excluded && (has(spec, "required") || (with && parent && parent->find(with->string)));
     if (parent && needed) throw InputError(path + ": missing");
     if (kind == "object") {
       for (const json::Value *child : children(path)) check_field(*child, nullptr, values);
@@ -157,6 +199,7 @@ inline void check_field(const json::Value &spec, const json::Value *parent, Valu
       if (kind == "number") values.numbers[path] = default_number(spec);
       if (kind == "bool") values.bools[path] = d.boolean;
       if (kind == "string") values.strings[path] = d.string;
+      if (kind == "array") values.arrays[path] = {};
     }
     return;
   }
@@ -164,6 +207,8 @@ inline void check_field(const json::Value &spec, const json::Value *parent, Valu
     const double scale =
         has(spec, "relative_to") ? values.numbers.at(text_of(spec, "relative_to")) : 1.0;
     values.numbers[path] = check_number(path, *value, spec, scale);
+  } else if (kind == "array") {
+    values.arrays[path] = check_array(path, *value, spec, values);
   } else if (kind == "bool") {
     if (value->kind != json::Value::BOOL)
       throw InputError(path + ": must be true or false, got " + json::kind_name(value->kind));
@@ -277,6 +322,23 @@ inline void fill(LawParams &p, const Values &values)
         throw std::logic_error("law-schema.json: " + path + " (" + name +
                                ") has no member in params.hpp number_slot");
       if (values.numbers.count(path)) *slot = values.numbers.at(path);
+    } else if (kind == "array" && (name == "loading_segments.depth" ||
+                                   name == "loading_segments.exponent")) {
+      if (f->find("maxItems")->number > LawParams::kMaxSegments)
+        throw std::logic_error("law-schema.json: " + path + " allows more entries than "
+                               "LawParams::kMaxSegments");
+      const std::vector<double> &entries = values.arrays.at(path);
+      double *slot = name == "loading_segments.depth" ? p.segment_depth : p.segment_exponent;
+      std::copy(entries.begin(), entries.end(), slot);
+      p.loading_segments = static_cast<int>(entries.size());
+    } else if (kind == "array") {
+      std::vector<double> *slot = name == "residual_table.depth"   ? &p.residual_table.depth
+                                  : name == "residual_table.ratio" ? &p.residual_table.ratio
+                                                                   : nullptr;
+      if (!slot)
+        throw std::logic_error("law-schema.json: " + path + " (" + name +
+                               ") has no member in params.hpp fill");
+      if (values.arrays.count(path)) *slot = values.arrays.at(path);
     } else if (name == "cyclic.enabled") {
       p.cyclic.enabled = values.bools.at(path);
     } else if (name == "label") {
@@ -319,7 +381,10 @@ inline void check_energy(const LawParams &p)
           "unloading/residual_approach: this parameter set creates energy (the cycle's plastic "
           "work decreases) at delta_max/delta_y = " +
           std::string(buf) +
-          "; raise residual_approach.limit or lower loading.elastic_plastic_exponent");
+          "; raise " +
+          std::string(p.residual_table.empty() ? "residual_approach.limit"
+                                               : "the ratios of residual_approach.table") +
+          " or lower loading.elastic_plastic_exponent");
     }
     previous = wp;
   }
@@ -341,6 +406,9 @@ inline LawParams params_from_json(const json::Value &doc)
                              "cyclic.residual_ratio");
   detail::check_second_cycle(p.cyclic.plastic_work_ratio_coefficient,
                              p.cyclic.plastic_work_ratio_power, "cyclic.plastic_work_ratio");
+  if (p.loading_segments > 0 && p.segment_depth[0] != 1.0)
+    throw InputError("loading.segments.depth[0]: the first segment starts at yield, must be 1, "
+                     "got " + detail::format_g(p.segment_depth[0]));
   p.derive();
   check_energy(p);
   if (values.numbers.count("yield.force_N")) {
