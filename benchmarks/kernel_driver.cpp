@@ -10,7 +10,7 @@
 //   build/kernel/driver examples/params-reference.json 100000 100 1 1 check
 //       (then also replays every contact with the one-contact step<false> of law.hpp and
 //        compares each state field bit for bit, the arrays' envelopes brought up to date)
-//   valgrind --tool=callgrind --toggle-collect='*step_block*'
+//   valgrind --tool=callgrind --toggle-collect='*step_contacts*'
 //       build/kernel/driver examples/params-reference.json 20000 100 1 1   (one command)
 //
 // Prints the best wall and CPU time of the repeats as updates/s and a checksum of the final state.

@@ -16,15 +16,16 @@
 // the one-contact step<false>). Call it before reading those fields (the Python binding does,
 // whenever its state is read).
 //
-// Threads: contacts are independent, so a step splits them into `threads` contiguous blocks, one
-// per std::thread; no sum or order depends on the split, and the results are bitwise the same
-// for any thread count.
+// Threads: contacts are independent, so a step cuts them into contiguous chunks that `threads`
+// std::threads take in turn (parallel_blocks below); no sum or order depends on the split, and
+// the results are bitwise the same for any thread count.
 #ifndef GEOCONTACT_ARRAYS_HPP
 #define GEOCONTACT_ARRAYS_HPP
 
 #include "geocontact/law.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -81,17 +82,27 @@ constexpr std::size_t kHertzStepBytes = 4 * sizeof(double);
 
 namespace detail {
 
-inline void step_block(const LawParams &p, StateArrays &a, const double *approach,
-                       double *force, double *stiffness, std::size_t begin, std::size_t end)
+template <bool WriteForce>
+inline void step_contacts(const LawParams &p, ContactRecord *contacts, const double *approach,
+                          double *force, double *stiffness, std::size_t begin, std::size_t end)
 {
   // a local copy: the records' stores cannot alias it, so its constants stay in registers
   const LawParams local = p;
-  ContactRecord *contacts = a.contacts.data();
   for (std::size_t i = begin; i < end; ++i) {
     const StepResult r = step<true>(local, contacts[i], approach[i]);
-    if (force) force[i] = r.force;
+    if (WriteForce) force[i] = r.force;
     stiffness[i] = r.stiffness;
   }
+}
+
+// (the test of `force` hoisted out of the loop: one loop each way)
+inline void step_block(const LawParams &p, StateArrays &a, const double *approach,
+                       double *force, double *stiffness, std::size_t begin, std::size_t end)
+{
+  if (force)
+    step_contacts<true>(p, a.contacts.data(), approach, force, stiffness, begin, end);
+  else
+    step_contacts<false>(p, a.contacts.data(), approach, force, stiffness, begin, end);
 }
 
 // Plain elastic Hertz, F = Kh d^1.5 (the speed floor of a normal law): no history but the
@@ -109,27 +120,34 @@ inline void hertz_block(double kh, double *kept, const double *approach, double 
   }
 }
 
-// Run block(begin, end) over [0, n) on `threads` threads; blocks start on multiples of 64
-// contacts (whole cache lines of the outputs, and of the records if the buffer is aligned), so
-// threads rarely write one line.
+// Run block(begin, end) over [0, n) on `threads` threads. The contacts are cut into chunks of
+// whole multiples of 64 contacts (whole cache lines of the outputs, and of the records if the
+// buffer is aligned, so threads rarely write one line), about kChunksPerThread per thread and
+// at least kMinChunk contacts, and each thread takes the next chunk left until none is: a
+// thread that gets less of a core (a shared machine) or slower contacts does fewer chunks
+// instead of holding the others at the end of the step. Which thread steps a contact changes
+// nothing in its result.
 template <class Block>
 void parallel_blocks(std::size_t n, int threads, const Block &block)
 {
-  constexpr std::size_t kAlign = 64;
+  constexpr std::size_t kAlign = 64, kMinChunk = 4 * kAlign, kChunksPerThread = 16;
   const std::size_t wanted = threads > 1 ? static_cast<std::size_t>(threads) : 1;
-  const std::size_t workers = std::max<std::size_t>(1, std::min(wanted, n / (4 * kAlign)));
+  const std::size_t workers = std::max<std::size_t>(1, std::min(wanted, n / kMinChunk));
   if (workers == 1) {
     block(0, n);
     return;
   }
-  const std::size_t per = (n / workers + kAlign - 1) / kAlign * kAlign;
+  const std::size_t chunk =
+      std::max(kMinChunk, (n / (workers * kChunksPerThread) + kAlign - 1) / kAlign * kAlign);
+  std::atomic<std::size_t> next{0};
+  const auto run = [&] {
+    for (std::size_t begin; (begin = next.fetch_add(chunk, std::memory_order_relaxed)) < n;)
+      block(begin, std::min(n, begin + chunk));
+  };
   std::vector<std::thread> pool;
   pool.reserve(workers - 1);
-  for (std::size_t w = 1; w < workers; ++w) {
-    const std::size_t begin = std::min(n, w * per), end = std::min(n, (w + 1) * per);
-    pool.emplace_back([&block, begin, end] { block(begin, end); });
-  }
-  block(0, std::min(n, per));
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(run);
+  run();
   for (auto &t : pool) t.join();
 }
 
