@@ -85,3 +85,19 @@ def test_law_figure_is_fit_for_log_axes(tmp_path):
         elastic = x < 1.0
         slope = np.diff(np.log(y[elastic])) / np.diff(np.log(x[elastic]))
         assert np.max(np.abs(slope - 1.5)) < 1e-3, depth
+
+
+def test_report_of_law_files_with_segments_and_a_table(tmp_path):
+    """A law file with loading segments lists every segment, one with a residual table its
+    knots' range, instead of the closed forms' numbers."""
+    corpus = Path(__file__).resolve().parent / "data" / "bad-law-params"
+    run = tmp_path / "run"
+    run.mkdir()
+    shutil.copy(corpus / "base-segments.json", run / "P.json")
+    shutil.copy(corpus / "base-table.json", run / "Q.json")
+    assert main(["report", str(run)]) == 0
+    html = (run / "report.html").read_text()
+    segments = json.loads((run / "P.json").read_text())["loading"]["segments"]
+    assert html.count("from δ/δy = ") == len(segments["depth"])
+    assert f"n = {segments['exponent'][-1]:.4g} from δ/δy = {segments['depth'][-1]:.4g}" in html
+    assert "table of 5 knots" in html

@@ -125,10 +125,16 @@ def law_section(report: Report, path: Path, root: Path, figures: Path) -> None:
     residual = ((("δres/δmax", f"table of {len(table_knots.depth)} knots, δmax/δy "
                   f"{table_knots.depth[0]:.4g} to {table_knots.depth[-1]:.4g}"),)
                 if table_knots else (("ρ∞", params.residual_limit), ("s", params.residual_power)))
+    segments = params.loading_segments
+    loading = ((("loading segments", ", ".join(
+        f"n = {n:.4g} from δ/δy = {x:.4g}" for x, n in zip(segments.depth, segments.exponent,
+                                                          strict=True))),)
+               if segments else (("n1", params.elastic_plastic_exponent),
+                                 ("δp/δy", params.fully_plastic_approach_ratio),
+                                 ("n2", params.fully_plastic_exponent)))
     rows = [[k, v] for k, v in (
         ("label", params.label), ("Fy (N)", fy), ("δy (µm)", dy * 1e6),
-        ("n1", params.elastic_plastic_exponent), ("δp/δy", params.fully_plastic_approach_ratio),
-        ("n2", params.fully_plastic_exponent), ("p_u", params.unloading_power),
+        *loading, ("p_u", params.unloading_power),
         ("p_r", params.reloading_power), *residual, ("w∞", params.plastic_work_limit),
         ("e", params.plastic_work_power))]
     errors = {k: v for k, v in (params.fit_errors or {}).items() if isinstance(v, float)}
