@@ -30,6 +30,7 @@ from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
     fe_code_hash,
     finished_run,
     load_result,
+    recorded_identities,
 )
 from .run import TOLERANCE, VOLUMETRIC_DEFAULT, FemResult, run_history, write_result
 
@@ -147,9 +148,10 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
     cache.mkdir(parents=True, exist_ok=True)
     results: list[FemResult | None] = [finished_run(_cached(cache, job), job.identity())
                                        for job in jobs]
+    recorded = recorded_identities(cache) if None in results else []
     for i, job in enumerate(jobs):
         if results[i] is None:
-            found = equivalent_run(cache, job.identity())
+            found = equivalent_run(cache, job.identity(), recorded)
             if found is not None:
                 results[i] = found[0]
                 if progress:

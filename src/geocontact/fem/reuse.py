@@ -302,24 +302,38 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
     return None
 
 
-def equivalent_run(cache: str | Path, identity: FeRunIdentity) -> tuple[FemResult, str] | None:
+def recorded_identities(cache: str | Path) -> list[tuple[Path, Any]]:
+    """Each run folder of the cache folder ``cache`` with its recorded identity (None where
+    unreadable): read once for any number of ``equivalent_run`` look-ups."""
+    out = []
+    for summary in sorted(Path(cache).glob("*/summary.json")):
+        try:
+            recorded = json.loads(summary.read_text()).get("identity")
+        except (OSError, ValueError, AttributeError):
+            recorded = None
+        out.append((summary.parent, recorded))
+    return out
+
+
+def equivalent_run(cache: str | Path, identity: FeRunIdentity,
+                   recorded: list[tuple[Path, Any]] | None = None
+                   ) -> tuple[FemResult, str] | None:
     """A finished run in the cache folder ``cache`` (one ``<key>/`` folder per run) that is
     ``identity``'s run up to the rounding of its numeric inputs (``ROUNDING``; same FE code,
     libraries and every other input), with its key; None if there is none. For when the exact
-    key is not there: the same campaign's inputs computed on another CPU."""
-    for summary in sorted(Path(cache).glob("*/summary.json")):
-        try:  # the identity first (cheap), the whole result only for a candidate
-            recorded = json.loads(summary.read_text()).get("identity")
-        except (OSError, ValueError, AttributeError):
+    key is not there: the same campaign's inputs computed on another CPU. ``recorded``: the
+    cache's ``recorded_identities``, when already read."""
+    for directory, record in (recorded_identities(cache) if recorded is None else recorded):
+        # the identity first (cheap), the whole result only for a candidate
+        if record is None or difference(record, identity, rounding=True) is not None:
             continue
-        if difference(recorded, identity, rounding=True) is not None:
-            continue
-        result = finished_run(summary.parent, identity, rounding=True)
+        result = finished_run(directory, identity, rounding=True)
         if result is not None:
-            return result, summary.parent.name
+            return result, directory.name
     return None
 
 
 __all__ = ["FE_SOURCES", "LIBRARIES", "ROUNDING", "FeRunIdentity", "difference",
            "distribution_version", "equivalent_run", "fe_code_hash", "finished_run",
-           "identity_key", "library_versions", "load_result", "same_to_rounding"]
+           "identity_key", "library_versions", "load_result", "recorded_identities",
+           "same_to_rounding"]
