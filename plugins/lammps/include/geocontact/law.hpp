@@ -239,18 +239,11 @@ struct LawParams {
         4.0 / 3.0 * material.effective_modulus() * std::sqrt(material.effective_radius());
     yield_force = hertz_coefficient * std::pow(yield_approach, kHertzExponent);
     derive_segments();
-    fully_plastic_approach = fully_plastic_approach_ratio * yield_approach;
-    fully_plastic_force =
-        yield_force * std::pow(fully_plastic_approach_ratio, elastic_plastic_exponent);
-    if (std::isfinite(deep_plastic_approach_ratio)) {
-      deep_plastic_approach = deep_plastic_approach_ratio * yield_approach;
-      deep_plastic_force = fully_plastic_force * std::pow(deep_plastic_approach_ratio /
-                                                              fully_plastic_approach_ratio,
-                                                          fully_plastic_exponent);
-    } else {
-      deep_plastic_approach = std::numeric_limits<double>::max();
-      deep_plastic_force = std::numeric_limits<double>::max();
-    }
+    // the regimes' constants are the first segments' starts (the same operations)
+    fully_plastic_approach = segment_approach[1];
+    fully_plastic_force = segment_force[1];
+    deep_plastic_approach = segment_approach[2];  // max double without a third segment
+    deep_plastic_force = segments > 2 ? segment_force[2] : std::numeric_limits<double>::max();
     log_band = std::log1p(-cyclic.tolerance);
     residual_table.derive();
     // the virgin step's envelope formulas at x = 1 (log x = 0), the same operations, so the
