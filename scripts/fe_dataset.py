@@ -12,9 +12,10 @@ not committed: .gitignore); an interrupted run resumes from it within the sessio
 
 For each campaign folder (default: every folder under datasets/fe-runs): the finished runs
 (peak force, load-step solves, Newton iterations, wall time) and whether each was computed by
-the current FE sources and libraries (``current``) or not (``stale``: a calibration with this
-cache would recompute it); the runs under way (steps done of the steps requested, from their
-checkpoint); entries that are neither (reported, never touched). Exit status 0, or 1 if a run
+the current FE sources (or older ones whose runs they reproduce bit for bit:
+``fem.reuse.REPRODUCED_FE_CODE``) and libraries (``current``) or not (``stale``: a calibration
+with this cache would recompute it); the runs under way (steps done of the steps requested, from
+their checkpoint); entries that are neither (reported, never touched). Exit status 0, or 1 if a run
 folder is not a complete, self-consistent result (its key is not the hash of its identity, its
 manifest or curve is missing).
 """
@@ -36,6 +37,7 @@ from geocontact.fem.reuse import (  # noqa: E402
     identity_key,
     library_versions,
     load_result,
+    reproduced_code,
 )
 from geocontact.io import RESULT_MANIFEST  # noqa: E402
 
@@ -58,7 +60,8 @@ def check_run(folder: Path) -> dict:
     if identity_key(identity) != folder.name:
         return {**entry, "problem": "identity record does not hash to its key (edited?)"}
     forces = identity["inputs"]["forces_N"]
-    current = (identity.get("fe_code") == fe_code_hash()
+    current = ((identity.get("fe_code") == fe_code_hash()
+                or reproduced_code(identity.get("fe_code")) is not None)
                and identity.get("libraries") == library_versions())
     control = summary.get("step_control") or {}
     return {**entry, "peak_force_N": max(forces), "history_points": len(forces),

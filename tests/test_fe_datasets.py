@@ -85,3 +85,32 @@ def test_compare_law_forms_refuses_a_folder_without_runs(tmp_path, capsys):
     assert run_reporting_errors(lambda: module.main(["--dataset", str(tmp_path), *args])) == 2
     err = capsys.readouterr().err.strip()
     assert "0 finished calibration runs" in err and "\n" not in err
+
+
+def test_reproduce_fe_runs_compares_bit_for_bit(campaign, tmp_path):
+    """scripts/reproduce_fe_runs.py: the tiny campaign's run made again is equal; a committed
+    run whose curve was changed in one value is not, and the exit status says so."""
+    spec = importlib.util.spec_from_file_location("reproduce_fe_runs",
+                                                  ROOT / "scripts" / "reproduce_fe_runs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    folder, key = campaign
+    report = tmp_path / "report.json"
+    assert module.main([str(folder), "--out", str(tmp_path / "again"), "--json",
+                        str(report)]) == 0
+    (row,) = json.loads(report.read_text())["runs"]
+    assert row["key"] == key and row["equal"] and row["curve_columns_differing"] == []
+
+    changed = tmp_path / "changed"
+    shutil.copytree(folder, changed)
+    curve = changed / key / "curve.csv"
+    lines = curve.read_text().splitlines()
+    cells = lines[2].split(",")
+    cells[1] = repr(float(cells[1]) * (1 + 1e-15))  # one value, in its last bits
+    lines[2] = ",".join(cells)
+    curve.write_text("\n".join(lines) + "\n")
+    assert module.main([str(changed), "--out", str(tmp_path / "again"), "--json",
+                        str(report)]) == 1
+    rows = json.loads(report.read_text())["runs"]
+    assert [r["equal"] for r in rows] == [True, False]  # both campaigns kept, by name
+    assert rows[1]["curve_columns_differing"]

@@ -330,3 +330,50 @@ def test_a_run_whose_inputs_agree_to_rounding_is_reused_by_a_campaign(material, 
     summary["identity"]["inputs"]["tolerance"] *= 1 + 1e-14
     summary_path.write_text(json.dumps(summary))
     assert reuse.equivalent_run(cache, near.identity()) is None
+
+
+def test_runs_and_checkpoints_of_reproduced_fe_code_are_used(material, tmp_path, monkeypatch,
+                                                             capsys):
+    """After a change of the FE sources listed in ``REPRODUCED_FE_CODE`` (it leaves every
+    finished run as it was), the older code's finished runs are reused and its checkpoints
+    resumed, by a campaign; without the entry, or with an entry of other sources, they are
+    stale."""
+    from geocontact.fem.campaign import run_campaign
+
+    cache = tmp_path / "cache"
+    job = FemJob(material, tuple(FORCES), mesh="coarse", steps_per_segment=STEPS)
+    [first] = run_campaign([job], cache, workers=1, progress=False)
+    old_code, old_key = fe_code_hash(), job.key()
+    # a run under way of the older code: interrupted at step 9, its checkpoint in the cache
+    other = FemJob(material, (0.0, 40.0, 0.0), mesh="coarse", steps_per_segment=STEPS)
+    with monkeypatch.context() as m:
+        _interrupt_at(m, 9)
+        with pytest.raises(KeyboardInterrupt):
+            run_history(material, list(other.forces), mesh="coarse", steps_per_segment=STEPS,
+                        out=cache / other.key(), write_fields=False)
+    assert checkpoint_path(cache / other.key()).exists()
+    uninterrupted = run_history(material, list(other.forces), mesh="coarse",
+                                steps_per_segment=STEPS, write_fields=False)
+
+    new_code = "0123456789abcdef"
+    monkeypatch.setattr(reuse, "fe_code_hash", lambda: new_code)
+    monkeypatch.setattr("geocontact.fem.campaign.fe_code_hash", lambda: new_code)
+    assert job.key() != old_key
+    for table in ({}, {"fedcba9876543210": {old_code: "another change"}}):
+        monkeypatch.setattr(reuse, "REPRODUCED_FE_CODE", table)
+        assert reuse.equivalent_run(cache, job.identity()) is None
+        assert reuse.difference(first.summary["identity"], job.identity(),
+                                rounding=True) == "made by other FE code"
+    monkeypatch.setattr(reuse, "REPRODUCED_FE_CODE", {new_code: {old_code: "a test change"}})
+    assert reuse.equivalent_run(cache, job.identity())[1] == old_key
+    capsys.readouterr()
+    steps = _count_steps(monkeypatch)
+    [again, resumed] = run_campaign([job, other], cache, workers=1, progress=True)
+    err = capsys.readouterr().err
+    assert f"reusing {old_key}" in err and f"made by FE code {old_code}" in err
+    assert "going on from the checkpoint" in err
+    assert steps[0] == 9  # the run under way went on where it stopped
+    assert again.curve["force_N"].tolist() == first.curve["force_N"].tolist()
+    for name, values in uninterrupted.curve.items():
+        np.testing.assert_array_equal(values, resumed.curve[name], err_msg=name)
+    assert resumed.summary["identity"]["fe_code"] == new_code

@@ -14,15 +14,19 @@ that fails leaves the others finished and cached.
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import urlsplit
 
+import numpy as np
+
 from ..errors import GeocontactError, InputError
 from ..force_history import validate_forces
 from ..material import Material
+from .checkpoint import checkpoint_path, fields_beside
 from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
     FeRunIdentity,
     difference,
@@ -31,6 +35,7 @@ from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
     finished_run,
     load_result,
     recorded_identities,
+    reproduced_code,
 )
 from .run import TOLERANCE, VOLUMETRIC_DEFAULT, FemResult, run_history, write_result
 
@@ -124,6 +129,33 @@ def _cached(cache: Path, job: FemJob) -> Path:
     return cache / job.key()
 
 
+def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
+    """Move the checkpoint of the same run under another key (inputs equal to rounding, or
+    written by FE code whose runs the current code reproduces: ``fem.reuse.difference``) to
+    this job's checkpoint path, with its pending ParaView folder, so the run goes on from it."""
+    target = checkpoint_path(_cached(cache, job))
+    if target.exists():
+        return
+    identity = job.identity()
+    for path in sorted(cache.glob("*.checkpoint.npz")):
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                recorded = json.loads(str(data["identity"]))
+        except Exception:  # noqa: BLE001 - not a checkpoint this campaign can use
+            continue
+        if difference(recorded, identity, rounding=True) is not None:
+            continue
+        fields = fields_beside(path)
+        path.rename(target)
+        if fields.exists():
+            fields.rename(fields_beside(target))
+        if progress:
+            print(f"campaign: {job.name()}: going on from the checkpoint of {recorded['key']}, "
+                  "the same run (inputs equal to rounding, or FE code whose runs the current "
+                  "code reproduces)", file=sys.stderr)
+        return
+
+
 def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
                  scheduler: str | None = None, workers: int | None = None,
                  progress: bool = True) -> list[FemResult]:
@@ -155,10 +187,16 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
             if found is not None:
                 results[i] = found[0]
                 if progress:
-                    print(f"campaign: {job.name()}: reusing {found[1]}, the same run with "
-                          f"inputs equal to rounding (computed on another machine)",
+                    made_by = found[0].summary["identity"]["fe_code"]
+                    why = ("inputs equal to rounding (computed on another machine)"
+                           if made_by == fe_code_hash() else
+                           f"made by FE code {made_by}, which the current code reproduces "
+                           f"(fem.reuse.REPRODUCED_FE_CODE)")
+                    print(f"campaign: {job.name()}: reusing {found[1]}, the same run: {why}",
                           file=sys.stderr)
     todo = [i for i, result in enumerate(results) if result is None]
+    for i in todo:
+        _adopt_checkpoint(cache, jobs[i], progress)
     if progress:
         print(f"campaign: {len(jobs)} FE runs, {len(jobs) - len(todo)} cached, "
               f"{len(todo)} to run", file=sys.stderr)

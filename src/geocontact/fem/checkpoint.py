@@ -7,7 +7,9 @@ ParaView files of the waypoints already passed, so a resumed run writes the same
 uninterrupted one. Both are written atomically and removed when the run finishes.
 
 A checkpoint only saves work: one that cannot be used (truncated, keys missing, an older
-format, another run's) is reported in one line and the run starts over.
+format, another run's) is reported in one line and the run starts over. One of the same run
+written by FE code whose runs the current code reproduces, or with inputs equal to rounding
+(``fem.reuse.difference(rounding=True)``), is used.
 """
 
 from __future__ import annotations
@@ -81,7 +83,8 @@ class Checkpoint:
     done: int
     state: State
     rows: list[list[float]]  # curve.csv rows of steps 0 ... done
-    detector: dict[str, Any]  # first_yield, fully_plastic, last_elastic (run._Run)
+    detector: dict[str, Any]  # first_yield, fully_plastic, last_elastic (run._Run), and
+    # rescued_steps (run._advance; absent from checkpoints written before it: none)
     yield_force: float  # the yield probe's prediction, which placed the load steps
     mesh: Any  # the skfem mesh the run was on
     fields: bool  # the pending folder holds the ParaView files of the waypoints passed
@@ -145,7 +148,8 @@ def _parse(path: Path, identity, columns: int) -> tuple[Checkpoint | None, str |
         saved = {k: data[k] for k in data.files}
     if "identity" not in saved or int(saved.get("format", 1)) != FORMAT:
         return None, "written by an older FE (old checkpoint format)"
-    reason = difference(json.loads(str(saved["identity"])), identity)
+    # the same run: inputs equal to rounding, FE code the current code reproduces (fem.reuse)
+    reason = difference(json.loads(str(saved["identity"])), identity, rounding=True)
     if reason is not None:
         return None, reason
     done = int(saved["done"])
@@ -157,7 +161,8 @@ def _parse(path: Path, identity, columns: int) -> tuple[Checkpoint | None, str |
         done=done,
         state=State.from_arrays({k[6:]: v for k, v in saved.items() if k.startswith("state_")}),
         rows=[list(r) for r in rows],
-        detector={k: detector[k] for k in ("first_yield", "fully_plastic", "last_elastic")},
+        detector={**{k: detector[k] for k in ("first_yield", "fully_plastic", "last_elastic")},
+                  "rescued_steps": detector.get("rescued_steps", [])},
         yield_force=float(saved["yield_force_estimate"]),
         mesh=MeshTri2(np.ascontiguousarray(saved["mesh_doflocs"]),
                       np.ascontiguousarray(saved["mesh_t"])),

@@ -47,7 +47,7 @@ from __future__ import annotations
 import numpy as np
 
 from .plasticity import DruckerPrager, elastic_strain, return_mapping
-from .solver import ContactSolver, State, _lu
+from .solver import LINE_SEARCH_HALVINGS, ContactSolver, State, _lu
 
 # 5-vector gradient components and their place in the 2x2 in-plane block
 RR, ZZ, TT, RZ, ZR = range(5)
@@ -268,13 +268,25 @@ class FiniteStrainSolver(ContactSolver):
             return field
         return self._project_volumetric(field[None])[0]
 
-    def kinematics(self, displacement: np.ndarray):
-        """H = F - I (5, e, q), H_bar = F_bar - I, and the spatial test gradients
-        g (12, 5, e, q) and g_bar."""
+    def _displacement_gradient(self, displacement: np.ndarray) -> np.ndarray:
+        """H = F - I (5, e, q) at the quadrature points."""
         ue = displacement[self.element_dofs]  # (12, e)
         H = self.G0[0] * ue[0, :, None]
         for j in range(1, len(ue)):
             H += self.G0[j] * ue[j, :, None]
+        return H
+
+    def admissible(self, displacement: np.ndarray) -> bool:
+        """No element turned inside out: J > 0 at every quadrature point (the in-plane
+        determinant and the hoop stretch both positive), all finite."""
+        H = self._displacement_gradient(displacement)
+        in_plane = H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR]  # det - 1
+        return bool(np.all(in_plane > -1.0) and np.all(H[TT] > -1.0))
+
+    def kinematics(self, displacement: np.ndarray):
+        """H = F - I (5, e, q), H_bar = F_bar - I, and the spatial test gradients
+        g (12, 5, e, q) and g_bar."""
+        H = self._displacement_gradient(displacement)
         # ln J = ln det(F_in-plane) + ln F_tt, without forming 1 + small
         log_j = (np.log1p(H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR])
                  + np.log1p(H[TT]))
@@ -360,9 +372,24 @@ class FiniteStrainSolver(ContactSolver):
                                             elastic=True, label=label)
         finally:
             self._predictor = None
+        if self.line_search:  # rescue mode: Newton starts from an admissible point
+            u, w = self._admissible_start(old, u, w)
         _, _, _, result = self._iterate(old, force, u, w, active, elastic=not self.plastic,
                                         label=label, final=True)
         return result
+
+    def _admissible_start(self, old: State, u: np.ndarray, w: float):
+        """The predictor's increment from ``old`` halved until its end is admissible (the
+        linear predictor on the reference configuration can overshoot a large deformation)."""
+        du, dw = u - old.displacement, w - old.top_displacement
+        scale = 1.0
+        for _ in range(LINE_SEARCH_HALVINGS):
+            if self.admissible(u):
+                break
+            scale *= 0.5
+            self.line_search_halvings += 1
+            u, w = old.displacement + scale * du, old.top_displacement + scale * dw
+        return u, w
 
     def _factor(self, local, reduced):
         if local is self._cache.get("elastic_local"):

@@ -53,6 +53,27 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/p
               "fem/result.py", "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py",
               "material.py", "resolution.py")
 
+# Older FE sources whose finished runs the current sources reproduce bit for bit, by the hash of
+# the current sources: {current: {older: why}}. An entry is made only for a change that cannot
+# alter a run that finished under the older code (it acts only where that code gave up with a
+# ConvergenceError) and after finished runs of the older code were run again and compared
+# (scripts/reproduce_fe_runs.py). Such a run is reused as the same run (``equivalent_run``); its
+# record keeps the hash it was made with. Any other change of the sources leaves the entry
+# behind with the old hash, and the older runs are stale again.
+REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "4f8939b91af98a9d": {
+        "4919b4f465169f88": "rescue mode added (run._advance, ContactSolver.line_search): only a "
+                            "load step that failed after MAX_CUTBACKS halvings is solved "
+                            "differently",
+    },
+}
+
+
+def reproduced_code(recorded: Any) -> str | None:
+    """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
+    sources (``REPRODUCED_FE_CODE``), or None."""
+    return REPRODUCED_FE_CODE.get(fe_code_hash(), {}).get(recorded)
+
 
 @functools.cache
 def fe_code_hash() -> str:
@@ -226,8 +247,9 @@ def difference(recorded: Any, identity: FeRunIdentity, *,
                rounding: bool = False) -> str | None:
     """What differs between a recorded identity (``to_dict()`` of an earlier run) and
     ``identity``, in a few words; None when they are the same. With ``rounding``, numeric
-    inputs that agree to ``ROUNDING`` count as the same (the record must still be intact: its
-    key the hash of the rest)."""
+    inputs that agree to ``ROUNDING`` count as the same, and so does FE code whose runs the
+    current code reproduces (``REPRODUCED_FE_CODE``); the record must still be intact (its key
+    the hash of the rest)."""
     current = identity.to_dict()
     if not isinstance(recorded, dict) or recorded.get("schema") != SCHEMA:
         return "made by an older FE (no identity record)"
@@ -236,7 +258,9 @@ def difference(recorded: Any, identity: FeRunIdentity, *,
     if (rounding and recorded.get("key") == identity_key(recorded)
             and recorded.keys() == current.keys()
             and all(recorded[name] == value for name, value in current.items()
-                    if name not in ("key", "inputs"))
+                    if name not in ("key", "inputs", "fe_code"))
+            and (recorded["fe_code"] == current["fe_code"]
+                 or reproduced_code(recorded["fe_code"]) is not None)
             and same_to_rounding(recorded["inputs"], current["inputs"])):
         return None
     if recorded.get("fe_code") != current["fe_code"]:
@@ -319,10 +343,12 @@ def equivalent_run(cache: str | Path, identity: FeRunIdentity,
                    recorded: list[tuple[Path, Any]] | None = None
                    ) -> tuple[FemResult, str] | None:
     """A finished run in the cache folder ``cache`` (one ``<key>/`` folder per run) that is
-    ``identity``'s run up to the rounding of its numeric inputs (``ROUNDING``; same FE code,
-    libraries and every other input), with its key; None if there is none. For when the exact
-    key is not there: the same campaign's inputs computed on another CPU. ``recorded``: the
-    cache's ``recorded_identities``, when already read."""
+    ``identity``'s run up to the rounding of its numeric inputs (``ROUNDING``) and made by the
+    current FE code or one it reproduces (``REPRODUCED_FE_CODE``), with the same libraries and
+    every other input, with its key; None if there is none. For when the exact key is not
+    there: the same campaign's inputs computed on another CPU, or its runs made before a change
+    of the FE code that leaves finished runs as they were. ``recorded``: the cache's
+    ``recorded_identities``, when already read."""
     for directory, record in (recorded_identities(cache) if recorded is None else recorded):
         # the identity first (cheap), the whole result only for a candidate
         if record is None or difference(record, identity, rounding=True) is not None:
@@ -333,7 +359,7 @@ def equivalent_run(cache: str | Path, identity: FeRunIdentity,
     return None
 
 
-__all__ = ["FE_SOURCES", "LIBRARIES", "ROUNDING", "FeRunIdentity", "difference",
-           "distribution_version", "equivalent_run", "fe_code_hash", "finished_run",
-           "identity_key", "library_versions", "load_result", "recorded_identities",
-           "same_to_rounding"]
+__all__ = ["FE_SOURCES", "LIBRARIES", "REPRODUCED_FE_CODE", "ROUNDING", "FeRunIdentity",
+           "difference", "distribution_version", "equivalent_run", "fe_code_hash",
+           "finished_run", "identity_key", "library_versions", "load_result",
+           "recorded_identities", "reproduced_code", "same_to_rounding"]

@@ -69,6 +69,7 @@ from .result import (  # noqa: F401  (re-exported: the FE run's settings and res
 from .solver import ContactSolver, State
 
 MAX_CUTBACKS = 8
+RESCUE_FAILURES = 16 * MAX_CUTBACKS  # failed solves a step in rescue mode may take in all
 PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC section 2)
 # Fully plastic onset Fp (SPEC section 4): the first load at which FULLY_PLASTIC_FRACTION of the
 # core of the contact area, the disc r < FULLY_PLASTIC_CORE * a, is yielding at the surface.
@@ -544,6 +545,7 @@ def run_history(
         run.last_elastic = saved.detector["last_elastic"]
         done = saved.done
         elapsed_before = saved.wall_time_s
+        solver.rescued_steps = list(saved.detector.get("rescued_steps", []))
     else:
         yield_force = _probe_yield_force(solver, material)
         state = solver.initial_state()
@@ -581,7 +583,9 @@ def run_history(
                                 fields=write_fields,
                                 wall_time_s=elapsed_before + time.perf_counter() - started,
                                 first_yield=run.first_yield, fully_plastic=run.fully_plastic,
-                                last_elastic=run.last_elastic)
+                                last_elastic=run.last_elastic,
+                                **({"rescued_steps": solver.rescued_steps}
+                                   if solver.rescued_steps else {}))
             if bar is not None:
                 bar.update(1)
     finally:
@@ -623,6 +627,7 @@ def run_history(
         "warnings": warnings,
         "steps": int(len(targets)),
         "step_control": sub_step_record(targets, yield_force, identity.max_step_ratio),
+        **({"rescued_steps": solver.rescued_steps} if solver.rescued_steps else {}),
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
         "version": __version__,
@@ -664,10 +669,35 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int,
              goals: list[float] | None = None) -> State:
     """One load step through the forces ``goals`` (``sub_steps``; default: ``target``) with
     cutback: halve the increment on non-convergence. With ``goals`` the state returned counts
-    the Newton iterations of all the step's solves (curve.csv ``iterations``)."""
+    the Newton iterations of all the step's solves (curve.csv ``iterations``).
+
+    A step that still fails after ``MAX_CUTBACKS`` halvings in all is solved again from its
+    start in rescue mode (``ContactSolver.line_search``: Newton updates halved until no element
+    is inside out; at most ``MAX_CUTBACKS`` halvings at any one state, not in all) and noted in
+    ``solver.rescued_steps`` (summary.json ``rescued_steps``). A step that passes without it
+    takes exactly the arithmetic it always took."""
+    try:
+        return _solve_step_goals(solver, state, target, step, goals, rescue=False)
+    except ConvergenceError as exc:
+        first_failure = str(exc)
+    solver.line_search = True
+    halvings = solver.line_search_halvings
+    try:
+        current = _solve_step_goals(solver, state, target, step, goals, rescue=True)
+    finally:
+        solver.line_search = False
+    solver.rescued_steps.append({"step": step, "force_N": target,
+                                 "line_search_halvings": solver.line_search_halvings - halvings,
+                                 "failure": first_failure})
+    return current
+
+
+def _solve_step_goals(solver: ContactSolver, state: State, target: float, step: int,
+                      goals: list[float] | None, *, rescue: bool) -> State:
+    """The solves of ``_advance``; ``rescue``: count the halvings at each state, not in all."""
     current = state
     pending = list(reversed(goals)) if goals else [target]
-    cutbacks = 0
+    cutbacks = failures = 0
     iterations = 0
     while pending:
         goal = pending[-1]
@@ -675,12 +705,16 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int,
             current = solver.solve_step(current, goal)
             iterations += current.iterations
             pending.pop()
+            if rescue:
+                cutbacks = 0
         except ConvergenceError as exc:
             cutbacks += 1
-            if cutbacks > MAX_CUTBACKS:
+            failures += 1
+            if cutbacks > MAX_CUTBACKS or failures > RESCUE_FAILURES:
                 raise ConvergenceError(
                     f"step {step}: no convergence towards F = {target:.6g} N after "
-                    f"{MAX_CUTBACKS} cutbacks (last converged F = {current.force:.6g} N): {exc}"
+                    f"{MAX_CUTBACKS} cutbacks{' in rescue mode' if rescue else ''} "
+                    f"(last converged F = {current.force:.6g} N): {exc}"
                 ) from None
             pending.append(0.5 * (current.force + goal))
     if goals:

@@ -27,6 +27,12 @@ constant elastic factorisation of the predictor per contact set, and factorises 
 flow, B-bar) when it is installed, else SuperLU; "reference" is the earlier path (global CSR,
 slicing, SuperLU every iteration), kept to compare the two side by side (docs/benchmarks.md,
 scripts/compare_fe_solvers.py).
+
+Rescue mode (``line_search``, set by ``run._advance`` only for a load step that failed with
+``MAX_CUTBACKS`` halvings): a Newton update whose iterate the engine cannot evaluate
+(``admissible``: with finite strain, an element turned inside out, J <= 0) is halved until it can
+(at most ``LINE_SEARCH_HALVINGS`` times), and so is the predictor's increment. Off, the arithmetic
+is the one the engine always had, so a run that converges without it is unchanged bit for bit.
 """
 
 from __future__ import annotations
@@ -55,6 +61,9 @@ CONTACT_CANDIDATE_HEIGHT = 0.3  # surface nodes with z0 < 0.3 R may touch the fl
 # A point counts as yielding (fully plastic onset, SPEC section 4) when its Drucker-Prager ratio
 # is within 1 % of the yield surface: a point that yielded and unloads by round-off still counts.
 YIELD_RATIO_AT_YIELD = 0.99
+# Rescue mode: halvings of a Newton update (or of the predictor's increment) whose iterate is not
+# admissible before the solve is given up (the caller then cuts the load step back).
+LINE_SEARCH_HALVINGS = 12
 
 
 @dataclass
@@ -138,6 +147,7 @@ class ContactSolver:
     max_iterations: int = 40
     force_scale: float = 1.0  # N, the history's largest force
     linear_solver: str = "fast"  # "fast" | "reference" (see the module docstring)
+    line_search: bool = False  # rescue mode (see the module docstring): off by default
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -182,6 +192,8 @@ class ContactSolver:
         self._reduced_maps: OrderedDict = OrderedDict()  # contact set -> _Reduced
         self._elastic_factors: OrderedDict = OrderedDict()  # contact set -> factor
         self.factorisations = 0  # linear systems factorised (both paths)
+        self.line_search_halvings = 0  # Newton updates halved in rescue mode, in all
+        self.rescued_steps: list[dict] = []  # load steps solved in rescue mode (run._advance)
 
     # --- set-up -----------------------------------------------------------------------------
     def _strain_matrices(self, basis, r: np.ndarray) -> np.ndarray:
@@ -454,6 +466,11 @@ class ContactSolver:
                 n = len(free)
                 if not np.all(np.isfinite(step)):
                     break
+                if self.line_search:
+                    u, w = self._searched_update(u, w, step, free, cdofs[active], -z0[active])
+                    if u is None:
+                        break
+                    continue
                 u[free] += step[:n]
                 u[cdofs[active]] = -z0[active]
                 w += step[n]
@@ -476,6 +493,11 @@ class ContactSolver:
             step = solve_linear(A, rhs)
             if not np.all(np.isfinite(step)):
                 break
+            if self.line_search:
+                u, w = self._searched_update(u, w, step, free, cdofs[active], -z0[active])
+                if u is None:
+                    break
+                continue
             u[free] += step[:n]
             u[cdofs[active]] = -z0[active]
             w += step[n]
@@ -485,6 +507,33 @@ class ContactSolver:
             f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
             f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
         )
+
+    def admissible(self, displacement: np.ndarray) -> bool:
+        """Whether the engine can evaluate the state at ``displacement`` (small strain: always;
+        ``FiniteStrainSolver`` checks that no element is turned inside out)."""
+        return True
+
+    def _searched_update(self, u: np.ndarray, w: float, step: np.ndarray, free: np.ndarray,
+                         contact_dofs: np.ndarray, contact_values: np.ndarray):
+        """Rescue mode: the Newton update ``step`` ([du_free, dw], the active contact dofs moved
+        to ``contact_values``) scaled by 1, 1/2, 1/4, ... until its iterate is admissible;
+        (None, None) after ``LINE_SEARCH_HALVINGS`` halvings."""
+        n = len(free)
+        scale = 1.0
+        for _ in range(LINE_SEARCH_HALVINGS + 1):
+            trial = u.copy()
+            trial[free] += scale * step[:n]
+            if scale == 1.0:
+                trial[contact_dofs] = contact_values
+            else:
+                trial[contact_dofs] += scale * (contact_values - trial[contact_dofs])
+            trial_w = w + scale * step[n]
+            trial[self.top_dofs] = -trial_w
+            if self.admissible(trial):
+                return trial, trial_w
+            scale *= 0.5
+            self.line_search_halvings += 1
+        return None, None
 
     def _fast_step(self, tangent, active, prescribed, r_free, r_top, elastic) -> np.ndarray:
         """Newton correction [du_free, dw] on the fast path (see the module docstring)."""

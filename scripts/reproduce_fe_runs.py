@@ -1,0 +1,124 @@
+"""Run committed FE runs again with the current FE code and compare them bit for bit.
+
+The evidence behind an entry of ``fem.reuse.REPRODUCED_FE_CODE`` (older FE sources whose
+finished runs the current sources reproduce): a change that only acts where the older code gave
+up must leave every run that finished under it as it was. This script takes finished runs of a
+committed campaign folder (``datasets/fe-runs/<campaign>``; the cheapest first, or the ones
+named), runs each again from its recorded inputs with the current code into ``--out``, and
+compares the new result with the committed one: curve.csv value for value (exactly) and
+summary.json field for field, except what must differ (``identity``: the FE code hash and key;
+``wall_time_s``).
+
+    PYTHONPATH=src .venv/bin/python scripts/reproduce_fe_runs.py \\
+        datasets/fe-runs/weak-finite-coarse --runs 2 --out out/reproduce \\
+        --json docs/verification/fe-reproduction.json
+
+Exit status 0 if every run compared equal, 1 otherwise. A run already in ``--out`` of the
+current code is compared without running it again (the runs resume from their checkpoints).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+from geocontact import __version__  # noqa: E402
+from geocontact.fem.reuse import fe_code_hash, load_result  # noqa: E402
+from geocontact.fem.run import run_history  # noqa: E402
+from geocontact.material import Material  # noqa: E402
+
+# summary.json fields that differ between two runs of the same arithmetic
+EXPECTED_TO_DIFFER = ("identity", "wall_time_s")
+
+
+def committed_runs(campaign: Path) -> list[Path]:
+    """The finished run folders of ``campaign``, cheapest (recorded wall time) first."""
+    folders = [p.parent for p in campaign.glob("*/summary.json")]
+    return sorted(folders, key=lambda p: (load_result(p).summary.get("wall_time_s") or 0.0,
+                                          p.name))
+
+
+def rerun(folder: Path, out: Path):
+    """The run of ``folder`` made again from its recorded inputs into ``out/<key>``."""
+    inputs = load_result(folder).summary["identity"]["inputs"]
+    return run_history(
+        Material.from_dict(inputs["material"]), inputs["forces_N"], mesh=inputs["mesh"],
+        out=out / folder.name, steps_per_segment=inputs["steps_per_segment"],
+        tolerance=inputs["tolerance"], volumetric=inputs["volumetric"],
+        mesh_force=inputs["mesh_force_N"], mesh_rule=inputs.get("mesh_rule", "yield"),
+        kinematics=inputs.get("kinematics", "small"),
+        step_rule=inputs.get("step_rule", "segment"),
+        max_step_ratio=inputs.get("max_step_ratio"), resume=True, write_fields=False,
+        overwrite=True, progress=True)
+
+
+def compare(committed: Path, again) -> dict:
+    """Where the run made again differs from the committed one (empty lists: nowhere)."""
+    old = load_result(committed)
+    curve_differs = [name for name in old.curve
+                     if name not in again.curve
+                     or not np.array_equal(old.curve[name], again.curve[name])]
+    curve_differs += [name for name in again.curve if name not in old.curve]
+    fields = set(old.summary) | set(again.summary)
+    summary_differs = sorted(name for name in fields if name not in EXPECTED_TO_DIFFER
+                             and old.summary.get(name) != again.summary.get(name))
+    return {"key": committed.name, "peak_force_N": max(old.summary["inputs"]["forces_N"]),
+            "made_by": old.summary["identity"]["fe_code"],
+            "rows": len(old.curve["force_N"]), "curve_columns_differing": curve_differs,
+            "summary_fields_differing": summary_differs,
+            "wall_time_s": {"committed": old.summary.get("wall_time_s"),
+                            "again": again.summary.get("wall_time_s")},
+            "equal": not curve_differs and not summary_differs}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("campaign", type=Path, help="a committed campaign folder")
+    parser.add_argument("--runs", type=int, default=1,
+                        help="how many of its finished runs, the cheapest first (default 1)")
+    parser.add_argument("--keys", nargs="*", default=None, help="these runs instead")
+    parser.add_argument("--out", type=Path, default=Path("out/reproduce"))
+    parser.add_argument("--json", type=Path, default=None,
+                        help="write the comparison here (merged with an earlier file's runs)")
+    args = parser.parse_args(argv)
+    if args.runs < 1:
+        parser.error(f"--runs: must be >= 1, got {args.runs}")
+    folders = committed_runs(args.campaign)
+    if args.keys:
+        known = {p.name: p for p in folders}
+        missing = [k for k in args.keys if k not in known]
+        if missing:
+            parser.error(f"--keys: not finished runs of {args.campaign}: {', '.join(missing)}")
+        folders = [known[k] for k in args.keys]
+    else:
+        folders = folders[:args.runs]
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for folder in folders:
+        print(f"reproduce: {folder}", file=sys.stderr)
+        row = {"campaign": args.campaign.name, **compare(folder, rerun(folder, args.out))}
+        print(f"reproduce: {folder.name}: {'equal' if row['equal'] else 'DIFFERENT'} "
+              f"({row['rows']} curve rows; differing: "
+              f"{row['curve_columns_differing'] + row['summary_fields_differing'] or 'none'})",
+              file=sys.stderr)
+        rows.append(row)
+    if args.json is not None:
+        earlier = (json.loads(args.json.read_text()).get("runs", [])
+                   if args.json.exists() else [])
+        done = {(r["campaign"], r["key"]) for r in rows}
+        kept = [r for r in earlier if (r["campaign"], r["key"]) not in done]
+        record = {"version": __version__, "command": "scripts/reproduce_fe_runs.py",
+                  "runs": kept + [{**r, "fe_code": fe_code_hash()} for r in rows]}
+        args.json.write_text(json.dumps(record, indent=1) + "\n")
+    return 0 if all(r["equal"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
