@@ -45,7 +45,7 @@ from geocontact.calibrate.campaign import (  # noqa: E402
 from geocontact.calibrate.fit import LOADING_FORMS, RESIDUAL_FORMS  # noqa: E402
 from geocontact.cli.common import add_fe_model_flags, fe_model_of  # noqa: E402
 from geocontact.errors import InputError, run_reporting_errors  # noqa: E402
-from geocontact.fem.reuse import finished_run  # noqa: E402
+from geocontact.fem.reuse import cached_run  # noqa: E402
 from geocontact.io import write_json_atomic  # noqa: E402
 from geocontact.material import load_material  # noqa: E402
 
@@ -55,7 +55,7 @@ def finished_runs(dataset: Path, jobs) -> tuple[list, list[float]]:
     forces of those not (yet) there."""
     runs, missing = [], []
     for job in jobs:
-        result = finished_run(dataset / job.key(), job.identity())
+        result = cached_run(dataset, job.identity())
         if result is None:
             missing.append(max(job.forces))
         else:

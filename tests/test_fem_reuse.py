@@ -366,6 +366,8 @@ def test_runs_and_checkpoints_of_reproduced_fe_code_are_used(material, tmp_path,
                                 rounding=True) == "made by other FE code"
     monkeypatch.setattr(reuse, "REPRODUCED_FE_CODE", {new_code: {old_code: "a test change"}})
     assert reuse.equivalent_run(cache, job.identity())[1] == old_key
+    found = reuse.cached_run(cache, job.identity())  # what the analyses and scripts look up
+    assert reuse.run_key(found, job.identity()) == old_key != job.key()
     capsys.readouterr()
     steps = _count_steps(monkeypatch)
     [again, resumed] = run_campaign([job, other], cache, workers=1, progress=True)

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
+from ..fem.reuse import run_key
 from ..fem.run import FemResult
 from ..law import Contact, LawParams
 from ..material import Material
@@ -106,7 +107,8 @@ def compare(params: LawParams, job: FemJob, result: FemResult, *, name: str, kin
                           "error_percent": 100.0 * abs(law - fe) / fe})
     return Comparison(name=name, kind=kind, description=description, forces=job.forces,
                       approach=approach, fe_force=fe_force, law_force=law_force,
-                      law_residual=law_residual, cache_key=job.key(), residuals=residuals)
+                      law_residual=law_residual, cache_key=run_key(result, job.identity()),
+                      residuals=residuals)
 
 
 def held_out_jobs(material: Material, mesh: str = "default",

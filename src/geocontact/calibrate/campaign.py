@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
+from ..fem.reuse import run_key
 from ..fem.run import FemResult
 from ..force_history import preset_history
 from ..hertz import hertz_coefficient, incipient_yield
@@ -259,7 +260,8 @@ def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
     from ..cyclic_fit import analyse, ratchetting_cycles, with_cyclic
 
     analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
-    info = {"history_forces_N": list(job.forces), "mesh": job.mesh, "cache_key": job.key(),
+    info = {"history_forces_N": list(job.forces), "mesh": job.mesh,
+            "cache_key": run_key(result, job.identity()),
             "state": analysis.state, "critical_cycles": analysis.critical_cycles}
     if len(analysis.cycles) > 1 and ratchetting_cycles(analysis) == 0:
         second = analysis.cycles[1]["residual_increment_ratio"]

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..fem.campaign import FemJob
+from ..fem.reuse import run_key
 from ..fem.run import FemResult
 from ..hertz import incipient_yield
 from ..material import Material, preset
@@ -194,7 +195,7 @@ def measure(job: FemJob, result: FemResult) -> dict[str, Any]:
         "steps": summary["steps"],
         "newton_iterations": summary["newton_iterations"],
         "wall_time_s": summary["wall_time_s"],
-        "cache_key": job.key(),
+        "cache_key": run_key(result, job.identity()),
     }
 
 

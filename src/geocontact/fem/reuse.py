@@ -359,7 +359,25 @@ def equivalent_run(cache: str | Path, identity: FeRunIdentity,
     return None
 
 
+def run_key(result: FemResult, identity: FeRunIdentity) -> str:
+    """The key of the cache folder ``result`` is in: its recorded identity's (an equivalent run
+    reused from another key keeps its own), else ``identity``'s."""
+    recorded = result.summary.get("identity")
+    return recorded["key"] if isinstance(recorded, dict) and "key" in recorded else identity.key()
+
+
+def cached_run(cache: str | Path, identity: FeRunIdentity) -> FemResult | None:
+    """The run of ``identity`` in the cache folder ``cache``: the one in the folder of its key,
+    else an equivalent one (``equivalent_run``); None if neither is there. Its own key (the
+    folder it is in) is ``result.summary["identity"]["key"]``."""
+    found = finished_run(Path(cache) / identity.key(), identity)
+    if found is None:
+        equivalent = equivalent_run(cache, identity)
+        found = equivalent[0] if equivalent is not None else None
+    return found
+
+
 __all__ = ["FE_SOURCES", "LIBRARIES", "REPRODUCED_FE_CODE", "ROUNDING", "FeRunIdentity",
-           "difference", "distribution_version", "equivalent_run", "fe_code_hash",
+           "cached_run", "difference", "distribution_version", "equivalent_run", "fe_code_hash",
            "finished_run", "identity_key", "library_versions", "load_result",
-           "recorded_identities", "reproduced_code", "same_to_rounding"]
+           "recorded_identities", "reproduced_code", "run_key", "same_to_rounding"]

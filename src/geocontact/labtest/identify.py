@@ -79,6 +79,7 @@ def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
     """FE monotonic loading of ``material`` to ``max_force``: delta/delta_y and F/Fy (the FE's
     own first yield force Fy and its Hertz approach delta_y)."""
     from ..fem.campaign import FemJob, run_campaign
+    from ..fem.reuse import run_key
 
     job = FemJob(material, (0.0, float(max_force)), mesh=mesh, steps_per_segment=FE_STEPS,
                  label="identification")
@@ -99,7 +100,8 @@ def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
             "material": material,
             "yield_approach_m": float(dy), "fe_yield_approach_m":
                 result.summary.get("first_yield_approach_m"),
-            "cache_key": job.key(), "mesh": mesh, "max_force_N": float(max_force)}
+            "cache_key": run_key(result, job.identity()), "mesh": mesh,
+            "max_force_N": float(max_force)}
 
 
 def _residual_of(curve: dict, vd, vf, noise: float):
