@@ -79,6 +79,8 @@ def check_pending(checkpoint: Path) -> dict:
             done = int(data["done"])
     except Exception as exc:  # noqa: BLE001 - a checkpoint being rewritten, or a broken one
         return {**entry, "problem": f"unreadable checkpoint: {exc}"}
+    if not isinstance(identity, dict) or identity_key(identity) != identity.get("key"):
+        return {**entry, "problem": "checkpoint identity record does not hash to its key"}
     forces = identity.get("inputs", {}).get("forces_N", [])
     return {**entry, "peak_force_N": max(forces) if forces else None, "steps_done": done}
 

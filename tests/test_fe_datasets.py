@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from geocontact.fem.reuse import identity_key
 from geocontact.fem.run import run_history
 from geocontact.material import preset
 
@@ -30,6 +31,18 @@ def test_committed_run_is_a_complete_result(folder):
     run = fe_dataset.check_run(folder)
     assert "problem" not in run, run.get("problem")
     assert run["newton_iterations"] > 0 and run["peak_force_N"] > 0
+
+
+CHECKPOINTS = sorted(fe_dataset.DATASETS.glob("*/*.checkpoint.npz"))
+
+
+@pytest.mark.parametrize("checkpoint", CHECKPOINTS,
+                         ids=[f"{p.parent.name}/{p.name}" for p in CHECKPOINTS])
+def test_committed_checkpoint_is_whole_and_signed(checkpoint):
+    """A run under way committed at the end of a session: readable, its identity intact."""
+    pending = fe_dataset.check_pending(checkpoint)
+    assert "problem" not in pending, pending.get("problem")
+    assert pending["steps_done"] > 0 and pending["peak_force_N"] > 0
 
 
 @pytest.fixture(scope="module")
@@ -57,11 +70,17 @@ def test_status_of_a_finished_run_and_of_problems(campaign, tmp_path, capsys):
     record["identity"]["inputs"]["mesh"] = "fine"  # a hand edit that keeps the key
     summary.write_text(json.dumps(record))
     (edited / "foreign.txt").write_text("not ours")
-    np.savez(edited / "0123.checkpoint.npz", identity=np.array(json.dumps(
-        {"inputs": {"forces_N": [0.0, 2.0]}})), done=np.array(7))
+    signed = {"inputs": {"forces_N": [0.0, 2.0]}}
+    signed["key"] = identity_key(signed)
+    np.savez(edited / "0123.checkpoint.npz", identity=np.array(json.dumps(signed)),
+             done=np.array(7))
+    np.savez(edited / "0124.checkpoint.npz", identity=np.array(json.dumps(
+        {**signed, "key": "edited"})), done=np.array(7))
     status = fe_dataset.campaign_status(edited)
     assert "hash" in status["finished"][0]["problem"]
-    assert status["pending"] == [{"key": "0123", "peak_force_N": 2.0, "steps_done": 7}]
+    assert status["pending"] == [{"key": "0123", "peak_force_N": 2.0, "steps_done": 7},
+                                 {"key": "0124", "problem": "checkpoint identity record does "
+                                  "not hash to its key"}]
     assert status["other"] == ["foreign.txt"]
     assert fe_dataset.main([str(edited)]) == 1
     assert (edited / "foreign.txt").read_text() == "not ours"
