@@ -9,6 +9,7 @@ only what is missing. A run under way keeps its checkpoint beside it (``<key>.ch
 not committed: .gitignore); an interrupted run resumes from it within the session.
 
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py [CAMPAIGN_DIR ...] [--json]
+    PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py --compare DIR_A DIR_B [--json]
 
 For each campaign folder (default: every folder under datasets/fe-runs): the finished runs
 (peak force, load-step solves, Newton iterations, wall time) and whether each was computed by
@@ -122,12 +123,68 @@ def _print(status: dict) -> None:
         print(f"  {name}  (not an FE run: left alone)")
 
 
+def compare_campaigns(first: Path, second: Path, floor: float = 0.05) -> list[dict]:
+    """The runs of two campaign folders with the same force history (e.g. one on the coarse
+    and one on the default mesh), side by side: per shared history, the peak approach, the
+    residual ratio delta_res/delta_max and the elastic recovery 1 - delta_res/delta_max of the
+    first cycle (second / first - 1), and the largest gap in approach along the loading branch
+    above ``floor`` x the peak (the first run interpolated in ln F - ln delta at the second's
+    forces)."""
+    from geocontact.fem.staircase import loading_branch
+
+    def runs(folder: Path) -> dict[tuple, object]:
+        out = {}
+        for summary in sorted(folder.glob("*/summary.json")):
+            result = load_result(summary.parent)
+            history = tuple(round(f, 9) for f in result.summary["inputs"]["forces_N"])
+            out.setdefault(history, result)  # a duplicate (an equivalent run) adds nothing
+        return out
+
+    a, b = runs(first), runs(second)
+    rows = []
+    for history in sorted(set(a) & set(b), key=max):
+        ra, rb = a[history], b[history]
+        ca, cb = ra.summary["cycles"][0], rb.summary["cycles"][0]
+        rho_a = ca["residual_approach_m"] / ca["max_approach_m"]
+        rho_b = cb["residual_approach_m"] / cb["max_approach_m"]
+        (da, fa), (db, fb) = loading_branch(ra.curve), loading_branch(rb.curve)
+        keep = fb > floor * max(history)
+        at_b = np.exp(np.interp(np.log(fb[keep]), np.log(fa), np.log(da)))
+        rows.append({"peak_force_N": max(history),
+                     "peak_approach_relative": cb["max_approach_m"] / ca["max_approach_m"] - 1,
+                     "residual_ratio": [rho_a, rho_b],
+                     "residual_ratio_relative": rho_b / rho_a - 1 if rho_a > 0 else None,
+                     "elastic_recovery_relative": (1 - rho_b) / (1 - rho_a) - 1,
+                     "loading_approach_gap_max": float(np.max(np.abs(db[keep] / at_b - 1)))})
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("campaigns", nargs="*", type=Path,
                         help="campaign folders (default: every folder in datasets/fe-runs)")
     parser.add_argument("--json", action="store_true", help="print the status as JSON")
+    parser.add_argument("--compare", action="store_true",
+                        help="compare the runs of two campaign folders with the same histories "
+                             "(e.g. two meshes) instead")
     args = parser.parse_args(argv)
+    if args.compare:
+        if len(args.campaigns) != 2 or not all(p.is_dir() for p in args.campaigns):
+            print("error: --compare needs two campaign folders", file=sys.stderr)
+            return 2
+        rows = compare_campaigns(*args.campaigns)
+        if args.json:
+            print(json.dumps(rows, indent=1))
+        for row in rows if not args.json else []:
+            rho_a, rho_b = row["residual_ratio"]
+            change = row["residual_ratio_relative"]
+            change = "elastic" if change is None else f"{100 * change:+.2f} %"
+            print(f"{row['peak_force_N']:10.4g} N  peak approach "
+                  f"{100 * row['peak_approach_relative']:+.2f} %  delta_res/delta_max "
+                  f"{rho_a:.4f} -> {rho_b:.4f} ({change})  "
+                  f"recovery {100 * row['elastic_recovery_relative']:+.2f} %  loading approach "
+                  f"gap max {100 * row['loading_approach_gap_max']:.2f} %")
+        return 0
     folders = args.campaigns or sorted(p for p in DATASETS.iterdir() if p.is_dir())
     for folder in folders:
         if not folder.is_dir():

@@ -133,3 +133,15 @@ def test_reproduce_fe_runs_compares_bit_for_bit(campaign, tmp_path):
     rows = json.loads(report.read_text())["runs"]
     assert [r["equal"] for r in rows] == [True, False]  # both campaigns kept, by name
     assert rows[1]["curve_columns_differing"]
+
+
+def test_compare_two_campaigns(campaign, capsys):
+    """--compare: a campaign against itself differs nowhere; the output is one line a run."""
+    folder, _ = campaign
+    (row,) = fe_dataset.compare_campaigns(folder, folder)
+    assert row["peak_approach_relative"] == 0.0 and row["loading_approach_gap_max"] < 1e-12
+    assert row["residual_ratio_relative"] is None  # elastic: no residual approach
+    assert row["elastic_recovery_relative"] == 0.0
+    assert fe_dataset.main(["--compare", str(folder), str(folder)]) == 0
+    assert "loading approach gap max 0.00 %" in capsys.readouterr().out
+    assert fe_dataset.main(["--compare", str(folder)]) == 2
