@@ -42,6 +42,7 @@ from .result import (
     VOLUMETRIC_DEFAULT,
     FemResult,
 )
+from .solver import CONTACTS
 
 SCHEMA = "geocontact.fe-identity/1"
 # The distributions whose versions decide an FE result (importlib.metadata names).
@@ -117,6 +118,7 @@ class FeRunIdentity:
     kinematics: str = "small"
     step_rule: str = "segment"
     max_step_ratio: float | None = None
+    contact: str = "node"
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse", *,
@@ -124,7 +126,7 @@ class FeRunIdentity:
            volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
            mesh_rule: str = "yield", kinematics: str = "small",
            step_rule: str = "segment",
-           max_step_ratio: float | None = None) -> FeRunIdentity:
+           max_step_ratio: float | None = None, contact: str = "node") -> FeRunIdentity:
         """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
         an input the FE would refuse."""
         forces = tuple(validate_forces(list(forces)))
@@ -138,7 +140,8 @@ class FeRunIdentity:
         for name, value, allowed in (("volumetric", volumetric, VOLUMETRIC),
                                      ("mesh_rule", mesh_rule, MESH_RULES),
                                      ("kinematics", kinematics, KINEMATICS),
-                                     ("step_rule", step_rule, STEP_RULES)):
+                                     ("step_rule", step_rule, STEP_RULES),
+                                     ("contact", contact, CONTACTS)):
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
         if max_step_ratio is not None and (
@@ -147,6 +150,9 @@ class FeRunIdentity:
                 or not (math.isfinite(max_step_ratio) and 1.0 < max_step_ratio <= 2.0)):
             raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
                              f"got {max_step_ratio!r}")
+        if contact == "facet" and kinematics != "small":
+            raise InputError("contact: 'facet' is implemented for small strain only "
+                             f"(kinematics {kinematics!r}); use contact 'node'")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax
@@ -156,7 +162,7 @@ class FeRunIdentity:
                              f"got {mesh_force!r}")
         return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
                    float(mesh_force), mesh_rule, kinematics, step_rule,
-                   None if max_step_ratio is None else float(max_step_ratio))
+                   None if max_step_ratio is None else float(max_step_ratio), contact)
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
@@ -177,6 +183,8 @@ class FeRunIdentity:
             extra["step_rule"] = self.step_rule
         if self.max_step_ratio is not None:
             extra["max_step_ratio"] = self.max_step_ratio
+        if self.contact != "node":
+            extra["contact"] = self.contact
         return extra
 
     def to_dict(self) -> dict[str, Any]:
@@ -208,6 +216,8 @@ class FeRunIdentity:
             settings.append(f"step rule {self.step_rule}")
         if self.max_step_ratio is not None:
             settings.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
+        if self.contact != "node":
+            settings.append(f"{self.contact} contact")
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "
