@@ -434,8 +434,12 @@ class ContactSolver:
         ConvergenceError (the caller cuts the step back) if Newton does not converge.
         """
         if self.contact == "facet":
-            u, w, _ = self._iterate_facet(old, force, old.displacement.copy(),
-                                          old.top_displacement, elastic=True, label=label)
+            # The elastic predictor only from an open contact: it has no factorisation to reuse
+            # (the penalty tangent changes with every iterate), and from a loaded state Newton
+            # with the line search needs fewer factorisations without it (measured: 7 per solve).
+            u, w = old.displacement.copy(), old.top_displacement
+            if old.force == 0.0:
+                u, w, _ = self._iterate_facet(old, force, u, w, elastic=True, label=label)
             return self._iterate_facet(old, force, u, w, elastic=not self.plastic, label=label,
                                        final=True)[2]
         u, w, active, _ = self._iterate(old, force, old.displacement.copy(),
