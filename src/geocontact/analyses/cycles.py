@@ -196,7 +196,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                                 steps_per_segment=steps_per_segment, tolerance=tolerance,
                                 kinematics=kinematics, mesh_rule=mesh_rule,
                                 step_rule=step_rule, max_step_ratio=max_step_ratio,
-                                contact=contact, resume=resume, fit_params=fit_params, progress=progress,
+                                contact=contact, resume=resume, fit_params=fit_params,
+                                progress=progress,
                                 inputs=inputs, previous_fe=out / "fe", checkpoint=checkpoint)
     from ..fem.checkpoint import remove_checkpoint
 

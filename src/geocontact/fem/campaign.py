@@ -122,7 +122,8 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
                          tolerance=job.tolerance, volumetric=job.volumetric,
                          kinematics=job.kinematics, mesh_rule=job.mesh_rule,
                          step_rule=job.step_rule, max_step_ratio=job.max_step_ratio,
-                         contact=job.contact, overwrite=True)  # the cache folder is the program's own
+                         contact=job.contact,
+                         overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 
 

@@ -22,9 +22,9 @@ are continuously differentiable in the displacement, and their consistent tangen
 clipped interval: the integrand is a polynomial of degree 6 in xi times the arc length
 |dx/dxi| of the curved facet.
 
-Penalty: epsilon = ``PENALTY_FACTOR`` * E* / h on a facet of chord h (E* the contact modulus of
-the ball-wall model, E / (1 - nu^2)), so the penetration p / epsilon is h p / (PENALTY_FACTOR E*):
-for a Hertz contact (p0 = 2 E* a / (pi R), approach a^2 / R) a relative approach error
+Penalty: epsilon = ``PENALTY_FACTOR`` * E' / h on a facet of chord h (E' = E / (1 - nu^2), the
+contact modulus of the ball-wall model), so the penetration p / epsilon is h p / (PENALTY_FACTOR
+E'): for a Hertz contact (p0 = 2 E' a / (pi R), approach a^2 / R) a relative approach error
 2 h / (pi PENALTY_FACTOR a), 2e-4 with 10 facets across the contact radius.
 """
 
@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 TWO_PI = 2.0 * math.pi
-PENALTY_FACTOR = 300.0  # epsilon = PENALTY_FACTOR * E* / h (module docstring)
+PENALTY_FACTOR = 300.0  # epsilon = PENALTY_FACTOR * E' / h (module docstring)
 # The tangent of a contact that is open (to round-off) is replaced by a contact of the Hertz radius
 # (``FacetContact.stiffness``) when its stiffness towards the flat is below this fraction of it.
 OPEN_SUPPORT = 1e-6
@@ -88,7 +88,7 @@ class FacetContact:
 
     @classmethod
     def build(cls, mesh, basis, facets: np.ndarray, modulus: float) -> FacetContact:
-        """``facets``: the candidate facets (mesh facet indices); ``modulus``: E*."""
+        """``facets``: the candidate facets (mesh facet indices); ``modulus``: E'."""
         vertices = mesh.facets[:, facets]  # (2, f)
         nodal_z, facet_z = basis.nodal_dofs[1], basis.facet_dofs[1]
         dofs = np.stack([nodal_z[vertices[0]], nodal_z[vertices[1]], facet_z[facets]], axis=1)
@@ -135,12 +135,12 @@ class FacetContact:
         """Facet tangents (f, 3, 3) of the contact forces.
 
         Without penetration (a solve starting from an open contact; in practice: when the
-        contact's stiffness towards the flat is below ``OPEN_SUPPORT`` of it) the tangent takes the facets
-        within the radius ``reach`` (the Hertz contact radius of the target force) as in contact
-        over their length, at least the lowest one: the flat's support of the rigid motion then
-        has the stiffness of a contact of about the right size (the lowest facet alone, at the
-        axis, weighs 2 pi r ~ its length and leaves the system singular to round-off). Only the
-        Newton direction changes, not the solution.
+        contact's stiffness towards the flat is below ``OPEN_SUPPORT`` of this one) the tangent
+        takes the facets within the radius ``reach`` (the Hertz contact radius of the target
+        force) as in contact over their length, at least the lowest one: the flat's support of
+        the rigid motion then has the stiffness of a contact of about the right size (a sliver
+        of penetration at the axis, where 2 pi r ~ 0, leaves the system singular to round-off).
+        Only the Newton direction changes, not the solution.
         """
         gap = self.gap(displacement)
         n, _, weight, _ = self._points(gap)

@@ -50,9 +50,9 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/plasticity.py",
-              "fem/result.py", "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py",
-              "material.py", "resolution.py")
+FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py", "fem/mesh.py",
+              "fem/plasticity.py", "fem/result.py", "fem/run.py", "fem/solver.py",
+              "force_history.py", "hertz.py", "material.py", "resolution.py")
 
 # Older FE sources whose finished runs the current sources reproduce bit for bit, by the hash of
 # the current sources: {current: {older: why}}. An entry is made only for a change that cannot
