@@ -62,6 +62,13 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py
 # record keeps the hash it was made with. Any other change of the sources leaves the entry
 # behind with the old hash, and the older runs are stale again.
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "51d4fb8435749d12": {
+        "4f8939b91af98a9d": "opt-in facet contact added (contact='facet', fem/facet_contact.py): "
+                            "the default node contact's arithmetic is unchanged",
+        "4919b4f465169f88": "rescue mode (4f8939b91af98a9d) and the opt-in facet contact "
+                            "added: only a load step that failed after MAX_CUTBACKS halvings, or "
+                            "a run with contact='facet', is solved differently",
+    },
     "4f8939b91af98a9d": {
         "4919b4f465169f88": "rescue mode added (run._advance, ContactSolver.line_search): only a "
                             "load step that failed after MAX_CUTBACKS halvings is solved "
