@@ -95,6 +95,7 @@ def main() -> None:
     ap.add_argument("--mesh", default="coarse")
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
     ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
+    ap.add_argument("--contact", default="node", help="fem contact: node | facet (run_history)")
     ap.add_argument("--steps", type=int, nargs="+", default=[24, 48])
     ap.add_argument("--max-step-ratio", type=_ratio, nargs="+", default=[None],
                     help="cap(s) on the loading force ratio of one solve (run_history "
@@ -119,6 +120,8 @@ def main() -> None:
     for ratio in args.max_step_ratio:
         for n in args.steps:
             name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
+            if args.contact != "node":
+                name = f"{args.mesh}-{args.mesh_rule}-{args.contact}-{args.step_rule}-{n}"
             label = f"{n} steps"
             if ratio is not None:
                 name += f"-cap{ratio:g}"
@@ -127,7 +130,8 @@ def main() -> None:
             if args.finished_only:
                 result = finished_run(out / name, FeRunIdentity.of(
                     material, [0.0, args.force], args.mesh, steps_per_segment=n,
-                    mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio))
+                    mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio,
+                    contact=args.contact))
                 if result is None:
                     print(f"{name}: not finished, left out")
                     continue
@@ -135,7 +139,8 @@ def main() -> None:
                 result = run_history(material, [0.0, args.force], args.mesh, out / name,
                                      steps_per_segment=n, resume=True, write_fields=False,
                                      mesh_rule=args.mesh_rule, step_rule=args.step_rule,
-                                     max_step_ratio=ratio, progress=args.progress)
+                                     max_step_ratio=ratio, progress=args.progress,
+                                     contact=args.contact)
             curves[label] = result.curve
             fy = fy or result.summary["first_yield_force_N"]
             runs[label] = {"elements": result.summary["mesh"]["elements"],
@@ -148,9 +153,11 @@ def main() -> None:
     measures = staircase_measures(curves, fy, args.floor)
     measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
                      "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
+                     "contact": args.contact,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
     caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
-    write_json_atomic(out / (args.json or f"staircase-{args.mesh}-{args.mesh_rule}-"
+    contact = "" if args.contact == "node" else f"{args.contact}-"
+    write_json_atomic(out / (args.json or f"staircase-{args.mesh}-{args.mesh_rule}-{contact}"
                                           f"{args.step_rule}{caps}.json"), measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))
     for name, r in runs.items():

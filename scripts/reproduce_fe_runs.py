@@ -55,7 +55,8 @@ def rerun(folder: Path, out: Path):
         mesh_force=inputs["mesh_force_N"], mesh_rule=inputs.get("mesh_rule", "yield"),
         kinematics=inputs.get("kinematics", "small"),
         step_rule=inputs.get("step_rule", "segment"),
-        max_step_ratio=inputs.get("max_step_ratio"), resume=True, write_fields=False,
+        max_step_ratio=inputs.get("max_step_ratio"), contact=inputs.get("contact", "node"),
+        resume=True, write_fields=False,
         overwrite=True, progress=True)
 
 

@@ -75,12 +75,16 @@ FE_MODEL = ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")
 
 
 def fe_model_of(args) -> dict:
-    """The FE model the flags of ``add_fe_model_flags`` chose, as FemJob keywords."""
-    return {key: getattr(args, key) for key in FE_MODEL}
+    """The FE model the flags of ``add_fe_model_flags`` chose, as FemJob keywords (``contact``
+    only when not the default, so the records of default runs are unchanged)."""
+    model = {key: getattr(args, key) for key in FE_MODEL}
+    if args.contact != "node":
+        model["contact"] = args.contact
+    return model
 
 
 def add_fe_model_flags(p) -> None:
-    """--kinematics, --mesh-rule, --step-rule and --max-step-ratio of the FE engine
+    """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --contact of the FE engine
     (docs/fem.md)."""
     p.add_argument("--kinematics", default="small", choices=["small", "finite"],
                    help="FE kinematics: small strain (default) or finite strain (logarithmic "
@@ -98,3 +102,8 @@ def add_fe_model_flags(p) -> None:
                         "force through geometric sub-steps of at most R in force (e.g. 1.01; "
                         "the requested steps are still the recorded ones): a weak grain's "
                         "perfectly plastic flattening is step dependent (docs/fem.md)")
+    p.add_argument("--contact", default="node", choices=["node", "facet"],
+                   help="FE contact with the flat: 'node' (default, exact node-to-flat "
+                        "constraint) or 'facet' (penalty integrated over the surface facets, "
+                        "the contact edge moving inside an element: no kink in the loading "
+                        "curve as a node engages; small strain only)")

@@ -70,7 +70,7 @@ def run(args) -> int:
         inputs={"material": str(args.material), "history": str(args.history),
                 "params": args.params},
         overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
-        step_rule=args.step_rule, max_step_ratio=args.max_step_ratio,
+        step_rule=args.step_rule, max_step_ratio=args.max_step_ratio, contact=args.contact,
     )
     if args.json:
         print_json(summary)

@@ -49,6 +49,7 @@ def run(args) -> int:
                          steps_per_segment=args.steps, resume=args.resume, overwrite=args.force,
                          kinematics=args.kinematics, mesh_rule=args.mesh_rule,
                          step_rule=args.step_rule, max_step_ratio=args.max_step_ratio,
+                         contact=args.contact,
                          progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:

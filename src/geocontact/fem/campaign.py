@@ -70,6 +70,7 @@ class FemJob:
     mesh_rule: str = "yield"  # "yield" | "contact" (fem.mesh.MESH_RULES)
     step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
+    contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
@@ -81,7 +82,7 @@ class FemJob:
                                 tolerance=self.tolerance, volumetric=self.volumetric,
                                 mesh_force=self.mesh_force, kinematics=self.kinematics,
                                 mesh_rule=self.mesh_rule, step_rule=self.step_rule,
-                                max_step_ratio=self.max_step_ratio)
+                                max_step_ratio=self.max_step_ratio, contact=self.contact)
 
     def inputs(self) -> dict:
         """The identity record: inputs, FE code hash, library versions, key."""
@@ -121,6 +122,7 @@ def _run_job(job: FemJob, directory: str) -> FemResult:
                          tolerance=job.tolerance, volumetric=job.volumetric,
                          kinematics=job.kinematics, mesh_rule=job.mesh_rule,
                          step_rule=job.step_rule, max_step_ratio=job.max_step_ratio,
+                         contact=job.contact,
                          overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 

@@ -250,6 +250,8 @@ class FiniteStrainSolver(ContactSolver):
     contact, force control and outputs as :class:`ContactSolver`."""
 
     def __post_init__(self) -> None:
+        if self.contact != "node":
+            raise ValueError("finite strain: only the node-to-flat contact (contact='node')")
         super().__post_init__()
         basis = self.basis
         r = self.radius_qp

@@ -42,6 +42,7 @@ from .result import (
     VOLUMETRIC_DEFAULT,
     FemResult,
 )
+from .solver import CONTACTS
 
 SCHEMA = "geocontact.fe-identity/1"
 # The distributions whose versions decide an FE result (importlib.metadata names).
@@ -49,9 +50,9 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
 # fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/plasticity.py",
-              "fem/result.py", "fem/run.py", "fem/solver.py", "force_history.py", "hertz.py",
-              "material.py", "resolution.py")
+FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py", "fem/mesh.py",
+              "fem/plasticity.py", "fem/result.py", "fem/run.py", "fem/solver.py",
+              "force_history.py", "hertz.py", "material.py", "resolution.py")
 
 # Older FE sources whose finished runs the current sources reproduce bit for bit, by the hash of
 # the current sources: {current: {older: why}}. An entry is made only for a change that cannot
@@ -61,6 +62,13 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/finite_strain.py", "fem/mesh.py", "fem/p
 # record keeps the hash it was made with. Any other change of the sources leaves the entry
 # behind with the old hash, and the older runs are stale again.
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "51d4fb8435749d12": {
+        "4f8939b91af98a9d": "opt-in facet contact added (contact='facet', fem/facet_contact.py): "
+                            "the default node contact's arithmetic is unchanged",
+        "4919b4f465169f88": "rescue mode (4f8939b91af98a9d) and the opt-in facet contact "
+                            "added: only a load step that failed after MAX_CUTBACKS halvings, or "
+                            "a run with contact='facet', is solved differently",
+    },
     "4f8939b91af98a9d": {
         "4919b4f465169f88": "rescue mode added (run._advance, ContactSolver.line_search): only a "
                             "load step that failed after MAX_CUTBACKS halvings is solved "
@@ -117,6 +125,7 @@ class FeRunIdentity:
     kinematics: str = "small"
     step_rule: str = "segment"
     max_step_ratio: float | None = None
+    contact: str = "node"
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse", *,
@@ -124,7 +133,7 @@ class FeRunIdentity:
            volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
            mesh_rule: str = "yield", kinematics: str = "small",
            step_rule: str = "segment",
-           max_step_ratio: float | None = None) -> FeRunIdentity:
+           max_step_ratio: float | None = None, contact: str = "node") -> FeRunIdentity:
         """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
         an input the FE would refuse."""
         forces = tuple(validate_forces(list(forces)))
@@ -138,7 +147,8 @@ class FeRunIdentity:
         for name, value, allowed in (("volumetric", volumetric, VOLUMETRIC),
                                      ("mesh_rule", mesh_rule, MESH_RULES),
                                      ("kinematics", kinematics, KINEMATICS),
-                                     ("step_rule", step_rule, STEP_RULES)):
+                                     ("step_rule", step_rule, STEP_RULES),
+                                     ("contact", contact, CONTACTS)):
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
         if max_step_ratio is not None and (
@@ -147,6 +157,9 @@ class FeRunIdentity:
                 or not (math.isfinite(max_step_ratio) and 1.0 < max_step_ratio <= 2.0)):
             raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
                              f"got {max_step_ratio!r}")
+        if contact == "facet" and kinematics != "small":
+            raise InputError("contact: 'facet' is implemented for small strain only "
+                             f"(kinematics {kinematics!r}); use contact 'node'")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax
@@ -156,7 +169,7 @@ class FeRunIdentity:
                              f"got {mesh_force!r}")
         return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
                    float(mesh_force), mesh_rule, kinematics, step_rule,
-                   None if max_step_ratio is None else float(max_step_ratio))
+                   None if max_step_ratio is None else float(max_step_ratio), contact)
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
@@ -177,6 +190,8 @@ class FeRunIdentity:
             extra["step_rule"] = self.step_rule
         if self.max_step_ratio is not None:
             extra["max_step_ratio"] = self.max_step_ratio
+        if self.contact != "node":
+            extra["contact"] = self.contact
         return extra
 
     def to_dict(self) -> dict[str, Any]:
@@ -208,6 +223,8 @@ class FeRunIdentity:
             settings.append(f"step rule {self.step_rule}")
         if self.max_step_ratio is not None:
             settings.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
+        if self.contact != "node":
+            settings.append(f"{self.contact} contact")
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "

@@ -431,6 +431,10 @@ def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> Contac
     kind = ContactSolver
     if identity.kinematics == "finite":
         from .finite_strain import FiniteStrainSolver as kind
+    if identity.contact != "node":  # the default's arguments as they were
+        return kind(material, fe_mesh, force_scale=max(identity.forces),
+                    tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
+                    linear_solver=linear_solver, contact=identity.contact)
     return kind(material, fe_mesh, force_scale=max(identity.forces),
                 tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
                 linear_solver=linear_solver)
@@ -457,6 +461,7 @@ def run_history(
     kinematics: str = "small",
     step_rule: str = "segment",
     max_step_ratio: float | None = None,
+    contact: str = "node",
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -485,7 +490,9 @@ def run_history(
     (``load_schedule``). ``max_step_ratio``: None (default) or a cap > 1 on the force ratio of
     one solve on loading above the first-yield force (``sub_steps``: the requested steps are
     solved through geometric sub-steps and recorded as before; summary.json ``step_control``).
-    All four are part of the run's identity.
+    ``contact``: "node" (default, the exact node-to-flat constraint) or "facet" (a penalty
+    contact integrated over the surface facets with the contact edge inside an element,
+    ``fem.facet_contact``; small strain only). All five are part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 
@@ -494,7 +501,7 @@ def run_history(
                                 tolerance=tolerance, volumetric=volumetric,
                                 mesh_force=mesh_force, mesh_rule=mesh_rule,
                                 kinematics=kinematics, step_rule=step_rule,
-                                max_step_ratio=max_step_ratio)
+                                max_step_ratio=max_step_ratio, contact=contact)
     forces, steps = list(identity.forces), identity.steps_per_segment
     if resume and out is not None and not keep_states:
         why: list[str] = []

@@ -18,7 +18,10 @@ Boundary conditions:
   g = z0 + u_z >= 0 with z0 the initial height (small strain), contact force lambda >= 0,
   g lambda = 0, solved by a primal-dual active set (semismooth Newton) inside the Newton loop of
   the plasticity: active nodes are prescribed u_z = -z0, the others are free; a node enters the
-  set when it penetrates and leaves when its reaction turns tensile.
+  set when it penetrates and leaves when its reaction turns tensile. Opt-in
+  (``contact="facet"``, ``fem.facet_contact``): a penalty pressure integrated over the surface
+  facets, clipped at the zero of the quadratic gap, so the contact edge moves continuously inside
+  an element; Newton then has no active set (``_iterate_facet``).
 
 Linear systems (``linear_solver``): "fast" (default) assembles the reduced, bordered system
 straight from the element matrices through index maps cached per contact set, keeps the
@@ -64,6 +67,10 @@ YIELD_RATIO_AT_YIELD = 0.99
 # Rescue mode: halvings of a Newton update (or of the predictor's increment) whose iterate is not
 # admissible before the solve is given up (the caller then cuts the load step back).
 LINE_SEARCH_HALVINGS = 12
+# Facet contact: the line search of the elastic iterations (``_facet_line_search``) stops when the
+# slope of the potential is down to this fraction of its start, or after this many evaluations.
+FACET_SEARCH_SLOPE = 1e-2
+FACET_SEARCH_STEPS = 30
 
 
 @dataclass
@@ -130,6 +137,7 @@ class _Reduced:
 
 
 LINEAR_SOLVERS = ("fast", "reference")
+CONTACTS = ("node", "facet")  # the flat's contact: node-to-flat (default) | segment-based penalty
 REDUCED_CACHE = 8  # contact sets whose index maps are kept
 ELASTIC_FACTOR_CACHE = 4  # contact sets whose elastic factorisation is kept
 
@@ -148,6 +156,7 @@ class ContactSolver:
     force_scale: float = 1.0  # N, the history's largest force
     linear_solver: str = "fast"  # "fast" | "reference" (see the module docstring)
     line_search: bool = False  # rescue mode (see the module docstring): off by default
+    contact: str = "node"  # "node" | "facet" (see the module docstring)
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -156,6 +165,10 @@ class ContactSolver:
         if self.linear_solver not in LINEAR_SOLVERS:
             raise ValueError(f"linear_solver must be one of {', '.join(LINEAR_SOLVERS)}, "
                              f"got {self.linear_solver!r}")
+
+        if self.contact not in CONTACTS:
+            raise ValueError(f"contact must be one of {', '.join(CONTACTS)}, "
+                             f"got {self.contact!r}")
 
         self.model = DruckerPrager.from_material(self.material)
         basis = Basis(self.mesh, ElementVector(ElementTriP2()), intorder=4)
@@ -194,6 +207,15 @@ class ContactSolver:
         self.factorisations = 0  # linear systems factorised (both paths)
         self.line_search_halvings = 0  # Newton updates halved in rescue mode, in all
         self.rescued_steps: list[dict] = []  # load steps solved in rescue mode (run._advance)
+        if self.contact == "facet":
+            from .facet_contact import FacetContact
+
+            facets = self.sphere_facets()
+            ends_z = self.mesh.p[1, self.mesh.facets[:, facets]]
+            facets = facets[np.all(ends_z < CONTACT_CANDIDATE_HEIGHT * radius, axis=0)]
+            # E / (1 - nu^2): the ball-wall contact modulus (2 E* of the ball-ball pair)
+            self.facet_contact = FacetContact.build(self.mesh, basis, facets,
+                                                    2.0 * self.material.effective_modulus)
 
     # --- set-up -----------------------------------------------------------------------------
     def _strain_matrices(self, basis, r: np.ndarray) -> np.ndarray:
@@ -411,6 +433,15 @@ class ContactSolver:
         then Newton with the return mapping and its consistent tangent. Raises
         ConvergenceError (the caller cuts the step back) if Newton does not converge.
         """
+        if self.contact == "facet":
+            # The elastic predictor only from an open contact: it has no factorisation to reuse
+            # (the penalty tangent changes with every iterate), and from a loaded state Newton
+            # with the line search needs fewer factorisations without it (measured: 7 per solve).
+            u, w = old.displacement.copy(), old.top_displacement
+            if old.force == 0.0:
+                u, w, _ = self._iterate_facet(old, force, u, w, elastic=True, label=label)
+            return self._iterate_facet(old, force, u, w, elastic=not self.plastic, label=label,
+                                       final=True)[2]
         u, w, active, _ = self._iterate(old, force, old.displacement.copy(),
                                         old.top_displacement, old.active.copy(), elastic=True,
                                         label=label)
@@ -508,6 +539,144 @@ class ContactSolver:
             f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
         )
 
+    def _iterate_facet(self, old: State, force: float, u: np.ndarray, w: float, *,
+                       elastic: bool, label: str, final: bool = False):
+        """Newton with the segment-based penalty contact (``contact="facet"``): no active set,
+        the contact forces and their tangent are part of the residual and of the matrix; every
+        candidate dof is free. Returns (u, w, State or None)."""
+        contact = self.facet_contact
+        scale = max(abs(force), 1e-3 * self.force_scale, 1e-30)
+        tol = self.tolerance * scale
+        top = self.top_dofs
+        reduced = self._reduced(np.zeros(len(self.candidate_dofs), dtype=bool))
+        free, n = reduced.free, reduced.n
+        residual_norm = math.inf
+        self.facet_residuals = []
+        for iteration in range(1, self.max_iterations + 1):
+            u[top] = -w
+            stress, strain, eqps, status, f_int, tangent = self._response(old, u,
+                                                                          elastic=elastic)
+            if force == 0.0:
+                # F = 0: the contact opens; the lowest surface node stays on the flat (as with
+                # the node contact), held by a spring that carries no force at equilibrium
+                gaps = self.gaps(u)
+                lowest = self.candidate_dofs[np.argmin(gaps)]
+                f_contact = np.zeros(self.ndofs)
+                f_contact[lowest] = -self._touch_stiffness * np.min(gaps)
+            else:
+                f_contact = contact.forces(u)
+            r_free = (f_int - f_contact)[free]
+            r_top = -np.sum(f_int[top]) - force
+            residual_norm = max(np.max(np.abs(r_free), initial=0.0), abs(r_top))
+            self.facet_residuals.append(residual_norm)  # of the last solve (tests)
+            if residual_norm <= tol and iteration > 1:
+                if not final:
+                    return u, w, None
+                active = f_contact[self.candidate_dofs] > 0.0
+                return u, w, self._finish(old, u, w, stress, strain, eqps, status, active,
+                                          force, iteration)
+            bulk = self.element_matrices(tangent)
+            if force == 0.0:
+                local = bulk.copy()
+                self._add_touch(local, lowest)
+            else:
+                local = contact.add_to(bulk, contact.stiffness(u, self._hertz_radius(force)))
+            factor = self._factor(local, reduced)
+            if factor is None:
+                break
+            step = factor(np.concatenate([-r_free, [-r_top]]))
+            if not np.all(np.isfinite(step)):
+                break
+            direction = np.zeros(self.ndofs)
+            direction[free] = step[:n]
+            direction[top] = -step[n]
+            if elastic:  # the bulk force is linear along the direction
+                k_direction = self._local_product(bulk, direction)
+
+                def bulk_force(a, f_int=f_int, k_direction=k_direction):
+                    return f_int + a * k_direction
+            else:
+                def bulk_force(a, u=u, direction=direction):
+                    stress = self._constitutive(old, self.strain(u + a * direction),
+                                                tangent=False)[0]
+                    return self.internal_force(stress)
+            length = 1.0 if force == 0.0 else self._facet_line_search(
+                u, direction, bulk_force, force * step[n],
+                float(np.dot(f_int - f_contact, direction)))
+            u += length * direction
+            w += length * step[n]
+        if not final:
+            return u, w, None
+        raise ConvergenceError(
+            f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
+            f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
+        )
+
+    def _hertz_radius(self, force: float) -> float:
+        """Hertz contact radius of the hemisphere on the flat at ``force`` (ball-wall)."""
+        e_wall = 2.0 * self.material.effective_modulus
+        return (0.75 * force * self.material.radius / e_wall) ** (1.0 / 3.0)
+
+    @property
+    def _touch_stiffness(self) -> float:
+        """Spring that keeps the lowest node on the flat at F = 0 (``contact="facet"``): the
+        penalty factor times the hemisphere's stiffness scale E R."""
+        from .facet_contact import PENALTY_FACTOR
+
+        return PENALTY_FACTOR * 2.0 * self.material.effective_modulus * self.material.radius
+
+    def _add_touch(self, local: np.ndarray, dof: int) -> None:
+        element = int(np.nonzero(np.any(self.element_dofs == dof, axis=0))[0][0])
+        position = int(np.nonzero(self.element_dofs[:, element] == dof)[0][0])
+        local[element, position, position] += self._touch_stiffness
+
+    def _facet_line_search(self, u: np.ndarray, direction: np.ndarray, bulk_force,
+                           load_rate: float, start: float) -> float:
+        """Step length along a Newton direction with the penalty contact (``contact="facet"``).
+
+        The increment (elastic, or with the return mapping of associated flow) is the minimum of
+        a convex incremental potential, whose slope along the direction d is
+        (f_int(u + a d) - f_contact(u + a d)) . d - F dw (``bulk_force(a)``: f_int at u + a d;
+        elastic: linear in a, no constitutive evaluation; ``start``: the first term at a = 0).
+        The full step is taken unless it
+        passes the minimum by more than ``FACET_SEARCH_SLOPE`` of the starting slope, else the
+        zero of the slope is found by regula falsi (Illinois). Without it Newton wanders for ~30
+        iterations when the contact zone starts far from its size (the first step from an open
+        contact), and fails on large plastic steps; near the solution a = 1, so the quadratic
+        convergence is kept.
+        """
+        contact = self.facet_contact
+
+        def slope(a: float) -> float:
+            return float(np.dot(bulk_force(a) - contact.forces(u + a * direction),
+                                direction)) - load_rate
+
+        low, s_low = 0.0, start - load_rate
+        if s_low >= 0.0:  # not a descent direction: the plain Newton step
+            return 1.0
+        enough = FACET_SEARCH_SLOPE * -s_low
+        high, s_high = 1.0, slope(1.0)
+        if s_high <= enough:
+            return 1.0
+        side = 0
+        length = 1.0
+        for _ in range(FACET_SEARCH_STEPS):
+            length = (low * s_high - high * s_low) / (s_high - s_low)
+            s = slope(length)
+            if abs(s) <= enough:
+                break
+            if s < 0.0:
+                low, s_low = length, s
+                if side == -1:
+                    s_high *= 0.5
+                side = -1
+            else:
+                high, s_high = length, s
+                if side == 1:
+                    s_low *= 0.5
+                side = 1
+        return length
+
     def admissible(self, displacement: np.ndarray) -> bool:
         """Whether the engine can evaluate the state at ``displacement`` (small strain: always;
         ``FiniteStrainSolver`` checks that no element is turned inside out)."""
@@ -592,7 +761,12 @@ class ContactSolver:
 
     # --- outputs ----------------------------------------------------------------------------
     def elastic_energy(self, state: State) -> float:
-        return float(np.sum(elastic_energy_density(self.model, state.stress) * self.dvolume))
+        """Stored energy: the elastic strain energy (with ``contact="facet"`` plus the energy of
+        the penalty layer, 1/2 int epsilon g^2 over the contact)."""
+        energy = float(np.sum(elastic_energy_density(self.model, state.stress) * self.dvolume))
+        if self.contact == "facet":
+            energy += self.facet_contact.energy(state.displacement)
+        return energy
 
     def state_internal_force(self, state: State) -> np.ndarray:
         """Nodal internal forces of a converged state."""
@@ -606,11 +780,18 @@ class ContactSolver:
         return self.candidate_r
 
     def contact_forces(self, state: State) -> np.ndarray:
+        if self.contact == "facet":  # at F = 0 open (``_iterate_facet``)
+            if state.force == 0.0:
+                return np.zeros(len(self.candidate_dofs))
+            return self.facet_contact.forces(state.displacement)[self.candidate_dofs]
         f = self.state_internal_force(state)[self.candidate_dofs]
         return np.where(state.active, f, 0.0)
 
     def contact_pressure(self, state: State) -> tuple[np.ndarray, np.ndarray]:
-        """(r, pressure) at the surface nodes: nodal force / tributary ring area."""
+        """(r, pressure) at the surface nodes: nodal force / tributary ring area (with
+        ``contact="facet"`` the same: the penalty pressure at a node, epsilon times a gap of
+        ~1e-10 m, carries the displacement's discretisation error and is ~10 % off; the far node
+        of the facet the contact edge is in can carry a small negative consistent force)."""
         return self.candidate_r, self._pressure(self.contact_forces(state), self.candidate_area)
 
     def _pressure(self, force: np.ndarray, area: np.ndarray) -> np.ndarray:
@@ -627,7 +808,9 @@ class ContactSolver:
 
         The outermost touching node bounds it from below, the first open node from above; in
         between the edge is placed where the gap of the next two open nodes, extrapolated with
-        the Hertzian edge law g ~ (r - a)^(3/2), vanishes.
+        the Hertzian edge law g ~ (r - a)^(3/2), vanishes. The same with ``contact="facet"``
+        (a node touches when its penalty force does): the zero of the interpolated gap lags the
+        edge by up to an element, the gap inside being the small penetration.
         """
         # nodes carrying more than the equilibrium tolerance (at F = 0 none does)
         threshold = 10.0 * self.tolerance * max(state.force, 1e-3 * self.force_scale)
