@@ -87,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--keys", nargs="*", default=None, help="these runs instead")
     parser.add_argument("--out", type=Path, default=Path("out/reproduce"))
     parser.add_argument("--json", type=Path, default=None,
-                        help="write the comparison here (merged with an earlier file's runs)")
+                        help="write the comparison here (merged with an earlier file's runs: "
+                             "one row per run and FE code)")
     args = parser.parse_args(argv)
     if args.runs < 1:
         parser.error(f"--runs: must be >= 1, got {args.runs}")
@@ -113,8 +114,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.json is not None:
         earlier = (json.loads(args.json.read_text()).get("runs", [])
                    if args.json.exists() else [])
-        done = {(r["campaign"], r["key"]) for r in rows}
-        kept = [r for r in earlier if (r["campaign"], r["key"]) not in done]
+        code = fe_code_hash()  # a run compared again under the same FE code replaces its row
+        done = {(r["campaign"], r["key"], code) for r in rows}
+        kept = [r for r in earlier
+                if (r["campaign"], r["key"], r.get("fe_code")) not in done]
         record = {"version": __version__, "command": "scripts/reproduce_fe_runs.py",
                   "runs": kept + [{**r, "fe_code": fe_code_hash()} for r in rows]}
         args.json.write_text(json.dumps(record, indent=1) + "\n")

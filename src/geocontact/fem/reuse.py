@@ -57,7 +57,8 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py
 # Older FE sources whose finished runs the current sources reproduce bit for bit, by the hash of
 # the current sources: {current: {older: why}}. An entry is made only for a change that cannot
 # alter a run that finished under the older code (it acts only where that code gave up with a
-# ConvergenceError) and after finished runs of the older code were run again and compared
+# ConvergenceError, or only for a new opt-in input recorded in the identity when not at its
+# default) and after finished runs of the older code were run again and compared
 # (scripts/reproduce_fe_runs.py). Such a run is reused as the same run (``equivalent_run``); its
 # record keeps the hash it was made with. Any other change of the sources leaves the entry
 # behind with the old hash, and the older runs are stale again.
