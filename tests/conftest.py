@@ -41,3 +41,15 @@ def params() -> LawParams:
 def cyclic_params() -> LawParams:
     return make_params(cyclic=CyclicLaw(enabled=True, residual_ratio_coefficient=0.3,
                                         residual_ratio_power=1.2, tolerance=0.01))
+
+
+def assert_energy_balance(curve, tolerance: float = 0.01) -> None:
+    """An FE run's energy balance at every step (SPEC: work of the force = stored elastic
+    energy + plastic dissipation, within ``tolerance`` of the work; trapezoidal work on coarse
+    steps) and a dissipation that never decreases."""
+    import numpy as np
+
+    work = curve["work_J"][1:]
+    imbalance = work - curve["elastic_energy_J"][1:] - curve["plastic_dissipation_J"][1:]
+    assert np.all(np.abs(imbalance) <= tolerance * work)
+    assert np.all(np.diff(curve["plastic_dissipation_J"]) >= -1e-12 * work.max())
