@@ -288,26 +288,36 @@ def test_kernel_and_reference_agree_with_a_transition_depth():
 
 
 # --- the shipped calibrated files ---------------------------------------------------------
-# Force tolerance (% of peak) on a fresh coarse FE cycle: sigma_c = 10 MPa meets the 5 % goal;
-# sigma_c = 1 MPa does not (docs/calibration.md: 3.7-7 % on its default-mesh held-out runs, and
-# the coarse mesh differs from default by several % at these depths), so its bound is what the
-# docs claim, not the goal.
-@pytest.mark.parametrize("name, material, tolerance", [
-    ("params-reference.json", "reference", 5.0),
-    ("params-reference-weak.json", "reference-weak", 12.0),
+# Force tolerance (% of peak) on a fresh coarse FE cycle of the file's kinematics: both files meet
+# the 5 % goal (docs/calibration.md). sigma_c = 10 MPa is calibrated on the default mesh;
+# sigma_c = 1 MPa, for now, on the finite-strain pilot (the coarse mesh with the contact mesh rule,
+# within 0.25 % in peak approach and 0.8 % along the loading curve of the default mesh at every
+# level both campaigns have: datasets/fe-runs/README.md) until the default-mesh campaign is done.
+# The weak grain's check run caps its loading steps at a factor 1.1 in force: without a cap the
+# approach of its perfectly plastic flattening moves several % with the load step (docs/fem.md,
+# "The staircase of a growing contact", item 2), more than the law's error. Measured (22 s): the
+# shipped file 1.1 % force RMS, 0.3 % residual; the earlier small-strain file 4.6 %, 3.0 %.
+@pytest.mark.parametrize("name, material, meshes, cap, tolerance", [
+    ("params-reference.json", "reference", {"default", "fine"}, None, 5.0),
+    ("params-reference-weak.json", "reference-weak", {"default", "fine", "coarse"}, 1.1, 5.0),
 ])
-def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material, tolerance):
+def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material, meshes, cap,
+                                                   tolerance):
     """The shipped file is an FE calibration of its material, and the law driven with it follows
-    a coarse FE cycle it never saw (another mesh, another peak) within its documented accuracy."""
+    an FE cycle it never saw (another mesh rule or mesh, another peak) within the 5 % goal."""
     params = load_params(EXAMPLES / name)
     doc = json.loads((EXAMPLES / name).read_text())
+    fe = doc["provenance"]["fe"]
     assert doc["provenance"]["source"].startswith("FE calibration")
-    assert doc["provenance"]["fe"]["mesh"] in {"default", "fine"}
-    assert len(doc["provenance"]["fe"]["peak_forces_N"]) >= 6
+    assert fe["mesh"] in meshes
+    if fe["mesh"] == "coarse":  # the pilot: the contact mesh rule, so the check's mesh differs
+        assert fe["mesh_rule"] == "contact"
+    assert len(fe["peak_forces_N"]) >= 6
     assert params.material == load_material(material)
     low, high = force_range(params.material)
     peak = low * (high / low) ** 0.625  # between levels (7 levels: 0.5, 0.67; 13: 7/12, 8/12)
-    job = FemJob(params.material, (0.0, peak, 0.0), mesh="coarse", steps_per_segment=8)
+    job = FemJob(params.material, (0.0, peak, 0.0), mesh="coarse", steps_per_segment=8,
+                 kinematics=fe.get("kinematics", "small"), max_step_ratio=cap)
     (result,) = run_campaign([job], tmp_path, progress=False)
     comparison = compare(params, job, result, name="check", kind="held-out")
     assert comparison.force_rms_percent < tolerance

@@ -68,6 +68,18 @@ def test_timestamps_wall_times_interpreter_and_cache_path_are_ignored():
         "provenance.inputs.cache"}
 
 
+def test_the_hashes_that_tie_a_calibration_to_its_acceptance_table_are_ignored():
+    """Each file holds its own timestamp, so a rerun always changes the other's hash of it."""
+    shipped = _document(**{"provenance.created_utc": "2026-01-01T00:00:00+00:00"})
+    shipped["provenance"]["acceptance"] = {"sha256": "a" * 64, "file": "x.acceptance.json"}
+    rerun = json.loads(json.dumps(shipped))
+    rerun["provenance"]["acceptance"]["sha256"] = "b" * 64
+    assert _mismatches(shipped, rerun) == []
+    assert _mismatches({"params_sha256": "a" * 64}, {"params_sha256": "b" * 64}) == []
+    rerun["provenance"]["acceptance"]["file"] = "y.acceptance.json"
+    assert _mismatches(shipped, rerun) == ["provenance.acceptance.file"]
+
+
 def test_a_fitted_number_off_by_more_than_the_tolerance_is_a_mismatch():
     exponent = 1.4778985904580817
     assert _mismatches(_document(), _document(
@@ -157,8 +169,8 @@ def test_never_writes_into_the_shipped_folder(tmp_path, capsys):
 
 
 def test_reruns_what_the_makefile_calibrate_examples_target_runs():
-    """The script's CALIBRATIONS are the Makefile's calibrate-examples commands (less --mesh,
-    --acceptance and --out, which the script sets itself)."""
+    """The script's CALIBRATIONS are the Makefile's calibrate-examples commands (less
+    ``--mesh $(CALIBRATE_MESH)``, --acceptance and --out, which the script sets itself)."""
     makefile = (ROOT / "Makefile").read_text()
     recipe = re.search(r"^calibrate-examples:.*?\n((?:\t.*\n)+)", makefile, re.M).group(1)
     commands = [shlex.split(line) for line in recipe.replace("\\\n", " ").splitlines()]
@@ -171,7 +183,8 @@ def test_reruns_what_the_makefile_calibrate_examples_target_runs():
         for word in args:
             if skip:
                 skip = False
-            elif word in ("--mesh", "--out"):
+            elif word == "--out" or (word == "--mesh" and
+                                     args[args.index(word) + 1] == "$(CALIBRATE_MESH)"):
                 skip = True
             elif word != "--acceptance":
                 rest.append(word)
@@ -198,13 +211,22 @@ def test_rerun_calls_calibrate_like_the_makefile_into_a_temporary_folder(tmp_pat
 
     monkeypatch.setattr(geocontact.cli, "main", calibrate)
     cache = tmp_path / "cache"
-    assert check.main(["--examples", str(shipped), "--cache", str(cache), "--mesh", "coarse"]) == 0
-    assert [c[:c.index("--mesh")] for c in calls] == [
-        ["calibrate", *args] for args in check.CALIBRATIONS.values()]
+    assert check.main(["--examples", str(shipped), "--cache", str(cache), "--mesh", "fine"]) == 0
+    # the script's mesh and cache go to a calibration that names none; one that names its own
+    # keeps them, its cache resolved in the repository
+    expected = []
+    for args in check.CALIBRATIONS.values():
+        own = "--cache" in args
+        args = [str(check.ROOT / a) if own and i and args[i - 1] == "--cache" else a
+                for i, a in enumerate(args)]
+        expected.append(["calibrate", *args, *([] if "--mesh" in args else ["--mesh", "fine"]),
+                         *([] if own else ["--cache", str(cache)]), "--acceptance"])
+    assert [c[:c.index("--out")] for c in calls] == expected
+    assert [c[c.index("--mesh") + 1] for c in calls] == ["fine", "coarse"]
+    assert calls[1][calls[1].index("--cache") + 1] == str(
+        check.ROOT / "datasets" / "fe-runs" / "weak-finite-coarse")
     outs = [Path(c[c.index("--out") + 1]) for c in calls]
     assert all(not check._inside(o, shipped) and not o.exists() for o in outs)
-    assert all(c[c.index("--cache") + 1] == str(cache) and "--acceptance" in c
-               and c[c.index("--mesh") + 1] == "coarse" for c in calls)
     assert "no FE cache" in capsys.readouterr().err
     monkeypatch.setattr(geocontact.cli, "main", lambda argv: 1)
     assert check.main(["--examples", str(shipped), "--cache", str(cache)]) == 2
