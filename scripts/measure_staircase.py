@@ -19,6 +19,11 @@ Measures (``geocontact.fem.staircase``), on the loading curve above ``--floor`` 
     PYTHONPATH=src nice -n 5 .venv/bin/python scripts/measure_staircase.py --mesh coarse \
         --steps 24 48 --out out/staircase
 
+``--kinematics finite`` measures the finite-strain FE (the weak grain's FE of record, issue 15)::
+
+    PYTHONPATH=src .venv/bin/python scripts/measure_staircase.py --mesh coarse --kinematics finite \
+        --mesh-rule contact --steps 24 48 --max-step-ratio 1.01 --out out/staircase
+
 The load-step control (``run_history(max_step_ratio=...)``: every loading step above the
 first-yield force solved through geometric sub-steps of at most that force ratio, the requested
 steps still the recorded ones) is measured with ``--max-step-ratio``: every cap is run with
@@ -96,6 +101,8 @@ def main() -> None:
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
     ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
     ap.add_argument("--contact", default="node", help="fem contact: node | facet (run_history)")
+    ap.add_argument("--kinematics", default="small",
+                    help="fem kinematics: small | finite (run_history)")
     ap.add_argument("--steps", type=int, nargs="+", default=[24, 48])
     ap.add_argument("--max-step-ratio", type=_ratio, nargs="+", default=[None],
                     help="cap(s) on the loading force ratio of one solve (run_history "
@@ -122,6 +129,8 @@ def main() -> None:
             name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
             if args.contact != "node":
                 name = f"{args.mesh}-{args.mesh_rule}-{args.contact}-{args.step_rule}-{n}"
+            if args.kinematics != "small":
+                name = f"{args.kinematics}-{name}"
             label = f"{n} steps"
             if ratio is not None:
                 name += f"-cap{ratio:g}"
@@ -131,7 +140,7 @@ def main() -> None:
                 result = finished_run(out / name, FeRunIdentity.of(
                     material, [0.0, args.force], args.mesh, steps_per_segment=n,
                     mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio,
-                    contact=args.contact))
+                    contact=args.contact, kinematics=args.kinematics))
                 if result is None:
                     print(f"{name}: not finished, left out")
                     continue
@@ -140,7 +149,7 @@ def main() -> None:
                                      steps_per_segment=n, resume=True, write_fields=False,
                                      mesh_rule=args.mesh_rule, step_rule=args.step_rule,
                                      max_step_ratio=ratio, progress=args.progress,
-                                     contact=args.contact)
+                                     contact=args.contact, kinematics=args.kinematics)
             curves[label] = result.curve
             fy = fy or result.summary["first_yield_force_N"]
             runs[label] = {"elements": result.summary["mesh"]["elements"],
@@ -149,16 +158,20 @@ def main() -> None:
                            "steps": result.summary["steps"],
                            "step_control": result.summary["step_control"],
                            "newton_iterations": result.summary["newton_iterations"],
-                           "contact_resolution": result.summary["contact_resolution"]}
+                           "contact_resolution": result.summary["contact_resolution"],
+                           "fe_code": result.summary["identity"]["fe_code"],
+                           "version": result.summary["version"]}
     measures = staircase_measures(curves, fy, args.floor)
     measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
                      "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
-                     "contact": args.contact,
+                     "contact": args.contact, "kinematics": args.kinematics,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
     caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
     contact = "" if args.contact == "node" else f"{args.contact}-"
-    write_json_atomic(out / (args.json or f"staircase-{args.mesh}-{args.mesh_rule}-{contact}"
-                                          f"{args.step_rule}{caps}.json"), measures)
+    kinematics = "" if args.kinematics == "small" else f"{args.kinematics}-"
+    default_name = (f"staircase-{kinematics}{args.mesh}-{args.mesh_rule}-{contact}"
+                    f"{args.step_rule}{caps}.json")
+    write_json_atomic(out / (args.json or default_name), measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))
     for name, r in runs.items():
         print(f"{name}: {r['elements']} elements, {r['step_control']['solves']} solves, "
