@@ -10,6 +10,7 @@ not committed: .gitignore); an interrupted run resumes from it within the sessio
 
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py [CAMPAIGN_DIR ...] [--json]
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py --compare DIR_A DIR_B [--json]
+    PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py --law P.json CAMPAIGN_DIR [--json]
 
 For each campaign folder (default: every folder under datasets/fe-runs): the finished runs
 (peak force, load-step solves, Newton iterations, wall time) and whether each was computed by
@@ -19,6 +20,11 @@ with this cache would recompute it); the runs under way (steps done of the steps
 their checkpoint); entries that are neither (reported, never touched). Exit status 0, or 1 if a run
 folder is not a complete, self-consistent result (its key is not the hash of its identity, its
 manifest or curve is missing).
+
+``--law P.json``: the law file driven along every finished run of the campaign, as the
+calibration's acceptance does (``calibrate.acceptance.compare``: force RMS over the path as % of
+the peak, residual approach at each return to F = 0): e.g. the shipped weak file, fitted on the
+coarse pilot, against the default-mesh campaign's runs it never saw.
 """
 
 from __future__ import annotations
@@ -159,6 +165,35 @@ def compare_campaigns(first: Path, second: Path, floor: float = 0.05) -> list[di
     return rows
 
 
+def law_on_campaign(params_path: Path, folder: Path) -> list[dict]:
+    """The law of ``params_path`` along every finished run of ``folder`` (peak order)."""
+    from geocontact.calibrate.acceptance import compare
+    from geocontact.fem.campaign import FemJob
+    from geocontact.law import load_params
+    from geocontact.material import Material
+
+    params = load_params(params_path)
+    rows = []
+    for summary in sorted(folder.glob("*/summary.json")):
+        result = load_result(summary.parent)
+        inputs = result.summary["identity"]["inputs"]
+        job = FemJob(Material(**inputs["material"]), tuple(inputs["forces_N"]), inputs["mesh"],
+                     steps_per_segment=inputs.get("steps_per_segment"),
+                     mesh_force=inputs.get("mesh_force_N"), tolerance=inputs["tolerance"],
+                     volumetric=inputs["volumetric"],
+                     kinematics=inputs.get("kinematics", "small"),
+                     mesh_rule=inputs.get("mesh_rule", "yield"),
+                     step_rule=inputs.get("step_rule", "segment"),
+                     max_step_ratio=inputs.get("max_step_ratio"),
+                     contact=inputs.get("contact", "node"))
+        c = compare(params, job, result, name=summary.parent.name, kind="held-out")
+        rows.append({"key": summary.parent.name, "forces_N": list(job.forces),
+                     "peak_force_N": max(job.forces),
+                     "force_rms_percent_of_peak": c.force_rms_percent,
+                     "residual_approach_error_percent": c.residual_error_percent})
+    return sorted(rows, key=lambda r: (r["peak_force_N"], len(r["forces_N"])))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("campaigns", nargs="*", type=Path,
@@ -167,7 +202,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--compare", action="store_true",
                         help="compare the runs of two campaign folders with the same histories "
                              "(e.g. two meshes) instead")
+    parser.add_argument("--law", type=Path, default=None, metavar="P.json",
+                        help="drive this law file along every finished run of the campaign")
     args = parser.parse_args(argv)
+    if args.law is not None:
+        if len(args.campaigns) != 1 or not args.campaigns[0].is_dir():
+            print("error: --law needs one campaign folder", file=sys.stderr)
+            return 2
+        if not args.law.is_file():
+            print(f"error: --law: no file {args.law}", file=sys.stderr)
+            return 2
+        rows = law_on_campaign(args.law, args.campaigns[0])
+        if args.json:
+            print(json.dumps(rows, indent=1))
+        for row in rows if not args.json else []:
+            res = row["residual_approach_error_percent"]
+            res = "-" if res is None else f"{res:.2f} %"
+            print(f"{row['key']}  peak {row['peak_force_N']:10.4g} N  history of "
+                  f"{len(row['forces_N'])} forces  force RMS "
+                  f"{row['force_rms_percent_of_peak']:.2f} % of peak  residual approach {res}")
+        return 0
     if args.compare:
         if len(args.campaigns) != 2 or not all(p.is_dir() for p in args.campaigns):
             print("error: --compare needs two campaign folders", file=sys.stderr)

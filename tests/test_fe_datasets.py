@@ -145,3 +145,22 @@ def test_compare_two_campaigns(campaign, capsys):
     assert fe_dataset.main(["--compare", str(folder), str(folder)]) == 0
     assert "loading approach gap max 0.00 %" in capsys.readouterr().out
     assert fe_dataset.main(["--compare", str(folder)]) == 2
+
+
+def test_the_shipped_weak_law_on_the_default_mesh_runs_it_never_saw(capsys):
+    """examples/params-reference-weak.json is fitted on the coarse pilot campaign; the finished
+    runs of the default-mesh campaign (another mesh, load-step cap 1.01) are held-out FE for it:
+    the acceptance goals (force RMS <= 5 % of the peak, residual approach <= 10 %) hold on each.
+    (Session 8, levels 1-10: 0.70-2.70 % and <= 2.4 %; the earlier small-strain file: up to
+    6.3 % and 13.8 %.)"""
+    weak = ROOT / "examples" / "params-reference-weak.json"
+    campaign = fe_dataset.DATASETS / "weak-finite"
+    rows = fe_dataset.law_on_campaign(weak, campaign)
+    assert len(rows) >= 9
+    for row in rows:
+        assert row["force_rms_percent_of_peak"] < 5.0, row
+        assert row["residual_approach_error_percent"] < 10.0, row
+    assert fe_dataset.main(["--law", str(weak), str(campaign)]) == 0
+    assert "force RMS" in capsys.readouterr().out
+    assert fe_dataset.main(["--law", str(weak)]) == 2
+    assert "--law needs one campaign folder" in capsys.readouterr().err
