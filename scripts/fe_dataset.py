@@ -212,7 +212,13 @@ def main(argv: list[str] | None = None) -> int:
         if not args.law.is_file():
             print(f"error: --law: no file {args.law}", file=sys.stderr)
             return 2
-        rows = law_on_campaign(args.law, args.campaigns[0])
+        from geocontact.errors import InputError
+
+        try:
+            rows = law_on_campaign(args.law, args.campaigns[0])
+        except InputError as exc:
+            print(f"error: --law {args.law}: {exc}", file=sys.stderr)
+            return 2
         if args.json:
             print(json.dumps(rows, indent=1))
         for row in rows if not args.json else []:

@@ -147,7 +147,7 @@ def test_compare_two_campaigns(campaign, capsys):
     assert fe_dataset.main(["--compare", str(folder)]) == 2
 
 
-def test_the_shipped_weak_law_on_the_default_mesh_runs_it_never_saw(capsys):
+def test_the_shipped_weak_law_on_the_default_mesh_runs_it_never_saw(capsys, tmp_path):
     """examples/params-reference-weak.json is fitted on the coarse pilot campaign; the finished
     runs of the default-mesh campaign (another mesh, load-step cap 1.01) are held-out FE for it:
     the acceptance goals (force RMS <= 5 % of the peak, residual approach <= 10 %) hold on each.
@@ -164,3 +164,8 @@ def test_the_shipped_weak_law_on_the_default_mesh_runs_it_never_saw(capsys):
     assert "force RMS" in capsys.readouterr().out
     assert fe_dataset.main(["--law", str(weak)]) == 2
     assert "--law needs one campaign folder" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"schema": "nope"}')
+    assert fe_dataset.main(["--law", str(bad), str(campaign)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --law ") and "schema: expected" in err and err.count("\n") == 1
