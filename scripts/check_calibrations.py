@@ -15,8 +15,9 @@ absolute 1e-9, the size of the round-off ratios the files hold, such as a second
 increment of 5e-14); strings, integers, booleans, nulls, keys and list lengths must be equal.
 Ignored: the provenance timestamps and interpreter (``created_utc``, ``python``), wall times,
 the cache path and the hashes by which a calibration and its acceptance table name each other
-(``params_sha256``, ``acceptance.sha256``: each file holds its own timestamp). Reported but not failing: FE cache keys and package versions (they change
-with any edit of the FE sources, while the numbers may not).
+(``params_sha256``, ``acceptance.sha256``: each file holds its own timestamp). Reported but
+not failing: FE cache keys and package versions (they change with any edit of the FE sources,
+while the numbers may not).
 
     PYTHONPATH=src .venv/bin/python scripts/check_calibrations.py [--mesh default] [--rtol 1e-6]
         [--cache out/cache/fem] [--workers N] [--keep DIR] [--compare-only DIR] [--verbose]
