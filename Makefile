@@ -120,8 +120,9 @@ calibrate-weak-finite: $(STAMP)
 	  --residual-form table --loading-form segments \
 	  --out out/calibrate/params-reference-weak-finite.json
 
-# Its coarse-mesh pilot (cap 1.02): within 0.25 % (peak) and 0.8 % (loading curve) of the default mesh at the levels both have
-# (scripts/fe_dataset.py --compare), far cheaper; the interim calibration of the weak grain.
+# Its coarse-mesh pilot (cap 1.02): within 0.25 % (peak) and 0.8 % (loading curve) of the default
+# mesh at the levels both have (scripts/fe_dataset.py --compare), far cheaper. The same fit as
+# calibrate-examples' weak line (the shipped file), written into out/ instead of examples/.
 calibrate-weak-finite-coarse: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh coarse --levels 13 \
 	  --acceptance --kinematics finite --mesh-rule contact --max-step-ratio 1.02 --workers 1 \
