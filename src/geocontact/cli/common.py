@@ -106,4 +106,4 @@ def add_fe_model_flags(p) -> None:
                    help="FE contact with the flat: 'node' (default, exact node-to-flat "
                         "constraint) or 'facet' (penalty integrated over the surface facets, "
                         "the contact edge moving inside an element: no kink in the loading "
-                        "curve as a node engages; small strain only)")
+                        "curve as a node engages)")

@@ -5,7 +5,7 @@ The node-to-flat constraint of :class:`~geocontact.fem.solver.ContactSolver` (th
 curve has a kink where a node engages (docs/fem.md, "The staircase of a growing contact").
 Here the flat acts on the whole surface through a penalty pressure
 
-    p(xi) = epsilon * <-g(xi)>,    g = z + u_z  (small strain: the height of the surface point),
+    p(xi) = epsilon * <-g(xi)>,    g = z + u_z  (the current height of the surface point),
 
 integrated over every facet of the spherical surface with the domain clipped at the zeros of the
 gap (segment-based integration): on a P2 facet g is a quadratic of the facet coordinate xi, so
@@ -102,7 +102,8 @@ class FacetContact:
                    penalty=PENALTY_FACTOR * modulus / chord, ndofs=basis.N)
 
     def gap(self, displacement: np.ndarray) -> np.ndarray:
-        """Nodal gaps (f, 3): the height of the facet nodes above the flat (small strain)."""
+        """Nodal gaps (f, 3): the height of the facet nodes above the flat (with finite strain
+        too: z0 + u_z is the current height)."""
         return self.z + displacement[self.dofs]
 
     def _points(self, gap: np.ndarray, whole: np.ndarray | None = None):

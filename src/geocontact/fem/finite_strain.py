@@ -33,7 +33,12 @@ linear systems are factorised with LU (SuperLU).
 Contact: the flat is rigid, z = 0, and the contact is the engine's exact node-to-flat constraint;
 a node's gap z0 + u_z is its current height, so the constraint is already the one of the current
 configuration (frictionless: the node slides freely in r). The contact radius is measured on the
-current configuration (r = R + u_r of the surface nodes).
+current configuration (r = R + u_r of the surface nodes). With ``contact="facet"`` the facet
+contact of :mod:`geocontact.fem.facet_contact` acts unchanged: its gap z0 + u_z is the current
+height of a surface point, and its penalty pressure is a nominal one (per reference area), the
+first variation of the penalty energy 1/2 int epsilon <-g>^2 dA0 over the reference surface, so
+the contact stays variational and its tangent the same; as epsilon grows it converges to the
+same constraint as the node contact.
 
 Outputs: ``State.stress`` is the Kirchhoff stress (its yield ratio and elastic energy
 psi = tau : D^-1 : tau / 2 per reference volume are those of the Hencky model);
@@ -250,8 +255,6 @@ class FiniteStrainSolver(ContactSolver):
     contact, force control and outputs as :class:`ContactSolver`."""
 
     def __post_init__(self) -> None:
-        if self.contact != "node":
-            raise ValueError("finite strain: only the node-to-flat contact (contact='node')")
         super().__post_init__()
         basis = self.basis
         r = self.radius_qp
@@ -366,7 +369,10 @@ class FiniteStrainSolver(ContactSolver):
     def solve_step(self, old: State, force: float, *, label: str = "") -> State:
         """A linear elastic predictor on the reference configuration (iterating only on the
         contact set: it gets the contact set and the displacement close), then Newton with the
-        consistent finite-strain tangent."""
+        consistent finite-strain tangent. With ``contact="facet"``: the engine's facet
+        iteration (no predictor from a loaded state), with this class's kinematics."""
+        if self.contact == "facet":
+            return ContactSolver.solve_step(self, old, force, label=label)
         self._predictor = self.state_internal_force(old)
         try:
             u, w, active, _ = self._iterate(old, force, old.displacement.copy(),
@@ -379,6 +385,19 @@ class FiniteStrainSolver(ContactSolver):
         _, _, _, result = self._iterate(old, force, u, w, active, elastic=not self.plastic,
                                         label=label, final=True)
         return result
+
+    def _bulk_force_along(self, old: State, u: np.ndarray, direction: np.ndarray,
+                          f_int: np.ndarray, bulk: np.ndarray, *, elastic: bool):
+        """The internal force at u + a d for the facet line search: nonlinear in a with finite
+        strain even when elastic (an inadmissible a gives NaN forces, which the line search
+        treats as beyond the minimum)."""
+
+        def bulk_force(a):
+            trial = u + a * direction
+            if not self.admissible(trial):
+                return np.full(self.ndofs, np.nan)
+            return self._evaluate(old, trial, elastic=elastic, tangent=False)[1]
+        return bulk_force
 
     def _admissible_start(self, old: State, u: np.ndarray, w: float):
         """The predictor's increment from ``old`` halved until its end is admissible (the

@@ -63,6 +63,17 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py
 # record keeps the hash it was made with. Any other change of the sources leaves the entry
 # behind with the old hash, and the older runs are stale again.
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "0fb388b18c5a441f": {
+        "51d4fb8435749d12": "the facet contact with finite strain allowed (contact='facet', "
+                            "kinematics='finite', recorded in the identity): the node contact "
+                            "and the small-strain facet contact are unchanged",
+        "4f8939b91af98a9d": "the opt-in facet contact (51d4fb8435749d12) and its finite-strain "
+                            "use added: the default node contact's arithmetic is unchanged",
+        "4919b4f465169f88": "rescue mode (4f8939b91af98a9d) and the opt-in facet contact, small "
+                            "and finite strain, added: only a load step that failed after "
+                            "MAX_CUTBACKS halvings, or a run with contact='facet', is solved "
+                            "differently",
+    },
     "51d4fb8435749d12": {
         "4f8939b91af98a9d": "opt-in facet contact added (contact='facet', fem/facet_contact.py): "
                             "the default node contact's arithmetic is unchanged",
@@ -158,9 +169,6 @@ class FeRunIdentity:
                 or not (math.isfinite(max_step_ratio) and 1.0 < max_step_ratio <= 2.0)):
             raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
                              f"got {max_step_ratio!r}")
-        if contact == "facet" and kinematics != "small":
-            raise InputError("contact: 'facet' is implemented for small strain only "
-                             f"(kinematics {kinematics!r}); use contact 'node'")
         fmax = max(forces)
         if mesh_force is None:
             mesh_force = fmax

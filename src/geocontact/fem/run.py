@@ -492,7 +492,7 @@ def run_history(
     solved through geometric sub-steps and recorded as before; summary.json ``step_control``).
     ``contact``: "node" (default, the exact node-to-flat constraint) or "facet" (a penalty
     contact integrated over the surface facets with the contact edge inside an element,
-    ``fem.facet_contact``; small strain only). All five are part of the run's identity.
+    ``fem.facet_contact``; small or finite strain). All five are part of the run's identity.
     """
     from .reuse import FeRunIdentity, finished_run
 

@@ -590,16 +590,14 @@ class ContactSolver:
             direction = np.zeros(self.ndofs)
             direction[free] = step[:n]
             direction[top] = -step[n]
-            if elastic:  # the bulk force is linear along the direction
-                k_direction = self._local_product(bulk, direction)
-
-                def bulk_force(a, f_int=f_int, k_direction=k_direction):
-                    return f_int + a * k_direction
-            else:
-                def bulk_force(a, u=u, direction=direction):
-                    stress = self._constitutive(old, self.strain(u + a * direction),
-                                                tangent=False)[0]
-                    return self.internal_force(stress)
+            reach = self._admissible_length(u, direction)
+            if reach is None:
+                break
+            if reach < 1.0:  # finite strain: the full step would turn an element inside out
+                direction *= reach
+                step = step * reach
+            bulk_force = self._bulk_force_along(old, u, direction, f_int, bulk,
+                                                elastic=elastic)
             length = 1.0 if force == 0.0 else self._facet_line_search(
                 u, direction, bulk_force, force * step[n],
                 float(np.dot(f_int - f_contact, direction)))
@@ -611,6 +609,33 @@ class ContactSolver:
             f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
             f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
         )
+
+    def _bulk_force_along(self, old: State, u: np.ndarray, direction: np.ndarray,
+                          f_int: np.ndarray, bulk: np.ndarray, *, elastic: bool):
+        """The internal force at u + a d as a function of a, for the facet line search
+        (elastic small strain: linear in a, from the element matrices ``bulk``; else the
+        return mapping at every a). ``FiniteStrainSolver`` evaluates its own kinematics."""
+        if elastic:
+            k_direction = self._local_product(bulk, direction)
+
+            def bulk_force(a):
+                return f_int + a * k_direction
+            return bulk_force
+
+        def bulk_force(a):
+            stress = self._constitutive(old, self.strain(u + a * direction), tangent=False)[0]
+            return self.internal_force(stress)
+        return bulk_force
+
+    def _admissible_length(self, u: np.ndarray, direction: np.ndarray) -> float | None:
+        """The largest of 1, 1/2, 1/4, ... whose step along ``direction`` keeps the iterate
+        admissible (small strain: always 1); None after ``LINE_SEARCH_HALVINGS`` halvings."""
+        length = 1.0
+        for _ in range(LINE_SEARCH_HALVINGS + 1):
+            if self.admissible(u + length * direction):
+                return length
+            length *= 0.5
+        return None
 
     def _hertz_radius(self, force: float) -> float:
         """Hertz contact radius of the hemisphere on the flat at ``force`` (ball-wall)."""
