@@ -224,6 +224,48 @@ def test_with_cyclic_refuses_a_ratchetting_history(params):
         cy.with_cyclic(params, ratchet)
 
 
+def test_ratio_law_leaves_out_a_ratchets_onset():
+    """The weak grain's finite-strain FE: the per-cycle ratio rises over cycles 2-5 (onset of
+    the ratchet), then decays slowly. Over all cycles no decaying power law exists; from the
+    largest ratio on, the law is recovered exactly, and the earlier cycles' errors are kept."""
+    n = np.arange(1, 11)
+    law = 1.4e-3 * n**-0.07
+    series = np.where(n < 5, law * np.array([1.0, 0.47, 0.83, 0.96, 1, 1, 1, 1, 1, 1]), law)
+    series[0] = 1.0
+    assert cyclic_fit.fit_power_law_minimax(n, series, 1.0).power <= 0.0
+    fit = cyclic_fit.fit_ratio_law(n, series, 1.0)
+    assert fit.from_cycle == 5
+    assert fit.coefficient == pytest.approx(1.4e-3, rel=1e-9)
+    assert fit.power == pytest.approx(0.07, rel=1e-7)
+    assert [row["cycle"] for row in fit.per_cycle] == list(range(2, 11))
+    assert [row["fitted"] for row in fit.per_cycle] == [False] * 3 + [True] * 6
+    assert fit.per_cycle[0]["law_over_fe"] == pytest.approx(1 / 0.47, rel=1e-9)
+
+
+def test_ratio_law_unchanged_where_the_ratio_decays_or_only_rises():
+    n = np.arange(1, 11)
+    decaying = np.exp(-0.5 * n) * n**-2.0
+    assert (cyclic_fit.fit_ratio_law(n, decaying, 1.0)
+            == cyclic_fit.fit_power_law_minimax(n, decaying, 1.0))
+    rising = 1e-3 * n**0.3  # a ratchet that grows: nothing to leave out, still refused
+    fit = cyclic_fit.fit_ratio_law(n, rising, 1.0)
+    assert fit == cyclic_fit.fit_power_law_minimax(n, rising, 1.0) and fit.power < 0.0
+
+
+def test_with_cyclic_fits_a_ratchet_after_its_onset(params):
+    """The law's cyclic part from a history whose residual increments rise first: fitted from
+    the largest one on, the onset's errors under fit_errors (not hidden)."""
+    increments = [1e-5] + [2e-8, 4e-8, 5e-8, 4.8e-8, 4.7e-8, 4.6e-8]
+    work = [1.0] + [3e-3 * k**-0.5 for k in range(2, 8)]
+    fitted = cy.with_cyclic(params, cy.analyse(synthetic(increments, work)))
+    errors = fitted.fit_errors["cyclic"]["residual_increment_ratio"]
+    assert fitted.cyclic.enabled and fitted.cyclic.residual_ratio_power > 0.0
+    assert errors["fitted_from_cycle"] == 4
+    assert errors["max_log10_before"] == pytest.approx(
+        max(abs(math.log10(row["law_over_fe"])) for row in errors["per_cycle"][:2]), rel=1e-12)
+    assert "fitted_from_cycle" not in fitted.fit_errors["cyclic"]["plastic_work_ratio"]
+
+
 def test_reloading_stiffness_after_higher_prior_peaks():
     # two reloads to 100 N from rest: the second needs half the approach (stiffer)
     curve = {

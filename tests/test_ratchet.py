@@ -76,12 +76,16 @@ def test_shipped_calibrated_file_ratchets_by_its_decaying_series(jitter):
 
 
 @pytest.mark.parametrize("jitter", [0.0, 1e-9], ids=["exact", "jittered"])
-def test_shipped_weak_file_and_its_envelope_band(jitter):
-    """The 1 MPa file ships with loops only (its FE residual approach stops at cycle 1): no
-    increments. With a ratchet switched on, its envelope (d_res = 0.976 d_max: a band of
-    2.7e-7 m) ratchets as the fitted series says."""
-    ratios, _ = increments_by_force(WEAK, 5, jitter)
-    assert WEAK.cyclic.residual_ratio_coefficient == 0.0 and np.all(np.abs(ratios) <= 1e-9)
+def test_shipped_weak_file_ratchets_on_with_its_finite_strain_fe(jitter):
+    """The 1 MPa file (finite-strain FE): its repeated history ratchets by ~1.2e-3 of cycle 1's
+    residual approach per cycle, decaying slowly (docs/cycles.md), fitted from the ratchet's
+    onset; the law's increments follow that series, exactly repeated or jittered. With a faster
+    ratchet switched on, its envelope (d_res = 0.976 d_max: a band of 2.7e-7 m) ratchets as the
+    fitted series says."""
+    ratios, _ = increments_by_force(WEAK, 8, jitter)
+    series = expected(WEAK, 8)
+    assert np.all(np.diff(series) < 0.0) and np.all((series > 1e-3) & (series < 2e-3))
+    assert np.abs(ratios - series).max() <= 1e-8
     params = decaying(WEAK)
     ratios, _ = increments_by_force(params, 8, jitter)
     assert np.abs(ratios - expected(params, 8)).max() <= (1e-12 if jitter == 0.0 else 1e-8)

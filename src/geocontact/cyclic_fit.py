@@ -359,6 +359,7 @@ class CyclicFit:
     power: float
     max_log10_error: float
     per_cycle: list[dict[str, float]]
+    from_cycle: int = 2  # the first cycle fitted (fit_ratio_law: after a ratchet's onset)
 
     def __call__(self, cycle):
         return self.coefficient * np.asarray(cycle, dtype=float) ** (-self.power)
@@ -392,6 +393,36 @@ def fit_power_law_minimax(cycles, values, reference: float) -> CyclicFit | None:
                      per_cycle=per_cycle)
 
 
+def fit_ratio_law(cycles, values, reference: float) -> CyclicFit | None:
+    """The power law of one per-cycle ratio: :func:`fit_power_law_minimax` over N >= 2, unless
+    that fit does not decay (power <= 0) because the ratio first rises and then decays: the
+    onset of a ratchet. The weak grain with finite strain does that (docs/cycles.md, "The weak
+    grain's repeated history with finite strain": its residual increment grows over cycles 2-5,
+    then decays slowly, on two meshes alike). Then the law is fitted to the cycles from the
+    largest ratio on (at least two of them), and ``per_cycle`` also holds the earlier cycles
+    (where the law overestimates the rising ratio) so the error there is reported, not hidden.
+    A fit that decayed over all cycles is returned as it was, bit for bit."""
+    fit = fit_power_law_minimax(cycles, values, reference)
+    if fit is None or fit.power > 0.0:
+        return fit
+    n = np.asarray(cycles, dtype=float)
+    ratio = np.asarray(values, dtype=float) / reference
+    use = (n >= 2) & np.isfinite(ratio) & (ratio > ROUND_OFF)
+    peak = float(n[use][np.argmax(ratio[use])])
+    later = n >= peak
+    if peak == n[use].min() or np.count_nonzero(later & use) < 2:
+        return fit  # rises to its last cycles, or never rises: no onset to leave out
+    onset = fit_power_law_minimax(n[later], np.asarray(values, dtype=float)[later], reference)
+    if onset is None or onset.power <= 0.0:
+        return fit
+    before = use & ~later
+    law = onset(n[before])
+    per_cycle = [{"cycle": int(k), "fe": float(r), "law": float(f), "law_over_fe": float(f / r),
+                  "fitted": False} for k, r, f in zip(n[before], ratio[before], law, strict=True)]
+    per_cycle += [{**row, "fitted": True} for row in onset.per_cycle]
+    return replace(onset, per_cycle=per_cycle, from_cycle=int(peak))
+
+
 def law_first_cycle(params, peak_force: float) -> tuple[float, float]:
     """The law's cycle 1 to ``peak_force`` and back: (residual approach m, dissipation J)."""
     dmax = params.virgin_approach(peak_force)
@@ -413,10 +444,10 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
     rows = analysis.cycles
     residual_1, dissipation_1 = law_first_cycle(params, rows[0]["max_force_N"])
     n = [r["cycle"] for r in rows]
-    fits = {"plastic_work_ratio": fit_power_law_minimax(
+    fits = {"plastic_work_ratio": fit_ratio_law(
         n, [r["plastic_work_J"] for r in rows], dissipation_1)}
     if ratchet:
-        fits["residual_increment_ratio"] = fit_power_law_minimax(
+        fits["residual_increment_ratio"] = fit_ratio_law(
             n, [r["residual_approach_increment_m"] for r in rows], residual_1)
     missing = [name for name, fit in fits.items() if fit is None]
     if missing:
@@ -441,9 +472,14 @@ def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | No
     )
     fit_errors = copy.deepcopy(params.fit_errors)
     fit_errors["cyclic"] = {
-        "form": "value_N / law's cycle 1 = coefficient N^-power, minimax in log-log over N >= 2",
+        "form": "value_N / law's cycle 1 = coefficient N^-power, minimax in log-log over N >= 2 "
+                "(from the largest ratio on where the ratio first rises: a ratchet's onset)",
         "law_cycle_1": {"residual_approach_m": residual_1, "dissipation_J": dissipation_1},
-        **{name: {"max_log10": fit.max_log10_error, "per_cycle": fit.per_cycle}
+        **{name: {"max_log10": fit.max_log10_error, "per_cycle": fit.per_cycle,
+                  **({"fitted_from_cycle": fit.from_cycle,
+                      "max_log10_before": max(abs(math.log10(row["law_over_fe"]))
+                                              for row in fit.per_cycle if not row["fitted"])}
+                     if fit.from_cycle > 2 else {})}
            for name, fit in fits.items()},
     }
     prov = copy.deepcopy(params.provenance)
