@@ -5,6 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
 .PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
+	staircase-finite-facet \
 	test-plugin ccx chromium check-figures cholmod calibrate-weak-finite \
 	calibrate-weak-finite-coarse paper-histories-finite
 
@@ -138,6 +139,17 @@ paper-histories-finite: $(STAMP)
 	$(PY) scripts/paper_histories.py --mesh default $(WEAK_FINITE_FE) --workers 1 \
 	  --cache datasets/fe-runs/paper-histories-finite --out out/paper-histories-finite \
 	  $(if $(PAPER_FINITE_ONLY),--only $(PAPER_FINITE_ONLY))
+
+# The staircase measure (issue 15) with the facet contact and finite strain on the default mesh:
+# 24 and 48 load steps per segment, 0 -> 6000 N, ~3-4 h of a core each, resumable from the
+# checkpoints committed in datasets/staircase (its README); then the measures of the two runs.
+STAIRCASE_FACET := --material reference-weak --mesh default $(WEAK_FINITE_FE) --contact facet \
+  --out datasets/staircase
+staircase-finite-facet: $(STAMP)
+	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 24
+	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 48
+	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 24 48 --finished-only \
+	  --json staircase-finite-facet-default.json
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
 # from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a
