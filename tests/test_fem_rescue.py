@@ -8,6 +8,7 @@ on, an update that would invert an element is halved instead of giving NaN.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -50,6 +51,24 @@ def test_admissible_tells_an_inverted_element(solver, material):
     assert not solver.admissible(u)
     small = ContactSolver(material, solver.mesh)
     assert small.admissible(_squash(solver, 1.5))  # small strain evaluates anything
+
+
+@pytest.mark.parametrize("linear_solver", ["fast", "reference"])
+def test_an_inside_out_iterate_gives_up_before_the_linear_solve(material, linear_solver):
+    """An iterate with an element turned inside out has a NaN residual: the Newton iteration
+    gives up at once (the caller cuts the step back), without a factorisation of a NaN matrix
+    (whose BLAS calls printed "illegal value" into campaign logs) and without a warning."""
+    mesh = build_mesh(material.radius, 0.02 * material.radius, 0.05 * material.radius, "coarse")
+    fresh = FiniteStrainSolver(material, mesh, linear_solver=linear_solver)
+    old = fresh.initial_state()
+    u = _squash(fresh, 1.5)
+    before = fresh.factorisations
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ConvergenceError, match="residual nan"):
+            fresh._iterate(old, 1.0, u, 0.0, old.active.copy(), elastic=False, label="",
+                           final=True)
+    assert fresh.factorisations == before
 
 
 def test_searched_update_halves_an_inverting_step(solver):

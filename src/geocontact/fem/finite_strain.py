@@ -292,9 +292,11 @@ class FiniteStrainSolver(ContactSolver):
         """H = F - I (5, e, q), H_bar = F_bar - I, and the spatial test gradients
         g (12, 5, e, q) and g_bar."""
         H = self._displacement_gradient(displacement)
-        # ln J = ln det(F_in-plane) + ln F_tt, without forming 1 + small
-        log_j = (np.log1p(H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR])
-                 + np.log1p(H[TT]))
+        # ln J = ln det(F_in-plane) + ln F_tt, without forming 1 + small; NaN where an element
+        # is turned inside out (J <= 0), which the Newton iteration takes as a failed iterate
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_j = (np.log1p(H[RR] + H[ZZ] + H[RR] * H[ZZ] - H[RZ] * H[ZR])
+                     + np.log1p(H[TT]))
         scale_minus = np.expm1((self._project(log_j) - log_j) / 3.0)  # (J_bar / J)^(1/3) - 1
         h_bar = H * (1.0 + scale_minus)[None]
         for c in (RR, ZZ, TT):

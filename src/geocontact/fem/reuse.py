@@ -62,7 +62,19 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py
 # (scripts/reproduce_fe_runs.py). Such a run is reused as the same run (``equivalent_run``); its
 # record keeps the hash it was made with. Any other change of the sources leaves the entry
 # behind with the old hash, and the older runs are stale again.
+_NAN_ITERATE = ("a Newton iterate with a non-finite residual (finite strain: an element turned "
+                "inside out) gives up before the linear solve instead of one solve later (its "
+                "NaN right-hand side gave a NaN step, which gave up)")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "00df7dcdec639962": {
+        "0fb388b18c5a441f": _NAN_ITERATE,
+        "51d4fb8435749d12": _NAN_ITERATE + "; the facet contact with finite strain allowed "
+                            "(0fb388b18c5a441f)",
+        "4f8939b91af98a9d": _NAN_ITERATE + "; the opt-in facet contact, small and finite "
+                            "strain, added (0fb388b18c5a441f)",
+        "4919b4f465169f88": _NAN_ITERATE + "; rescue mode and the opt-in facet contact added "
+                            "(0fb388b18c5a441f)",
+    },
     "0fb388b18c5a441f": {
         "51d4fb8435749d12": "the facet contact with finite strain allowed (contact='facet', "
                             "kinematics='finite', recorded in the identity): the node contact "

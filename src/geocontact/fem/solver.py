@@ -491,6 +491,11 @@ class ContactSolver:
                     return u, w, active, None
                 return u, w, active, self._finish(old, u, w, stress, strain, eqps, status,
                                                   active, force, iteration)
+            if not (np.all(np.isfinite(r_free)) and math.isfinite(r_top)):
+                # an element turned inside out (finite strain, J <= 0): no correction can come
+                # from this iterate (a NaN right-hand side gives a NaN step), so give up here
+                # instead of handing the solver a NaN matrix
+                break
 
             if self.linear_solver == "fast":
                 step = self._fast_step(tangent, active, prescribed, r_free, r_top, elastic)
