@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
 .PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
-	staircase-finite-facet \
+	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	test-plugin ccx chromium check-figures cholmod calibrate-weak-finite \
 	calibrate-weak-finite-coarse paper-histories-finite
 
@@ -145,11 +145,13 @@ paper-histories-finite: $(STAMP)
 # checkpoints committed in datasets/staircase (its README); then the measures of the two runs.
 STAIRCASE_FACET := --material reference-weak --mesh default $(WEAK_FINITE_FE) --contact facet \
   --out datasets/staircase
-staircase-finite-facet: $(STAMP)
-	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 24
-	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 48
+# `make -j2 staircase-finite-facet` runs the two at once.
+staircase-finite-facet: staircase-facet-24 staircase-facet-48
 	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 24 48 --finished-only \
 	  --json staircase-finite-facet-default.json
+staircase-facet-24 staircase-facet-48: staircase-facet-%: $(STAMP)
+	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps $* \
+	  --json staircase-finite-facet-default-$*.json
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
 # from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a
