@@ -41,9 +41,12 @@ the table of measures is printed and written to ``<out>/staircase.json``.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import time
 from pathlib import Path
+
+import numpy as np
 
 from geocontact.fem.staircase import staircase_measures
 from geocontact.io import write_json_atomic
@@ -89,7 +92,9 @@ def _ratio(text: str) -> float | None:
 
 
 def main() -> None:
-    from geocontact.fem.reuse import FeRunIdentity, finished_run
+    from geocontact.fem.checkpoint import checkpoint_path, read_checkpoint
+    from geocontact.fem.result import CURVE_COLUMNS
+    from geocontact.fem.reuse import FeRunIdentity, difference, finished_run, load_result
     from geocontact.fem.run import run_history
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -100,7 +105,9 @@ def main() -> None:
     ap.add_argument("--mesh", default="coarse")
     ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
     ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
-    ap.add_argument("--contact", default="node", help="fem contact: node | facet (run_history)")
+    ap.add_argument("--contact", nargs="+", default=["node"],
+                    help="fem contact(s): node | facet (run_history); every one is run with "
+                         "every --steps and cap, and all the runs are compared pairwise")
     ap.add_argument("--kinematics", default="small",
                     help="fem kinematics: small | finite (run_history)")
     ap.add_argument("--steps", type=int, nargs="+", default=[24, 48])
@@ -113,6 +120,10 @@ def main() -> None:
     ap.add_argument("--progress", action="store_true", help="progress bar of each FE run")
     ap.add_argument("--finished-only", action="store_true",
                     help="measure only the runs already finished in --out (no FE run)")
+    ap.add_argument("--under-way", action="store_true",
+                    help="as --finished-only, and a run still under way enters with the "
+                         "loading its committed checkpoint holds; every run is then cut at the "
+                         "lowest force all of them reached (a progress measure, no FE run)")
     ap.add_argument("--json", default=None, help="name of the measures file in --out")
     args = ap.parse_args()
     if args.figure is not None:
@@ -124,50 +135,78 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     curves, runs = {}, {}
     fy = None
-    for ratio in args.max_step_ratio:
-        for n in args.steps:
-            name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
-            if args.contact != "node":
-                name = f"{args.mesh}-{args.mesh_rule}-{args.contact}-{args.step_rule}-{n}"
-            if args.kinematics != "small":
-                name = f"{args.kinematics}-{name}"
-            label = f"{n} steps"
-            if ratio is not None:
-                name += f"-cap{ratio:g}"
-                label += f", cap {ratio:g}"
-            started = time.perf_counter()
-            if args.finished_only:
-                result = finished_run(out / name, FeRunIdentity.of(
-                    material, [0.0, args.force], args.mesh, steps_per_segment=n,
-                    mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio,
-                    contact=args.contact, kinematics=args.kinematics))
-                if result is None:
-                    print(f"{name}: not finished, left out")
+    under_way = {}
+    for contact, ratio, n in itertools.product(args.contact, args.max_step_ratio, args.steps):
+        name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
+        if contact != "node":
+            name = f"{args.mesh}-{args.mesh_rule}-{contact}-{args.step_rule}-{n}"
+        if args.kinematics != "small":
+            name = f"{args.kinematics}-{name}"
+        label = f"{n} steps" if len(args.contact) == 1 else f"{contact}, {n} steps"
+        if ratio is not None:
+            name += f"-cap{ratio:g}"
+            label += f", cap {ratio:g}"
+        started = time.perf_counter()
+        if args.finished_only or args.under_way:
+            identity = FeRunIdentity.of(
+                material, [0.0, args.force], args.mesh, steps_per_segment=n,
+                mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio,
+                contact=contact, kinematics=args.kinematics)
+            result = finished_run(out / name, identity)
+            if result is None and (out / name / "summary.json").exists():
+                earlier = load_result(out / name)  # made by FE code the current one reproduces?
+                if difference(earlier.summary.get("identity"), identity, rounding=True) is None:
+                    result = earlier
+            ckpt = checkpoint_path(out / name)
+            if result is None and args.under_way and ckpt.exists():
+                saved = read_checkpoint(ckpt, identity, len(CURVE_COLUMNS))
+                if saved is not None:
+                    rows = np.asarray(saved.rows, dtype=float)
+                    curves[label] = {c: rows[:, i] for i, c in enumerate(CURVE_COLUMNS)}
+                    under_way[label] = {"steps_done": saved.done,
+                                        "force_N": float(curves[label]["force_N"][-1]),
+                                        "wall_time_s": saved.wall_time_s,
+                                        "fe_code": json.loads(str(np.load(ckpt)["identity"]))[
+                                            "fe_code"]}
+                    fy = fy or saved.yield_force
                     continue
-            else:
-                result = run_history(material, [0.0, args.force], args.mesh, out / name,
-                                     steps_per_segment=n, resume=True, write_fields=False,
-                                     mesh_rule=args.mesh_rule, step_rule=args.step_rule,
-                                     max_step_ratio=ratio, progress=args.progress,
-                                     contact=args.contact, kinematics=args.kinematics)
-            curves[label] = result.curve
-            fy = fy or result.summary["first_yield_force_N"]
-            runs[label] = {"elements": result.summary["mesh"]["elements"],
-                           "wall_time_s": result.summary["wall_time_s"],
-                           "this_call_s": time.perf_counter() - started,
-                           "steps": result.summary["steps"],
-                           "step_control": result.summary["step_control"],
-                           "newton_iterations": result.summary["newton_iterations"],
-                           "contact_resolution": result.summary["contact_resolution"],
-                           "fe_code": result.summary["identity"]["fe_code"],
-                           "version": result.summary["version"]}
+            if result is None:
+                print(f"{name}: not finished, left out")
+                continue
+        else:
+            result = run_history(material, [0.0, args.force], args.mesh, out / name,
+                                 steps_per_segment=n, resume=True, write_fields=False,
+                                 mesh_rule=args.mesh_rule, step_rule=args.step_rule,
+                                 max_step_ratio=ratio, progress=args.progress,
+                                 contact=contact, kinematics=args.kinematics)
+        curves[label] = result.curve
+        fy = fy or result.summary["first_yield_force_N"]
+        runs[label] = {"elements": result.summary["mesh"]["elements"],
+                       "wall_time_s": result.summary["wall_time_s"],
+                       "this_call_s": time.perf_counter() - started,
+                       "steps": result.summary["steps"],
+                       "step_control": result.summary["step_control"],
+                       "newton_iterations": result.summary["newton_iterations"],
+                       "contact_resolution": result.summary["contact_resolution"],
+                       "fe_code": result.summary["identity"]["fe_code"],
+                       "version": result.summary["version"]}
+    if not curves:
+        raise SystemExit("measure_staircase: no run to measure in --out")
+    cut = None
+    if under_way:  # every run up to the lowest force all of them reached
+        cut = min(float(np.max(c["force_N"])) for c in curves.values())
+        for label, curve in curves.items():
+            above = np.asarray(curve["force_N"]) > cut * (1.0 + 1e-12)
+            end = int(np.argmax(above)) if above.any() else len(above)
+            curves[label] = {k: np.asarray(v)[:end] for k, v in curve.items()}
     measures = staircase_measures(curves, fy, args.floor)
     measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
                      "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
                      "contact": args.contact, "kinematics": args.kinematics,
-                     "force_N": args.force, "first_yield_force_N": fy, "cost": runs})
+                     "force_N": args.force, "first_yield_force_N": fy, "cost": runs,
+                     "under_way": under_way, "measured_to_force_N": cut})
     caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
-    contact = "" if args.contact == "node" else f"{args.contact}-"
+    contact = "" if args.contact == ["node"] else "-".join(args.contact) + "-"
     kinematics = "" if args.kinematics == "small" else f"{args.kinematics}-"
     default_name = (f"staircase-{kinematics}{args.mesh}-{args.mesh_rule}-{contact}"
                     f"{args.step_rule}{caps}.json")

@@ -220,3 +220,37 @@ def test_capped_steps_bring_a_coarse_run_close_to_a_fine_step_one(tmp_path, monk
     assert calls[0] == 5  # went on from the checkpoint
     for name in ("force_N", "approach_m", "plastic_dissipation_J", "iterations"):
         assert np.allclose(resumed.curve[name], capped.curve[name], rtol=1e-10, atol=0.0), name
+
+
+def test_measure_of_the_committed_staircase_runs_under_way(tmp_path):
+    """scripts/measure_staircase.py --under-way on datasets/staircase (no FE run): the node
+    contact's finished default-mesh runs (FE code the current one reproduces) and the facet
+    contact's runs, finished or still at their committed checkpoints, are measured together up
+    to the lowest force all of them reached."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path / "staircase.json"
+    done = subprocess.run(
+        [sys.executable, str(root / "scripts" / "measure_staircase.py"), "--material",
+         "reference-weak", "--mesh", "default", "--kinematics", "finite", "--mesh-rule",
+         "contact", "--max-step-ratio", "1.01", "--contact", "node", "facet", "--steps", "24",
+         "48", "--out", str(root / "datasets" / "staircase"), "--under-way", "--json", str(out)],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    measures = json.loads(out.read_text())
+    assert len(measures["runs"]) == 4  # node and facet, 24 and 48 steps
+    reached = [run["force_N"] for run in measures["under_way"].values()]
+    if reached:
+        assert measures["measured_to_force_N"] == pytest.approx(min(reached))
+    else:
+        assert measures["measured_to_force_N"] is None
+    node = measures["pairs"]["node, 24 steps, cap 1.01 vs node, 48 steps, cap 1.01"]
+    assert node["force_gap_max"] < 0.02  # 1.56 % over the whole loading (docs/fem.md)
+    # the contact discretisation moves the loading curve by less than the law's fit error
+    for steps in (24, 48):
+        pair = measures["pairs"][f"node, {steps} steps, cap 1.01 vs facet, {steps} steps, cap 1.01"]
+        assert pair["force_gap_max"] < 0.03
