@@ -24,6 +24,7 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact import __version__  # noqa: E402
 from geocontact.analyses.cycles import law_cycles_by_force  # noqa: E402
+from geocontact.cyclic_fit import cycle_table  # noqa: E402
 from geocontact.fem.reuse import load_result  # noqa: E402
 from geocontact.law import load_params  # noqa: E402
 
@@ -33,16 +34,8 @@ RUNS = {"default": DATASETS / "paper-histories-finite" / "79325e01f1a54b90900f",
 
 
 def per_cycle(cycles: list[dict]) -> list[dict]:
-    """Cycle N >= 2: residual increment (m) and plastic work (J), and both over cycle 1's."""
-    residual_1, work_1 = cycles[0]["residual_approach_m"], cycles[0]["plastic_work_J"]
-    rows = []
-    for n in range(1, len(cycles)):
-        increment = cycles[n]["residual_approach_m"] - cycles[n - 1]["residual_approach_m"]
-        work = cycles[n]["plastic_work_J"]
-        rows.append({"cycle": n + 1, "residual_increment_m": increment,
-                     "residual_increment_ratio": increment / residual_1,
-                     "plastic_work_J": work, "plastic_work_ratio": work / work_1})
-    return rows
+    """Cycle N >= 2 of ``cyclic_fit.cycle_table``: increments and ratios to cycle 1."""
+    return cycle_table(cycles)[1:]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -63,9 +56,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {d['cycle']} | {d['residual_increment_ratio']:.2e} "
               f"| {c['residual_increment_ratio']:.2e} | {d['plastic_work_ratio']:.2e} "
               f"| {c['plastic_work_ratio']:.2e} "
-              f"| {w['residual_increment_m'] * 1e6:.3f} / {d['residual_increment_m'] * 1e6:.3f} "
+              f"| {w['residual_approach_increment_m'] * 1e6:.3f} "
+              f"/ {d['residual_approach_increment_m'] * 1e6:.3f} "
               f"| {w['plastic_work_J'] * 1e3:.2f} / {d['plastic_work_J'] * 1e3:.2f} |")
-    total = {name: sum(r["residual_increment_m"] for r in rows)
+    total = {name: sum(r["residual_approach_increment_m"] for r in rows)
              for name, rows in (("law", law), ("fe_default", fe["default"]))}
     print(f"\nresidual growth over cycles 2-{len(law) + 1}: law {total['law'] * 1e6:.2f} µm, "
           f"FE (default mesh) {total['fe_default'] * 1e6:.2f} µm")
