@@ -13,7 +13,12 @@ samples other risers. Two measures, on the loading branch above a force floor:
   its largest jump |s_k+1 - s_k| and total variation sum |s_k+1 - s_k|: a smooth
   power-law-like curve has a slowly drifting s (total variation about the change of the
   exponent, < 1 over the range), a staircase alternates between plateaus (s ~ 0) and risers
-  (s >> 2).
+  (s >> 2);
+- ``bump_correlation``: where the bumps come from. The bump of a run is its ln delta less a
+  smooth fit (a cubic in ln F) over the top ``BUMP_DECADES`` decades of its force (where the
+  contact is large and the staircase shows, the 1e2-1e4 N of the weak grain); two runs whose bumps correlate at the forces
+  both recorded have the same bumps (the spatial discretisation they share), two whose bumps do
+  not have bumps of their own (the load steps, or discretisations that differ).
 """
 
 from __future__ import annotations
@@ -123,6 +128,40 @@ def slope_measures(approach: np.ndarray, force: np.ndarray,
             "slope_min": float(np.min(s)), "slope_max": float(np.max(s)), "points": int(len(x))}
 
 
+BUMP_FIT_DEGREE = 3  # the smooth curve the bumps are measured from: a cubic in ln F ...
+BUMP_DECADES = 2.0  # ... over this many decades of force below the largest
+
+
+def bumps(approach: np.ndarray, force: np.ndarray,
+          floor_force: float) -> tuple[np.ndarray, np.ndarray]:
+    """(F, ln delta less its least-squares cubic in ln F) at the points above ``floor_force``
+    and within ``BUMP_DECADES`` decades of the largest force."""
+    sel = (force > floor_force) & (force >= np.max(force) * 10.0 ** -BUMP_DECADES)
+    lf, lx = np.log(force[sel]), np.log(approach[sel])
+    if len(lf) <= BUMP_FIT_DEGREE + 1:
+        return force[sel], np.full(len(lf), np.nan)
+    return force[sel], lx - np.polyval(np.polyfit(lf, lx, BUMP_FIT_DEGREE), lf)
+
+
+def bump_correlation(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                     floor_force: float) -> dict[str, float]:
+    """The two runs' bumps (``bumps``, each about its own fit) at the forces both recorded:
+    their correlation, the RMS of each and of their difference (in ln delta)."""
+    fa, ra = bumps(*a, floor_force)
+    fb, rb = bumps(*b, floor_force)
+    j = np.clip(np.searchsorted(fb, fa), 0, max(len(fb) - 1, 0))
+    common = (np.abs(fb[j] / fa - 1.0) < 1e-9) if len(fb) else np.zeros(len(fa), bool)
+    x, y = ra[common], rb[j[common]]
+    if len(x) < 3 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        nan = float("nan")
+        return {"bump_correlation": nan, "bump_rms_a": nan, "bump_rms_b": nan,
+                "bump_rms_difference": nan, "bump_forces": int(len(x))}
+    return {"bump_correlation": float(np.corrcoef(x, y)[0, 1]),
+            "bump_rms_a": float(np.sqrt(np.mean(x**2))), "bump_rms_b": float(np.sqrt(np.mean(y**2))),
+            "bump_rms_difference": float(np.sqrt(np.mean((x - y) ** 2))),
+            "bump_forces": int(len(x))}
+
+
 def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float) -> dict:
     """Per run: the log-slope measures; per pair of runs: the force gap."""
     floor_force = floor * yield_force
@@ -138,9 +177,11 @@ def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float
         pair.update(approach_gap(branches[p], branches[q], floor_force))
         pair["sampling_gap_max"], pair["sampling_gap_rms"] = sampling_gap(
             branches[p], branches[q], floor_force)
+        pair.update(bump_correlation(branches[p], branches[q], floor_force))
         out["pairs"][f"{p} vs {q}"] = pair
     return out
 
 
-__all__ = ["approach_gap", "force_gap", "force_gap_profile", "gap_by_decade", "loading_branch",
-           "log_slopes", "sampling_gap", "slope_measures", "staircase_measures"]
+__all__ = ["BUMP_DECADES", "BUMP_FIT_DEGREE", "approach_gap", "bump_correlation", "bumps",
+           "force_gap", "force_gap_profile", "gap_by_decade", "loading_branch", "log_slopes",
+           "sampling_gap", "slope_measures", "staircase_measures"]
