@@ -12,7 +12,12 @@ import pytest
 
 import geocontact.fem.run as fem_run
 from geocontact.errors import InputError
-from geocontact.fem.mesh import CONTACT_SURFACE_GRADING, build_mesh, surface_vertex_radii
+from geocontact.fem.mesh import (
+    CONTACT_DENSE_FACTOR,
+    CONTACT_SURFACE_GRADING,
+    build_mesh,
+    surface_vertex_radii,
+)
 from geocontact.fem.reuse import FeRunIdentity
 from geocontact.fem.run import (
     contact_band_radius,
@@ -117,10 +122,11 @@ def test_bump_correlation_tells_shared_bumps_from_independent_ones():
 def test_contact_rule_refines_the_surface_over_the_plastic_contact_radii():
     """On the weak grain sized for 6000 N the surface edge at a contact radius a in the band is
     ~ a / CONTACT_SURFACE_GRADING (a node every 1.25 % of a on coarse), against a / 5 with the
-    verified "yield" rule; inside the body (the depth growth) the meshes stay alike."""
+    verified "yield" rule, and half that with "contact-dense"; inside the body (the depth
+    growth) the meshes stay alike."""
     material = preset("reference-weak")
     meshes = {rule: history_mesh(material, 6000.0, "coarse", rule=rule)
-              for rule in ("yield", "contact")}
+              for rule in ("yield", "contact", "contact-dense")}
     a_y = float(incipient_yield(material).contact_radius)
     assert 1.5 * a_y < contact_band_radius(material) < 5 * a_y  # the contact at 10 Fy
     spacing = {}
@@ -131,8 +137,11 @@ def test_contact_rule_refines_the_surface_over_the_plastic_contact_radii():
         spacing[rule] = np.max(np.diff(ends)[sel] / mid[sel])
     assert spacing["yield"] > 0.15
     assert spacing["contact"] < 1.3 / CONTACT_SURFACE_GRADING["coarse"]
+    dense = CONTACT_DENSE_FACTOR * CONTACT_SURFACE_GRADING["coarse"]
+    assert 0.7 / dense < spacing["contact-dense"] < 1.3 / dense
     counts = {rule: mesh.t.shape[1] for rule, mesh in meshes.items()}
     assert counts["contact"] < 5 * counts["yield"]  # linear in the grading, not quadratic
+    assert counts["contact-dense"] < 2.2 * counts["contact"]
 
 
 def test_yield_rule_is_the_verified_mesh():

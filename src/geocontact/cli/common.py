@@ -86,13 +86,16 @@ def fe_model_of(args) -> dict:
 def add_fe_model_flags(p) -> None:
     """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --contact of the FE engine
     (docs/fem.md)."""
+    from ..fem.mesh import MESH_RULES
+
     p.add_argument("--kinematics", default="small", choices=["small", "finite"],
                    help="FE kinematics: small strain (default) or finite strain (logarithmic "
                         "elastic strain, exponential map, F-bar)")
-    p.add_argument("--mesh-rule", default="yield", choices=["yield", "contact"],
-                   help="FE mesh rule: 'yield' (default, the verified meshes) or 'contact' "
+    p.add_argument("--mesh-rule", default="yield", choices=list(MESH_RULES),
+                   help="FE mesh rule: 'yield' (default, the verified meshes), 'contact' "
                         "(small surface elements over the plastic range of contact radii: the "
-                        "contact edge of a weak grain moves in steps of ~1 %% of the radius)")
+                        "contact edge of a weak grain moves in steps of ~1 %% of the radius) or "
+                        "'contact-dense' (twice as many surface elements there)")
     p.add_argument("--step-rule", default="segment", choices=["segment", "decade"],
                    help="FE load steps: 'segment' (default, --steps per monotonic segment) or "
                         "'decade' (also at least --steps/2 geometric loading steps per decade "

@@ -67,7 +67,7 @@ class FemJob:
     tolerance: float = TOLERANCE
     volumetric: str = VOLUMETRIC_DEFAULT
     kinematics: str = "small"  # "small" | "finite" (fem.finite_strain)
-    mesh_rule: str = "yield"  # "yield" | "contact" (fem.mesh.MESH_RULES)
+    mesh_rule: str = "yield"  # "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES)
     step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)

@@ -65,7 +65,19 @@ FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py
 _NAN_ITERATE = ("a Newton iterate with a non-finite residual (finite strain: an element turned "
                 "inside out) gives up before the linear solve instead of one solve later (its "
                 "NaN right-hand side gave a NaN step, which gave up)")
+_DENSE_RULE = ("the opt-in mesh rule 'contact-dense' added (fem/mesh.py; recorded in the identity "
+               "as mesh_rule): the 'yield' and 'contact' meshes are the same arrays")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "1a6ee2baa05d8241": {
+        "00df7dcdec639962": _DENSE_RULE,
+        "0fb388b18c5a441f": _DENSE_RULE + "; " + _NAN_ITERATE + " (00df7dcdec639962)",
+        "51d4fb8435749d12": _DENSE_RULE + "; " + _NAN_ITERATE + ", the facet contact with "
+                            "finite strain allowed (00df7dcdec639962)",
+        "4f8939b91af98a9d": _DENSE_RULE + "; " + _NAN_ITERATE + ", the opt-in facet contact "
+                            "added (00df7dcdec639962)",
+        "4919b4f465169f88": _DENSE_RULE + "; " + _NAN_ITERATE + ", rescue mode and the opt-in "
+                            "facet contact added (00df7dcdec639962)",
+    },
     "00df7dcdec639962": {
         "0fb388b18c5a441f": _NAN_ITERATE,
         "51d4fb8435749d12": _NAN_ITERATE + "; the facet contact with finite strain allowed "

@@ -158,8 +158,8 @@ def history_mesh(material: Material, max_force: float, mesh: str = "default",
     to the largest one (``mesh.build_mesh``).
 
     ``min_force`` None: the first step of a ramp 0 -> ``max_force`` with the preset's steps.
-    ``rule``: "yield" (the verified meshes) or "contact" (``mesh.MESH_RULES``; its surface band
-    from ``contact_band_radius`` to the largest contact radius).
+    ``rule``: "yield" (the verified meshes), "contact" or "contact-dense" (``mesh.MESH_RULES``;
+    a surface band from ``contact_band_radius`` to the largest contact radius).
     """
     if min_force is None:
         min_force = smallest_resolved_force(material, [0.0, max_force], STEPS_PER_SEGMENT[mesh])
@@ -483,9 +483,9 @@ def run_history(
     ``linear_solver``: "fast" (default) or "reference", the earlier linear-algebra path kept for
     side-by-side comparison (``ContactSolver``); both give the same result within the Newton
     tolerance, so it is not part of the run's identity.
-    ``mesh_rule``: "yield" (default, the verified meshes) or "contact" (a surface band of small
+    ``mesh_rule``: "yield" (default, the verified meshes), "contact" (a surface band of small
     elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
-    loading curve of a weak grain). ``kinematics``: "small" (default) or "finite" (finite-strain
+    loading curve of a weak grain) or "contact-dense" (that band twice as fine). ``kinematics``: "small" (default) or "finite" (finite-strain
     elastoplasticity, ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
     (``load_schedule``). ``max_step_ratio``: None (default) or a cap > 1 on the force ratio of
     one solve on loading above the first-yield force (``sub_steps``: the requested steps are
