@@ -103,7 +103,9 @@ def main() -> None:
     ap.add_argument("--runs", nargs="*", default=[])
     ap.add_argument("--material", default="reference-weak")
     ap.add_argument("--mesh", default="coarse")
-    ap.add_argument("--mesh-rule", default="yield", help="fem mesh rule (run_history)")
+    ap.add_argument("--mesh-rule", nargs="+", default=["yield"],
+                    help="fem mesh rule(s) (run_history); several: every one is run with every "
+                         "--contact, --steps and cap, all compared pairwise")
     ap.add_argument("--step-rule", default="segment", help="fem step rule (run_history)")
     ap.add_argument("--contact", nargs="+", default=["node"],
                     help="fem contact(s): node | facet (run_history); every one is run with "
@@ -136,13 +138,16 @@ def main() -> None:
     curves, runs = {}, {}
     fy = None
     under_way = {}
-    for contact, ratio, n in itertools.product(args.contact, args.max_step_ratio, args.steps):
-        name = f"{args.mesh}-{args.mesh_rule}-{args.step_rule}-{n}"
+    for rule, contact, ratio, n in itertools.product(args.mesh_rule, args.contact,
+                                                     args.max_step_ratio, args.steps):
+        name = f"{args.mesh}-{rule}-{args.step_rule}-{n}"
         if contact != "node":
-            name = f"{args.mesh}-{args.mesh_rule}-{contact}-{args.step_rule}-{n}"
+            name = f"{args.mesh}-{rule}-{contact}-{args.step_rule}-{n}"
         if args.kinematics != "small":
             name = f"{args.kinematics}-{name}"
         label = f"{n} steps" if len(args.contact) == 1 else f"{contact}, {n} steps"
+        if len(args.mesh_rule) > 1:
+            label = f"{rule}, {label}"
         if ratio is not None:
             name += f"-cap{ratio:g}"
             label += f", cap {ratio:g}"
@@ -150,7 +155,7 @@ def main() -> None:
         if args.finished_only or args.under_way:
             identity = FeRunIdentity.of(
                 material, [0.0, args.force], args.mesh, steps_per_segment=n,
-                mesh_rule=args.mesh_rule, step_rule=args.step_rule, max_step_ratio=ratio,
+                mesh_rule=rule, step_rule=args.step_rule, max_step_ratio=ratio,
                 contact=contact, kinematics=args.kinematics)
             result = finished_run(out / name, identity)
             if result is None and (out / name / "summary.json").exists():
@@ -176,7 +181,7 @@ def main() -> None:
         else:
             result = run_history(material, [0.0, args.force], args.mesh, out / name,
                                  steps_per_segment=n, resume=True, write_fields=False,
-                                 mesh_rule=args.mesh_rule, step_rule=args.step_rule,
+                                 mesh_rule=rule, step_rule=args.step_rule,
                                  max_step_ratio=ratio, progress=args.progress,
                                  contact=contact, kinematics=args.kinematics)
         curves[label] = result.curve
@@ -200,7 +205,9 @@ def main() -> None:
             end = int(np.argmax(above)) if above.any() else len(above)
             curves[label] = {k: np.asarray(v)[:end] for k, v in curve.items()}
     measures = staircase_measures(curves, fy, args.floor)
-    measures.update({"material": args.material, "mesh": args.mesh, "mesh_rule": args.mesh_rule,
+    rules = "-".join(args.mesh_rule)
+    measures.update({"material": args.material, "mesh": args.mesh,
+                     "mesh_rule": args.mesh_rule[0] if len(args.mesh_rule) == 1 else args.mesh_rule,
                      "step_rule": args.step_rule, "max_step_ratio": args.max_step_ratio,
                      "contact": args.contact, "kinematics": args.kinematics,
                      "force_N": args.force, "first_yield_force_N": fy, "cost": runs,
@@ -208,7 +215,7 @@ def main() -> None:
     caps = "".join(f"-cap{r:g}" for r in args.max_step_ratio if r is not None)
     contact = "" if args.contact == ["node"] else "-".join(args.contact) + "-"
     kinematics = "" if args.kinematics == "small" else f"{args.kinematics}-"
-    default_name = (f"staircase-{kinematics}{args.mesh}-{args.mesh_rule}-{contact}"
+    default_name = (f"staircase-{kinematics}{args.mesh}-{rules}-{contact}"
                     f"{args.step_rule}{caps}.json")
     write_json_atomic(out / (args.json or default_name), measures)
     print(json.dumps({k: measures[k] for k in ("runs", "pairs")}, indent=1))

@@ -97,9 +97,10 @@ def test_approach_gap_compares_only_the_forces_both_runs_recorded():
 
 def test_bump_correlation_tells_shared_bumps_from_independent_ones():
     """Two samplings of one bumpy curve (every point, every other point) have the same bumps:
-    correlation near 1 (each about its own cubic fit, which the sampling moves a little); the same smooth curve with independent bumps of the same size:
-    near 0. The smooth part (any cubic in ln F) is not a bump; forces more than BUMP_DECADES below
-    the largest are left out."""
+    correlation near 1 (each about its own cubic fit, which the sampling moves a little). The
+    same smooth curve with independent bumps of the same size: near 0. The smooth part (any
+    cubic in ln F) is not a bump; forces more than BUMP_DECADES below the largest are left
+    out."""
     rng = np.random.default_rng(7)
     f = np.geomspace(1.0, 1e4, 241)
     lf = np.log(f)

@@ -68,7 +68,7 @@ _NAN_ITERATE = ("a Newton iterate with a non-finite residual (finite strain: an 
 _DENSE_RULE = ("the opt-in mesh rule 'contact-dense' added (fem/mesh.py; recorded in the identity "
                "as mesh_rule): the 'yield' and 'contact' meshes are the same arrays")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
-    "1a6ee2baa05d8241": {
+    "209c6c5f6f7c038c": {
         "00df7dcdec639962": _DENSE_RULE,
         "0fb388b18c5a441f": _DENSE_RULE + "; " + _NAN_ITERATE + " (00df7dcdec639962)",
         "51d4fb8435749d12": _DENSE_RULE + "; " + _NAN_ITERATE + ", the facet contact with "

@@ -485,8 +485,9 @@ def run_history(
     tolerance, so it is not part of the run's identity.
     ``mesh_rule``: "yield" (default, the verified meshes), "contact" (a surface band of small
     elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
-    loading curve of a weak grain) or "contact-dense" (that band twice as fine). ``kinematics``: "small" (default) or "finite" (finite-strain
-    elastoplasticity, ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
+    loading curve of a weak grain) or "contact-dense" (that band twice as fine).
+    ``kinematics``: "small" (default) or "finite" (finite-strain elastoplasticity,
+    ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
     (``load_schedule``). ``max_step_ratio``: None (default) or a cap > 1 on the force ratio of
     one solve on loading above the first-yield force (``sub_steps``: the requested steps are
     solved through geometric sub-steps and recorded as before; summary.json ``step_control``).

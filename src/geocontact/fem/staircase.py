@@ -16,9 +16,10 @@ samples other risers. Two measures, on the loading branch above a force floor:
   (s >> 2);
 - ``bump_correlation``: where the bumps come from. The bump of a run is its ln delta less a
   smooth fit (a cubic in ln F) over the top ``BUMP_DECADES`` decades of its force (where the
-  contact is large and the staircase shows, the 1e2-1e4 N of the weak grain); two runs whose bumps correlate at the forces
-  both recorded have the same bumps (the spatial discretisation they share), two whose bumps do
-  not have bumps of their own (the load steps, or discretisations that differ).
+  contact is large and the staircase shows, the 1e2-1e4 N of the weak grain); two runs whose
+  bumps correlate at the forces both recorded have the same bumps (the spatial discretisation
+  they share), two whose bumps do not have bumps of their own (the load steps, or
+  discretisations that differ).
 """
 
 from __future__ import annotations
@@ -157,7 +158,8 @@ def bump_correlation(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.n
         return {"bump_correlation": nan, "bump_rms_a": nan, "bump_rms_b": nan,
                 "bump_rms_difference": nan, "bump_forces": int(len(x))}
     return {"bump_correlation": float(np.corrcoef(x, y)[0, 1]),
-            "bump_rms_a": float(np.sqrt(np.mean(x**2))), "bump_rms_b": float(np.sqrt(np.mean(y**2))),
+            "bump_rms_a": float(np.sqrt(np.mean(x**2))),
+            "bump_rms_b": float(np.sqrt(np.mean(y**2))),
             "bump_rms_difference": float(np.sqrt(np.mean((x - y) ** 2))),
             "bump_forces": int(len(x))}
 
