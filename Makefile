@@ -141,30 +141,24 @@ paper-histories-finite: $(STAMP)
 	  --cache datasets/fe-runs/paper-histories-finite --out out/paper-histories-finite \
 	  $(if $(PAPER_FINITE_ONLY),--only $(PAPER_FINITE_ONLY))
 
-# The staircase measure (issue 15) with the facet contact and finite strain on the default mesh:
-# 24 and 48 load steps per segment, 0 -> 6000 N, ~3-4 h of a core each, resumable from the
-# checkpoints committed in datasets/staircase (its README); then the measures of the two runs.
-STAIRCASE_FACET := --material reference-weak --mesh default $(WEAK_FINITE_FE) --contact facet \
+# The staircase measure (issue 15) with finite strain on the default mesh, 0 -> 6000 N, 24 and 48
+# load steps per segment, resumable from the checkpoints committed in datasets/staircase (its
+# README); then the measures of the two runs. Variants: "facet", the facet contact (~3-4 h of a
+# core per run); "dense", the node contact on the "contact-dense" mesh rule (twice the surface
+# grading of the default band: the bumps left shrink with the surface spacing, docs/fem.md "Where
+# the bumps come from"; ~1.7x the elements). `make -j2 staircase-finite-dense` runs the two at once.
+STAIRCASE_facet := --material reference-weak --mesh default $(WEAK_FINITE_FE) --contact facet \
   --out datasets/staircase
-# `make -j2 staircase-finite-facet` runs the two at once.
-staircase-finite-facet: staircase-facet-24 staircase-facet-48
-	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps 24 48 --finished-only \
-	  --json staircase-finite-facet-default.json
-staircase-facet-24 staircase-facet-48: staircase-facet-%: $(STAMP)
-	$(PY) scripts/measure_staircase.py $(STAIRCASE_FACET) --steps $* \
-	  --json staircase-finite-facet-default-$*.json
-
-# The same measure with the node contact on the "contact-dense" mesh rule (twice the surface
-# grading of the default mesh's band: the bumps left shrink with the surface spacing, docs/fem.md
-# "Where the bumps come from"): ~1.7x the elements, resumable as above.
-STAIRCASE_DENSE := --material reference-weak --mesh default --kinematics finite \
+STAIRCASE_dense := --material reference-weak --mesh default --kinematics finite \
   --mesh-rule contact-dense --max-step-ratio 1.01 --out datasets/staircase
-staircase-finite-dense: staircase-dense-24 staircase-dense-48
-	$(PY) scripts/measure_staircase.py $(STAIRCASE_DENSE) --steps 24 48 --finished-only \
-	  --json staircase-finite-dense-default.json
-staircase-dense-24 staircase-dense-48: staircase-dense-%: $(STAMP)
-	$(PY) scripts/measure_staircase.py $(STAIRCASE_DENSE) --steps $* \
-	  --json staircase-finite-dense-default-$*.json
+staircase-finite-facet staircase-finite-dense: staircase-finite-%: staircase-%-24 staircase-%-48
+	$(PY) scripts/measure_staircase.py $(STAIRCASE_$*) --steps 24 48 --finished-only \
+	  --json staircase-finite-$*-default.json
+STAIRCASE_RUNS := $(foreach v,facet dense,$(foreach n,24 48,staircase-$(v)-$(n)))
+$(STAIRCASE_RUNS): staircase-%: $(STAMP)
+	$(PY) scripts/measure_staircase.py $(STAIRCASE_$(word 1,$(subst -, ,$*))) \
+	  --steps $(word 2,$(subst -, ,$*)) \
+	  --json staircase-finite-$(word 1,$(subst -, ,$*))-default-$(word 2,$(subst -, ,$*)).json
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
 # from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a
