@@ -48,7 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
-from geocontact.fem.staircase import staircase_measures
+from geocontact.fem.run import load_schedule
+from geocontact.fem.staircase import loading_branch, sampling_gap, staircase_measures
 from geocontact.io import write_json_atomic
 from geocontact.material import load_material
 
@@ -194,6 +195,9 @@ def main() -> None:
                        "newton_iterations": result.summary["newton_iterations"],
                        "contact_resolution": result.summary["contact_resolution"],
                        "fe_code": result.summary["identity"]["fe_code"],
+                       "steps_per_segment": n,
+                       "first_yield_force_predicted_N": result.summary[
+                           "first_yield_force_predicted_N"],
                        "version": result.summary["version"]}
     if not curves:
         raise SystemExit("measure_staircase: no run to measure in --out")
@@ -205,6 +209,16 @@ def main() -> None:
             end = int(np.argmax(above)) if above.any() else len(above)
             curves[label] = {k: np.asarray(v)[:end] for k, v in curve.items()}
     measures = staircase_measures(curves, fy, args.floor)
+    for label, r in runs.items():  # a finished run against itself at half its steps' forces
+        if r["steps_per_segment"] % 2 == 0:
+            x, f = loading_branch(curves[label])
+            half = np.array(load_schedule([0.0, args.force], r["steps_per_segment"] // 2,
+                                          r["first_yield_force_predicted_N"],
+                                          args.step_rule)[0])
+            keep = np.array([np.min(np.abs(half / v - 1.0)) < 1e-9 for v in f])
+            gmax, grms = sampling_gap((x, f), (x[keep], f[keep]), args.floor * fy)
+            measures["runs"][label].update({"sampling_gap_half_max": gmax,
+                                            "sampling_gap_half_rms": grms})
     rules = "-".join(args.mesh_rule)
     measures.update({"material": args.material, "mesh": args.mesh,
                      "mesh_rule": args.mesh_rule[0] if len(args.mesh_rule) == 1 else args.mesh_rule,

@@ -295,5 +295,9 @@ def test_measure_of_the_committed_staircase_runs_under_way(tmp_path):
         assert pair["bump_correlation"] < 0.7
     for contact in ("node", "facet"):
         pair = measures["pairs"][f"{contact}, 24 steps, cap 1.01 vs {contact}, 48 steps, cap 1.01"]
+        # one run alone gives the pair's sampling gap: against itself at the 24-step forces
+        run = measures["runs"][f"{contact}, 48 steps, cap 1.01"]
+        assert run["sampling_gap_half_max"] == pytest.approx(pair["sampling_gap_max"], rel=1e-9)
+        assert 0.004 < run["bump_rms"] < 0.01
         assert pair["bump_correlation"] > 0.9
         assert pair["bump_rms_difference"] < 0.4 * pair["bump_rms_a"]

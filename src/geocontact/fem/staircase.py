@@ -171,6 +171,9 @@ def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float
     out = {"floor_force_N": floor_force, "runs": {}, "pairs": {}}
     for name, (x, f) in branches.items():
         out["runs"][name] = slope_measures(x, f, floor_force)
+        bump = bumps(x, f, floor_force)[1]
+        out["runs"][name]["bump_rms"] = float(np.sqrt(np.mean(bump**2))) if bump.size else (
+            float("nan"))
     for p, q in itertools.combinations(branches, 2):
         gmax, grms = force_gap(branches[p], branches[q], floor_force)
         pair = {"force_gap_max": gmax, "force_gap_rms": grms,
