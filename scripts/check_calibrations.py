@@ -6,7 +6,7 @@ The calibrations are rerun exactly as the Makefile's ``calibrate-examples`` targ
 ``out/cache/fem``; from a warm cache only the fit and the acceptance comparison run (seconds);
 FE runs missing from the cache are computed and cached (cold: about 30 min with 2 workers,
 default mesh; docs/calibration.md "Timing"). σc = 1 MPa: from the committed finite-strain
-campaign datasets/fe-runs/weak-finite-coarse (no FE work). Nothing is written into
+campaign datasets/fe-runs/weak-finite (no FE work). Nothing is written into
 ``examples/``.
 
 Every number of the shipped document must be reproduced within ``--rtol`` (relative, of the
@@ -43,13 +43,13 @@ DEFAULT_CACHE = ROOT / "out" / "cache" / "fem"
 # The Makefile's calibrate-examples target: output file -> calibrate arguments (besides --mesh,
 # --acceptance, --out). tests/test_check_calibrations.py checks the two agree.
 # A calibration that names its own --mesh and --cache keeps them (the weak grain's: the committed
-# finite-strain pilot campaign, a path relative to the repository).
+# finite-strain campaign, a path relative to the repository).
 CALIBRATIONS = {
     "params-reference.json": ["--material", "reference"],
     "params-reference-weak.json": [
-        "--material", "reference-weak", "--mesh", "coarse", "--levels", "13",
-        "--kinematics", "finite", "--mesh-rule", "contact", "--max-step-ratio", "1.02",
-        "--cache", "datasets/fe-runs/weak-finite-coarse", "--residual-form", "table",
+        "--material", "reference-weak", "--mesh", "default", "--levels", "13",
+        "--kinematics", "finite", "--mesh-rule", "contact", "--max-step-ratio", "1.01",
+        "--cache", "datasets/fe-runs/weak-finite", "--residual-form", "table",
         "--loading-form", "segments"],
 }
 

@@ -222,9 +222,9 @@ def test_rerun_calls_calibrate_like_the_makefile_into_a_temporary_folder(tmp_pat
         expected.append(["calibrate", *args, *([] if "--mesh" in args else ["--mesh", "fine"]),
                          *([] if own else ["--cache", str(cache)]), "--acceptance"])
     assert [c[:c.index("--out")] for c in calls] == expected
-    assert [c[c.index("--mesh") + 1] for c in calls] == ["fine", "coarse"]
+    assert [c[c.index("--mesh") + 1] for c in calls] == ["fine", "default"]
     assert calls[1][calls[1].index("--cache") + 1] == str(
-        check.ROOT / "datasets" / "fe-runs" / "weak-finite-coarse")
+        check.ROOT / "datasets" / "fe-runs" / "weak-finite")
     outs = [Path(c[c.index("--out") + 1]) for c in calls]
     assert all(not check._inside(o, shipped) and not o.exists() for o in outs)
     assert "no FE cache" in capsys.readouterr().err

@@ -147,16 +147,16 @@ def test_compare_two_campaigns(campaign, capsys):
     assert fe_dataset.main(["--compare", str(folder)]) == 2
 
 
-def test_the_shipped_weak_law_on_the_default_mesh_runs_it_never_saw(capsys, tmp_path):
-    """examples/params-reference-weak.json is fitted on the coarse pilot campaign; the finished
-    runs of the default-mesh campaign (another mesh, load-step cap 1.01) are held-out FE for it:
-    the acceptance goals (force RMS <= 5 % of the peak, residual approach <= 10 %) hold on each.
-    (Session 8, levels 1-10: 0.70-2.70 % and <= 2.4 %; the earlier small-strain file: up to
-    6.3 % and 13.8 %.)"""
+def test_the_shipped_weak_law_on_the_coarse_pilot_runs_it_never_saw(capsys, tmp_path):
+    """examples/params-reference-weak.json is fitted on the default-mesh campaign (cap 1.01); the
+    13 levels and the repeated run of the coarse pilot (another mesh, load-step cap 1.02) are
+    held-out FE for it: the acceptance goals (force RMS <= 5 % of the peak, residual approach
+    <= 10 %) hold on each. (Until session 12 the roles were the other way round: the pilot's fit
+    on the default-mesh levels, 0.70-2.79 % and <= 2.5 %.)"""
     weak = ROOT / "examples" / "params-reference-weak.json"
-    campaign = fe_dataset.DATASETS / "weak-finite"
+    campaign = fe_dataset.DATASETS / "weak-finite-coarse"
     rows = fe_dataset.law_on_campaign(weak, campaign)
-    assert len(rows) >= 9
+    assert len(rows) >= 13
     for row in rows:
         assert row["force_rms_percent_of_peak"] < 5.0, row
         assert row["residual_approach_error_percent"] < 10.0, row
@@ -180,8 +180,9 @@ _ratchet_spec.loader.exec_module(weak_ratchet_table)
 def test_weak_grain_ratchet_table_regenerates_and_the_law_follows_it(capsys):
     """docs/cycles.md's table of the weak grain's finite-strain ratchet comes from the committed
     runs (scripts/weak_ratchet_table.py). The two meshes agree within 4 % per cycle in the
-    residual increment, and the shipped law, fitted to the coarse run only, ratchets within 2 %
-    of the default-mesh run per cycle from cycle 5 on."""
+    residual increment, and the shipped law ratchets within 2 % of the default-mesh run per cycle
+    from cycle 5 on (measured 0.6 %: since session 12 the file is fitted to this run's campaign;
+    session 10's file, fitted to the coarse run only, 1.6 %)."""
     assert weak_ratchet_table.main([]) == 0
     table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
     doc = (ROOT / "docs" / "cycles.md").read_text()
