@@ -144,6 +144,11 @@ def bumps(approach: np.ndarray, force: np.ndarray,
     return force[sel], lx - np.polyval(np.polyfit(lf, lx, BUMP_FIT_DEGREE), lf)
 
 
+def _rms(values: np.ndarray) -> float:
+    """Root mean square; NaN for no values."""
+    return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")
+
+
 def bump_correlation(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
                      floor_force: float) -> dict[str, float]:
     """The two runs' bumps (``bumps``, each about its own fit) at the forces both recorded:
@@ -158,9 +163,7 @@ def bump_correlation(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.n
         return {"bump_correlation": nan, "bump_rms_a": nan, "bump_rms_b": nan,
                 "bump_rms_difference": nan, "bump_forces": int(len(x))}
     return {"bump_correlation": float(np.corrcoef(x, y)[0, 1]),
-            "bump_rms_a": float(np.sqrt(np.mean(x**2))),
-            "bump_rms_b": float(np.sqrt(np.mean(y**2))),
-            "bump_rms_difference": float(np.sqrt(np.mean((x - y) ** 2))),
+            "bump_rms_a": _rms(x), "bump_rms_b": _rms(y), "bump_rms_difference": _rms(x - y),
             "bump_forces": int(len(x))}
 
 
@@ -171,9 +174,7 @@ def staircase_measures(curves: dict[str, dict], yield_force: float, floor: float
     out = {"floor_force_N": floor_force, "runs": {}, "pairs": {}}
     for name, (x, f) in branches.items():
         out["runs"][name] = slope_measures(x, f, floor_force)
-        bump = bumps(x, f, floor_force)[1]
-        out["runs"][name]["bump_rms"] = float(np.sqrt(np.mean(bump**2))) if bump.size else (
-            float("nan"))
+        out["runs"][name]["bump_rms"] = _rms(bumps(x, f, floor_force)[1])
     for p, q in itertools.combinations(branches, 2):
         gmax, grms = force_gap(branches[p], branches[q], floor_force)
         pair = {"force_gap_max": gmax, "force_gap_rms": grms,
