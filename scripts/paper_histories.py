@@ -29,7 +29,7 @@ from geocontact.analyses.cycles import with_cyclic
 from geocontact.analyses.paper_histories import format_value as fmt
 from geocontact.analyses.paper_histories import run_paper_histories, write_study
 from geocontact.cli.common import add_fe_model_flags, fe_model_of
-from geocontact.errors import InputError
+from geocontact.errors import InputError, run_reporting_errors
 from geocontact.io import (
     atomic_directory,
     check_replaceable,
@@ -42,6 +42,12 @@ from geocontact.law import load_params
 ROOT = Path(__file__).resolve().parents[1]
 CALIBRATED = {"reference": ROOT / "examples" / "params-reference.json",
                 "reference-weak": ROOT / "examples" / "params-reference-weak.json"}
+
+
+def _model(inputs: dict) -> str:
+    """The mesh of a run, and its kinematics when not small strain."""
+    kinematics = inputs.get("kinematics", "small")
+    return inputs["mesh"] + ("" if kinematics == "small" else f", {kinematics} strain")
 
 
 def markdown(runs, findings) -> str:
@@ -61,7 +67,7 @@ def markdown(runs, findings) -> str:
                for f in (rf, wf)]
         ncf, ncm = a.critical_cycles["fitted"], a.critical_cycles["measured"]
         lines.append(
-            f"| {name} | {run.summary['inputs']['mesh']} | {len(c)} | {run.summary['steps']} | "
+            f"| {name} | {_model(run.summary['inputs'])} | {len(c)} | {run.summary['steps']} | "
             f"{run.summary['wall_time_s']:.0f} | {fmt(c[1]['residual_increment_ratio'])} / "
             f"{fmt(c[1]['plastic_work_ratio'])} | {fmt(c[-1]['residual_increment_ratio'])} / "
             f"{fmt(c[-1]['plastic_work_ratio'])} | {fit[0]} | {fit[1]} | {geo} | "
@@ -92,6 +98,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--force", action="store_true",
                     help="replace --out even if it holds files geocontact did not write")
     add_fe_model_flags(ap)
+    ap.add_argument("--fe-model-materials", nargs="+", default=None, metavar="PRESET",
+                    help="apply the FE model flags above only to the runs of these material "
+                         "presets; the others run with the FE defaults (small strain), e.g. "
+                         "finite strain only for reference-weak (default: every run)")
     args = ap.parse_args(argv)
     out = Path(args.out)
     check_replaceable(out, "paper-histories", overwrite=args.force)  # before the FE runs
@@ -100,7 +110,8 @@ def main(argv: list[str] | None = None) -> int:
                                tolerance=args.tolerance, workers=args.workers, only=args.only,
                                mesh_checks=({"repeated-10MPa": args.check_mesh}
                                             if args.check_mesh else None),
-                               fe_model=fe_model_of(args))
+                               fe_model=fe_model_of(args),
+                               fe_model_materials=args.fe_model_materials)
     # the whole study lands as one folder: an interrupted rerun never mixes old and new files
     with atomic_directory(out, "paper-histories", overwrite=args.force,
                           inputs=vars(args)) as tmp:
@@ -152,4 +163,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_reporting_errors(main))

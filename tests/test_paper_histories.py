@@ -7,6 +7,7 @@ import pytest
 
 from geocontact.analyses import cycles as cy
 from geocontact.analyses.paper_histories import EXTRA_TOLERANCES, PaperRun, paper_findings, study
+from geocontact.errors import InputError, run_reporting_errors
 from geocontact.force_history import preset_history
 from geocontact.material import preset
 
@@ -253,3 +254,44 @@ def test_fe_model_reaches_every_run_of_the_study():
     for job in jobs + singles:
         assert {key: getattr(job, key) for key in model} == model
     assert {j.key() for j in jobs}.isdisjoint(j.key() for j in plain)
+
+
+def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
+    """--fe-model-materials reference-weak: finite strain for the weak grain's runs (and the
+    single loads of its increasing history) only; the σc = 10 MPa and von Mises runs keep the FE
+    defaults, the same jobs (cache keys) as a study without the FE model flags. An unknown preset
+    is a one-line error naming the option and the allowed presets."""
+    import importlib.util
+    from pathlib import Path
+
+    from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
+
+    model = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01}
+    names = ["repeated-10MPa", "mono-increasing-1MPa", "repeated-von-mises-10MPa"]
+    plan, jobs = study_jobs("coarse", only=names, fe_model=model,
+                            fe_model_materials=["reference-weak"])
+    _, plain = study_jobs("coarse", only=names)
+    _, finite = study_jobs("coarse", only=names, fe_model=model)
+    by_name = {label: job for (label, _, _), job in zip(plan, jobs, strict=True)}
+    assert by_name["repeated-10MPa"].key() == plain[0].key()
+    assert by_name["repeated-von-mises-10MPa"].key() == plain[2].key()
+    assert by_name["mono-increasing-1MPa"].key() == finite[1].key()
+    for job in single_load_jobs(by_name["mono-increasing-1MPa"]):
+        assert job.kinematics == "finite" and job.max_step_ratio == 1.01
+    with pytest.raises(InputError, match=r"fe_model_materials: unknown material 'weak' "
+                                         r"\(allowed: .*reference-weak"):
+        study_jobs("coarse", only=names, fe_model=model, fe_model_materials=["weak"])
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("paper_histories_script",
+                                                  root / "scripts" / "paper_histories.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    code = run_reporting_errors(lambda: script.main(
+        ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache"), "--kinematics",
+         "finite", "--fe-model-materials", "weak"]))
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --fe-model-materials: unknown material 'weak'")
+    assert err.count("\n") == 1
+    assert not (tmp_path / "out").exists()  # refused before any FE run or output

@@ -48,7 +48,7 @@ CLI_FLAGS = {"max_force": "--max-force", "levels": "--levels", "peaks": "--peak-
              "grains": "--grains", "ranks": "--ranks", "contact": "--contact",
              "stress": "--stress", "radius": "--radius", "spread": "--spread",
              "inertia": "--inertia", "targets": "--targets", "seed": "--seed",
-             "walls": "--walls", "law": "--law"}
+             "walls": "--walls", "law": "--law", "fe_model_materials": "--fe-model-materials"}
 
 
 def for_the_command_line(message: str) -> str:

@@ -12,6 +12,7 @@ so (``agrees`` is None, ``our_value`` names what is missing).
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -83,13 +84,22 @@ class PaperRun:
 
 def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
                only: list[str] | None = None, mesh_checks: dict[str, str] | None = None,
-               fe_model: dict[str, Any] | None = None):
+               fe_model: dict[str, Any] | None = None,
+               fe_model_materials: Sequence[str] | None = None):
     """The study's FE jobs: ``(plan, jobs)``, plan = [(label, run name, mesh)] in job order.
-    ``fe_model``: kinematics, mesh_rule, step_rule and max_step_ratio of every run (``FemJob``;
-    the FE defaults when None)."""
+    ``fe_model``: kinematics, mesh_rule, step_rule and max_step_ratio of the runs (``FemJob``;
+    the FE defaults when None); ``fe_model_materials``: the material presets it applies to (None:
+    every run), the others run with the FE defaults, e.g. finite strain only for the weak grain,
+    where small strain is not valid (docs/verification.md, item 13)."""
     from ..fem.campaign import FemJob
 
     runs = study()["runs"]
+    if fe_model_materials is not None:
+        known = sorted({spec["material"] for spec in runs.values()})
+        for material in fe_model_materials:
+            if material not in known:
+                raise InputError(f"fe_model_materials: unknown material {material!r} "
+                                 f"(allowed: {', '.join(known)})")
     names = [n for n in runs if only is None or n in only]
     # the checks first: on a finer mesh they are the longest runs, so they start at once
     plan = [(f"{n}@{m}", n, m) for n, m in (mesh_checks or {}).items()]
@@ -100,9 +110,11 @@ def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
             raise InputError(f"run: unknown name {name!r} (allowed: {', '.join(runs)})")
         spec = runs[name]
         forces = preset_history(spec["history"], float(spec["peak_force"]))
+        model = (fe_model if fe_model_materials is None
+                 or spec["material"] in fe_model_materials else None)
         jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=run_mesh,
                            steps_per_segment=steps_per_segment, label=label,
-                           **(fe_model or {})))
+                           **(model or {})))
     return plan, jobs
 
 
@@ -126,19 +138,23 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
                         workers: int | None = None, only: list[str] | None = None,
                         mesh_checks: dict[str, str] | None = None, single_loads: bool = True,
                         progress: bool = True,
-                        fe_model: dict[str, Any] | None = None) -> dict[str, PaperRun]:
+                        fe_model: dict[str, Any] | None = None,
+                        fe_model_materials: Sequence[str] | None = None,
+                        ) -> dict[str, PaperRun]:
     """Run (or read from the cache) the FE runs of the study and analyse their cycles.
 
     ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
     returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities).
-    ``fe_model``: the FE model of every run (``study_jobs``).
+    ``fe_model``, ``fe_model_materials``: the FE model and the materials it applies to
+    (``study_jobs``).
     ``single_loads``: also run, for every monotonically increasing history, a single load to
     each of its peaks on its mesh (the paper compares the two)."""
     from ..fem.campaign import run_campaign
 
     runs = study()["runs"]
     plan, jobs = study_jobs(mesh, steps_per_segment=steps_per_segment, only=only,
-                            mesh_checks=mesh_checks, fe_model=fe_model)
+                            mesh_checks=mesh_checks, fe_model=fe_model,
+                            fe_model_materials=fe_model_materials)
     singles = {label: single_load_jobs(job)
                for (label, name, _), job in zip(plan, jobs, strict=True)
                if single_loads and runs[name]["history"] == "mono-increasing"}
