@@ -357,3 +357,31 @@ def test_cycles_command_refuses_open_history_and_foreign_params(tmp_path, capsys
                  str(weak), "--out", str(tmp_path / "o")]) == 2
     assert "params.material.compressive_yield_stress" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_ratio_that_dips_below_the_tolerance_and_rises_has_no_critical_cycle():
+    """A ratchet's onset (the weak grain with finite strain, docs/cycles.md): the residual
+    increment ratio is below the tolerance at cycle 2 and above it from cycle 3. Neither the
+    measured critical cycle (the ratio must stay below in every later cycle) nor the fitted
+    one (a power law that grows, p < 0, or a geometric one with q > 1, never stays below) is
+    cycle 2; a ratio that stays below keeps its first cycle."""
+    from geocontact.cyclic_fit import GeometricLaw, PowerLaw
+
+    rising = [1.0, 6.6e-4, 1.1e-3, 1.2e-3, 1.25e-3, 1.26e-3]
+    a = cy.analyse(synthetic(np.array(rising) * 1e-5, [1.0] + [2.6e-3] * 5), tolerance=1e-3)
+    assert a.residual_fit.power < 0
+    assert a.critical_cycles["measured"]["residual_increment"] is None
+    assert a.critical_cycles["fitted"]["residual_increment"] is None
+    assert a.critical_cycles["measured"]["elastic_shakedown"] is None
+    # at a looser tolerance every later cycle is below it: cycle 2, measured and fitted
+    loose = cy.analyse(synthetic(np.array(rising) * 1e-5, [1.0] + [2.6e-3] * 5),
+                       tolerance=1e-2)
+    assert loose.critical_cycles["measured"]["residual_increment"] == 2
+    assert loose.critical_cycles["fitted"]["residual_increment"] is None  # it grows for ever
+    fit = dict(cycles_used=[2, 3], cycles_excluded=[], rms_log10_error=0.0,
+               max_relative_error=0.0)
+    assert PowerLaw(7e-4, -0.3, power_standard_error=None, **fit).critical_cycle(1e-3) is None
+    assert PowerLaw(7e-4, 0.0, power_standard_error=None, **fit).critical_cycle(1e-3) == 2
+    assert PowerLaw(2e-3, 0.0, power_standard_error=None, **fit).critical_cycle(1e-3) is None
+    assert GeometricLaw(5e-4, 1.1, **fit).critical_cycle(1e-3) is None
+    assert GeometricLaw(5e-4, 1.0, **fit).critical_cycle(1e-3) == 2

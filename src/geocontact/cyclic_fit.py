@@ -152,10 +152,13 @@ class GeometricLaw:
         return self.coefficient * self.factor ** np.asarray(cycle, dtype=float)
 
     def critical_cycle(self, tolerance: float) -> int | None:
-        """First N >= 2 with c q^N < tolerance; None if the ratio does not decay."""
+        """First N >= 2 from which c q^N stays below tolerance; None if it never does (q > 1:
+        the ratio grows; q = 1 above it)."""
+        if self.factor > 1.0:
+            return None
         if self.coefficient * self.factor**2 < tolerance:
             return 2
-        if self.factor >= 1.0:
+        if self.factor == 1.0:
             return None
         n = math.log(tolerance / self.coefficient) / math.log(self.factor)
         return max(2, math.floor(n) + 1)
@@ -206,11 +209,17 @@ def _ratio(value: float, reference: float) -> float | None:
     return value / reference if reference > 0.0 else None
 
 
-def _first_below(rows: list[dict], key: str, tolerance: float) -> int | None:
+def _stays_below(rows: list[dict], key: str, tolerance: float) -> int | None:
+    """First cycle N >= 2 from which the ratio is below ``tolerance`` in every cycle run; None
+    if the last one is not (a ratio that dips below and rises again, as over a ratchet's
+    onset, has not reached its critical cycle)."""
+    first = None
     for row in rows[1:]:
         if row[key] is not None and row[key] < tolerance:
-            return int(row["cycle"])
-    return None
+            first = int(row["cycle"]) if first is None else first
+        else:
+            first = None
+    return first
 
 
 @dataclass
@@ -260,9 +269,10 @@ RULES = {
     "residual_approach_increment_m": "cycle N's residual approach minus cycle N-1's "
                                      "(cycle 1: its residual approach)",
     "ratios": "cycle N's value over cycle 1's",
-    "critical_cycle": "first N >= 2 whose ratio is below the tolerance (measured; and "
-                      "ceil((c/tol)^(1/p)) from the fitted power law); elastic_shakedown = "
-                      "the later of the two ratios' critical cycles",
+    "critical_cycle": "first N >= 2 from which the ratio stays below the tolerance (measured: "
+                      "in every later cycle run; fitted: ceil((c/tol)^(1/p)) from the power "
+                      "law, none if p < 0); elastic_shakedown = the later of the two ratios' "
+                      "critical cycles",
     "state": "last cycle: ratchetting if residual_increment_ratio > tol; else plastic "
              "shakedown if plastic_work_ratio > tol; else elastic shakedown; elastic if cycle "
              "1 left no residual approach and no plastic work (below 1e-6 of its scale)",
@@ -299,8 +309,8 @@ def analyse(cycles: list[dict[str, Any]], *, tolerance: float = DEFAULT_TOLERANC
             geometric[key] = None if g is None else {
                 **g.to_dict(), "critical_cycle": g.critical_cycle(tolerance)}
 
-    measured_res = _first_below(rows, "residual_increment_ratio", tolerance)
-    measured_wp = _first_below(rows, "plastic_work_ratio", tolerance)
+    measured_res = _stays_below(rows, "residual_increment_ratio", tolerance)
+    measured_wp = _stays_below(rows, "plastic_work_ratio", tolerance)
     fitted_res = residual_fit.critical_cycle(tolerance) if residual_fit else None
     fitted_wp = plastic_fit.critical_cycle(tolerance) if plastic_fit else None
     critical = {

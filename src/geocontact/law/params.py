@@ -59,11 +59,15 @@ def saturating_ratio(depth, limit: float, power: float, transition: float = 1.0,
 
 
 def power_law_critical_cycle(coefficient: float, power: float, tolerance: float) -> int | None:
-    """First cycle N >= 2 at which the ratio c N^-p is below ``tolerance``; None if it never
-    is (p <= 0: the ratio does not decay) or only beyond 1e15 cycles."""
+    """First cycle N >= 2 from which the ratio c N^-p stays below ``tolerance``; None if it
+    never does (p < 0: the ratio grows, so it leaves any tolerance; p = 0 above it) or only
+    beyond 1e15 cycles. (A law file's powers are positive; the analyses' fits of FE cycles can
+    rise, e.g. over a ratchet's onset.)"""
+    if power < 0.0:
+        return None
     if coefficient <= tolerance:
         return 2
-    if power <= 0.0:
+    if power == 0.0:
         return None
     log_n = math.log(coefficient / tolerance) / power
     if log_n > math.log(1e15):
