@@ -295,3 +295,58 @@ def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
     assert err.startswith("error: --fe-model-materials: unknown material 'weak'")
     assert err.count("\n") == 1
     assert not (tmp_path / "out").exists()  # refused before any FE run or output
+
+
+FINISHED_FINITE_STUDY = ["repeated-10MPa", "repeated-1MPa", "mono-decreasing-10MPa",
+                         "mono-decreasing-1MPa", "mono-increasing-10MPa",
+                         "repeated-von-mises-10MPa"]
+
+
+def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
+    """docs/cycles.md, "Findings with the weak grain's FE of record": the study on the committed
+    runs of datasets/fe-runs/paper-histories-finite (no FE run; the weak grain with finite
+    strain, the others small strain). With finite strain the weak grain ratchets slowly under
+    repeated loading to the same peak, which turns two of the paper's statements from "no"
+    (small strain, session 3) to "yes", and shakes down at once under decreasing loading."""
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("paper_histories_script",
+                                                  root / "scripts" / "paper_histories.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    out = tmp_path / "study"
+    assert script.main(["--mesh", "default", "--kinematics", "finite", "--mesh-rule", "contact",
+                        "--max-step-ratio", "1.01", "--fe-model-materials", "reference-weak",
+                        "--workers", "1", "--cache",
+                        str(root / "datasets" / "fe-runs" / "paper-histories-finite"),
+                        "--out", str(out), "--only", *FINISHED_FINITE_STUDY]) == 0
+    found = {f["statement"]: f for f in json.loads((out / "findings.json").read_text())["findings"]}
+
+    def finding(start):
+        (match,) = [f for s, f in found.items() if s.startswith(start)]
+        return match
+
+    longer = finding("The weaker sphere (1 MPa) ratchets longer")
+    assert longer["agrees"] is True  # small strain: no (0 cycles against 7)
+    assert longer["our_value"]["ratchetting_cycles"] == {"repeated-10MPa": 7, "repeated-1MPa": 9}
+    assert longer["our_value"]["last_ratio"]["repeated-1MPa"] == pytest.approx(1.22e-3, rel=0.01)
+    faster = finding("The stronger sphere (sigma_c = 10 MPa) shakes down in fewer cycles")
+    assert faster["agrees"] is True  # small strain: no
+    assert faster["our_value"]["1MPa"] is None  # no critical cycle: it does not decay
+    nc = finding("Critical cycle Nc (repeated-1MPa)")
+    assert nc["agrees"] is False and nc["our_value"]["fitted"]["residual"] is None
+    decreasing = finding("Monotonically decreasing loading (1MPa)")
+    assert decreasing["agrees"] is True
+    assert 0 < decreasing["our_value"]["plastic_work"] < 5e-4  # 0.023 % of cycle 1
+    assert abs(decreasing["our_value"]["residual"]) < 1e-4
+    assert finding("Under decreasing loading the weaker sphere")["agrees"] is True
+    stiffer = finding("Subsequent curves are stiffer")
+    assert stiffer["agrees"] is False
+    assert stiffer["our_value"]["repeated-1MPa"]["last_over_cycle2"] < 1.0  # the ratchet's share
+    assert finding("Repeated loading ends in elastic shakedown")["agrees"] is True  # at 1 %
+    # the runs of the other materials are the small-strain ones of docs/cycles.md's session 3
+    runs = {name: json.loads((out / f"{name}.json").read_text()) for name in FINISHED_FINITE_STUDY}
+    assert runs["repeated-10MPa"]["fe"]["inputs"].get("kinematics", "small") == "small"
+    assert runs["repeated-1MPa"]["fe"]["inputs"]["kinematics"] == "finite"
