@@ -8,6 +8,10 @@ step). docs/cycles.md ("Findings with the weak grain's FE of record") reads it: 
 strain the weak grain re-yields in every reload's approach to the previous peak.
 
     PYTHONPATH=src .venv/bin/python scripts/cycle_plasticity.py RUN_DIR [RUN_DIR ...] [--json F]
+
+``--twin CACHE`` adds the weak grain's repeated history on the coarse pilot's FE with small
+strain, its twin in every other setting (datasets/fe-runs/weak-small-strain-coarse; run, or
+resumed from its committed checkpoint, when not finished), beside the pilot's own run.
 """
 
 from __future__ import annotations
@@ -52,11 +56,32 @@ def cycle_plasticity(run_dir: Path) -> list[dict]:
     return rows
 
 
+# The finite-strain run whose small-strain twin --twin runs: the coarse pilot's repeated history
+TWIN_OF = ROOT / "datasets" / "fe-runs" / "weak-finite-coarse" / "f4dcbc2b4ecb941f6ab2"
+
+
+def small_strain_twin(cache: Path) -> Path:
+    """The folder of TWIN_OF's small-strain twin in ``cache``, run (or resumed) when needed."""
+    from geocontact.fem.campaign import FemJob, run_campaign
+
+    job = FemJob.of_inputs(load_result(TWIN_OF).summary["identity"]["inputs"],
+                           kinematics="small", label="repeated-1MPa, small-strain twin")
+    run_campaign([job], cache, workers=1)
+    return cache / job.key()
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("runs", nargs="+", type=Path, help="finished FE run folders")
+    ap.add_argument("runs", nargs="*", type=Path, help="finished FE run folders")
     ap.add_argument("--json", type=Path, default=None, help="also write the rows here")
+    ap.add_argument("--twin", type=Path, default=None, metavar="CACHE",
+                    help="also the small-strain twin of the coarse pilot's repeated run, "
+                         "from (or run into) this campaign folder, beside the pilot's run")
     args = ap.parse_args(argv)
+    if args.twin is not None:
+        args.runs += [TWIN_OF, small_strain_twin(args.twin)]
+    if not args.runs:
+        ap.error("give finished run folders, or --twin CACHE")
     table = {}
     for run in args.runs:
         rows = table[str(run)] = cycle_plasticity(run)

@@ -170,22 +170,13 @@ def law_on_campaign(params_path: Path, folder: Path) -> list[dict]:
     from geocontact.calibrate.acceptance import compare
     from geocontact.fem.campaign import FemJob
     from geocontact.law import load_params
-    from geocontact.material import Material
 
     params = load_params(params_path)
     rows = []
     for summary in sorted(folder.glob("*/summary.json")):
         result = load_result(summary.parent)
         inputs = result.summary["identity"]["inputs"]
-        job = FemJob(Material(**inputs["material"]), tuple(inputs["forces_N"]), inputs["mesh"],
-                     steps_per_segment=inputs.get("steps_per_segment"),
-                     mesh_force=inputs.get("mesh_force_N"), tolerance=inputs["tolerance"],
-                     volumetric=inputs["volumetric"],
-                     kinematics=inputs.get("kinematics", "small"),
-                     mesh_rule=inputs.get("mesh_rule", "yield"),
-                     step_rule=inputs.get("step_rule", "segment"),
-                     max_step_ratio=inputs.get("max_step_ratio"),
-                     contact=inputs.get("contact", "node"))
+        job = FemJob.of_inputs(inputs)
         c = compare(params, job, result, name=summary.parent.name, kind="held-out")
         rows.append({"key": summary.parent.name, "forces_N": list(job.forces),
                      "peak_force_N": max(job.forces),

@@ -240,3 +240,27 @@ def test_the_weak_grains_later_cycles_re_yield_on_the_approach_to_the_peak(capsy
             assert 0.05 < r["unloading_plastic_work_J"] / total < 0.2
     assert module.main([str(folder)]) == 0
     assert "plastic points peak / end" in capsys.readouterr().out
+
+
+def test_a_job_from_a_runs_recorded_inputs_is_that_run_or_its_twin():
+    """FemJob.of_inputs: the coarse pilot's repeated run rebuilt from its summary.json has its
+    inputs (the run itself); with kinematics="small" it is the small-strain twin that
+    scripts/cycle_plasticity.py --twin runs into datasets/fe-runs/weak-small-strain-coarse."""
+    from geocontact.fem.campaign import FemJob
+    from geocontact.fem.reuse import load_result
+
+    spec = importlib.util.spec_from_file_location("cycle_plasticity",
+                                                  ROOT / "scripts" / "cycle_plasticity.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    pilot = module.TWIN_OF
+    inputs = load_result(pilot).summary["identity"]["inputs"]
+    # the same inputs (its key differs only by the FE code that made it, which the current
+    # code reproduces: fem.reuse.REPRODUCED_FE_CODE)
+    assert FemJob.of_inputs(inputs).inputs()["inputs"] == inputs
+    twin = FemJob.of_inputs(inputs, kinematics="small")
+    assert twin.kinematics == "small" and twin.max_step_ratio == 1.02
+    assert twin.mesh_rule == "contact" and twin.forces == FemJob.of_inputs(inputs).forces
+    cache = fe_dataset.DATASETS / "weak-small-strain-coarse"
+    assert ((cache / twin.key() / "summary.json").exists()
+            or (cache / f"{twin.key()}.checkpoint.npz").exists())

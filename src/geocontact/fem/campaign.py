@@ -17,7 +17,7 @@ import asyncio
 import json
 import os
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -75,6 +75,20 @@ class FemJob:
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
         self.identity()  # one-line InputError on a setting the FE would refuse
+
+    @classmethod
+    def of_inputs(cls, inputs: dict, **changes) -> FemJob:
+        """The job of a run's recorded identity inputs (``summary.json`` ``identity.inputs``),
+        with ``changes`` (FemJob fields) applied: the same run, or its twin in one setting."""
+        job = cls(Material(**inputs["material"]), tuple(inputs["forces_N"]), inputs["mesh"],
+                  steps_per_segment=inputs.get("steps_per_segment"),
+                  mesh_force=inputs.get("mesh_force_N"), tolerance=inputs["tolerance"],
+                  volumetric=inputs["volumetric"], kinematics=inputs.get("kinematics", "small"),
+                  mesh_rule=inputs.get("mesh_rule", "yield"),
+                  step_rule=inputs.get("step_rule", "segment"),
+                  max_step_ratio=inputs.get("max_step_ratio"),
+                  contact=inputs.get("contact", "node"))
+        return replace(job, **changes) if changes else job
 
     def identity(self) -> FeRunIdentity:
         return FeRunIdentity.of(self.material, self.forces, self.mesh,
