@@ -264,3 +264,26 @@ def test_a_job_from_a_runs_recorded_inputs_is_that_run_or_its_twin():
     cache = fe_dataset.DATASETS / "weak-small-strain-coarse"
     assert ((cache / twin.key() / "summary.json").exists()
             or (cache / f"{twin.key()}.checkpoint.npz").exists())
+
+
+def test_cycle_yield_fields_locates_the_yielding_of_later_cycles(tmp_path, capsys):
+    """scripts/cycle_yield_fields.py on a small repeated run with fields (the reference grain,
+    coarse, 2 x 0 -> 100 N): one row for cycle 2, with locations inside the body and shares in
+    [0, 1]; a folder without fields or results is a one-line error."""
+    spec = importlib.util.spec_from_file_location("cycle_yield_fields",
+                                                  ROOT / "scripts" / "cycle_yield_fields.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    run = tmp_path / "run"
+    run_history(preset("reference"), [0.0, 100.0, 0.0, 100.0, 0.0], "coarse", run,
+                steps_per_segment=3)
+    (row,) = module.cycle_yield(run)
+    assert row["cycle"] == 2 and row["first_peak_contact_radius_m"] > 0
+    assert row["cells_yielded"] >= 0 and row["largest_at_depth_over_a"] > -1e-9
+    for share in (row["share_near_surface"], row["share_at_contact_edge"]):
+        assert share is None or 0.0 <= share <= 1.0
+    assert module.main([str(run)]) == 0
+    assert "cycle 2: eqps grew in" in capsys.readouterr().out
+    from geocontact.errors import run_reporting_errors
+    assert run_reporting_errors(lambda: module.main([str(tmp_path / "none")])) == 2
+    assert capsys.readouterr().err.count("\n") == 1
