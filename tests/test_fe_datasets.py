@@ -287,3 +287,24 @@ def test_cycle_yield_fields_locates_the_yielding_of_later_cycles(tmp_path, capsy
     from geocontact.errors import run_reporting_errors
     assert run_reporting_errors(lambda: module.main([str(tmp_path / "none")])) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_the_small_strain_twin_ratchets_at_about_half_the_finite_strain_rate():
+    """docs/cycles.md ("Why the answer changed"): the coarse pilot's repeated run with small
+    strain, everything else the same (contact mesh rule, cap 1.02), ratchets too, from cycle 5
+    at 0.3-0.6 of the finite-strain run's residual increment and plastic work per cycle; so
+    session 3's shakedown at once (the "yield" mesh, no cap) did not resolve the contact edge."""
+    from geocontact.cyclic_fit import cycle_table
+    from geocontact.fem.campaign import FemJob
+    from geocontact.fem.reuse import load_result
+
+    pilot = fe_dataset.DATASETS / "weak-finite-coarse" / "f4dcbc2b4ecb941f6ab2"
+    finite = load_result(pilot)
+    twin_key = FemJob.of_inputs(finite.summary["identity"]["inputs"], kinematics="small").key()
+    small = load_result(fe_dataset.DATASETS / "weak-small-strain-coarse" / twin_key)
+    rows = {name: cycle_table(r.summary["cycles"])
+            for name, r in (("finite", finite), ("small", small))}
+    for f, s in zip(rows["finite"][4:], rows["small"][4:], strict=True):
+        for key in ("residual_increment_ratio", "plastic_work_ratio"):
+            assert 0.3 < s[key] / f[key] < 0.6, (s["cycle"], key)
+        assert s["residual_increment_ratio"] > 1e-4  # far above the FE's resolution (1e-5)
