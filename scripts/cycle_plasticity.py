@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact import __version__  # noqa: E402
+from geocontact.analyses.cycles import fe_cycle_windows  # noqa: E402
 from geocontact.errors import run_reporting_errors  # noqa: E402
 from geocontact.fem.reuse import load_result  # noqa: E402
 from geocontact.io import write_json_atomic  # noqa: E402
@@ -34,13 +35,13 @@ from geocontact.io import write_json_atomic  # noqa: E402
 def cycle_plasticity(run_dir: Path) -> list[dict]:
     """One row per cycle of the finished run in ``run_dir`` (its curve from zero force to a
     peak and back to zero)."""
-    curve = load_result(run_dir).curve  # InputError (one line) if it is not a finished run
+    result = load_result(run_dir)  # InputError (one line) if it is not a finished run
+    curve = result.curve
     force = np.asarray(curve["force_N"], dtype=float)
     work = np.asarray(curve["plastic_dissipation_J"], dtype=float)
     points = np.asarray(curve["plastic_points"], dtype=int)
-    zeros = [0] + [i for i in range(1, force.size) if force[i] == 0.0]
     rows = []
-    for n, (start, end) in enumerate(zip(zeros[:-1], zeros[1:], strict=True), 1):
+    for n, (start, end) in enumerate(fe_cycle_windows(curve, result.summary["cycles"]), 1):
         peak = start + int(np.argmax(force[start:end + 1]))
         loading = work[peak] - work[start]
         last = work[peak] - work[peak - 1]
@@ -90,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
               "plastic points peak / end")
         for r in rows:
             share = r["last_step_share_of_loading"]
-            print(f"  {r['cycle']:5d}  {r['peak_force_N']:6.0f}  {r['loading_plastic_work_J']:9.3g}  "
+            print(f"  {r['cycle']:5d}  {r['peak_force_N']:6.0f}  "
+                  f"{r['loading_plastic_work_J']:9.3g}  "
                   f"{r['unloading_plastic_work_J']:11.3g}  {r['last_step_from_N']:8.0f} N, "
                   f"{'-' if share is None else f'{share:.2f}':>5}        "
                   f"{r['plastic_points_at_peak']:6d} / {r['plastic_points_at_end']:d}")

@@ -25,6 +25,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
+from geocontact.analyses.cycles import fe_cycle_windows  # noqa: E402
 from geocontact.errors import InputError, run_reporting_errors  # noqa: E402
 from geocontact.fem.checkpoint import field_name  # noqa: E402
 from geocontact.fem.reuse import load_result  # noqa: E402
@@ -51,12 +52,15 @@ def cycle_yield(run: Path) -> list[dict]:
     radius = float(result.summary["identity"]["inputs"]["material"]["radius"])
     force = np.asarray(result.curve["force_N"], dtype=float)
     contact = np.asarray(result.curve["contact_radius_m"], dtype=float)
-    zeros = [0] + [i for i in range(1, force.size) if force[i] == 0.0]
-    a = float(contact[zeros[0] + int(np.argmax(force[zeros[0]:zeros[1] + 1]))])
+    steps = np.asarray(result.curve["step"], dtype=int)
+    windows = fe_cycle_windows(result.curve, result.summary["cycles"])
+    start, end = windows[0]
+    a = float(contact[start + int(np.argmax(force[start:end + 1]))])
     rows = []
-    for n in range(2, len(zeros)):
-        centroids, depth, before = _cells(run, zeros[n - 1], radius)
-        _, _, after = _cells(run, zeros[n], radius)
+    ends = [int(steps[end]) for _, end in windows]  # the step closing each cycle
+    for n, (before_step, after_step) in enumerate(zip(ends[:-1], ends[1:], strict=True), 2):
+        centroids, depth, before = _cells(run, before_step, radius)
+        _, _, after = _cells(run, after_step, radius)
         growth = after - before
         grew = growth > GROWTH
         weight = np.where(grew, growth, 0.0)
@@ -65,7 +69,8 @@ def cycle_yield(run: Path) -> list[dict]:
         r = centroids[:, 0]
         rows.append({
             "cycle": n, "cells_yielded": int(grew.sum()), "largest_growth": float(growth[top]),
-            "largest_at_r_over_a": float(r[top] / a), "largest_at_depth_over_a": float(depth[top] / a),
+            "largest_at_r_over_a": float(r[top] / a),
+            "largest_at_depth_over_a": float(depth[top] / a),
             "share_near_surface": float(weight[depth < 0.05 * a].sum() / total) if total else None,
             "share_at_contact_edge": (float(weight[(r > 0.8 * a) & (r < 1.1 * a)].sum() / total)
                                       if total else None),
@@ -86,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  cycle {r['cycle']}: eqps grew in {r['cells_yielded']} cells; largest "
                   f"{r['largest_growth']:.3g} at r/a {r['largest_at_r_over_a']:.3f}, depth/a "
                   f"{r['largest_at_depth_over_a']:.4f}; growth within 0.05 a of the surface "
-                  f"{r['share_near_surface']:.2f}, at the contact edge {r['share_at_contact_edge']:.2f}")
+                  f"{r['share_near_surface']:.2f}, at the contact edge "
+                  f"{r['share_at_contact_edge']:.2f}")
     return 0
 
 
