@@ -22,6 +22,14 @@ fe_dataset = importlib.util.module_from_spec(_spec)
 sys.modules[_spec.name] = fe_dataset
 _spec.loader.exec_module(fe_dataset)
 
+
+def _script(name: str):
+    """scripts/<name>.py loaded as a module."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
 COMMITTED = sorted(p for p in fe_dataset.DATASETS.glob("*/*") if p.is_dir()
                    and not p.name.startswith(".") and (p / "summary.json").exists())
 
@@ -90,10 +98,7 @@ def test_status_of_a_finished_run_and_of_problems(campaign, tmp_path, capsys):
 def test_compare_law_forms_refuses_a_folder_without_runs(tmp_path, capsys):
     """scripts/compare_law_forms.py: a missing folder, or one without finished runs of the
     given inputs, is a one-line error (exit 2), never a traceback or an empty comparison."""
-    spec = importlib.util.spec_from_file_location("compare_law_forms",
-                                                  ROOT / "scripts" / "compare_law_forms.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("compare_law_forms")
     from geocontact.errors import run_reporting_errors
 
     args = ["--material", "reference-weak", "--mesh", "coarse", "--levels", "13",
@@ -109,10 +114,7 @@ def test_compare_law_forms_refuses_a_folder_without_runs(tmp_path, capsys):
 def test_reproduce_fe_runs_compares_bit_for_bit(campaign, tmp_path):
     """scripts/reproduce_fe_runs.py: the tiny campaign's run made again is equal; a committed
     run whose curve was changed in one value is not, and the exit status says so."""
-    spec = importlib.util.spec_from_file_location("reproduce_fe_runs",
-                                                  ROOT / "scripts" / "reproduce_fe_runs.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("reproduce_fe_runs")
     folder, key = campaign
     report = tmp_path / "report.json"
     assert module.main([str(folder), "--out", str(tmp_path / "again"), "--json",
@@ -186,10 +188,7 @@ def test_the_shipped_weak_law_on_the_staircase_runs_of_every_contact_discretisat
         assert row["force_rms_percent_of_peak"] < 2.0, row
 
 
-_ratchet_spec = importlib.util.spec_from_file_location(
-    "weak_ratchet_table", ROOT / "scripts" / "weak_ratchet_table.py")
-weak_ratchet_table = importlib.util.module_from_spec(_ratchet_spec)
-_ratchet_spec.loader.exec_module(weak_ratchet_table)
+weak_ratchet_table = _script("weak_ratchet_table")
 
 
 def test_weak_grain_ratchet_table_regenerates_and_the_law_follows_it(capsys):
@@ -223,10 +222,7 @@ def test_the_weak_grains_later_cycles_re_yield_on_the_approach_to_the_peak(capsy
     plastic work is dissipated in its last step to the peak, the same number of points yields
     at every peak (within 10 %), and the unloading dissipates about a tenth of the cycle
     (docs/cycles.md, "Findings with the weak grain's FE of record")."""
-    spec = importlib.util.spec_from_file_location("cycle_plasticity",
-                                                  ROOT / "scripts" / "cycle_plasticity.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("cycle_plasticity")
     for folder in (fe_dataset.DATASETS / "paper-histories-finite" / "79325e01f1a54b90900f",
                    fe_dataset.DATASETS / "weak-finite-coarse" / "f4dcbc2b4ecb941f6ab2"):
         rows = module.cycle_plasticity(folder)
@@ -249,10 +245,7 @@ def test_a_job_from_a_runs_recorded_inputs_is_that_run_or_its_twin():
     from geocontact.fem.campaign import FemJob
     from geocontact.fem.reuse import load_result
 
-    spec = importlib.util.spec_from_file_location("cycle_plasticity",
-                                                  ROOT / "scripts" / "cycle_plasticity.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("cycle_plasticity")
     pilot = module.TWIN_OF
     inputs = load_result(pilot).summary["identity"]["inputs"]
     # the same inputs (its key differs only by the FE code that made it, which the current
@@ -270,10 +263,7 @@ def test_cycle_yield_fields_locates_the_yielding_of_later_cycles(tmp_path, capsy
     """scripts/cycle_yield_fields.py on a small repeated run with fields (the reference grain,
     coarse, 2 x 0 -> 100 N): one row for cycle 2, with locations inside the body and shares in
     [0, 1]; a folder without fields or results is a one-line error."""
-    spec = importlib.util.spec_from_file_location("cycle_yield_fields",
-                                                  ROOT / "scripts" / "cycle_yield_fields.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("cycle_yield_fields")
     run = tmp_path / "run"
     run_history(preset("reference"), [0.0, 100.0, 0.0, 100.0, 0.0], "coarse", run,
                 steps_per_segment=3)

@@ -261,7 +261,6 @@ def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
     single loads of its increasing history) only; the σc = 10 MPa and von Mises runs keep the FE
     defaults, the same jobs (cache keys) as a study without the FE model flags. An unknown preset
     is a one-line error naming the option and the allowed presets."""
-    import importlib.util
     from pathlib import Path
 
     from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
@@ -283,10 +282,7 @@ def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
         study_jobs("coarse", only=names, fe_model=model, fe_model_materials=["weak"])
 
     root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("paper_histories_script",
-                                                  root / "scripts" / "paper_histories.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
+    script = _paper_histories_script(root)
     code = run_reporting_errors(lambda: script.main(
         ["--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache"), "--kinematics",
          "finite", "--fe-model-materials", "weak"]))
@@ -308,14 +304,10 @@ def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
     strain, the others small strain). With finite strain the weak grain ratchets slowly under
     repeated loading to the same peak, which turns two of the paper's statements from "no"
     (small strain, session 3) to "yes", and shakes down at once under decreasing loading."""
-    import importlib.util
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("paper_histories_script",
-                                                  root / "scripts" / "paper_histories.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
+    script = _paper_histories_script(root)
     out = tmp_path / "study"
     assert script.main(["--mesh", "default", "--kinematics", "finite", "--mesh-rule", "contact",
                         "--max-step-ratio", "1.01", "--fe-model-materials", "reference-weak",
@@ -350,3 +342,14 @@ def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
     runs = {name: json.loads((out / f"{name}.json").read_text()) for name in FINISHED_FINITE_STUDY}
     assert runs["repeated-10MPa"]["fe"]["inputs"].get("kinematics", "small") == "small"
     assert runs["repeated-1MPa"]["fe"]["inputs"]["kinematics"] == "finite"
+
+
+def _paper_histories_script(root):
+    """scripts/paper_histories.py loaded as a module."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("paper_histories_script",
+                                                  root / "scripts" / "paper_histories.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    return script
