@@ -6,7 +6,7 @@ working session. Its FE cache is a folder in the repository: every finished run
 (``<key>/curve.csv``, ``summary.json`` and the result manifest, ~20 KB) is committed, so the
 next session's ``geocontact calibrate --cache datasets/fe-runs/<campaign>`` reuses it and runs
 only what is missing. A run under way keeps its checkpoint beside it (``<key>.checkpoint.npz``,
-not committed: .gitignore); an interrupted run resumes from it within the session.
+committed at the end of a session), and the next session's run goes on from it.
 
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py [CAMPAIGN_DIR ...] [--json]
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py --compare DIR_A DIR_B [--json]
@@ -16,10 +16,11 @@ For each campaign folder (default: every folder under datasets/fe-runs): the fin
 (peak force, load-step solves, Newton iterations, wall time) and whether each was computed by
 the current FE sources (or older ones whose runs they reproduce bit for bit:
 ``fem.reuse.REPRODUCED_FE_CODE``) and libraries (``current``) or not (``stale``: a calibration
-with this cache would recompute it); the runs under way (steps done of the steps requested, from
-their checkpoint); entries that are neither (reported, never touched). Exit status 0, or 1 if a run
-folder is not a complete, self-consistent result (its key is not the hash of its identity, its
-manifest or curve is missing).
+with this cache would recompute it); the runs under way (from their checkpoint: steps and solves
+done of those requested, force reached, FE time so far and left at its rate so far); entries
+that are neither (reported, never touched). Exit status 0, or 1 if a run folder is not a
+complete, self-consistent result (its key is not the hash of its identity, its manifest or curve
+is missing).
 
 ``--law P.json``: the law file driven along every finished run of the campaign, as the
 calibration's acceptance does (``calibrate.acceptance.compare``: force RMS over the path as % of
@@ -39,6 +40,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
+from geocontact.fem.campaign import describe_progress, run_progress  # noqa: E402
 from geocontact.fem.reuse import (  # noqa: E402
     fe_code_hash,
     identity_key,
@@ -78,18 +80,25 @@ def check_run(folder: Path) -> dict:
 
 
 def check_pending(checkpoint: Path) -> dict:
-    """A run under way: the steps its checkpoint holds."""
+    """A run under way: how far its checkpoint has come (``fem.campaign.run_progress``)."""
     entry = {"key": checkpoint.name.removesuffix(".checkpoint.npz")}
     try:
         with np.load(checkpoint) as data:
             identity = json.loads(str(data["identity"]))
-            done = int(data["done"])
     except Exception as exc:  # noqa: BLE001 - a checkpoint being rewritten, or a broken one
         return {**entry, "problem": f"unreadable checkpoint: {exc}"}
     if not isinstance(identity, dict) or identity_key(identity) != identity.get("key"):
         return {**entry, "problem": "checkpoint identity record does not hash to its key"}
+    try:
+        progress = run_progress(checkpoint)
+    except Exception as exc:  # noqa: BLE001 - reported, never raised
+        return {**entry, "problem": f"unreadable checkpoint: {exc}"}
     forces = identity.get("inputs", {}).get("forces_N", [])
-    return {**entry, "peak_force_N": max(forces) if forces else None, "steps_done": done}
+    return {**entry, "peak_force_N": max(forces) if forces else None,
+            "steps_done": progress["step"], "steps": progress["steps"],
+            "solves_done": progress["solves_done"], "solves": progress["solves"],
+            "force_N": progress["force_N"], "wall_time_s": progress["wall_time_s"],
+            "progress": describe_progress(progress)}
 
 
 def campaign_status(folder: Path) -> dict:
@@ -124,7 +133,7 @@ def _print(status: dict) -> None:
             print(f"  {run['key']}  under way, {run['problem']}")
         else:
             print(f"  {run['key']}  under way: peak {run['peak_force_N']:.4g} N, "
-                  f"{run['steps_done']} steps done")
+                  f"{run['progress']}")
     for name in status["other"]:
         print(f"  {name}  (not an FE run: left alone)")
 

@@ -78,17 +78,22 @@ def test_status_of_a_finished_run_and_of_problems(campaign, tmp_path, capsys):
     record["identity"]["inputs"]["mesh"] = "fine"  # a hand edit that keeps the key
     summary.write_text(json.dumps(record))
     (edited / "foreign.txt").write_text("not ours")
+    # a checkpoint of a run (an explicit one stays when the run is done) and an edited one
+    run_history(preset("reference"), [0.0, 2.0, 0.0], "coarse", steps_per_segment=2,
+                checkpoint=edited / "0123.checkpoint.npz", write_fields=False)
     signed = {"inputs": {"forces_N": [0.0, 2.0]}}
     signed["key"] = identity_key(signed)
-    np.savez(edited / "0123.checkpoint.npz", identity=np.array(json.dumps(signed)),
-             done=np.array(7))
     np.savez(edited / "0124.checkpoint.npz", identity=np.array(json.dumps(
         {**signed, "key": "edited"})), done=np.array(7))
     status = fe_dataset.campaign_status(edited)
     assert "hash" in status["finished"][0]["problem"]
-    assert status["pending"] == [{"key": "0123", "peak_force_N": 2.0, "steps_done": 7},
-                                 {"key": "0124", "problem": "checkpoint identity record does "
-                                  "not hash to its key"}]
+    pending, edited_one = status["pending"]
+    assert pending["key"] == "0123" and pending["peak_force_N"] == 2.0
+    steps = pending["steps"]
+    assert pending["steps_done"] == steps > 0 and pending["force_N"] == 0.0
+    assert pending["progress"].startswith(f"step {steps} of {steps}, ")
+    assert edited_one == {"key": "0124", "problem": "checkpoint identity record does not hash "
+                                                    "to its key"}
     assert status["other"] == ["foreign.txt"]
     assert fe_dataset.main([str(edited)]) == 1
     assert (edited / "foreign.txt").read_text() == "not ours"

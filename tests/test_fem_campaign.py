@@ -3,6 +3,7 @@ run (any exception, a worker killed) leaves the others finished and cached."""
 
 import os
 import sys
+from dataclasses import replace
 
 import cloudpickle
 import dask
@@ -188,3 +189,67 @@ def test_killed_worker_and_any_error_lose_nothing_finished(material, tmp_path, m
     assert steps and steps[0] == 3
     assert len(again[1].curve["step"]) == again[1].summary["steps"] + 1
     assert not checkpoint_path(tmp_path / jobs[1].key()).exists()
+
+
+PROGRESS_RUN = {"history": ([0.0, 20.0, 0.0], "coarse"),
+                "fe": {"steps_per_segment": 4, "max_step_ratio": 1.25}}
+
+
+def _stopped_run(material, checkpoint, monkeypatch, stop_at):
+    """PROGRESS_RUN interrupted (as by Ctrl-C) while solving load step ``stop_at``: its
+    checkpoint holds the steps before it."""
+    advance = fem_run._advance
+
+    def interrupted(solver, state, target, step, *goals):
+        if step == stop_at:
+            raise KeyboardInterrupt
+        return advance(solver, state, target, step, *goals)
+
+    monkeypatch.setattr(fem_run, "_advance", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_history(material, *PROGRESS_RUN["history"], checkpoint=checkpoint,
+                    write_fields=False, **PROGRESS_RUN["fe"])
+    monkeypatch.setattr(fem_run, "_advance", advance)
+
+
+def test_run_progress_reads_how_far_a_run_has_come(material, tmp_path, monkeypatch):
+    """campaign.run_progress from a checkpoint alone: the steps and the solves (the sub-steps of
+    the step cap) done of the run's total, which the finished run's own record confirms."""
+    ckpt = tmp_path / "run.checkpoint.npz"
+    _stopped_run(material, ckpt, monkeypatch, 4)
+    partial = campaign.run_progress(ckpt)
+    whole = run_history(material, *PROGRESS_RUN["history"], checkpoint=ckpt, resume=True,
+                        write_fields=False, **PROGRESS_RUN["fe"])
+    record = whole.summary["step_control"]
+    assert record["solves"] > whole.summary["steps"]  # the cap divided loading steps
+    assert partial["step"] == 3 and partial["steps"] == whole.summary["steps"]
+    assert partial["solves"] == record["solves"]
+    assert 3 <= partial["solves_done"] < record["solves"]
+    assert partial["force_N"] == pytest.approx(whole.curve["force_N"][3], rel=1e-12)
+    assert partial["key"] == whole.summary["identity"]["key"] and partial["wall_time_s"] > 0
+    finished = campaign.run_progress(ckpt)  # an explicit checkpoint stays after the run
+    assert finished["step"] == finished["steps"] == whole.summary["steps"]
+    assert finished["solves_done"] == record["solves"]
+    line = campaign.describe_progress(partial)
+    assert line.startswith(f"step 3 of {whole.summary['steps']}, {partial['solves_done']} of "
+                           f"{record['solves']} solves") and "to go at its rate so far" in line
+    assert "to go" not in campaign.describe_progress(finished)
+
+
+def test_campaign_reports_its_runs_under_way(material, tmp_path, capsys):
+    """A long run shows progress: every ``progress_every`` seconds a line per run whose
+    checkpoint moved on; none with ``progress_every=None``."""
+    job = FemJob(material, (0.0, 20.0, 0.0), steps_per_segment=4, max_step_ratio=1.25,
+                 label="probe")
+    run_campaign([job], tmp_path / "cache", progress_every=0.02)
+    lines = [line for line in capsys.readouterr().err.splitlines()
+             if line.startswith("campaign: probe: step ")]
+    assert lines and all(" solves (" in line and "N, " in line for line in lines)
+    run_campaign([replace(job, label="again")], tmp_path / "other", progress_every=None)
+    assert "campaign: again: step" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("every", [0, -1.0, float("nan"), "5"])
+def test_bad_progress_interval(material, tmp_path, every):
+    with pytest.raises(InputError, match=r"^progress_every: must be a number of seconds > 0"):
+        run_campaign([FemJob(material, (0.0, 1.0, 0.0))], tmp_path, progress_every=every)

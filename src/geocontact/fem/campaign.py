@@ -17,6 +17,7 @@ import asyncio
 import json
 import os
 import sys
+import threading
 from dataclasses import dataclass, replace
 from pathlib import Path
 from urllib.parse import urlsplit
@@ -27,6 +28,7 @@ from ..errors import GeocontactError, InputError
 from ..force_history import validate_forces
 from ..material import Material
 from .checkpoint import checkpoint_path, fields_beside
+from .result import CURVE_COLUMNS
 from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
     FeRunIdentity,
     difference,
@@ -37,11 +39,20 @@ from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
     recorded_identities,
     reproduced_code,
 )
-from .run import TOLERANCE, VOLUMETRIC_DEFAULT, FemResult, run_history, write_result
+from .run import (
+    TOLERANCE,
+    VOLUMETRIC_DEFAULT,
+    FemResult,
+    load_schedule,
+    run_history,
+    sub_step_record,
+    write_result,
+)
 
 DEFAULT_CACHE = Path("out/cache/fem")
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 MESSAGE_FAILURES = 3  # failed runs described in a CampaignError's message (all in .failures)
+PROGRESS_EVERY_S = 300.0  # how often a campaign reports its runs under way (their checkpoints)
 
 
 class CampaignError(GeocontactError):
@@ -145,6 +156,63 @@ def _cached(cache: Path, job: FemJob) -> Path:
     return cache / job.key()
 
 
+def run_progress(checkpoint: str | Path) -> dict:
+    """How far a run under way has come, from its checkpoint alone (``<key>.checkpoint.npz``):
+    the load steps done of those requested, the solves they took of the run's total (before any
+    cutback; with ``max_step_ratio`` a weak grain's steps differ in solves by a factor of 100 or
+    more, so the solves are the fairer share of the work), the force reached and the FE time so
+    far. Raises on a checkpoint that cannot be read."""
+    with np.load(checkpoint, allow_pickle=False) as data:
+        identity = json.loads(str(data["identity"]))
+        done = int(data["done"])
+        yield_force = float(data["yield_force_estimate"])
+        wall = float(data["wall_time_s"])
+        last = data["rows"][-1]
+    run = FemJob.of_inputs(identity["inputs"]).identity()
+    targets, _ = load_schedule(list(run.forces), run.steps_per_segment, yield_force,
+                               run.step_rule)
+    return {"key": identity["key"], "step": done, "steps": len(targets),
+            "solves_done": sub_step_record(targets[:done], yield_force,
+                                           run.max_step_ratio)["solves"],
+            "solves": sub_step_record(targets, yield_force, run.max_step_ratio)["solves"],
+            "force_N": float(last[CURVE_COLUMNS.index("force_N")]), "wall_time_s": wall}
+
+
+def describe_progress(progress: dict) -> str:
+    """One line of ``run_progress``: steps, share of the solves, force, FE time, and the time
+    left at the run's rate so far (its later solves, on a larger contact, tend to cost more)."""
+    done, total, wall = progress["solves_done"], progress["solves"], progress["wall_time_s"]
+    text = (f"step {progress['step']} of {progress['steps']}, {done} of {total} solves "
+            f"({100.0 * done / max(total, 1):.0f} %), F = {progress['force_N']:.4g} N, "
+            f"{_duration(wall)} of FE so far")
+    if 0 < done < total:
+        text += f", about {_duration(wall / done * (total - done))} to go at its rate so far"
+    return text
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else (
+        f"{seconds / 60:.0f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h")
+
+
+def _watch(cache: Path, jobs: list[FemJob], every: float, stop: threading.Event) -> None:
+    """Every ``every`` seconds until ``stop``: one line for each run whose checkpoint has moved
+    on since the last report (a run on a remote cluster writes its checkpoint there, unseen)."""
+    seen: dict[Path, float] = {}
+    paths = {checkpoint_path(_cached(cache, job)): job for job in jobs}
+    while not stop.wait(every):
+        for path, job in paths.items():
+            try:
+                changed = path.stat().st_mtime_ns
+                if seen.get(path) == changed:
+                    continue
+                seen[path] = changed
+                line = describe_progress(run_progress(path))
+            except Exception:  # noqa: BLE001 - not there yet, gone (finished) or being replaced
+                continue
+            print(f"campaign: {job.name()}: {line}", file=sys.stderr)
+
+
 def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
     """Move the checkpoint of the same run under another key (inputs equal to rounding, or
     written by FE code whose runs the current code reproduces: ``fem.reuse.difference``) to
@@ -174,7 +242,8 @@ def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
 
 def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
                  scheduler: str | None = None, workers: int | None = None,
-                 progress: bool = True) -> list[FemResult]:
+                 progress: bool = True,
+                 progress_every: float | None = PROGRESS_EVERY_S) -> list[FemResult]:
     """Run every job (cached ones are read back) and return their results in order.
 
     ``scheduler``: address of an existing Dask scheduler (``tcp://host:8786``); None starts a
@@ -186,12 +255,20 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
     memory) does not stop the others: they finish and are cached, then ``CampaignError`` names
     every failed run with its inputs and says how to resume (rerun: finished runs come from the
     cache, an interrupted run goes on from its checkpoint).
+
+    ``progress``: report on stderr what is reused and what finishes, and every
+    ``progress_every`` seconds (None: never) how far each run under way has come
+    (``run_progress``: steps, solves, force, FE time, time left at its rate so far).
     """
     jobs = list(jobs)
     if not jobs:
         raise InputError("campaign: no FE runs to do")
     if scheduler is not None:
         scheduler = check_scheduler_address(scheduler)
+    if progress_every is not None and not (isinstance(progress_every, (int, float))
+                                           and 0 < progress_every < float("inf")):
+        raise InputError(f"progress_every: must be a number of seconds > 0, or None; "
+                         f"got {progress_every!r}")
     cache = Path(cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
     results: list[FemResult | None] = [finished_run(_cached(cache, job), job.identity())
@@ -217,6 +294,20 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
         print(f"campaign: {len(jobs)} FE runs, {len(jobs) - len(todo)} cached, "
               f"{len(todo)} to run", file=sys.stderr)
     failures: dict[int, BaseException] = {}
+    stop = threading.Event()
+    if todo and progress and progress_every is not None:
+        threading.Thread(target=_watch, args=(cache, [jobs[i] for i in todo], progress_every,
+                                              stop), daemon=True).start()
+    try:
+        _run_todo(jobs, todo, cache, results, scheduler, workers, progress, failures)
+    finally:
+        stop.set()
+    if failures:
+        raise _campaign_error(jobs, failures, cache)
+    return results  # type: ignore[return-value]
+
+
+def _run_todo(jobs, todo, cache, results, scheduler, workers, progress, failures) -> None:
     if todo:
         if scheduler is None and (len(todo) == 1 or workers == 1):
             for n, i in enumerate(todo, 1):
@@ -230,9 +321,6 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
                     print(f"campaign: {n}/{len(todo)} done ({job.name()})", file=sys.stderr)
         else:
             _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failures)
-    if failures:
-        raise _campaign_error(jobs, failures, cache)
-    return results  # type: ignore[return-value]
 
 
 def _finish(cache: Path, job: FemJob, result: FemResult) -> FemResult:
