@@ -353,3 +353,28 @@ def _paper_histories_script(root):
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     return script
+
+
+def test_report_draws_every_historys_cycles_against_its_first(paper_like, tmp_path):
+    """The report's figure of the study: cycle N over cycle 1 for each history from cycles.csv,
+    the values that a log axis can show (positive, above round-off) and only those."""
+    import csv
+
+    from geocontact.analyses.paper_histories import write_study
+    from geocontact.cyclic_fit import ROUND_OFF
+    from geocontact.io import provenance
+    from geocontact.report import build_report
+
+    write_study(tmp_path, paper_like, provenance("test", {}))
+    text = build_report(tmp_path).read_text()
+    assert "Every history&#x27;s cycles against its first" in text  # the figure's caption
+    with (tmp_path / "figures" / "paper_histories_ratios.csv").open(newline="") as handle:
+        drawn = list(csv.DictReader(handle))
+    for name, run in paper_like.items():
+        for key in ("residual_increment_ratio", "plastic_work_ratio"):
+            expected = [(c["cycle"], c[key]) for c in run.analysis.cycles
+                        if c["cycle"] >= 2 and c[key] is not None and c[key] > ROUND_OFF]
+            got = [(int(float(row[f"{name}_{key}_cycle"])), float(row[f"{name}_{key}"]))
+                   for row in drawn if row.get(f"{name}_{key}", "") != ""]
+            assert [c for c, _ in got] == [c for c, _ in expected]
+            assert [v for _, v in got] == pytest.approx([v for _, v in expected], rel=1e-12)

@@ -1,14 +1,24 @@
 """Report section of the paper's loading-history study (``scripts/paper_histories.py``): its
-findings table."""
+findings table, and every history's cycles against its first (``cycles.csv``)."""
 
 from __future__ import annotations
 
+import csv
 import json
 from html import escape as html_escape
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.ticker import MaxNLocator
+
+from ..cyclic_fit import ROUND_OFF
 from ..errors import InputError
-from .html import Report, table
+from .common import save_to_figures
+from .html import Figure, Report, table
+
+RATIOS = (("residual_increment_ratio", "residual-approach increment / cycle 1"),
+          ("plastic_work_ratio", "plastic work / cycle 1"))
 
 
 def is_paper_histories(directory: Path) -> bool:
@@ -40,4 +50,57 @@ def paper_histories_section(report: Report, directory: Path, root: Path, figures
         items.append(f"<p>{left_out} more of the paper's statements need runs this directory "
                      f"does not hold ({html_escape(', '.join(needed))}): "
                      "<code>python scripts/paper_histories.py</code> runs the whole study.</p>")
-    report.add("The paper's findings on loading histories", *items)
+    figure = _ratios_figure(directory, figures, tolerance=_tolerance(directory))
+    report.add("The paper's findings on loading histories", *items,
+               *([figure] if figure is not None else []))
+
+
+def _tolerance(directory: Path) -> float | None:
+    try:
+        return float(json.loads((directory / "index.json").read_text())["tolerance"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _ratios_figure(directory: Path, figures: Path, tolerance: float | None) -> Figure | None:
+    """Cycle N over cycle 1 for every history of the study (``cycles.csv``; the mesh checks,
+    ``<run>@<mesh>``, left out), on log axes: the repeated runs' ratchet or decay, the
+    decreasing runs' shakedown, the increasing runs' growth."""
+    path = directory / "cycles.csv"
+    if not path.is_file():
+        return None
+    runs: dict[str, list[dict[str, str]]] = {}
+    with path.open(newline="") as handle:
+        for row in csv.DictReader(handle):
+            if "@" not in row["source"]:
+                runs.setdefault(row["source"], []).append(row)
+    if not runs:
+        return None
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
+    data: dict[str, np.ndarray] = {}
+    for name, rows in runs.items():
+        cycle = np.array([float(r["cycle"]) for r in rows])
+        style = "o-" if name.startswith("repeated") else (
+            "s--" if name.startswith("mono-decreasing") else "^:")
+        for ax, (key, _) in zip(axes, RATIOS, strict=True):
+            ratio = np.array([float(r[key]) if r[key] != "" else np.nan for r in rows])
+            shown = (cycle >= 2) & (ratio > ROUND_OFF)
+            ax.semilogy(cycle[shown], ratio[shown], style, ms=4, lw=0.8, label=name)
+            data[f"{name}_{key}_cycle"] = cycle[shown]
+            data[f"{name}_{key}"] = ratio[shown]
+    for ax, (_, title) in zip(axes, RATIOS, strict=True):
+        if tolerance is not None:
+            ax.axhline(tolerance, color="0.6", ls=":", lw=0.8)
+        ax.set_xlabel("cycle N")
+        ax.set_title(title, fontsize=9)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    axes[0].set_ylabel("ratio to cycle 1")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3,
+               fontsize=8, frameon=False)
+    figure = Figure("paper_histories_ratios", "Every history's cycles against its first",
+                    "Cycles 2 on of each history (mesh checks left out): circles repeated, "
+                    "squares decreasing, triangles increasing loading. Ratios that are zero, "
+                    f"negative or below round-off ({ROUND_OFF:g}) are not shown (cycles.csv "
+                    "holds them all); dotted: the study's tolerance.", data)
+    return save_to_figures(fig, figures, figure)
