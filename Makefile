@@ -137,13 +137,16 @@ calibrate-weak-finite-coarse: $(STAMP)
 # calibration's FE model, the sigma_c = 10 MPa and von Mises runs with the FE defaults (small
 # strain: within 0.2 % of finite strain in approach for them, docs/verification.md item 13). A
 # committed, resumable campaign like calibrate-weak-finite (datasets/fe-runs/README.md), then the
-# findings table of the whole study (docs/cycles.md). PAPER_FINITE_ONLY="..." runs some histories.
+# findings table of the whole study (docs/cycles.md) and its report (out/paper-histories-finite/
+# report.html; docs/cycles/paper-histories-finite-ratios.png is its figure). PAPER_FINITE_ONLY="..."
+# runs some histories.
 PAPER_FINITE_ONLY ?=
 paper-histories-finite: $(STAMP)
 	$(PY) scripts/paper_histories.py --mesh default $(WEAK_FINITE_FE) \
 	  --fe-model-materials reference-weak --workers 1 \
 	  --cache datasets/fe-runs/paper-histories-finite --out out/paper-histories-finite \
 	  $(if $(PAPER_FINITE_ONLY),--only $(PAPER_FINITE_ONLY))
+	$(VENV)/bin/geocontact report out/paper-histories-finite
 
 # The staircase measure (issue 15) with finite strain on the default mesh, 0 -> 6000 N, 24 and 48
 # load steps per segment, resumable from the checkpoints committed in datasets/staircase (its
