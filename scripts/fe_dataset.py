@@ -17,7 +17,7 @@ For each campaign folder (default: every folder under datasets/fe-runs): the fin
 the current FE sources (or older ones whose runs they reproduce bit for bit:
 ``fem.reuse.REPRODUCED_FE_CODE``) and libraries (``current``) or not (``stale``: a calibration
 with this cache would recompute it); the runs under way (from their checkpoint: steps and solves
-done of those requested, force reached, FE time so far and left at its rate so far); entries
+done of those requested, force reached, FE time and its cost per solve so far); entries
 that are neither (reported, never touched). Exit status 0, or 1 if a run folder is not a
 complete, self-consistent result (its key is not the hash of its identity, its manifest or curve
 is missing).

@@ -232,8 +232,14 @@ def test_run_progress_reads_how_far_a_run_has_come(material, tmp_path, monkeypat
     assert finished["solves_done"] == record["solves"]
     line = campaign.describe_progress(partial)
     assert line.startswith(f"step 3 of {whole.summary['steps']}, {partial['solves_done']} of "
-                           f"{record['solves']} solves") and "to go at its rate so far" in line
-    assert "to go" not in campaign.describe_progress(finished)
+                           f"{record['solves']} solves") and "s per solve)" in line
+    assert "to go" not in line  # a time left needs a rate between two reports
+    earlier = {**partial, "solves_done": 1, "wall_time_s": partial["wall_time_s"] - 200.0}
+    left = partial["solves"] - partial["solves_done"]
+    rate = 200.0 / (partial["solves_done"] - 1)
+    assert campaign.describe_progress(partial, earlier).endswith(
+        f", about {campaign._duration(rate * left)} to go at the rate of its last 3 min")
+    assert "to go" not in campaign.describe_progress(finished, partial)  # nothing left
 
 
 def test_campaign_reports_its_runs_under_way(material, tmp_path, capsys):

@@ -178,15 +178,21 @@ def run_progress(checkpoint: str | Path) -> dict:
             "force_N": float(last[CURVE_COLUMNS.index("force_N")]), "wall_time_s": wall}
 
 
-def describe_progress(progress: dict) -> str:
-    """One line of ``run_progress``: steps, share of the solves, force, FE time, and the time
-    left at the run's rate so far (its later solves, on a larger contact, tend to cost more)."""
+def describe_progress(progress: dict, since: dict | None = None) -> str:
+    """One line of ``run_progress``: steps, share of the solves, force, FE time and its cost per
+    solve so far; with ``since`` (an earlier ``run_progress`` of the same run), the time left at
+    the rate between the two. The rate changes along a run (an elastic reload's solves are
+    cheaper than those of a growing plastic contact), so that is a guide, not a promise."""
     done, total, wall = progress["solves_done"], progress["solves"], progress["wall_time_s"]
     text = (f"step {progress['step']} of {progress['steps']}, {done} of {total} solves "
             f"({100.0 * done / max(total, 1):.0f} %), F = {progress['force_N']:.4g} N, "
             f"{_duration(wall)} of FE so far")
-    if 0 < done < total:
-        text += f", about {_duration(wall / done * (total - done))} to go at its rate so far"
+    if done > 0:
+        text += f" ({wall / done:.2g} s per solve)"
+    if since is not None and since["solves_done"] < done < total and wall > since["wall_time_s"]:
+        rate = (wall - since["wall_time_s"]) / (done - since["solves_done"])
+        text += (f", about {_duration(rate * (total - done))} to go at the rate of its last "
+                 f"{_duration(wall - since['wall_time_s'])}")
     return text
 
 
@@ -198,19 +204,19 @@ def _duration(seconds: float) -> str:
 def _watch(cache: Path, jobs: list[FemJob], every: float, stop: threading.Event) -> None:
     """Every ``every`` seconds until ``stop``: one line for each run whose checkpoint has moved
     on since the last report (a run on a remote cluster writes its checkpoint there, unseen)."""
-    seen: dict[Path, float] = {}
+    last: dict[Path, dict] = {}
     paths = {checkpoint_path(_cached(cache, job)): job for job in jobs}
     while not stop.wait(every):
         for path, job in paths.items():
             try:
-                changed = path.stat().st_mtime_ns
-                if seen.get(path) == changed:
-                    continue
-                seen[path] = changed
-                line = describe_progress(run_progress(path))
+                now = run_progress(path)
             except Exception:  # noqa: BLE001 - not there yet, gone (finished) or being replaced
                 continue
-            print(f"campaign: {job.name()}: {line}", file=sys.stderr)
+            before = last.get(path)
+            if before is not None and now["step"] == before["step"]:
+                continue
+            last[path] = now
+            print(f"campaign: {job.name()}: {describe_progress(now, before)}", file=sys.stderr)
 
 
 def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
@@ -258,7 +264,8 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
 
     ``progress``: report on stderr what is reused and what finishes, and every
     ``progress_every`` seconds (None: never) how far each run under way has come
-    (``run_progress``: steps, solves, force, FE time, time left at its rate so far).
+    (``run_progress``: steps, solves, force, FE time; the time left at the rate since the
+    previous report).
     """
     jobs = list(jobs)
     if not jobs:
