@@ -139,11 +139,12 @@ calibrate-weak-finite-coarse: $(STAMP)
 # committed, resumable campaign like calibrate-weak-finite (datasets/fe-runs/README.md), then the
 # findings table of the whole study (docs/cycles.md) and its report (out/paper-histories-finite/
 # report.html; docs/cycles/paper-histories-finite-ratios.png is its figure). PAPER_FINITE_ONLY="..."
-# runs some histories.
+# runs some histories; PAPER_FINITE_WORKERS=2 runs two FE runs at once (one per core).
 PAPER_FINITE_ONLY ?=
+PAPER_FINITE_WORKERS ?= 1
 paper-histories-finite: $(STAMP)
 	$(PY) scripts/paper_histories.py --mesh default $(WEAK_FINITE_FE) \
-	  --fe-model-materials reference-weak --workers 1 \
+	  --fe-model-materials reference-weak --workers $(PAPER_FINITE_WORKERS) \
 	  --cache datasets/fe-runs/paper-histories-finite --out out/paper-histories-finite \
 	  $(if $(PAPER_FINITE_ONLY),--only $(PAPER_FINITE_ONLY))
 	$(VENV)/bin/geocontact report out/paper-histories-finite
