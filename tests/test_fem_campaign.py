@@ -255,7 +255,7 @@ def test_campaign_reports_its_runs_under_way(material, tmp_path, capsys):
     assert "campaign: again: step" not in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("every", [0, -1.0, float("nan"), "5"])
+@pytest.mark.parametrize("every", [0, -1.0, float("nan"), float("inf"), "5", True])
 def test_bad_progress_interval(material, tmp_path, every):
     with pytest.raises(InputError, match=r"^progress_every: must be a number of seconds > 0"):
         run_campaign([FemJob(material, (0.0, 1.0, 0.0))], tmp_path, progress_every=every)

@@ -272,8 +272,8 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
         raise InputError("campaign: no FE runs to do")
     if scheduler is not None:
         scheduler = check_scheduler_address(scheduler)
-    if progress_every is not None and not (isinstance(progress_every, (int, float))
-                                           and 0 < progress_every < float("inf")):
+    if progress_every is not None and (isinstance(progress_every, bool) or not (
+            isinstance(progress_every, (int, float)) and 0 < progress_every < float("inf"))):
         raise InputError(f"progress_every: must be a number of seconds > 0, or None; "
                          f"got {progress_every!r}")
     cache = Path(cache_dir)
