@@ -378,3 +378,21 @@ def test_report_draws_every_historys_cycles_against_its_first(paper_like, tmp_pa
                    for row in drawn if row.get(f"{name}_{key}", "") != ""]
             assert [c for c, _ in got] == [c for c, _ in expected]
             assert [v for _, v in got] == pytest.approx([v for _, v in expected], rel=1e-12)
+
+
+@pytest.mark.parametrize("text", ["source,cycle\nrepeated-1MPa,2\n",
+                                  "source,cycle,residual_increment_ratio,plastic_work_ratio\n"
+                                  "repeated-1MPa,two,0.1,0.1\n"])
+def test_report_refuses_a_malformed_cycles_csv(paper_like, tmp_path, text):
+    """A hand-edited cycles.csv (a column missing, a cell not a number) is a one-line error
+    naming the file, never a traceback."""
+    from geocontact.analyses.paper_histories import write_study
+    from geocontact.errors import InputError
+    from geocontact.io import provenance
+    from geocontact.report import build_report
+
+    write_study(tmp_path, paper_like, provenance("test", {}))
+    (tmp_path / "cycles.csv").write_text(text)
+    with pytest.raises(InputError, match=r"cycles\.csv: malformed") as info:
+        build_report(tmp_path)
+    assert "\n" not in str(info.value)

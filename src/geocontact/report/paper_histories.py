@@ -62,6 +62,23 @@ def _tolerance(directory: Path) -> float | None:
         return None
 
 
+def _read_cycles(path: Path) -> dict[str, tuple[np.ndarray, dict[str, np.ndarray]]]:
+    """Per history of ``cycles.csv`` (mesh checks, ``<run>@<mesh>``, left out): its cycle
+    numbers and ratios (NaN where blank); a one-line InputError on a malformed file."""
+    rows: dict[str, list[dict[str, str]]] = {}
+    try:
+        with path.open(newline="") as handle:
+            for row in csv.DictReader(handle):
+                if "@" not in row["source"]:
+                    rows.setdefault(row["source"], []).append(row)
+        return {name: (np.array([float(r["cycle"]) for r in runs]),
+                       {key: np.array([float(r[key]) if r[key] != "" else np.nan for r in runs])
+                        for key, _ in RATIOS})
+                for name, runs in rows.items()}
+    except (KeyError, TypeError, ValueError, csv.Error, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: malformed ({type(exc).__name__}: {exc})") from None
+
+
 def _ratios_figure(directory: Path, figures: Path, tolerance: float | None) -> Figure | None:
     """Cycle N over cycle 1 for every history of the study (``cycles.csv``; the mesh checks,
     ``<run>@<mesh>``, left out), on log axes: the repeated runs' ratchet or decay, the
@@ -69,25 +86,19 @@ def _ratios_figure(directory: Path, figures: Path, tolerance: float | None) -> F
     path = directory / "cycles.csv"
     if not path.is_file():
         return None
-    runs: dict[str, list[dict[str, str]]] = {}
-    with path.open(newline="") as handle:
-        for row in csv.DictReader(handle):
-            if "@" not in row["source"]:
-                runs.setdefault(row["source"], []).append(row)
+    runs = _read_cycles(path)
     if not runs:
         return None
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
     data: dict[str, np.ndarray] = {}
-    for name, rows in runs.items():
-        cycle = np.array([float(r["cycle"]) for r in rows])
+    for name, (cycle, ratios) in runs.items():
         style = "o-" if name.startswith("repeated") else (
             "s--" if name.startswith("mono-decreasing") else "^:")
         for ax, (key, _) in zip(axes, RATIOS, strict=True):
-            ratio = np.array([float(r[key]) if r[key] != "" else np.nan for r in rows])
-            shown = (cycle >= 2) & (ratio > ROUND_OFF)
-            ax.semilogy(cycle[shown], ratio[shown], style, ms=4, lw=0.8, label=name)
+            shown = (cycle >= 2) & (ratios[key] > ROUND_OFF)
+            ax.semilogy(cycle[shown], ratios[key][shown], style, ms=4, lw=0.8, label=name)
             data[f"{name}_{key}_cycle"] = cycle[shown]
-            data[f"{name}_{key}"] = ratio[shown]
+            data[f"{name}_{key}"] = ratios[key][shown]
     for ax, (_, title) in zip(axes, RATIOS, strict=True):
         if tolerance is not None:
             ax.axhline(tolerance, color="0.6", ls=":", lw=0.8)
