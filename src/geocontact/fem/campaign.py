@@ -302,13 +302,17 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
               f"{len(todo)} to run", file=sys.stderr)
     failures: dict[int, BaseException] = {}
     stop = threading.Event()
+    watcher = None
     if todo and progress and progress_every is not None:
-        threading.Thread(target=_watch, args=(cache, [jobs[i] for i in todo], progress_every,
-                                              stop), daemon=True).start()
+        watcher = threading.Thread(target=_watch, args=(cache, [jobs[i] for i in todo],
+                                                        progress_every, stop), daemon=True)
+        watcher.start()
     try:
         _run_todo(jobs, todo, cache, results, scheduler, workers, progress, failures)
     finally:
         stop.set()
+        if watcher is not None:
+            watcher.join()  # no progress line after the campaign's own last words
     if failures:
         raise _campaign_error(jobs, failures, cache)
     return results  # type: ignore[return-value]
