@@ -255,6 +255,28 @@ def test_campaign_reports_its_runs_under_way(material, tmp_path, capsys):
     assert "campaign: again: step" not in capsys.readouterr().err
 
 
+def test_campaign_does_not_report_a_run_waiting_for_a_worker(material, tmp_path, monkeypatch,
+                                                            capsys):
+    """A run with a checkpoint from an earlier session waits (serial campaign) while another
+    runs: its checkpoint is not progress, so no line shows it until it goes on from step 3,
+    and its first line then has the time left at the rate since that checkpoint."""
+    waiting = FemJob(material, tuple(PROGRESS_RUN["history"][0]), PROGRESS_RUN["history"][1],
+                     label="waiting", **PROGRESS_RUN["fe"])
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    _stopped_run(material, checkpoint_path(cache / waiting.key()), monkeypatch, 4)
+    first = FemJob(material, (0.0, 30.0, 0.0), steps_per_segment=4, max_step_ratio=1.25,
+                   label="first")
+    run_campaign([first, waiting], cache, progress_every=0.02)
+    err = capsys.readouterr().err
+    assert "campaign: first: step " in err
+    steps = [int(line.split()[3]) for line in err.splitlines()
+             if line.startswith("campaign: waiting: step ")]
+    assert steps and min(steps) > 3
+    assert "to go at the rate" in next(line for line in err.splitlines()
+                                       if line.startswith("campaign: waiting: step "))
+
+
 @pytest.mark.parametrize("every", [0, -1.0, float("nan"), float("inf"), "5", True])
 def test_bad_progress_interval(material, tmp_path, every):
     with pytest.raises(InputError, match=r"^progress_every: must be a number of seconds > 0"):

@@ -203,20 +203,28 @@ def _duration(seconds: float) -> str:
 
 def _watch(cache: Path, jobs: list[FemJob], every: float, stop: threading.Event) -> None:
     """Every ``every`` seconds until ``stop``: one line for each run whose checkpoint has moved
-    on since the last report (a run on a remote cluster writes its checkpoint there, unseen)."""
-    last: dict[Path, dict] = {}
+    on since the last report (a run on a remote cluster writes its checkpoint there, unseen).
+    A checkpoint there at the start is where its run stands, not a report: a run waiting for a
+    worker is not shown until it moves on."""
     paths = {checkpoint_path(_cached(cache, job)): job for job in jobs}
+    last = {path: now for path in paths if (now := _progress_or_none(path)) is not None}
     while not stop.wait(every):
         for path, job in paths.items():
-            try:
-                now = run_progress(path)
-            except Exception:  # noqa: BLE001 - not there yet, gone (finished) or being replaced
-                continue
+            now = _progress_or_none(path)
             before = last.get(path)
-            if before is not None and now["step"] == before["step"]:
+            if now is None or (before is not None and now["step"] == before["step"]):
                 continue
             last[path] = now
             print(f"campaign: {job.name()}: {describe_progress(now, before)}", file=sys.stderr)
+
+
+def _progress_or_none(checkpoint: Path) -> dict | None:
+    """``run_progress``, or None for a checkpoint not there yet, gone (its run finished) or
+    being replaced."""
+    try:
+        return run_progress(checkpoint)
+    except Exception:  # noqa: BLE001 - any unreadable checkpoint is "nothing to report"
+        return None
 
 
 def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
