@@ -396,3 +396,34 @@ def test_report_refuses_a_malformed_cycles_csv(paper_like, tmp_path, text):
     with pytest.raises(InputError, match=r"cycles\.csv: malformed") as info:
         build_report(tmp_path)
     assert "\n" not in str(info.value)
+
+
+def test_increasing_history_starts_with_the_single_load_to_its_first_peak():
+    """The weak grain's increasing history (finite strain, committed in
+    datasets/fe-runs/paper-histories-finite) and its single load to 100 N share the mesh (sized
+    for 3000 N) and the load steps, so the history's first cycle is that single load: the same
+    forces, approach and plastic dissipation to round-off (1e-10 of the peak values measured),
+    and the history then goes on to its six higher peaks."""
+    from pathlib import Path
+
+    from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
+    from geocontact.fem.reuse import finished_run
+
+    cache = Path(__file__).resolve().parents[1] / "datasets" / "fe-runs" / "paper-histories-finite"
+    model = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01}
+    _, (history,) = study_jobs("default", only=["mono-increasing-1MPa"], fe_model=model,
+                               fe_model_materials=["reference-weak"])
+    first = single_load_jobs(history)[0]
+    assert first.forces == (0.0, 100.0, 0.0) and first.mesh_force == 3000.0
+    whole = finished_run(cache / history.key(), history.identity())
+    single = finished_run(cache / first.key(), first.identity())
+    assert whole is not None and single is not None  # both committed and current
+    n = len(single.curve["force_N"])
+    assert len(whole.curve["force_N"]) > n
+    np.testing.assert_array_equal(whole.curve["force_N"][:n], single.curve["force_N"])
+    for column in ("approach_m", "plastic_dissipation_J", "contact_radius_m"):
+        scale = np.max(np.abs(single.curve[column]))
+        np.testing.assert_allclose(whole.curve[column][:n], single.curve[column],
+                                   rtol=0, atol=1e-8 * scale, err_msg=column)
+    assert [c["max_force_N"] for c in whole.summary["cycles"]] == pytest.approx(
+        [100.0 + k * 2900.0 / 6 for k in range(7)], rel=1e-12)
