@@ -1,6 +1,7 @@
 """The paper-findings table on synthetic runs whose verdicts are known (no FE)."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -256,16 +257,21 @@ def test_fe_model_reaches_every_run_of_the_study():
     assert {j.key() for j in jobs}.isdisjoint(j.key() for j in plain)
 
 
+# The weak grain's FE of record (examples/params-reference-weak.json; docs/cycles.md) and the
+# study run with it.
+WEAK_FE_MODEL = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01}
+FINITE_STUDY_RUNS = (Path(__file__).resolve().parents[1] / "datasets" / "fe-runs"
+                     / "paper-histories-finite")
+
+
 def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
     """--fe-model-materials reference-weak: finite strain for the weak grain's runs (and the
     single loads of its increasing history) only; the σc = 10 MPa and von Mises runs keep the FE
     defaults, the same jobs (cache keys) as a study without the FE model flags. An unknown preset
     is a one-line error naming the option and the allowed presets."""
-    from pathlib import Path
-
     from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
 
-    model = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01}
+    model = WEAK_FE_MODEL
     names = ["repeated-10MPa", "mono-increasing-1MPa", "repeated-von-mises-10MPa"]
     plan, jobs = study_jobs("coarse", only=names, fe_model=model,
                             fe_model_materials=["reference-weak"])
@@ -306,15 +312,13 @@ def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
     (small strain, session 3) to "yes", shakes down at once under decreasing loading, and does
     not shake down under increasing loading, where the residual approach after each peak is
     that of a single load to it (to 0.16 %), not "a little larger"."""
-    from pathlib import Path
-
     root = Path(__file__).resolve().parents[1]
     script = _paper_histories_script(root)
     out = tmp_path / "study"
     assert script.main(["--mesh", "default", "--kinematics", "finite", "--mesh-rule", "contact",
                         "--max-step-ratio", "1.01", "--fe-model-materials", "reference-weak",
                         "--workers", "1", "--cache",
-                        str(root / "datasets" / "fe-runs" / "paper-histories-finite"),
+                        str(FINITE_STUDY_RUNS),
                         "--out", str(out), "--only", *FINISHED_FINITE_STUDY]) == 0
     found = {f["statement"]: f for f in json.loads((out / "findings.json").read_text())["findings"]}
 
@@ -416,14 +420,11 @@ def test_increasing_history_starts_with_the_single_load_to_its_first_peak():
     for 3000 N) and the load steps, so the history's first cycle is that single load: the same
     forces, approach and plastic dissipation to round-off (1e-10 of the peak values measured),
     and the history then goes on to its six higher peaks."""
-    from pathlib import Path
-
     from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
     from geocontact.fem.reuse import finished_run
 
-    cache = Path(__file__).resolve().parents[1] / "datasets" / "fe-runs" / "paper-histories-finite"
-    model = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01}
-    _, (history,) = study_jobs("default", only=["mono-increasing-1MPa"], fe_model=model,
+    cache = FINITE_STUDY_RUNS
+    _, (history,) = study_jobs("default", only=["mono-increasing-1MPa"], fe_model=WEAK_FE_MODEL,
                                fe_model_materials=["reference-weak"])
     first = single_load_jobs(history)[0]
     assert first.forces == (0.0, 100.0, 0.0) and first.mesh_force == 3000.0
