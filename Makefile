@@ -132,7 +132,7 @@ calibrate-weak-finite-coarse: $(STAMP)
 	  --cache datasets/fe-runs/weak-finite-coarse --residual-form table --loading-form segments \
 	  --out out/calibrate/params-reference-weak-finite-coarse.json
 
-# The paper's histories (SPEC section 8) on the default mesh with finite strain where it matters
+# The paper's histories (docs/model.md §8) on the default mesh with finite strain where it matters
 # (issue 15): the weak grain's runs (and the single loads of its increasing history) with the
 # calibration's FE model, the sigma_c = 10 MPa and von Mises runs with the FE defaults (small
 # strain: within 0.2 % of finite strain in approach for them, docs/verification.md item 13). A

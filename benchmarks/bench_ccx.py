@@ -22,8 +22,8 @@ import numpy as np
 from common import record
 
 from geocontact.fem.run import history_mesh, run_history
-from geocontact.hertz import incipient_yield
-from geocontact.material import preset
+from geocontact.grain.hertz import incipient_yield
+from geocontact.grain.material import preset
 from geocontact.verification import ccx
 from geocontact.verification import published_fits as fits
 from geocontact.verification.ccx import PENALTY_DEFAULT, AxisymmetricMesh, run_ccx

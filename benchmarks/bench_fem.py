@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from common import record
 
-from geocontact.fem.speed import ACCURACY, compare_linear_solvers
-from geocontact.material import preset
+from geocontact.fem.solver_comparison import ACCURACY, compare_linear_solvers
+from geocontact.grain.material import preset
 
 BUDGET_S = 60.0
 

@@ -1,4 +1,4 @@
-"""Shared pieces of the benchmarks: result files (INTERFACES) and the docs table."""
+"""Shared pieces of the benchmarks: result files (docs/interfaces.md) and the docs table."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import platform
 from pathlib import Path
 
 from geocontact import __version__
-from geocontact.io import write_json_atomic, write_text_atomic
+from geocontact.files import write_json_atomic, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 # the plugin of this checkout, also for the MPI drivers that run in temporary folders

@@ -16,7 +16,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import lammps_scenarios as scenarios  # noqa: E402
 
-from geocontact.lammps_plugin import open_lammps  # noqa: E402
+from geocontact.analyses.lammps_plugin import open_lammps  # noqa: E402
 
 G = scenarios.PARAMS_FILE
 MATERIAL = json.loads(G.read_text())["material"]

@@ -31,7 +31,7 @@ import lammps_scenarios as scenarios  # noqa: E402
 import numpy as np  # noqa: E402
 from lammps_driver import timing_max  # noqa: E402
 
-from geocontact.lammps_plugin import open_lammps  # noqa: E402
+from geocontact.analyses.lammps_plugin import open_lammps  # noqa: E402
 
 G = scenarios.PARAMS_FILE
 MATERIAL = json.loads(G.read_text())["material"]

@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from geocontact.fem.speed import compare_linear_solvers
-from geocontact.material import load_material
+from geocontact.fem.solver_comparison import compare_linear_solvers
+from geocontact.grain.material import load_material
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -45,9 +45,9 @@ from geocontact.calibrate.campaign import (  # noqa: E402
 from geocontact.calibrate.fit import LOADING_FORMS, RESIDUAL_FORMS  # noqa: E402
 from geocontact.cli.common import add_fe_model_flags, fe_model_of  # noqa: E402
 from geocontact.errors import InputError, run_reporting_errors  # noqa: E402
-from geocontact.fem.reuse import cached_run  # noqa: E402
-from geocontact.io import write_json_atomic  # noqa: E402
-from geocontact.material import load_material  # noqa: E402
+from geocontact.fem.identity import cached_run  # noqa: E402
+from geocontact.files import write_json_atomic  # noqa: E402
+from geocontact.grain.material import load_material  # noqa: E402
 
 
 def finished_runs(dataset: Path, jobs) -> tuple[list, list[float]]:

@@ -28,8 +28,8 @@ sys.path.insert(0, str(ROOT / "src"))
 from geocontact import __version__  # noqa: E402
 from geocontact.analyses.cycles import fe_cycle_windows  # noqa: E402
 from geocontact.errors import run_reporting_errors  # noqa: E402
-from geocontact.fem.reuse import load_result  # noqa: E402
-from geocontact.io import write_json_atomic  # noqa: E402
+from geocontact.fem.identity import load_result  # noqa: E402
+from geocontact.files import write_json_atomic  # noqa: E402
 
 
 def cycle_plasticity(run_dir: Path) -> list[dict]:

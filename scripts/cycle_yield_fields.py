@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT / "src"))
 from geocontact.analyses.cycles import fe_cycle_windows  # noqa: E402
 from geocontact.errors import InputError, run_reporting_errors  # noqa: E402
 from geocontact.fem.checkpoint import field_name  # noqa: E402
-from geocontact.fem.reuse import load_result  # noqa: E402
+from geocontact.fem.identity import load_result  # noqa: E402
 
 GROWTH = 1e-7  # eqps growth over a cycle counted as yielding in it
 

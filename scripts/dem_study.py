@@ -15,7 +15,7 @@ from pathlib import Path
 
 from geocontact.analyses.dem import CONTACTS, Settings, run_dem
 from geocontact.errors import GeocontactError, run_reporting_errors
-from geocontact.io import check_replaceable, provenance, write_json_atomic
+from geocontact.files import check_replaceable, provenance, write_json_atomic
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -41,14 +41,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact.fem.campaign import describe_progress, run_progress  # noqa: E402
-from geocontact.fem.reuse import (  # noqa: E402
+from geocontact.fem.identity import (  # noqa: E402
     fe_code_hash,
     identity_key,
     library_versions,
     load_result,
     reproduced_code,
 )
-from geocontact.io import RESULT_MANIFEST  # noqa: E402
+from geocontact.files import RESULT_MANIFEST  # noqa: E402
 
 DATASETS = ROOT / "datasets" / "fe-runs"
 

@@ -6,7 +6,7 @@ for two materials that no calibration of the project uses, and then dirtied the 
 displacement-controlled press dirties a curve:
 
 * the set-up: ``platens`` (one grain between two rigid platens: platen displacement 2w = the
-  pair approach delta at the same force, SPEC 10) or ``flat`` (one grain on a rigid flat:
+  pair approach delta at the same force, docs/model.md §10) or ``flat`` (one grain on a rigid flat:
   displacement w = delta / 2);
 * platen (machine) compliance: the measured displacement adds F / k_machine;
 * an unknown contact point: the record starts with the platen short of the grain (a
@@ -33,14 +33,14 @@ import numpy as np
 
 from geocontact.errors import run_reporting_errors
 from geocontact.fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
-from geocontact.hertz import incipient_yield
-from geocontact.io import write_json_atomic, write_text_atomic
-from geocontact.material import Material
+from geocontact.files import write_json_atomic, write_text_atomic
+from geocontact.grain.hertz import incipient_yield
+from geocontact.grain.material import Material
 
 OUT = Path("examples/tests")
 MASTERS = Path("tests/data/labtest")  # the FE master curves the tests' identifications end on
 
-# Two grains no calibration of the project uses (SPEC 9 ranges); radii of lab grains.
+# Two grains no calibration of the project uses (docs/model.md §9 ranges); radii of lab grains.
 TESTS = {
     "platens-quartzite": {
         "material": dict(youngs_modulus=30e9, poissons_ratio=0.2,
@@ -109,7 +109,7 @@ def check_job(spec, *, mesh: str = "coarse") -> FemJob:
 
 
 def displacement_of(approach, setup: str):
-    """What the press measures of the pair approach delta (SPEC 10)."""
+    """What the press measures of the pair approach delta (docs/model.md §10)."""
     return approach / 2.0 if setup == "flat" else approach
 
 

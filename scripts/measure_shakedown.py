@@ -27,11 +27,11 @@ from pathlib import Path
 
 from geocontact.analyses.cycles import run_cycles
 from geocontact.analyses.force_driven import drive_by_force
-from geocontact.cyclic_fit import analyse, with_cyclic
+from geocontact.calibrate.cyclic_fit import analyse, with_cyclic
 from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
-from geocontact.io import check_output_file, write_text_atomic
+from geocontact.files import check_output_file, write_text_atomic
+from geocontact.grain.material import preset
 from geocontact.law import load_params
-from geocontact.material import preset
 
 ROOT = Path(__file__).resolve().parents[1]
 FILES = {"reference": ROOT / "examples" / "params-reference.json",

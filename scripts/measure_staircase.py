@@ -50,8 +50,8 @@ import numpy as np
 
 from geocontact.fem.run import load_schedule
 from geocontact.fem.staircase import loading_branch, sampling_gap, staircase_measures
-from geocontact.io import write_json_atomic
-from geocontact.material import load_material
+from geocontact.files import write_json_atomic
+from geocontact.grain.material import load_material
 
 FORCE = 6000.0
 
@@ -63,9 +63,9 @@ def figure(out: Path, names: list[str], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from geocontact.fem.reuse import load_result
+    from geocontact.fem.identity import load_result
     from geocontact.fem.staircase import loading_branch, log_slopes
-    from geocontact.io import atomic_path
+    from geocontact.files import atomic_path
 
     fig, (ax, slope) = plt.subplots(1, 2, figsize=(12, 4.5))
     for name in names:
@@ -94,8 +94,8 @@ def _ratio(text: str) -> float | None:
 
 def main() -> None:
     from geocontact.fem.checkpoint import checkpoint_path, read_checkpoint
+    from geocontact.fem.identity import FeRunIdentity, difference, finished_run, load_result
     from geocontact.fem.result import CURVE_COLUMNS
-    from geocontact.fem.reuse import FeRunIdentity, difference, finished_run, load_result
     from geocontact.fem.run import run_history
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])

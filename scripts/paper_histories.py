@@ -1,4 +1,4 @@
-"""The paper's loading histories on our FE engine (SPEC section 8; docs/cycles.md).
+"""The paper's loading histories on our FE engine (docs/model.md §8; docs/cycles.md).
 
 Runs repeated (10 x 3000 N), monotonically decreasing (3000 -> 100 N) and monotonically
 increasing (100 -> 3000 N) histories for sigma_c = 10 MPa (preset ``reference``) and 1 MPa
@@ -25,12 +25,12 @@ import sys
 import time
 from pathlib import Path
 
-from geocontact.analyses.cycles import with_cyclic
 from geocontact.analyses.paper_histories import format_value as fmt
 from geocontact.analyses.paper_histories import run_paper_histories, write_study
+from geocontact.calibrate.cyclic_fit import with_cyclic
 from geocontact.cli.common import add_fe_model_flags, fe_model_of
 from geocontact.errors import InputError, run_reporting_errors
-from geocontact.io import (
+from geocontact.files import (
     atomic_directory,
     check_replaceable,
     provenance,

@@ -22,8 +22,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from geocontact.io import provenance, write_json_atomic
-from geocontact.material import preset
+from geocontact.files import provenance, write_json_atomic
+from geocontact.grain.material import preset
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification" / "finite_strain_weak.json"
 FORCES = [0.0, 3000.0, 0.0]

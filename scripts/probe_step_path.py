@@ -21,7 +21,7 @@ import numpy as np
 
 from geocontact.errors import ConvergenceError
 from geocontact.fem.run import run_history
-from geocontact.material import preset
+from geocontact.grain.material import preset
 
 
 def main() -> None:

@@ -15,7 +15,7 @@ import pstats
 import time
 
 from geocontact.fem.run import run_history
-from geocontact.material import load_material
+from geocontact.grain.material import load_material
 
 # (label, where the time is spent: a pstats function key's file suffix and function name)
 PARTS = (

@@ -30,9 +30,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact import __version__  # noqa: E402
-from geocontact.fem.reuse import fe_code_hash, load_result  # noqa: E402
+from geocontact.fem.identity import fe_code_hash, load_result  # noqa: E402
 from geocontact.fem.run import run_history  # noqa: E402
-from geocontact.material import Material  # noqa: E402
+from geocontact.grain.material import Material  # noqa: E402
 
 # summary.json fields that differ between two runs of the same arithmetic
 EXPECTED_TO_DIFFER = ("identity", "wall_time_s")

@@ -1,4 +1,4 @@
-"""The similarity study of material space (issue 12, SPEC section 10; docs/similarity.md).
+"""The similarity study of material space (issue 12, docs/model.md §10; docs/similarity.md).
 
 FE load-unload-reload runs of the reference grain (nu, beta, m) = (0.25, 30 deg, 0) at
 E / sigma_c = 10^2 ... 10^4 (sigma_c varied at fixed E and R), each to the same peaks in units
@@ -28,8 +28,9 @@ import numpy as np
 
 from geocontact.calibrate import similarity as sim
 from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
-from geocontact.fem.campaign import DEFAULT_CACHE, fe_code_hash, run_campaign
-from geocontact.io import atomic_directory, atomic_path, provenance, write_csv
+from geocontact.fem.campaign import DEFAULT_CACHE, run_campaign
+from geocontact.fem.identity import fe_code_hash
+from geocontact.files import atomic_directory, atomic_path, provenance, write_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "src" / "geocontact" / "data"

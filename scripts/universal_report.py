@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from geocontact.errors import ArgumentParser, run_reporting_errors
-from geocontact.io import write_json_atomic, write_text_atomic
+from geocontact.files import write_json_atomic, write_text_atomic
 from geocontact.universal.dataset import LEVEL_FIELDS, read_points, read_provenance
 from geocontact.universal.design import LEVELS, force_levels
 from geocontact.universal.interpolate import surfaces

@@ -1,7 +1,7 @@
 """Sensitivity of the FE first yield at the contact edge (large friction angle) to the tip mesh.
 
 Above the critical friction angle (49.06 deg for nu = 0.25) the analytic first yield is on the
-surface at the contact edge r = a (geocontact.hertz). The FE first yield there (the run's
+surface at the contact edge r = a (geocontact.grain.hertz). The FE first yield there (the run's
 ``first_yield_force_N``: F phi^-3 from the last elastic step) depends on where the contact edge
 falls between the nodes. This script runs the verification case of
 ``tests/test_fem_verification.py::test_first_yield_force_and_location_match_analytic`` (the
@@ -22,11 +22,11 @@ import time
 from pathlib import Path
 from unittest import mock
 
-from geocontact import hertz
 from geocontact.fem import run
 from geocontact.fem.mesh import build_mesh
-from geocontact.io import provenance, write_json_atomic, write_text_atomic
-from geocontact.material import Material
+from geocontact.files import provenance, write_json_atomic, write_text_atomic
+from geocontact.grain import hertz
+from geocontact.grain.material import Material
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
 

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from geocontact.force_history import preset_history
-from geocontact.io import atomic_path, provenance, write_json_atomic, write_text_atomic
-from geocontact.material import preset
+from geocontact.files import atomic_path, provenance, write_json_atomic, write_text_atomic
+from geocontact.grain.force_history import preset_history
+from geocontact.grain.material import preset
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
 MATERIALS = {"10MPa": "reference", "1MPa": "reference-weak"}
@@ -54,7 +54,7 @@ def energy_gap(curve) -> float:
 
 
 def small_loads(args) -> dict:
-    from geocontact.hertz import incipient_yield
+    from geocontact.grain.hertz import incipient_yield
 
     material = preset("reference")
     fy = float(incipient_yield(material).force)

@@ -53,14 +53,14 @@ import numpy as np
 
 from geocontact.errors import ConvergenceError, InputError
 from geocontact.fem.run import history_mesh, run_history, smallest_resolved_force
-from geocontact.io import (
+from geocontact.files import (
     atomic_path,
     provenance,
     write_csv,
     write_json_atomic,
     write_text_atomic,
 )
-from geocontact.material import load_material
+from geocontact.grain.material import load_material
 from geocontact.verification import ccx
 from geocontact.verification import published_fits as fits
 

@@ -36,7 +36,7 @@ from make_synthetic_lab_tests import OUT, TESTS, check_job  # noqa: E402
 from geocontact.calibrate.acceptance import compare  # noqa: E402
 from geocontact.errors import run_reporting_errors  # noqa: E402
 from geocontact.fem.campaign import DEFAULT_CACHE, run_campaign  # noqa: E402
-from geocontact.io import write_json_atomic  # noqa: E402
+from geocontact.files import write_json_atomic  # noqa: E402
 from geocontact.labtest import fit_test, read_test  # noqa: E402
 
 GOALS = {"force_rms_percent_of_peak": 5.0, "residual_approach_error_percent": 10.0,

@@ -1,4 +1,4 @@
-"""Mesh convergence of the FE engine on the reference cycle (SPEC section 5 verification).
+"""Mesh convergence of the FE engine on the reference cycle (docs/model.md §5 verification).
 
 The reference material (E = 10 GPa, nu = 0.25, sigma_c = 10 MPa, beta = 30 deg, m = 0,
 R = 0.1 m), force history 0 -> 6000 N -> 0, on the coarse, default and fine meshes, each with
@@ -26,15 +26,15 @@ from pathlib import Path
 
 import numpy as np
 
+from geocontact.fem.result import STEPS_PER_SEGMENT
 from geocontact.fem.run import (
     FULLY_PLASTIC_CORE,
     FULLY_PLASTIC_FRACTION,
-    STEPS_PER_SEGMENT,
     fully_plastic_onset,
     run_history,
 )
-from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
-from geocontact.material import preset
+from geocontact.files import provenance, write_csv, write_json_atomic, write_text_atomic
+from geocontact.grain.material import preset
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
 FORCES = [0.0, 6000.0, 0.0]

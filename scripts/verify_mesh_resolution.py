@@ -1,11 +1,11 @@
-"""How many surface elements must span the contact radius (SPEC section 5, mesh; issue 16).
+"""How many surface elements must span the contact radius (docs/model.md §5, mesh; issue 16).
 
 Part A, the threshold: an elastic grain (sigma_c = 1e15 Pa, E = 10 GPa, nu = 0.25, R = 0.1 m)
 on meshes of every preset sized for contact radii from the Hertz radius at 60 N to the one at
 6000 N (``mesh.build_mesh``), loaded elastically to 120 forces from 0.01 to 6000 N, so that the
 contact spans from a fraction of an element (the uniform tip region) to tens of them. At each
 force: the surface elements across the Hertz contact radius (``mesh.elements_across``) and the
-error of the FE approach and contact radius against Hertz (``geocontact.hertz``). The table bins
+error of the FE approach and contact radius against Hertz (``geocontact.grain.hertz``). The table bins
 the largest errors by the number of elements; it is what ``mesh.MIN_ELEMENTS_ACROSS_CONTACT`` is
 chosen from.
 
@@ -26,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from geocontact import hertz
 from geocontact.fem.mesh import MIN_ELEMENTS_ACROSS_CONTACT, PRESETS, build_mesh, elements_across
 from geocontact.fem.run import run_history
 from geocontact.fem.solver import ContactSolver
-from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
-from geocontact.material import Material
+from geocontact.files import provenance, write_csv, write_json_atomic, write_text_atomic
+from geocontact.grain import hertz
+from geocontact.grain.material import Material
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
 STRONG = Material(10e9, 0.25, 1e15, 30.0, 0.0, 0.1)

@@ -2,10 +2,10 @@
 
 The law treats two spheres of radii r1 != r2 (one material) as two identical spheres of radius
 r_eq = 2 r1 r2 / (r1 + r2). This script measures the error of that mapping with the FE engine:
-two deformable spheres (``geocontact.fem.pair``, r1 / r2 = 1, 2, 5 with r_eq = 0.1 m fixed) against
+two deformable spheres (``geocontact.fem.two_spheres``, r1 / r2 = 1, 2, 5 with r_eq = 0.1 m fixed) against
 the half model of the identical pair at r_eq (``geocontact.fem.run``), both under the same force
 history 0 -> 10 Fy -> 0 -> 100 Fy -> 0 -> 1000 Fy -> 0 (Fy: analytic first yield of the r_eq pair,
-``geocontact.hertz``), reference material (``geocontact preset reference``, sigma_c = 10 MPa).
+``geocontact.grain.hertz``), reference material (``geocontact preset reference``, sigma_c = 10 MPa).
 FE against FE on the same mesh preset isolates the mapping from the law's fit error; the shipped
 calibrated law (examples/params-reference.json, calibrated at R = 0.1 m = r_eq, so no similarity
 scaling enters) is compared with the two-sphere FE as a second column.
@@ -58,7 +58,7 @@ def radii(ratio: float) -> tuple[float, float]:
 
 
 def history(material, levels=LEVELS) -> tuple[list[float], float]:
-    from geocontact import hertz
+    from geocontact.grain import hertz
 
     fy = float(hertz.incipient_yield(material).force)
     forces = [0.0]
@@ -99,9 +99,9 @@ def law_run(forces: list[float]):
 
 def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool,
             ratios=RATIOS, levels=LEVELS) -> list[dict]:
-    from geocontact.fem.pair import run_pair_history
     from geocontact.fem.run import run_history
-    from geocontact.material import preset
+    from geocontact.fem.two_spheres import run_pair_history
+    from geocontact.grain.material import preset
 
     material = preset("reference")
     if abs(material.radius - R_EQ) > 1e-12:
@@ -186,7 +186,7 @@ def read_csv(path: Path) -> list[dict]:
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
-    from geocontact.io import write_text_atomic
+    from geocontact.files import write_text_atomic
 
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=COLUMNS, lineterminator="\n")
@@ -260,13 +260,13 @@ def main(argv=None) -> int:
         parser.error(f"--levels: F/Fy must be finite and > 0, got {bad[0]:g}")
     if not args.name.replace("_", "").replace("-", "").isalnum():
         parser.error(f"--name: letters, digits, '_' and '-' only, got {args.name!r}")
-    from geocontact.io import provenance, write_json_atomic, write_text_atomic
+    from geocontact.files import provenance, write_json_atomic, write_text_atomic
 
     csv_path = args.out / f"{args.name}.csv"
     if args.table_only:
         rows = read_csv(csv_path)
     else:
-        from geocontact.material import preset
+        from geocontact.grain.material import preset
 
         forces, fy = history(preset("reference"), args.levels)
         law = law_run(forces)

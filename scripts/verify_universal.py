@@ -31,8 +31,8 @@ from geocontact.calibrate.acceptance import compare, draw_comparison_figures
 from geocontact.cli import main as cli_main
 from geocontact.errors import ArgumentParser, run_reporting_errors
 from geocontact.fem.campaign import FemJob, run_campaign
-from geocontact.hertz import incipient_yield
-from geocontact.io import atomic_directory, json_safe
+from geocontact.files import atomic_directory, json_safe
+from geocontact.grain.hertz import incipient_yield
 from geocontact.law import load_params
 from geocontact.universal.dataset import read_points
 from geocontact.universal.design import (

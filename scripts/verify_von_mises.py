@@ -1,6 +1,6 @@
 """FE loading curve in the von Mises limit against Kogut & Etsion (2002) and Jackson & Green (2005).
 
-SPEC section 5 verification: an elastic-perfectly plastic sphere (beta = 0, E/sigma_c = 1000,
+docs/model.md §5 verification: an elastic-perfectly plastic sphere (beta = 0, E/sigma_c = 1000,
 nu = 0.3, the ``von-mises`` preset) pressed by a rigid flat from 1 to 50 critical interferences.
 The FE half model is exactly the fits' problem (one deformable sphere, rigid frictionless flat);
 its interference is the ball-wall one, omega = approach / 2. Each fit is normalised by its own
@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from geocontact.fem.run import run_history
-from geocontact.hertz import incipient_yield
-from geocontact.io import provenance, write_csv, write_json_atomic, write_text_atomic
-from geocontact.material import preset
+from geocontact.files import provenance, write_csv, write_json_atomic, write_text_atomic
+from geocontact.grain.hertz import incipient_yield
+from geocontact.grain.material import preset
 from geocontact.verification import published_fits as fits
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "verification"
@@ -118,7 +118,7 @@ def _table(record: dict) -> str:
         "",
         f"omega_c (JG) = {jg['interference_m']:.4e} m, P_c (JG) = {jg['force_N']:.3f} N "
         f"(C = {jg['C']:.4f}); omega_c (KE) = {ke['interference_m']:.4e} m, "
-        f"P_c (KE) = {ke['force_N']:.3f} N; analytic first yield (geocontact.hertz, "
+        f"P_c (KE) = {ke['force_N']:.3f} N; analytic first yield (geocontact.grain.hertz, "
         f"p0 = {y['p0_over_sigma_c']:.4f} sigma_c): omega_y = {y['interference_m']:.4e} m, "
         f"F_y = {y['force_N']:.3f} N; FE first yield: omega = {fy['interference_m']:.4e} m, "
         f"F = {fy['force_N']:.3f} N.",
@@ -142,7 +142,7 @@ def _figure(path, w, fe, material, jg, ke, analytic, summary) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from geocontact.io import atomic_path
+    from geocontact.files import atomic_path
 
     grid = np.geomspace(0.1, LARGEST * 1.1, 300)
     fig, (ax, dev) = plt.subplots(2, 1, figsize=(6.4, 6.4), sharex=True,
@@ -156,7 +156,7 @@ def _figure(path, w, fe, material, jg, ke, analytic, summary) -> None:
     ax.loglog(grid, grid**1.5, ":", color="0.5", label="Hertz")
     wy = analytic.approach / 2.0 / jg.interference
     ax.loglog([wy], [analytic.force / jg.force], "s", mfc="none", color="tab:green", ms=8,
-              label="analytic first yield (geocontact.hertz)")
+              label="analytic first yield (geocontact.grain.hertz)")
     ax.set_ylabel(r"$P/P_c$")
     ax.set_title(r"von Mises sphere on a rigid flat, $E/\sigma_c$ = 1000, $\nu$ = 0.3")
     ax.grid(True, which="both", alpha=0.3)

@@ -24,8 +24,8 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact import __version__  # noqa: E402
 from geocontact.analyses.cycles import law_cycles_by_force  # noqa: E402
-from geocontact.cyclic_fit import cycle_table  # noqa: E402
-from geocontact.fem.reuse import load_result  # noqa: E402
+from geocontact.calibrate.cyclic_fit import cycle_table  # noqa: E402
+from geocontact.fem.identity import load_result  # noqa: E402
 from geocontact.law import load_params  # noqa: E402
 
 DATASETS = ROOT / "datasets" / "fe-runs"

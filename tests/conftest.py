@@ -12,7 +12,7 @@ os.environ.setdefault("GEOCONTACT_LAMMPS_PLUGIN", str(
     Path(__file__).resolve().parents[1] / "build" / "lammps-plugin" / "geocontactplugin.so"))
 
 # A yield approach of the order of the reference case's; the law itself does not care where
-# delta_y comes from (geocontact.hertz supplies it in real parameter files).
+# delta_y comes from (geocontact.grain.hertz supplies it in real parameter files).
 YIELD_APPROACH = 2.0e-5
 
 
@@ -44,7 +44,8 @@ def cyclic_params() -> LawParams:
 
 
 def assert_energy_balance(curve, tolerance: float = 0.01) -> None:
-    """An FE run's energy balance at every step (SPEC: work of the force = stored elastic
+    """An FE run's energy balance at every step (docs/model.md §5: work of the force = stored
+    elastic
     energy + plastic dissipation, within ``tolerance`` of the work; trapezoidal work on coarse
     steps) and a dissipation that never decreases."""
     import numpy as np

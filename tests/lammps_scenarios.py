@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from geocontact.lammps_plugin import open_lammps  # noqa: E402
+from geocontact.analyses.lammps_plugin import open_lammps  # noqa: E402
 
 PARAMS_FILE = ROOT / "examples" / "params-illustrative.json"
 RADIUS = json.loads(PARAMS_FILE.read_text())["material"]["radius"]

@@ -13,7 +13,7 @@ import pytest
 from geocontact import preset
 from geocontact.cli import main
 from geocontact.errors import InputError
-from geocontact.force_history import load_history
+from geocontact.grain.force_history import load_history
 from geocontact.law import load_params
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -161,8 +161,8 @@ def test_sweep_named_twice_is_run_once(tmp_path, monkeypatch):
     """--sweeps E,E listed every point twice: the stiffness trend read as non-monotone and the
     paper's statements as disagreements."""
     import geocontact.analyses.sweeps as sweeps
-    from geocontact.fem.run import FemResult
-    from geocontact.hertz import hertz_coefficient
+    from geocontact.fem.result import FemResult
+    from geocontact.grain.hertz import hertz_coefficient
 
     def fake_campaign(jobs, cache_dir, **_):
         results = []
@@ -397,7 +397,7 @@ def test_library_errors_name_parameters_and_the_command_line_names_flags(tmp_pat
     command line shows the same error with its flags (--max-force, --scheduler, --force)."""
     from geocontact.calibrate.campaign import peak_forces
     from geocontact.errors import for_the_command_line
-    from geocontact.io import check_replaceable
+    from geocontact.files import check_replaceable
 
     with pytest.raises(InputError, match=r"^max_force: ") as caught:
         peak_forces(preset("reference"), max_force=-1.0)

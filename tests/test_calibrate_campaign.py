@@ -16,9 +16,9 @@ from geocontact.calibrate.campaign import check_peaks, force_range, peak_forces
 from geocontact.cli import main
 from geocontact.errors import InputError
 from geocontact.fem.campaign import FemJob, run_campaign
+from geocontact.grain.material import load_material
 from geocontact.law import Contact, ContactArrays, LawParams, force_history, load_params
 from geocontact.law.params import saturating_ratio
-from geocontact.material import load_material
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning",
                                         "ignore::UserWarning")
@@ -344,7 +344,7 @@ def test_calibration_fits_the_cyclic_laws_to_its_repeated_fe_run(calibrated):
 
 
 def _cycles_result(increments, work):
-    from geocontact.fem.run import FemResult
+    from geocontact.fem.result import FemResult
 
     residual = np.cumsum(increments)
     cycles = [{"max_force_N": 3000.0, "max_approach_m": 1e-4 + r, "residual_approach_m": r,
@@ -356,12 +356,12 @@ def test_fit_cyclic_accepts_a_steep_decay_with_coefficient_above_one():
     """c N^-p with c > 1 is a valid law when the cycle-2 ratio c 2^-p is below 1 (FE runs of
     the reference case fit c ~ 2, p ~ 4); a ratchetting run leaves the extension off."""
     from geocontact.calibrate.campaign import cyclic_job, fit_cyclic
-    from geocontact.material import preset
+    from geocontact.grain.material import preset
 
     params = make_params()
     job = cyclic_job(preset("reference"), 300.0, "coarse", 4)
     n = np.arange(1, 11)
-    from geocontact.cyclic_fit import law_first_cycle
+    from geocontact.calibrate.cyclic_fit import law_first_cycle
 
     residual_1, _ = law_first_cycle(params, 3000.0)  # the law's own cycle 1 (the fit's unit)
     inc = np.where(n == 1, residual_1, residual_1 * 2.3 * n**-4.0)
@@ -389,7 +389,7 @@ def test_params_and_acceptance_reference_each_other_and_stale_ones_go(calibrated
     import shutil
 
     from geocontact.calibrate.workflow import check_acceptance
-    from geocontact.io import read_manifest
+    from geocontact.files import read_manifest
 
     root, out = calibrated
     work = tmp_path / "copy"

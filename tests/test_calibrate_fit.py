@@ -119,7 +119,7 @@ def test_segments_form_follows_a_bending_curve_the_regimes_miss():
     """A virgin curve whose log-slope falls steadily over five decades (a weak grain's): three
     regimes miss it by more than the segments form, which stays within 1 %."""
     from geocontact.calibrate.fit import fit_loading
-    from geocontact.hertz import hertz_coefficient
+    from geocontact.grain.hertz import hertz_coefficient
 
     params = make_params()
     dy, kh = params.yield_approach, hertz_coefficient(params.material)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from geocontact.analyses.force_driven import drive_by_force
-from geocontact.force_history import cycle_peak, cycle_windows, preset_history
+from geocontact.grain.force_history import cycle_peak, cycle_windows, preset_history
 from geocontact.law import load_params
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

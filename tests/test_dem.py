@@ -16,7 +16,7 @@ import pytest
 
 from geocontact.analyses.dem import Settings, run_dem
 from geocontact.cli import main
-from geocontact.io import read_csv_column, verify_manifest
+from geocontact.files import read_csv_column, verify_manifest
 
 LAW = Path("examples/params-reference.json")
 # the smallest sample that jams: 300 grains, a fast quasi-static rate, one cycle

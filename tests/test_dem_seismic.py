@@ -16,7 +16,7 @@ from geocontact.analyses.dem_seismic import SeismicSettings, base_motion, run_se
 from geocontact.analyses.seismic.classify import DECREASING
 from geocontact.analyses.seismic.records import load_record
 from geocontact.cli import main
-from geocontact.io import read_csv_column, verify_manifest
+from geocontact.files import read_csv_column, verify_manifest
 
 LAW = Path("examples/params-reference.json")
 RECORD = "KOBE/NIS000"

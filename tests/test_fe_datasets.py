@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geocontact.fem.reuse import identity_key
+from geocontact.fem.identity import identity_key
 from geocontact.fem.run import run_history
-from geocontact.material import preset
+from geocontact.grain.material import preset
 
 ROOT = Path(__file__).resolve().parent.parent
 _spec = importlib.util.spec_from_file_location("fe_dataset", ROOT / "scripts" / "fe_dataset.py")
@@ -248,7 +248,7 @@ def test_a_job_from_a_runs_recorded_inputs_is_that_run_or_its_twin():
     inputs (the run itself); with kinematics="small" it is the small-strain twin that
     scripts/cycle_plasticity.py --twin runs into datasets/fe-runs/weak-small-strain-coarse."""
     from geocontact.fem.campaign import FemJob
-    from geocontact.fem.reuse import load_result
+    from geocontact.fem.identity import load_result
 
     module = _script("cycle_plasticity")
     pilot = module.TWIN_OF
@@ -260,8 +260,11 @@ def test_a_job_from_a_runs_recorded_inputs_is_that_run_or_its_twin():
     assert twin.kinematics == "small" and twin.max_step_ratio == 1.02
     assert twin.mesh_rule == "contact" and twin.forces == FemJob.of_inputs(inputs).forces
     cache = fe_dataset.DATASETS / "weak-small-strain-coarse"
-    assert ((cache / twin.key() / "summary.json").exists()
-            or (cache / f"{twin.key()}.checkpoint.npz").exists())
+    # finished: found by the campaign's look-up (its key, or a run of FE code the current code
+    # reproduces, fem.identity.REPRODUCED_FE_CODE)
+    from geocontact.fem.identity import cached_run
+
+    assert cached_run(cache, twin.identity()) is not None
 
 
 def test_cycle_yield_fields_locates_the_yielding_of_later_cycles(tmp_path, capsys):
@@ -289,14 +292,14 @@ def test_the_small_strain_twin_ratchets_at_about_half_the_finite_strain_rate():
     strain, everything else the same (contact mesh rule, cap 1.02), ratchets too, from cycle 5
     at 0.3-0.6 of the finite-strain run's residual increment and plastic work per cycle; so
     session 3's shakedown at once (the "yield" mesh, no cap) did not resolve the contact edge."""
-    from geocontact.cyclic_fit import cycle_table
+    from geocontact.calibrate.cyclic_fit import cycle_table
     from geocontact.fem.campaign import FemJob
-    from geocontact.fem.reuse import load_result
+    from geocontact.fem.identity import cached_run, load_result
 
     pilot = fe_dataset.DATASETS / "weak-finite-coarse" / "f4dcbc2b4ecb941f6ab2"
     finite = load_result(pilot)
-    twin_key = FemJob.of_inputs(finite.summary["identity"]["inputs"], kinematics="small").key()
-    small = load_result(fe_dataset.DATASETS / "weak-small-strain-coarse" / twin_key)
+    twin = FemJob.of_inputs(finite.summary["identity"]["inputs"], kinematics="small")
+    small = cached_run(fe_dataset.DATASETS / "weak-small-strain-coarse", twin.identity())
     rows = {name: cycle_table(r.summary["cycles"])
             for name, r in (("finite", finite), ("small", small))}
     for f, s in zip(rows["finite"][4:], rows["small"][4:], strict=True):

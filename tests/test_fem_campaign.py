@@ -14,16 +14,11 @@ import geocontact.fem.campaign as campaign
 import geocontact.fem.run as fem_run
 from geocontact.cli import main
 from geocontact.errors import InputError
-from geocontact.fem.campaign import (
-    CampaignError,
-    FemJob,
-    check_scheduler_address,
-    load_result,
-    run_campaign,
-)
-from geocontact.fem.reuse import finished_run
-from geocontact.fem.run import checkpoint_path, run_history
-from geocontact.material import load_material
+from geocontact.fem.campaign import CampaignError, FemJob, check_scheduler_address, run_campaign
+from geocontact.fem.checkpoint import checkpoint_path
+from geocontact.fem.identity import finished_run, load_result
+from geocontact.fem.run import run_history
+from geocontact.grain.material import load_material
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 NEVER_CONVERGES = 1e-300  # a Newton tolerance below round-off: the first solve fails

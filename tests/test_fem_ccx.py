@@ -4,10 +4,10 @@ coarse ccx run when the ``ccx`` executable is installed (``make ccx``)."""
 import numpy as np
 import pytest
 
-from geocontact import hertz
 from geocontact.errors import InputError
 from geocontact.fem.run import history_mesh
-from geocontact.material import preset
+from geocontact.grain import hertz
+from geocontact.grain.material import preset
 from geocontact.verification.ccx import (
     SECTORS,
     AxisymmetricMesh,

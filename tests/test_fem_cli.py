@@ -1,4 +1,4 @@
-"""``geocontact fem``: files of INTERFACES, errors, checkpoint / resume, atomic output."""
+"""``geocontact fem``: files of docs/interfaces.md, errors, checkpoint / resume, atomic output."""
 
 import csv
 import json
@@ -10,8 +10,10 @@ import pytest
 import geocontact.fem.run as fem_run
 from geocontact.cli import main
 from geocontact.errors import ConvergenceError
-from geocontact.fem.run import checkpoint_path, preset_history, run_history
-from geocontact.material import preset
+from geocontact.fem.checkpoint import checkpoint_path
+from geocontact.fem.run import run_history
+from geocontact.grain.force_history import preset_history
+from geocontact.grain.material import preset
 
 FORCES = [0.0, 60.0, 0.0]
 

@@ -1,6 +1,7 @@
-"""FE contact model on the coarse mesh (SPEC section 5 verification).
+"""FE contact model on the coarse mesh (docs/model.md §5 verification).
 
-References: the analytic layer ``geocontact.hertz`` (Hertz, ball-ball, SPEC section 4, and the
+References: the analytic layer ``geocontact.grain.hertz`` (Hertz, ball-ball, docs/model.md §4, and
+the
 Drucker-Prager incipient yield), itself checked against Johnson's closed forms.
 """
 
@@ -10,11 +11,11 @@ import numpy as np
 import pytest
 from conftest import assert_energy_balance
 
-from geocontact import hertz
 from geocontact.fem.mesh import build_mesh
 from geocontact.fem.run import run_history
 from geocontact.fem.solver import ContactSolver
-from geocontact.material import Material, preset
+from geocontact.grain import hertz
+from geocontact.grain.material import Material, preset
 
 REFERENCE = Material(10e9, 0.25, 10e6, 30.0, 0.0, 0.1)
 

@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from conftest import assert_energy_balance
 
-from geocontact import hertz
 from geocontact.errors import InputError
 from geocontact.fem.facet_contact import PENALTY_FACTOR, penetrating_intervals, shape
 from geocontact.fem.finite_strain import FiniteStrainSolver
+from geocontact.fem.identity import FeRunIdentity
 from geocontact.fem.mesh import build_mesh
-from geocontact.fem.reuse import FeRunIdentity
 from geocontact.fem.run import run_history
 from geocontact.fem.solver import ContactSolver
-from geocontact.material import Material
+from geocontact.grain import hertz
+from geocontact.grain.material import Material
 
 REFERENCE = Material(10e9, 0.25, 10e6, 30.0, 0.0, 0.1)
 

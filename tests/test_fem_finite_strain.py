@@ -21,11 +21,11 @@ from geocontact.fem.finite_strain import (
     sym_block,
     unblock,
 )
+from geocontact.fem.identity import FeRunIdentity
 from geocontact.fem.mesh import build_mesh
-from geocontact.fem.reuse import FeRunIdentity
 from geocontact.fem.run import run_history
 from geocontact.fem.solver import ContactSolver
-from geocontact.material import preset
+from geocontact.grain.material import preset
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,8 @@ import scipy.sparse as sp
 from geocontact.fem import solver as solver_module
 from geocontact.fem.run import history_mesh
 from geocontact.fem.solver import ContactSolver
-from geocontact.fem.speed import ACCURACY, compare_linear_solvers
-from geocontact.material import load_material
+from geocontact.fem.solver_comparison import ACCURACY, compare_linear_solvers
+from geocontact.grain.material import load_material
 
 HISTORY = [0.0, 3000.0, 0.0]
 

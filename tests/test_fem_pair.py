@@ -1,19 +1,19 @@
-"""Two deformable spheres in contact (geocontact.fem.pair), coarse mesh.
+"""Two deformable spheres in contact (geocontact.fem.two_spheres), coarse mesh.
 
 References: the half model (geocontact.fem.run, itself verified against Hertz, published curves
 and CalculiX: docs/fem.md) for r1 = r2, where the symmetric solution of the pair *is* the half
-model's; Hertz with R* = r1 r2 / (r1 + r2) (geocontact.hertz at r_eq) for r1 != r2; the work
+model's; Hertz with R* = r1 r2 / (r1 + r2) (geocontact.grain.hertz at r_eq) for r1 != r2; the work
 identity work = elastic energy + plastic dissipation.
 """
 
 import numpy as np
 import pytest
 
-from geocontact import hertz
 from geocontact.errors import InputError
-from geocontact.fem.pair import equivalent_radius, run_pair_history
 from geocontact.fem.run import run_history
-from geocontact.material import preset
+from geocontact.fem.two_spheres import equivalent_radius, run_pair_history
+from geocontact.grain import hertz
+from geocontact.grain.material import preset
 
 COLUMNS = ("force_N", "approach_m", "contact_radius_m", "plastic_dissipation_J",
            "elastic_energy_J", "work_J", "yielded_contact_fraction")
@@ -94,7 +94,7 @@ def test_which_sphere_is_loaded_and_slave_does_not_matter():
 def test_the_initial_gap_is_the_two_spheres():
     """The node-to-segment gap at rest is the distance between the spheres at the slave's radius,
     z1(r) - z2(r) = (r1 - sqrt(r1^2 - r^2)) + (r2 - sqrt(r2^2 - r^2)), to the P2 geometry."""
-    from geocontact.fem.pair import PairSolver, pair_mesh
+    from geocontact.fem.two_spheres import PairSolver, pair_mesh
 
     material = preset("reference")
     r1, r2 = 0.15, 0.075

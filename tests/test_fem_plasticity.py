@@ -1,4 +1,4 @@
-"""Drucker-Prager return mapping (SPEC section 3): yield surface, uniaxial strengths, tangent."""
+"""Drucker-Prager return mapping (docs/model.md §3): yield surface, uniaxial strengths, tangent."""
 
 import math
 
@@ -14,7 +14,7 @@ from geocontact.fem.plasticity import (
     return_mapping,
     yield_function,
 )
-from geocontact.material import Material
+from geocontact.grain.material import Material
 
 
 def _material(beta=30.0, m=0.0, nu=0.25):
@@ -87,7 +87,7 @@ def test_uniaxial_compression_and_tension_strengths(beta):
     tens = _uniaxial_path(model, +1.0, 4e-3)
     assert -comp[-1][1][1] == pytest.approx(mat.compressive_yield_stress, rel=1e-6)
     assert tens[-1][1][1] == pytest.approx(mat.tensile_yield_stress, rel=1e-6)
-    # eps_p is the axial plastic strain in uniaxial compression (SPEC section 3).
+    # eps_p is the axial plastic strain in uniaxial compression (docs/model.md §3).
     strain, stress, eqps = comp[-1]
     axial_plastic = strain[1] - stress[1] / mat.youngs_modulus
     assert eqps == pytest.approx(-axial_plastic, rel=1e-6)

@@ -18,7 +18,7 @@ from geocontact.fem import run as fem_run
 from geocontact.fem.finite_strain import FiniteStrainSolver
 from geocontact.fem.mesh import build_mesh
 from geocontact.fem.solver import LINE_SEARCH_HALVINGS, ContactSolver
-from geocontact.material import preset
+from geocontact.grain.material import preset
 
 
 @pytest.fixture(scope="module")

@@ -11,17 +11,17 @@ import json
 import numpy as np
 import pytest
 
-from geocontact import hertz
 from geocontact.fem.mesh import MIN_ELEMENTS_ACROSS_CONTACT, build_mesh, elements_across
+from geocontact.fem.result import STEPS_PER_SEGMENT
 from geocontact.fem.run import (
-    STEPS_PER_SEGMENT,
     contact_resolution,
     run_history,
     smallest_resolved_force,
     tip_contact_radius,
     yield_contact_radius_estimate,
 )
-from geocontact.material import Material, preset
+from geocontact.grain import hertz
+from geocontact.grain.material import Material, preset
 
 STRONG = Material(10e9, 0.25, 1e15, 30.0, 0.0, 0.1)  # elastic for any load of interest
 DECADES = (6.0, 60.0, 600.0, 6000.0)

@@ -9,18 +9,15 @@ import meshio
 import numpy as np
 import pytest
 
-import geocontact.fem.reuse as reuse
+import geocontact.fem.identity as reuse
 import geocontact.fem.run as fem_run
 from geocontact.analyses.cycles import run_cycles
 from geocontact.fem.campaign import FemJob
-from geocontact.fem.reuse import LIBRARIES, FeRunIdentity, fe_code_hash, finished_run
-from geocontact.fem.run import (
-    STEPS_PER_SEGMENT,
-    checkpoint_path,
-    pending_fields_path,
-    run_history,
-)
-from geocontact.material import MATERIAL_KEYS, preset
+from geocontact.fem.checkpoint import checkpoint_path, pending_fields_path
+from geocontact.fem.identity import LIBRARIES, FeRunIdentity, fe_code_hash, finished_run
+from geocontact.fem.result import STEPS_PER_SEGMENT
+from geocontact.fem.run import run_history
+from geocontact.grain.material import MATERIAL_KEYS, preset
 
 FORCES = [0.0, 60.0, 0.0]
 STEPS = 3  # 10 load steps; waypoints (ParaView files) at steps 7 and 10
@@ -379,3 +376,25 @@ def test_runs_and_checkpoints_of_reproduced_fe_code_are_used(material, tmp_path,
     for name, values in uninterrupted.curve.items():
         np.testing.assert_array_equal(values, resumed.curve[name], err_msg=name)
     assert resumed.summary["identity"]["fe_code"] == new_code
+
+
+def test_the_fe_hash_reads_the_code_not_its_place_comments_or_docstrings():
+    """``code_fingerprint``: moving a module (its imports renamed), a comment or a docstring
+    leaves the FE hash as it is; a changed number or operator changes it."""
+    from geocontact.fem.identity import code_fingerprint
+
+    before = ('"""Doc."""\nfrom ..material import Material\n\n\ndef f(x):\n'
+              '    """Old doc."""\n    from .. import resolution\n    return 2.0 * x  # pair\n')
+    moved = ('"""Another doc."""\nfrom ..grain.material import Material\n\n\ndef f(x):\n'
+             '    from ..fem import roundoff as resolution\n    return 2.0 * x\n')
+    assert code_fingerprint(before) == code_fingerprint(moved)
+    assert code_fingerprint(before) != code_fingerprint(before.replace("2.0 * x", "2.0 + x"))
+    assert code_fingerprint(before) != code_fingerprint(before.replace("2.0", "2.5"))
+
+
+def test_the_moved_sources_reproduce_the_runs_of_record():
+    """The current FE hash lists the hash of record (209c6c5f6f7c038c, every committed finite-
+    strain run) as reproduced: the modules moved in issue 38 with their syntax trees unchanged."""
+    from geocontact.fem.identity import REPRODUCED_FE_CODE
+
+    assert "209c6c5f6f7c038c" in REPRODUCED_FE_CODE[fe_code_hash()]

@@ -1,4 +1,4 @@
-"""Similarity (SPEC section 10, issue 11): the rate-independent continuum problem has no length
+"""Similarity (docs/model.md §10, issue 11): the rate-independent continuum problem has no length
 scale, so spheres of radius r = s R are the calibrated spheres scaled by s: at the force s^2 F
 the approach is s times, the contact radius s times, the energies s^3 times. The FE engine
 itself must show it (geometrically scaled mesh, same load schedule in F / Fy), to the solver's
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from geocontact.fem.run import run_history
-from geocontact.material import preset
+from geocontact.grain.material import preset
 
 SCALE = 0.1
 FORCES = [0.0, 3000.0, 0.0, 1500.0, 0.0]  # past yield (Fy ~ 12 N), unload, partial reload

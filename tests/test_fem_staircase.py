@@ -12,13 +12,13 @@ import pytest
 
 import geocontact.fem.run as fem_run
 from geocontact.errors import InputError
+from geocontact.fem.identity import FeRunIdentity
 from geocontact.fem.mesh import (
     CONTACT_DENSE_FACTOR,
     CONTACT_SURFACE_GRADING,
     build_mesh,
     surface_vertex_radii,
 )
-from geocontact.fem.reuse import FeRunIdentity
 from geocontact.fem.run import (
     contact_band_radius,
     history_mesh,
@@ -36,8 +36,8 @@ from geocontact.fem.staircase import (
     slope_measures,
     staircase_measures,
 )
-from geocontact.hertz import incipient_yield
-from geocontact.material import preset
+from geocontact.grain.hertz import incipient_yield
+from geocontact.grain.material import preset
 
 
 def _power_law(n=60):

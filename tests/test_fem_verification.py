@@ -1,4 +1,4 @@
-"""FE verification against analytic and published results (SPEC sections 4-5, issue 3).
+"""FE verification against analytic and published results (docs/model.md §4-5, issue 3).
 
 Coarse meshes and few load steps, so each test runs in seconds; docs/verification.md lists the
 full-resolution runs (scripts/verify_*.py) that these tests guard.
@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from geocontact import hertz
 from geocontact.fem.run import FULLY_PLASTIC_FRACTION, fully_plastic_onset, run_history
-from geocontact.material import Material, preset
+from geocontact.grain import hertz
+from geocontact.grain.material import Material, preset
 from geocontact.verification import published_fits as fits
 
 
@@ -21,12 +21,12 @@ def _drucker_prager(beta_deg):
     return Material(10e9, 0.25, 10e6, beta_deg, 0.0, 0.1)
 
 
-# --- incipient yield: FE against geocontact.hertz.incipient_yield ------------------------------
+# --- incipient yield: FE against grain.hertz.incipient_yield ---------------------
 @pytest.mark.parametrize("beta_deg", [30.0, 55.0, 60.0])
 def test_first_yield_force_and_location_match_analytic(beta_deg):
     """The first yielding point on the axis below the surface for beta = 30 deg, with Fy within
     5 % of the analytic value; at the surface near the contact edge above the critical beta
-    (49.06 deg for nu = 0.25, geocontact.hertz), where the maximum jumps there.
+    (49.06 deg for nu = 0.25, geocontact.grain.hertz), where the maximum jumps there.
 
     At the contact edge the coarse mesh does not resolve Fy: the FE value is decided by where
     the edge falls between the nodes, and over tip sizes 0.3-0.7 x the yield contact radius it
@@ -56,7 +56,7 @@ def test_first_yield_force_and_location_match_analytic(beta_deg):
 
 def test_analytic_first_yield_moves_to_the_contact_edge_above_the_critical_angle():
     """The premise of the large-beta case: beta = 30 deg yields on the axis, 55 and 60 deg at
-    the contact edge on the surface (geocontact.hertz, tested there against Johnson)."""
+    the contact edge on the surface (geocontact.grain.hertz, tested there against Johnson)."""
     assert not hertz.incipient_yield(_drucker_prager(30.0)).at_surface
     for beta in (55.0, 60.0):
         assert hertz.incipient_yield(_drucker_prager(beta)).at_surface
@@ -87,7 +87,7 @@ def test_von_mises_loading_curve_matches_jackson_green_up_to_10_critical_interfe
 
 def test_published_fits_critical_values_agree_with_the_analytic_first_yield():
     """KE's K H = 2.8 (0.454 + 0.41 nu) and JG's C = 1.295 exp(0.736 nu) are both fits of the
-    Hertz p0 at first yield; for nu = 0.3 they agree with geocontact.hertz (p0 = 1.613 sigma_c)
+    Hertz p0 at first yield; for nu = 0.3 they agree with grain.hertz (p0 = 1.613 sigma_c)
     to 0.2 %, and P_c is the Hertz load at omega_c for a sphere on a rigid flat."""
     material = preset("von-mises")
     p0 = 1.0 / hertz.incipient_yield(material).dp_factor
@@ -154,7 +154,7 @@ def test_von_mises_unloading_residual_and_loop_work_match_etsion_kligerman_kadin
     assert n_fe == pytest.approx(n_ekk, rel=0.03)
     t = np.clip((unload_omega - omega_res) / (omega_max - omega_res), 0.0, None)
     assert np.max(np.abs(unload_force / force_max - t**n_ekk)) < 0.03
-    # works of the half model (curve and summary energies are for the pair, SPEC section 2)
+    # works of the half model (curve and summary energies are for the pair, docs/model.md §2)
     unit = ke.force * ke.interference
     loading_work = result.curve["work_J"][k] / 2.0
     assert loading_work == pytest.approx(float(fits.kogut_etsion_loading_work(w)) * unit,

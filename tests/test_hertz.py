@@ -1,4 +1,4 @@
-"""Hertz contact, Huber's stress field and incipient Drucker-Prager yield (SPEC section 4)."""
+"""Hertz contact, Huber's stress field and incipient Drucker-Prager yield (docs/model.md §4)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 from geocontact.cli import main
-from geocontact.hertz import (
+from geocontact.grain.hertz import (
     contact_radius,
     drucker_prager_measure,
     hertz_approach,
@@ -24,7 +24,7 @@ from geocontact.hertz import (
     pressure_and_equivalent_stress,
     stress_field,
 )
-from geocontact.material import Material, preset
+from geocontact.grain.material import Material, preset
 
 POISSONS_RATIOS = [-0.5, 0.0, 0.25, 0.3, 0.45, 0.499]
 

@@ -5,8 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from geocontact.analyses.force_driven import drive_by_force, load_history, preset_history
+from geocontact.analyses.force_driven import drive_by_force
 from geocontact.errors import InputError
+from geocontact.grain.force_history import load_history, preset_history
 
 
 def test_presets_match_the_paper():

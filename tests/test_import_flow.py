@@ -1,6 +1,7 @@
-"""The package's imports flow one way (README, "Layout"): material -> hertz -> fem -> calibrate ->
-law -> analyses -> report -> cli. Read from the source (every import, also those inside
-functions), so an import added against the flow fails here, not in a reviewer's reading."""
+"""The package's imports flow one way (README, "Architecture"): grain -> fem -> law -> calibrate
+(with universal, labtest) -> analyses -> report -> cli, on the ground of errors, files, figures and
+schema. Read from the source (every import, also those inside functions), so an import added
+against the flow fails here, not in a reviewer's reading."""
 
 from __future__ import annotations
 
@@ -11,17 +12,21 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "geocontact"
 
-# tiers of the flow: a module may import from its own tier and the tiers before it. The shared
-# ground (top-level modules such as errors, io, schema, figures, cyclic_fit) is tier 0; the old
-# module names kept as aliases (cycles, histories, ...) re-export a later tier and are not listed.
+# tiers of the flow (README, "Architecture"): a module may import from its own tier and the tiers
+# before it. The ground (errors, files, figures, schema, _version) is tier 0; the grain (material,
+# Hertz, force histories) tier 1; the law sits below calibration, which evaluates it to fit it.
 TIERS = {
-    "material": 0, "hertz": 0, "errors": 0, "io": 0, "schema": 0, "resolution": 0,
-    "force_history": 0, "figures": 0, "_version": 0, "lammps_plugin": 0,
-    "fem": 1, "verification": 1, "calibrate": 1, "law": 1, "cyclic_fit": 1,
-    "analyses": 2,
-    "report": 3,
-    "cli": 4, "demo": 4,
+    "_version": 0, "errors": 0, "files": 0, "figures": 0, "schema": 0,
+    "grain": 1,
+    "fem": 2, "verification": 2,
+    "law": 3,
+    "calibrate": 4, "universal": 4, "labtest": 4,
+    "analyses": 5,
+    "report": 6,
+    "cli": 7,
 }
+# the top of the package holds the ground only (issue 38: at most six modules)
+TOP_LEVEL = {"__init__", "_version", "errors", "files", "figures", "schema"}
 
 
 def _imports(path: Path, root: Path = PACKAGE) -> set[str]:
@@ -67,13 +72,45 @@ def test_imports_flow_one_way():
     assert _violations() == []
 
 
+def test_every_module_has_a_tier_and_the_top_holds_the_ground_only():
+    top = {p.stem for p in PACKAGE.glob("*.py")}
+    assert top == TOP_LEVEL
+    folders = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").exists()}
+    assert folders <= set(TIERS), folders - set(TIERS)
+
+
+def test_no_module_only_re_exports_another():
+    """A module whose whole body is imports (a docstring aside) exists only to re-export: none."""
+    only_imports = []
+    for path in PACKAGE.rglob("*.py"):
+        body = ast.parse(path.read_text()).body
+        if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+            body = body[1:]
+        if body and all(isinstance(n, (ast.Import, ast.ImportFrom)) for n in body):
+            only_imports.append(str(path.relative_to(PACKAGE)))
+    assert only_imports == []
+
+
+def test_the_old_module_names_still_import_the_moved_modules():
+    """geocontact.MOVED: an old name is the new module itself, with a DeprecationWarning."""
+    import importlib
+    import sys
+
+    import geocontact
+
+    for old, new in geocontact.MOVED.items():
+        sys.modules.pop(old, None)
+        with pytest.warns(DeprecationWarning, match="moved to"):
+            module = importlib.import_module(old)
+        assert module is importlib.import_module(new)
+
+
 def test_calibrate_uses_the_shared_figure_record():
     """calibrate draws its acceptance figures with geocontact.figures, the record the report
     re-exports (one class, not a copy)."""
     from geocontact import figures, report
-    from geocontact.report import html
 
-    assert report.Figure is figures.Figure and html.Figure is figures.Figure
+    assert report.Figure is figures.Figure
     assert report.save_figure is figures.save_figure
     assert "figures" in _imports(PACKAGE / "calibrate" / "acceptance.py")
 

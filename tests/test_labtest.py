@@ -92,7 +92,7 @@ def test_machine_compliance_is_subtracted():
 
 @pytest.mark.parametrize("setup", ["pair", "platens", "flat"])
 def test_every_setup_gives_the_same_modulus(setup):
-    """One Hertz pair curve measured through each set-up (SPEC 10) gives back E."""
+    """One Hertz pair curve measured through each set-up (docs/model.md §10) gives back E."""
     t = condition(hertz_cycle(setup), setup, R)
     k_pair = t.contact["stiffness"] * (2.0 ** -1.5 if setup == "flat" else 1.0)
     assert youngs_modulus_of(k_pair, R, NU) == pytest.approx(E, rel=0.005)
@@ -214,7 +214,7 @@ def test_too_few_cycles_for_the_law():
 
 # --- the fit of a committed synthetic test ------------------------------------------------------
 def _master(name):
-    from geocontact.material import Material
+    from geocontact.grain.material import Material
 
     data = json.loads((ROOT / "tests" / "data" / "labtest" / f"{name}.master.json").read_text())
     data["material"] = Material(**data["material"])
@@ -263,7 +263,7 @@ def _law_test_csv(tmp_path):
 
 def test_cli_writes_a_valid_law_a_result_folder_and_a_report(tmp_path, capsys):
     from geocontact.cli import main
-    from geocontact.io import verify_manifest
+    from geocontact.files import verify_manifest
     from geocontact.report import build_report
 
     curve = _law_test_csv(tmp_path)

@@ -16,7 +16,7 @@ import lammps_scenarios as scenarios
 import numpy as np
 import pytest
 
-from geocontact.lammps_plugin import open_lammps, plugin_path
+from geocontact.analyses.lammps_plugin import open_lammps, plugin_path
 from geocontact.law import Contact, load_params
 
 ROOT = Path(__file__).resolve().parents[1]

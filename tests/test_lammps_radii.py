@@ -1,4 +1,5 @@
-"""pair_style geocontact for grains of any size (SPEC 10, issue 11): a pair of radii r1, r2 is
+"""pair_style geocontact for grains of any size (docs/model.md §10, issue 11): a pair of radii r1,
+r2 is
 the calibrated law rescaled to r_eq = 2 r1 r2 / (r1 + r2) (LawParams.for_radius), the same in
 LAMMPS as in the Python reference, with pair/local reporting in the grains' own units."""
 
@@ -7,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from geocontact.lammps_plugin import open_lammps
+from geocontact.analyses.lammps_plugin import open_lammps
 from geocontact.law import Contact, load_params
 
 CALIBRATED_FILE = "examples/params-reference.json"

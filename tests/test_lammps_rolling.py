@@ -22,7 +22,7 @@ import lammps_scenarios as scenarios
 import numpy as np
 import pytest
 
-from geocontact.lammps_plugin import open_lammps
+from geocontact.analyses.lammps_plugin import open_lammps
 from geocontact.law import load_params
 
 ROOT = Path(__file__).resolve().parents[1]

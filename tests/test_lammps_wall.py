@@ -1,5 +1,6 @@
 """fix wall/geocontact (plugin built by `make plugin`): a grain on a rigid wall is the FE half
-model of the pair (SPEC 10), F_wall(w) = F_pair,r(d = 2 w) with the pair law of two spheres of
+model of the pair (docs/model.md §10), F_wall(w) = F_pair,r(d = 2 w) with the pair law of two
+spheres of
 the grain's radius r (LawParams.for_radius(r)), with the same history rules, the pair style's
 tangential force and damping, moving walls, the force on the wall, restarts and bad input."""
 
@@ -13,7 +14,7 @@ import lammps_scenarios as scenarios
 import numpy as np
 import pytest
 
-from geocontact.lammps_plugin import open_lammps
+from geocontact.analyses.lammps_plugin import open_lammps
 from geocontact.law import Contact, load_params
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -283,7 +284,8 @@ def test_a_wall_driven_by_a_position_variable_moves_as_one_with_that_velocity():
 
 
 def test_a_grain_between_platens_measures_the_pair_law_at_the_platen_displacement():
-    """SPEC 10, laboratory tests: a free grain (integrated, damped) squeezed slowly between a
+    """docs/model.md §10, laboratory tests: a free grain (integrated, damped) squeezed slowly
+    between a
     fixed floor and a roof moving down is two sphere-flat contacts in series at the same force,
     so the platen displacement is the pair's approach: F = F_pair,r(displacement), to the
     viscous force of the slow compression (< 1 % of the force, past yield)."""

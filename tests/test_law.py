@@ -1,4 +1,4 @@
-"""Physical claims of the hysteretic law (SPEC section 6, docs/law.md), on random histories."""
+"""Physical claims of the hysteretic law (docs/model.md §6, docs/law.md), on random histories."""
 
 import math
 

@@ -1,4 +1,5 @@
-"""The law's command line and parameter files (INTERFACES): round trips and one-line errors."""
+"""The law's command line and parameter files (docs/interfaces.md): round trips and one-line
+errors."""
 
 import json
 
@@ -6,9 +7,9 @@ import numpy as np
 import pytest
 
 from geocontact.cli import main
+from geocontact.grain.material import preset
 from geocontact.law import Contact, LawParams, load_params
 from geocontact.law.illustrative import illustrative_params
-from geocontact.material import preset
 
 EXAMPLES = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples"
 

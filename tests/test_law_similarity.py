@@ -1,4 +1,5 @@
-"""The law for grains of any size by similarity (SPEC 10): spheres of radius r = s R of the
+"""The law for grains of any size by similarity (docs/model.md §10): spheres of radius r = s R of
+the
 calibrated material follow F_r(d) = s^2 F_R(d / s), with energies s^3 and every approach s
 times, along any history (the FE proof is tests/test_fem_similarity.py)."""
 
@@ -69,9 +70,9 @@ def test_recorded_values_scale_with_their_units():
 
 
 def test_analytic_yield_of_the_scaled_material_is_the_scaled_yield():
-    """Independent of the law: Hertz incipient yield of spheres of radius r (geocontact.hertz)
+    """Independent of the law: Hertz incipient yield of spheres of radius r (geocontact.grain.hertz)
     is that of R scaled (force s^2, approach s), as the law's rescaling assumes."""
-    from geocontact.hertz import incipient_yield
+    from geocontact.grain.hertz import incipient_yield
 
     base = load_params(CALIBRATED)
     s = 0.05

@@ -1,4 +1,4 @@
-"""Material validation and presets (SPEC sections 3 and 9, INTERFACES M.toml)."""
+"""Material validation and presets (docs/model.md §3 and 9, docs/interfaces.md M.toml)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import pytest
 
 from geocontact.errors import InputError
-from geocontact.material import (
+from geocontact.grain.material import (
     MATERIAL_KEYS,
     Material,
     list_presets,

@@ -9,8 +9,8 @@ import pytest
 from geocontact.analyses import cycles as cy
 from geocontact.analyses.paper_histories import EXTRA_TOLERANCES, PaperRun, paper_findings, study
 from geocontact.errors import InputError, run_reporting_errors
-from geocontact.force_history import preset_history
-from geocontact.material import preset
+from geocontact.grain.force_history import preset_history
+from geocontact.grain.material import preset
 
 
 def synthetic_run(name, history, material, increments, plastic_work, stiffening=0.0):
@@ -182,7 +182,7 @@ def test_study_lists_the_paper_histories():
 
 def test_report_shows_the_findings_table(paper_like, tmp_path):
     from geocontact.cli import main
-    from geocontact.io import write_json_atomic
+    from geocontact.files import write_json_atomic
 
     rows = paper_findings(paper_like)
     write_json_atomic(tmp_path / "paper" / "findings.json", {"findings": rows})
@@ -224,7 +224,7 @@ def test_report_leaves_out_statements_whose_runs_are_missing(paper_like, tmp_pat
     """A study of some of the runs (as the demo's): the report's table holds only what those
     runs decide, and one line names the runs (and the command) the other statements need."""
     from geocontact.analyses.paper_histories import write_study
-    from geocontact.io import provenance
+    from geocontact.files import provenance
     from geocontact.report import build_report
 
     runs = {k: v for k, v in paper_like.items() if k.endswith("10MPa")}
@@ -372,8 +372,8 @@ def test_report_draws_every_historys_cycles_against_its_first(paper_like, tmp_pa
     import csv
 
     from geocontact.analyses.paper_histories import write_study
-    from geocontact.cyclic_fit import ROUND_OFF
-    from geocontact.io import provenance
+    from geocontact.calibrate.cyclic_fit import ROUND_OFF
+    from geocontact.files import provenance
     from geocontact.report import build_report
 
     write_study(tmp_path, paper_like, provenance("test", {}))
@@ -399,7 +399,7 @@ def test_report_refuses_a_malformed_cycles_csv(paper_like, tmp_path, text):
     naming the file, never a traceback."""
     from geocontact.analyses.paper_histories import write_study
     from geocontact.errors import InputError
-    from geocontact.io import provenance
+    from geocontact.files import provenance
     from geocontact.report import build_report
 
     write_study(tmp_path, paper_like, provenance("test", {}))
@@ -416,7 +416,7 @@ def test_increasing_history_starts_with_the_single_load_to_its_first_peak():
     forces, approach and plastic dissipation to round-off (1e-10 of the peak values measured),
     and the history then goes on to its six higher peaks."""
     from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
-    from geocontact.fem.reuse import finished_run
+    from geocontact.fem.identity import finished_run
 
     cache = FINITE_STUDY_RUNS
     _, (history,) = study_jobs("default", only=["mono-increasing-1MPa"], fe_model=WEAK_FE_MODEL,

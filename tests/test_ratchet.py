@@ -1,4 +1,5 @@
-"""The cyclic extension counts repeated cycles robustly (SPEC 6, docs/law.md "Repeated cycles").
+"""The cyclic extension counts repeated cycles robustly (docs/model.md §6, docs/law.md "Repeated
+cycles").
 
 A reload that reaches the envelope band, within ``tol (d_max - d_res)`` of the envelope point, is
 a repeated cycle: it ratchets by ``depth * residual_ratio(N) * d_res,1`` and the count goes on.

@@ -8,7 +8,7 @@ import numpy as np
 
 from geocontact.cli import main
 from geocontact.fem.run import run_history
-from geocontact.material import load_material
+from geocontact.grain.material import load_material
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -1,8 +1,8 @@
-"""``geocontact.resolution``: values below a run's resolution are round-off, reported as 0."""
+"""``geocontact.fem.roundoff``: values below a run's resolution are round-off, reported as 0."""
 
 import pytest
 
-from geocontact.resolution import (
+from geocontact.fem.roundoff import (
     RELATIVE,
     Resolution,
     clean_fe_cycles,

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-import geocontact.io as gio
+import geocontact.files as gio
 from geocontact.cli import main
 from geocontact.errors import InputError
-from geocontact.io import (
+from geocontact.files import (
     RESULT_MANIFEST,
     atomic_directory,
     check_replaceable,
@@ -211,7 +211,7 @@ def test_fem_cli_refuses_a_users_folder_and_force_replaces_it(tmp_path, capsys, 
 
 def test_cycles_rerun_that_fails_leaves_the_old_analysis_whole(tmp_path, monkeypatch):
     import geocontact.analyses.cycles as cycles
-    from geocontact.material import preset
+    from geocontact.grain.material import preset
 
     material = preset("reference")
     out = tmp_path / "cyc"

@@ -6,6 +6,12 @@ import numpy as np
 import pytest
 
 from geocontact.analyses.seismic import classify
+from geocontact.calibrate.cyclic_fit import (
+    ELASTIC,
+    ELASTIC_SHAKEDOWN,
+    PLASTIC_SHAKEDOWN,
+    RATCHETTING,
+)
 from geocontact.errors import InputError
 
 pytest.importorskip("rainflow")
@@ -14,7 +20,7 @@ SAMPLES_PER_RAMP = 40
 
 
 def force_history(peaks, base=0.0):
-    """Piecewise-linear 0 -> peak -> 0 cycles (SPEC section 8 histories), sampled finely."""
+    """Piecewise-linear 0 -> peak -> 0 cycles (docs/model.md §8 histories), sampled finely."""
     points = [base]
     for p in peaks:
         points += [p, base]
@@ -23,7 +29,7 @@ def force_history(peaks, base=0.0):
     return np.concatenate([*ramps, [points[-1]]])
 
 
-# SPEC section 8 (paper): the three idealised histories.
+# docs/model.md §8 (paper): the three idealised histories.
 MONO_DECREASING = [3000, 2500, 2000, 1500, 1000, 500, 100]
 REPEATED = [3000] * 10
 MONO_INCREASING = list(np.linspace(100, 3000, 7))
@@ -111,11 +117,11 @@ def _law_like_series(force, residual_per_cycle, dissipation_per_cycle):
     "residual, dissipation, expected",
     [
         (lambda k: 1e-6 if k == 0 else 0.0, lambda k: 1.0 if k == 0 else 0.0,
-         classify.ELASTIC_SHAKEDOWN),
+         ELASTIC_SHAKEDOWN),
         (lambda k: 1e-6 if k == 0 else 0.0, lambda k: 1.0 if k == 0 else 0.1,
-         classify.PLASTIC_SHAKEDOWN),
-        (lambda k: 1e-6 / (k + 1) ** 0.2, lambda k: 1.0 / (k + 1) ** 0.2, classify.RATCHETTING),
-        (lambda k: 0.0, lambda k: 0.0, classify.ELASTIC),
+         PLASTIC_SHAKEDOWN),
+        (lambda k: 1e-6 / (k + 1) ** 0.2, lambda k: 1.0 / (k + 1) ** 0.2, RATCHETTING),
+        (lambda k: 0.0, lambda k: 0.0, ELASTIC),
     ],
     ids=["elastic-shakedown", "plastic-shakedown", "ratchetting", "elastic"],
 )
@@ -124,9 +130,9 @@ def test_shakedown_state_from_residual_approach_and_dissipation(residual, dissip
     r, d = _law_like_series(force, residual, dissipation)
     state = classify.shakedown_state(force, r, d, approach_scale=1e-5, energy_scale=1.0)
     assert state.state == expected
-    if expected == classify.ELASTIC_SHAKEDOWN:
+    if expected == ELASTIC_SHAKEDOWN:
         assert state.shakedown_cycle == 1
-    if expected == classify.RATCHETTING:
+    if expected == RATCHETTING:
         assert state.shakedown_cycle is None
 
 
@@ -134,6 +140,6 @@ def test_shakedown_cycle_counts_the_cycles_until_the_residual_approach_settles()
     force = force_history(REPEATED)
     r, d = _law_like_series(force, lambda k: 1e-6 * 0.1**k, lambda k: 0.5**k)
     state = classify.shakedown_state(force, r, d, approach_scale=1e-5, energy_scale=1.0)
-    assert state.state == classify.ELASTIC_SHAKEDOWN
+    assert state.state == ELASTIC_SHAKEDOWN
     # increments 1, 0.1, 0.01, ... of 1.111: within 5 % of the end from the second cycle
     assert state.shakedown_cycle == 2

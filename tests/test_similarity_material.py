@@ -1,4 +1,4 @@
-"""Similarity in material space (SPEC section 10, issue 12; docs/similarity.md): while the contact
+"""Similarity in material space (docs/model.md §10, issue 12; docs/similarity.md): while the contact
 is small against the sphere, E / sigma_c drops out of the normalised contact, F / Fy(x),
 delta_res / delta_max(x), ...; beyond, the finite size of the sphere enters as the fitted
 correction of the committed study (src/geocontact/data/similarity-data.*).
@@ -14,7 +14,7 @@ import pytest
 from geocontact.calibrate import similarity as sim
 from geocontact.errors import InputError
 from geocontact.fem.campaign import run_campaign
-from geocontact.material import preset
+from geocontact.grain.material import preset
 
 PEAK_OVER_YIELD = 28.0  # x ~ 10 on the reference grain
 HISTORY = (0.0, 1.0, 0.0, 1.0, 0.0)

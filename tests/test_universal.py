@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 from geocontact import schema
 from geocontact.cli import main
 from geocontact.errors import InputError
-from geocontact.law import Contact, ContactArrays, for_material, load_params
-from geocontact.universal import dataset, design
+from geocontact.law import Contact, ContactArrays, load_params
+from geocontact.universal import dataset, design, for_material
 from geocontact.universal.interpolate import (
     FITS_FILE,
     build_surfaces,
@@ -183,7 +183,7 @@ def test_for_material_matches_the_command_path(slice_dir, slice_data):
     material = inside_material(slice_data, fraction=0.6)
     a = universal_params(material, directory=slice_dir)
     b = universal_params(material.with_(radius=material.radius * 7.0), directory=slice_dir)
-    # similarity: the radius scales out exactly (SPEC 10)
+    # similarity: the radius scales out exactly (docs/model.md §10)
     assert b.yield_approach == pytest.approx(7.0 * a.yield_approach, rel=1e-9)
     for name in ("elastic_plastic_exponent", "fully_plastic_approach_ratio",
                  "unloading_power", "residual_limit", "plastic_work_limit"):

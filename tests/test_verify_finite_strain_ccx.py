@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geocontact.material import preset
+from geocontact.grain.material import preset
 from geocontact.verification import published_fits as fits
 from geocontact.verification.ccx import elastic_recovery, loading_approach_at
 

@@ -23,6 +23,13 @@ class ConvergenceError(GeocontactError, RuntimeError):
     """A solver did not converge; the message names the step and the load."""
 
 
+def check_count(field: str, value: int | None, high: int, why: str = "") -> None:
+    """An optional integer argument in [1, high]; ``why`` says where the bound comes from."""
+    if value is not None and not 1 <= value <= high:
+        raise InputError(f"{field}: must be in [1, {high}]{' (' + why + ')' if why else ''}, "
+                         f"got {value}")
+
+
 class ArgumentParser(argparse.ArgumentParser):
     """argparse with its complaints as InputError, so a bad argument is one line like any other
     bad input (argparse itself prints the usage too); ``--help`` still prints the usage."""

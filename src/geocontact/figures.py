@@ -13,7 +13,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .io import atomic_path, write_csv  # noqa: E402
+from .files import atomic_path, write_csv  # noqa: E402
 
 
 @dataclass

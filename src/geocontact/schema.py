@@ -1,7 +1,7 @@
 """The table of every field of a ``geocontact.law/1`` parameter file: type, required or
 optional, default, allowed range and the one-line message (``data/law-schema.json``).
 
-The Python loader (``geocontact.law.params``, and ``geocontact.material`` for the material's
+The Python loader (``geocontact.law.params``, and ``geocontact.grain.material`` for the material's
 ranges) and the C++ reader (``plugins/lammps/include/geocontact/params.hpp``, which embeds the
 same file at build time) both validate from it, with the same messages; the bad documents of
 ``tests/data/bad-law-params/`` hold the two to it. Rules between fields (a deep regime beyond

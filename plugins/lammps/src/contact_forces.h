@@ -80,7 +80,7 @@ inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law)
           8.0 * law.material.effective_shear_modulus()};
 }
 
-// Two grains whose law is the calibrated one scaled by s (SPEC 10).
+// Two grains whose law is the calibrated one scaled by s (docs/model.md §10).
 inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
                                           const StiffnessConstants &constants,
                                           const geocontact::ContactState &state, double scale)
@@ -91,7 +91,7 @@ inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
   return {normal, constants.mindlin_modulus * a, a};
 }
 
-// A grain on a rigid flat wall, the FE half model of the pair (SPEC 10): at interference w it
+// A grain on a rigid flat wall, the FE half model of the pair (docs/model.md §10): at interference w it
 // is one half of the pair at approach d = 2 w, so its contact is the pair's contact (the same
 // contact radius a, the symmetry plane of the pair being the wall), F_wall(w) = F_pair(2 w),
 // and its stiffnesses are twice the pair's: dF/dw = 2 S, which is 2 E*_wall a with the

@@ -11,7 +11,7 @@
 //       its normal, so the grains feel it through the tangential force and rolling alone.
 //
 // A grain of radius r = s R (R the file's radius) at wall interference w feels the ball-wall
-// law of the FE half model (SPEC 10): F = s^2 F_R(2 w / s), the pair law of two identical
+// law of the FE half model (docs/model.md §10): F = s^2 F_R(2 w / s), the pair law of two identical
 // spheres of radius r at approach d = 2 w, with all its history rules; the same Mindlin-Coulomb
 // tangential force and damping as the pair style (contact_forces.h), with the sphere-flat
 // stiffnesses (twice the pair's, the same contact radius). Rolling and twisting resistance as

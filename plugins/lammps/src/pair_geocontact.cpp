@@ -36,7 +36,7 @@ constexpr int kRestartTag = 0x53504347;
 // without them.
 constexpr int kRestartLayoutVersion = 3;
 
-// Grains of any size by similarity (SPEC 10): two spheres of radii ri, rj behave as two
+// Grains of any size by similarity (docs/model.md §10): two spheres of radii ri, rj behave as two
 // identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
 // elastic-plastic problem while the contact is small against both), and spheres of radius
 // r = s R as the calibrated spheres of radius R scaled by s: F_r(d) = s^2 F_R(d / s), every

@@ -1,9 +1,9 @@
 """Cyclic loading histories: the FE and the law on a cyclic force history, their per-cycle
-analysis and shakedown (SPEC sections 6 and 8; the paper's section "Influence of loading
+analysis and shakedown (docs/model.md §6 and 8; the paper's section "Influence of loading
 history"); ``geocontact cycles``.
 
 The per-cycle analysis itself (cycle table, power laws in N, critical cycles, the shakedown
-classification, the law's cyclic extension fitted from it) is ``geocontact.cyclic_fit``, shared
+classification, the law's cyclic extension fitted from it) is ``calibrate.cyclic_fit``, shared
 with the calibration; its names are re-exported here. This module adds the law's own cycles
 (:func:`law_cycles_by_force`, :func:`law_cycles_along_path`), the FE's cycle windows, the
 reloading stiffness, and :func:`run_cycles` (FE + law + analysis, written as one folder).
@@ -19,17 +19,13 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..cyclic_fit import (  # noqa: F401  (re-exported: the analysis API of this module)
-    DEFAULT_HORIZON,
+from ..calibrate.cyclic_fit import (
     DEFAULT_TOLERANCE,
     ELASTIC,
-    ELASTIC_FLOOR,
     ELASTIC_SHAKEDOWN,
     PLASTIC_SHAKEDOWN,
     RATCHETTING,
     RESOLUTION,
-    ROUND_OFF,
-    RULES,
     UNDETERMINED,
     CycleAnalysis,
     GeometricLaw,
@@ -43,8 +39,8 @@ from ..cyclic_fit import (  # noqa: F401  (re-exported: the analysis API of this
     with_cyclic,
 )
 from ..errors import InputError
-from ..force_history import cycle_peak
-from ..io import atomic_directory, provenance, write_csv, write_json_atomic
+from ..files import atomic_directory, provenance, write_csv, write_json_atomic
+from ..grain.force_history import cycle_peak
 
 
 def law_cycles_by_force(params, forces) -> tuple[list[dict], dict[str, np.ndarray]]:
@@ -216,7 +212,7 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
     # in the previous folder is reused, else the FE goes on from its checkpoint
     result = None
     if resume:
-        from ..fem.reuse import FeRunIdentity, finished_run
+        from ..fem.identity import FeRunIdentity, finished_run
 
         identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
                                     kinematics=kinematics, mesh_rule=mesh_rule,

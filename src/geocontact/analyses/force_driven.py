@@ -14,12 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..force_history import (  # noqa: F401  (re-exported)
-    PRESETS,
+from ..grain.force_history import (
     cycle_peak,
     cycle_windows,
-    load_history,
-    preset_history,
 )
 from ..law import Contact, LawParams
 from ..law.reference import RATCHET

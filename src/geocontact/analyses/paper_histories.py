@@ -3,7 +3,7 @@
 The runs (repeated, monotonically decreasing and increasing histories for sigma_c = 10 and
 1 MPa, and the repeated history for a von Mises grain of the same strength) and the numbers the
 paper quotes live in ``data/paper-histories.toml``. ``run_paper_histories`` runs them as one FE
-campaign (cached, resumable) and analyses each with ``geocontact.cyclic_fit``; ``paper_findings``
+campaign (cached, resumable) and analyses each with ``calibrate.cyclic_fit``; ``paper_findings``
 turns the analyses into the table of docs/cycles.md: each of the paper's statements, the
 quantity that tests it, our value and whether it agrees. A statement our runs cannot test says
 so (``agrees`` is None, ``our_value`` names what is missing).
@@ -20,20 +20,19 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from ..force_history import preset_history
-from ..material import Material, preset
-from .cycles import (
+from ..calibrate.cyclic_fit import (
     DEFAULT_TOLERANCE,
     ELASTIC_SHAKEDOWN,
     RATCHETTING,
     RESOLUTION,
     CycleAnalysis,
     analyse,
-    fe_cycle_windows,
     ratchetting_cycles,
-    reloading_stiffness,
 )
+from ..errors import InputError
+from ..grain.force_history import preset_history
+from ..grain.material import Material, preset
+from .cycles import fe_cycle_windows, reloading_stiffness
 
 # Tolerances at which the critical cycles are also reported (the paper does not state its own).
 EXTRA_TOLERANCES = (1e-3, 1e-4)
@@ -551,7 +550,7 @@ def write_study(directory: str | Path, runs: dict[str, PaperRun],
                 record: dict[str, Any]) -> tuple[list[dict[str, Any]], list[str]]:
     """Write the study's results: one JSON per run, cycles.csv, findings.json (with
     ``record``, the provenance) and findings.csv. Returns the findings and the file names."""
-    from ..io import write_csv, write_json_atomic
+    from ..files import write_csv, write_json_atomic
     from .cycles import write_cycles_csv
 
     directory = Path(directory)

@@ -28,10 +28,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
-from ..fem.run import FemResult
-from ..hertz import incipient_yield
-from ..io import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
-from ..material import Material, preset
+from ..fem.result import FemResult
+from ..files import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
+from ..grain.hertz import incipient_yield
+from ..grain.material import Material, preset
 
 SCHEMA = "geocontact.sweeps/1"
 QUANTITIES = ("secant_stiffness", "normalised_stiffness", "peak_over_yield", "residual_ratio",

@@ -1,4 +1,4 @@
-"""Calibration of the law from FE cycles (SPEC section 7)."""
+"""Calibration of the law from FE cycles (docs/model.md §7)."""
 
 from .fit import LevelData, fit_law, fit_loading
 

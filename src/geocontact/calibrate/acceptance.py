@@ -1,4 +1,4 @@
-"""Acceptance of a calibrated law on FE runs (SPEC section 7).
+"""Acceptance of a calibrated law on FE runs (docs/model.md §7).
 
 The law is driven along the FE run's own approach path (``Contact.update`` over the FE
 ``approach_m`` column, as a DEM code would drive it) and its force is compared with the FE force:
@@ -27,10 +27,10 @@ from typing import Any
 import numpy as np
 
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
-from ..fem.reuse import run_key
-from ..fem.run import FemResult
+from ..fem.identity import run_key
+from ..fem.result import FemResult
+from ..grain.material import Material
 from ..law import Contact, LawParams
-from ..material import Material
 from .campaign import force_range, settings, shared_mesh_force
 
 
@@ -186,7 +186,7 @@ def _columns(c: Comparison) -> dict[str, np.ndarray]:
 
 def write_comparison_data(comparisons: list[Comparison], directory: str | Path) -> list[Path]:
     """One CSV per run: approach, FE force, law force, law residual approach."""
-    from ..io import write_csv
+    from ..files import write_csv
 
     directory = Path(directory)
     paths = []

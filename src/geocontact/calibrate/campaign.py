@@ -1,4 +1,4 @@
-"""The calibration campaign (SPEC section 7): FE cycles at several peak loads -> law parameters.
+"""The calibration campaign (docs/model.md §7): FE cycles at several peak loads -> law parameters.
 
 Each calibration run is one FE force history ``0 -> F -> 0 -> F -> 0`` (data/calibration.toml),
 so one run gives the virgin loading curve, the unloading curve, the residual approach and the
@@ -21,12 +21,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
-from ..fem.reuse import run_key
-from ..fem.run import FemResult
-from ..force_history import preset_history
-from ..hertz import hertz_coefficient, incipient_yield
+from ..fem.identity import run_key
+from ..fem.result import FemResult
+from ..grain.force_history import preset_history
+from ..grain.hertz import hertz_coefficient, incipient_yield
+from ..grain.material import Material
 from ..law.params import LawParams
-from ..material import Material
 from .fit import LOADING_FORMS, REGIMES, RESIDUAL_FORMS, SATURATING, LevelData, fit_law
 
 MIN_LEVELS = 3
@@ -56,7 +56,7 @@ def force_range(material: Material, max_force: float | None = None) -> tuple[flo
 
 def peak_forces(material: Material, levels: int | None = None,
                 max_force: float | None = None) -> list[float]:
-    """Geometric peak loads from ~2 Fy to max_force (SPEC section 7)."""
+    """Geometric peak loads from ~2 Fy to max_force (docs/model.md §7)."""
     n = settings()["campaign"]["levels"] if levels is None else levels
     if isinstance(n, bool) or not isinstance(n, int) or not MIN_LEVELS <= n <= MAX_LEVELS:
         raise InputError(f"levels: need an integer in [{MIN_LEVELS}, {MAX_LEVELS}] (each "
@@ -128,7 +128,8 @@ def _rows(result: FemResult, steps: tuple[int, int]) -> slice:
 def extract_run(job: FemJob, result: FemResult) -> CalibrationRun:
     """LevelData of a ``0 -> F -> 0 -> F [-> 0]`` FE run: ball-ball approach, pair energies.
 
-    Plastic work is what unloading does not give back (SPEC 6): the work of the force over the
+    Plastic work is what unloading does not give back (docs/model.md §6): the work of the force
+    over the
     closed first cycle (the FE's loop work); the FE plastic dissipation is kept beside it (the
     two differ by the elastic energy locked in by residual stresses)."""
     cycles = result.summary["cycles"]
@@ -252,12 +253,13 @@ def cyclic_job(material: Material, max_force: float, mesh: str = "default",
 
 
 def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
-    """``params`` with the cyclic power laws fitted to the FE run of ``cyclic_job`` (SPEC 6-7).
+    """``params`` with the cyclic power laws fitted to the FE run of ``cyclic_job`` (docs/model.md
+    §6-7).
 
     When the run does not support a decaying power law (the residual increments do not fall
     with N: the history ratchets, or too few cycles), the cyclic extension stays disabled and
     the provenance says why; the analysis is recorded either way."""
-    from ..cyclic_fit import analyse, ratchetting_cycles, with_cyclic
+    from .cyclic_fit import analyse, ratchetting_cycles, with_cyclic
 
     analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
     info = {"history_forces_N": list(job.forces), "mesh": job.mesh,

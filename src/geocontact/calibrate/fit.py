@@ -1,4 +1,4 @@
-"""Fit the law's parameters (SPEC section 7, docs/law.md forms) to load-unload-reload cycles.
+"""Fit the law's parameters (docs/model.md §7, docs/law.md forms) to load-unload-reload cycles.
 
 Input: the virgin loading curve and, for each peak level, the unloading and reloading curves with
 the peak, the residual approach and the plastic work of the cycle (from FE runs, or experiments).
@@ -16,7 +16,8 @@ from scipy.optimize import least_squares
 
 from .. import schema
 from ..errors import InputError
-from ..hertz import hertz_coefficient
+from ..grain.hertz import hertz_coefficient
+from ..grain.material import Material
 from ..law.params import (
     HERTZ_EXPONENT,
     MAX_SEGMENTS,
@@ -25,7 +26,6 @@ from ..law.params import (
     saturating_ratio,
 )
 from ..law.residual_table import ResidualTable
-from ..material import Material
 
 # Upper bound of a saturating ratio's limit (the JSON allows [0, 1)).
 MAX_LIMIT = 1.0 - 1e-9

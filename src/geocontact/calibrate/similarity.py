@@ -1,4 +1,4 @@
-"""Similarity of the contact in material space (SPEC section 10, issue 12; docs/similarity.md).
+"""Similarity of the contact in material space (docs/model.md §10, issue 12; docs/similarity.md).
 
 In units of the first-yield force Fy and approach delta_y the contact of two identical
 Drucker-Prager spheres depends on x = delta / delta_y, nu, beta, m and E / sigma_c; the radius
@@ -29,10 +29,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..fem.campaign import FemJob
-from ..fem.reuse import run_key
-from ..fem.run import FemResult
-from ..hertz import incipient_yield
-from ..material import Material, preset
+from ..fem.identity import run_key
+from ..fem.result import FemResult
+from ..grain.hertz import incipient_yield
+from ..grain.material import Material, preset
 from .campaign import extract_run
 from .fit import _power_exponent
 
@@ -152,7 +152,7 @@ def measure(job: FemJob, result: FemResult) -> dict[str, Any]:
     (calibrate.fit's exponents), the FE first yield in units of the analytic one, the size of
     the contact against the sphere and the mesh's resolution of it, the cost.
 
-    Fy and delta_y are the analytic first yield (geocontact.hertz): exact functions of the
+    Fy and delta_y are the analytic first yield (geocontact.grain.hertz): exact functions of the
     inputs, so the normalisation adds no noise of its own; the FE's first yield is reported
     beside them."""
     material = job.material

@@ -10,7 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..io import (
+from ..files import (
     atomic_directory,
     check_replaceable,
     json_safe,
@@ -19,8 +19,8 @@ from ..io import (
     write_json_atomic,
     write_text_atomic,
 )
+from ..grain.material import Material
 from ..law.params import LawParams
-from ..material import Material
 from .acceptance import (
     acceptance_table,
     compare,

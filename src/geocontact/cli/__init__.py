@@ -16,7 +16,7 @@ COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "sei
 
 
 def build_parser() -> ArgumentParser:
-    from .. import __version__
+    from .._version import __version__
 
     parser = ArgumentParser(
         prog="geocontact",

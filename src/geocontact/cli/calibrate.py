@@ -1,4 +1,5 @@
-"""``geocontact calibrate``: FE campaign + fit -> law parameters (INTERFACES, SPEC section 7)."""
+"""``geocontact calibrate``: FE campaign + fit -> law parameters (docs/interfaces.md, docs/model.md
+§7)."""
 
 from __future__ import annotations
 
@@ -6,16 +7,9 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import check_output_file
-from .common import (
-    add_fe_model_flags,
-    add_force_flag,
-    check_resolved_force,
-    check_steps,
-    check_workers,
-    fe_model_of,
-    print_json,
-)
+from ..fem.limits import check_resolved_force, check_steps, check_workers
+from ..files import check_output_file
+from .common import add_fe_model_flags, add_force_flag, fe_model_of, print_json
 
 
 def register(sub) -> None:
@@ -73,7 +67,7 @@ def run(args) -> int:
     from ..calibrate.campaign import settings
     from ..calibrate.workflow import calibrate_to_file
     from ..fem.campaign import DEFAULT_CACHE
-    from ..material import load_material
+    from ..grain.material import load_material
 
     started = time.perf_counter()
     check_steps(args.steps)

@@ -4,13 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from .common import (
-    add_fe_model_flags,
-    add_force_flag,
-    check_resolved_force,
-    check_steps,
-    print_json,
-)
+from ..fem.limits import check_resolved_force, check_steps
+from .common import add_fe_model_flags, add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -49,10 +44,10 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..analyses.cycles import run_cycles
     from ..errors import InputError
-    from ..force_history import load_history
-    from ..io import check_output_file
+    from ..files import check_output_file
+    from ..grain.force_history import load_history
+    from ..grain.material import load_material
     from ..law import load_params
-    from ..material import load_material
 
     material = load_material(args.material)
     forces = load_history(args.history)

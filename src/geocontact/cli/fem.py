@@ -4,13 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from .common import (
-    add_fe_model_flags,
-    add_force_flag,
-    check_resolved_force,
-    check_steps,
-    print_json,
-)
+from ..fem.limits import check_resolved_force, check_steps
+from .common import add_fe_model_flags, add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -37,9 +32,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..fem.run import load_history, run_history
-    from ..material import load_material
-    from ..resolution import fe_summary_resolutions
+    from ..fem.roundoff import fe_summary_resolutions
+    from ..fem.run import run_history
+    from ..grain.force_history import load_history
+    from ..grain.material import load_material
 
     material = load_material(args.material)
     forces = load_history(args.history)

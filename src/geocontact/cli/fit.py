@@ -1,5 +1,5 @@
 """``geocontact fit``: the law (and the material) fitted to a measured single-grain
-force-displacement test (INTERFACES; docs/fit.md)."""
+force-displacement test (docs/interfaces.md; docs/fit.md)."""
 
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from ..labtest import fit_test, read_test
-    from ..labtest.output import check_outputs, write_fit
+    from .fit_output import check_outputs, write_fit
 
     started = time.perf_counter()
     if not 0 <= args.bootstrap <= MAX_BOOTSTRAP:

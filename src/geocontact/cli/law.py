@@ -1,11 +1,11 @@
-"""``geocontact law``: the law along an approach history (INTERFACES)."""
+"""``geocontact law``: the law along an approach history (docs/interfaces.md)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import InputError
-from ..io import check_output_file, provenance, read_csv_column, write_csv, write_json_atomic
+from ..files import check_output_file, provenance, read_csv_column, write_csv, write_json_atomic
 from ..law import BRANCH_NAMES, Contact, load_params
 from .common import print_json
 
@@ -17,7 +17,7 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="output CSV: approach_m, force_N, ...")
     p.add_argument("--radius", type=float, default=None, metavar="R",
                    help="sphere radius in m: the law for two spheres of radius R by similarity "
-                        "(F_r(d) = s^2 F(d/s), s = R / the file's radius; SPEC 10)")
+                        "(F_r(d) = s^2 F(d/s), s = R / the file's radius; docs/model.md §10)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.set_defaults(run=run)
 

@@ -1,5 +1,5 @@
 """``geocontact params``: law parameters for any material in range from the universal law, no
-FE run (INTERFACES; docs/universal.md)."""
+FE run (docs/interfaces.md; docs/universal.md)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import check_output_file
+from ..files import check_output_file
 from .common import print_json
 
 
@@ -53,8 +53,8 @@ def check_law_file_replaceable(path: Path, force: bool) -> None:
 
 
 def run(args) -> int:
-    from ..law import for_material
-    from ..material import load_material
+    from ..grain.material import load_material
+    from ..universal import for_material
 
     started = time.perf_counter()
     out = Path(args.out)
@@ -72,7 +72,7 @@ def run(args) -> int:
                                   directory=args.dataset)
     else:
         params = for_material(material, extrapolate=args.extrapolate)
-    from ..io import provenance
+    from ..files import provenance
 
     record = provenance("params", {"material": args.material, "extrapolate": args.extrapolate,
                                    "dataset": args.dataset})

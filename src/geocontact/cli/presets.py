@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..material import list_presets, preset, preset_description
+from ..grain.material import list_presets, preset, preset_description
 from .common import print_json
 
 

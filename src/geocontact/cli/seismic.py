@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from ..errors import InputError
-from .common import add_force_flag, check_count, print_json
+from ..errors import InputError, check_count
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -82,7 +82,7 @@ def run(args) -> int:
 
     from ..analyses.seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
     from ..analyses.seismic.column import MAX_AFTERSHOCKS, MAX_SPHERES
-    from ..io import check_replaceable
+    from ..files import check_replaceable
     from ..law import load_params
 
     check_replaceable(args.out, "seismic", overwrite=args.force)  # before the run, not after
@@ -112,7 +112,7 @@ def run(args) -> int:
     if args.json:
         print_json(summary)
     else:
-        from ..resolution import Resolution
+        from ..fem.roundoff import Resolution
 
         energy = Resolution.from_dict(summary["resolution"]["energy"])
         cls = summary["classification"]

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .common import add_force_flag, check_workers, print_json
+from ..fem.limits import check_workers
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:

@@ -1,1 +1,1 @@
-"""The finite-element engine: the virtual contact experiment of SPEC section 5."""
+"""The finite-element engine: the virtual contact experiment of docs/model.md §5."""

@@ -25,29 +25,19 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from ..errors import GeocontactError, InputError
-from ..force_history import validate_forces
-from ..material import Material
+from ..grain.force_history import validate_forces
+from ..grain.material import Material
 from .checkpoint import checkpoint_path, fields_beside
-from .result import CURVE_COLUMNS
-from .reuse import (  # noqa: F401  (fe_code_hash, load_result: re-exported)
+from .identity import (
     FeRunIdentity,
     difference,
     equivalent_run,
     fe_code_hash,
     finished_run,
-    load_result,
     recorded_identities,
-    reproduced_code,
 )
-from .run import (
-    TOLERANCE,
-    VOLUMETRIC_DEFAULT,
-    FemResult,
-    load_schedule,
-    run_history,
-    sub_step_record,
-    write_result,
-)
+from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC_DEFAULT, FemResult
+from .run import load_schedule, run_history, sub_step_record, write_result
 
 DEFAULT_CACHE = Path("out/cache/fem")
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..io import atomic_path
+from ..files import atomic_path
 from .solver import State
 
 FORMAT = 2  # 1: before fem.reuse (a hash of the inputs only, no fields)
@@ -142,7 +142,7 @@ def warn_checkpoint(path: Path, reason: str) -> None:
 def _parse(path: Path, identity, columns: int) -> tuple[Checkpoint | None, str | None]:
     from skfem import MeshTri2
 
-    from .reuse import difference
+    from .identity import difference
 
     with np.load(path, allow_pickle=False) as data:
         saved = {k: data[k] for k in data.files}

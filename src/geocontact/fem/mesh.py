@@ -1,4 +1,4 @@
-"""Axisymmetric hemisphere mesh (SPEC section 5) built with the gmsh Python API.
+"""Axisymmetric hemisphere mesh (docs/model.md §5) built with the gmsh Python API.
 
 The model is the quarter disc of the r-z plane with its centre at (0, R): the tip touches the
 rigid flat at the origin, the axis is r = 0 and the equatorial (top) face is z = R.

@@ -1,4 +1,4 @@
-"""Linear Drucker-Prager plasticity with linear isotropic hardening (SPEC section 3).
+"""Linear Drucker-Prager plasticity with linear isotropic hardening (docs/model.md §3).
 
 Yield function (ABAQUS linear form, K = 1, hardening defined in uniaxial compression)::
 
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..material import Material
+from ..grain.material import Material
 
 ELASTIC, CONE, APEX = 0, 1, 2
 

@@ -1,4 +1,4 @@
-"""A force history on the FE model: load stepping, yield detection, outputs (SPEC sections 2, 5).
+"""A force history on the FE model: load stepping, yield detection, outputs (docs/model.md §2, 5).
 
 Public entry point::
 
@@ -7,7 +7,7 @@ Public entry point::
     result.summary  # dict (summary.json)
 
 All user-facing values are for the ball-ball pair: approach = 2 x the ball-wall interference of
-the half model, energies = 2 x the half model's (SPEC section 2). The force is the same.
+the half model, energies = 2 x the half model's (docs/model.md §2). The force is the same.
 """
 
 from __future__ import annotations
@@ -24,24 +24,22 @@ from typing import Any
 
 import numpy as np
 
-from .. import resolution
 from ..errors import ConvergenceError
-from ..force_history import (  # noqa: F401  (re-exported for the FE's callers)
+from ..files import atomic_directory, atomic_path, check_replaceable, write_json_atomic
+from ..grain.force_history import (
     cycle_peak,
     cycle_windows,
     history_from_dict,
     load_history,
     preset_history,
-    validate_forces,
 )
-from ..hertz import contact_radius, hertz_approach, incipient_yield
-from ..io import atomic_directory, atomic_path, check_replaceable, write_json_atomic
-from ..material import Material
+from ..grain.hertz import contact_radius, hertz_approach, incipient_yield
+from ..grain.material import Material
+from . import roundoff as resolution
 from .checkpoint import (
     checkpoint_path,
     field_name,
     fields_beside,
-    pending_fields_path,  # noqa: F401  (re-exported)
     read_checkpoint,
     remove_checkpoint,
     remove_pending_fields,
@@ -57,7 +55,7 @@ from .mesh import (
     mesh_preset,
 )
 from .plasticity import APEX, ELASTIC
-from .result import (  # noqa: F401  (re-exported: the FE run's settings and result)
+from .result import (
     CURVE_COLUMNS,
     STEP_RULES,
     STEPS_PER_SEGMENT,
@@ -70,8 +68,8 @@ from .solver import ContactSolver, State
 
 MAX_CUTBACKS = 8
 RESCUE_FAILURES = 16 * MAX_CUTBACKS  # failed solves a step in rescue mode may take in all
-PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (SPEC section 2)
-# Fully plastic onset Fp (SPEC section 4): the first load at which FULLY_PLASTIC_FRACTION of the
+PAIR = 2.0  # ball-ball approach and pair energies = 2 x the half model (docs/model.md §2)
+# Fully plastic onset Fp (docs/model.md §4): the first load at which FULLY_PLASTIC_FRACTION of the
 # core of the contact area, the disc r < FULLY_PLASTIC_CORE * a, is yielding at the surface.
 # The outer ring is left out because there, one or two elements behind the contact edge, the
 # yield state flickers with the node-by-node advance of the contact edge on every mesh (a node
@@ -91,7 +89,7 @@ CONTACT_BAND_FORCE_RATIO = 10.0
 # --- sizing ------------------------------------------------------------------------------------
 def yield_contact_radius_estimate(material: Material) -> float:
     """Contact radius used to size the mesh and the first load steps: 0.7 of the analytic
-    first-yield contact radius (geocontact.hertz), the margin with which the meshes were
+    first-yield contact radius (geocontact.grain.hertz), the margin with which the meshes were
     verified (docs/fem.md). The FE run detects the actual first yield itself."""
     return 0.7 * float(incipient_yield(material).contact_radius)
 
@@ -106,7 +104,7 @@ def largest_contact_radius_estimate(material: Material, force: float) -> float:
 
 
 def hertz_contact_radius(material: Material, force: float) -> float:
-    """Hertz contact radius at ``force`` (geocontact.hertz): the contact radius of a load below
+    """Hertz contact radius at ``force`` (grain.hertz): the contact radius of a load below
     yield, and a lower bound above it (a plastic contact is wider)."""
     return float(contact_radius(material, hertz_approach(material, force)))
 
@@ -315,7 +313,7 @@ def sub_step_record(targets: list[float], yield_force: float,
 
 def fully_plastic_onset(force, approach, fraction,
                         threshold: float = FULLY_PLASTIC_FRACTION) -> dict[str, Any] | None:
-    """Fp (SPEC section 4): the first loading step on which the yielded fraction reaches
+    """Fp (docs/model.md §4): the first loading step on which the yielded fraction reaches
     ``threshold``, interpolated linearly in the force (and the approach) from the step before.
 
     ``force``, ``approach``, ``fraction``: per step, in step order (curve.csv columns). None if
@@ -495,7 +493,7 @@ def run_history(
     contact integrated over the surface facets with the contact edge inside an element,
     ``fem.facet_contact``; small or finite strain). All five are part of the run's identity.
     """
-    from .reuse import FeRunIdentity, finished_run
+    from .identity import FeRunIdentity, finished_run
 
     started = time.perf_counter()
     identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
@@ -602,7 +600,7 @@ def run_history(
 
     curve = run.curve()
     wall = elapsed_before + time.perf_counter() - started
-    from .. import __version__
+    from .._version import __version__
 
     first = run.first_yield or {}
     contact, warnings = contact_resolution(material, fe_mesh, curve, run.first_yield)

@@ -1,4 +1,4 @@
-"""Axisymmetric elastic-plastic hemisphere on a rigid frictionless flat (SPEC section 5).
+"""Axisymmetric elastic-plastic hemisphere on a rigid frictionless flat (docs/model.md §5).
 
 Kinematics: small strain, axisymmetric, strain ``[e_rr, e_zz, e_tt = u_r / r, gamma_rz]``;
 every integral carries the 2 pi r of the full ring, so forces and energies are those of the whole
@@ -49,7 +49,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ..errors import ConvergenceError
-from ..material import Material
+from ..grain.material import Material
 from .plasticity import (
     DruckerPrager,
     elastic_energy_density,
@@ -61,7 +61,7 @@ from .plasticity import (
 TWO_PI = 2.0 * math.pi
 _IDENTITY = np.array([1.0, 1.0, 1.0, 0.0])
 CONTACT_CANDIDATE_HEIGHT = 0.3  # surface nodes with z0 < 0.3 R may touch the flat
-# A point counts as yielding (fully plastic onset, SPEC section 4) when its Drucker-Prager ratio
+# A point counts as yielding (fully plastic onset, docs/model.md §4) when its Drucker-Prager ratio
 # is within 1 % of the yield surface: a point that yielded and unloads by round-off still counts.
 YIELD_RATIO_AT_YIELD = 0.99
 # Rescue mode: halvings of a Newton update (or of the predictor's increment) whose iterate is not
@@ -895,7 +895,7 @@ class ContactSolver:
     def yielded_contact_fraction(self, state: State, extent: float = 1.0) -> float:
         """Fraction of the projected area of the disc r < extent * a (a the contact radius)
         whose surface layer (:meth:`surface_layer`) is at yield, i.e. within
-        ``YIELD_RATIO_AT_YIELD`` of the yield surface (SPEC section 4, Fp); 0 without contact.
+        ``YIELD_RATIO_AT_YIELD`` of the yield surface (docs/model.md §4, Fp); 0 without contact.
         """
         a = extent * self.contact_radius(state)
         if a <= 0.0:

@@ -6,7 +6,8 @@ segmentation into load-unload cycles.
     test.approach, test.force                         # pair approach (m), force (N), from contact
     test.cycles                                       # per cycle: loading, unloading, reloading
 
-Set-ups (SPEC 10; the FE half model is one sphere on a frictionless rigid plane at interference
+Set-ups (docs/model.md §10; the FE half model is one sphere on a frictionless rigid plane at
+interference
 w = delta / 2):
 
 * ``pair``: two identical grains; the displacement is the ball-ball approach delta;
@@ -49,9 +50,9 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from ..errors import InputError
-from ..force_history import cycle_peak, cycle_windows
+from ..grain.force_history import cycle_peak, cycle_windows
 from ..law.params import HERTZ_EXPONENT
-from ..material import finite_number
+from ..schema import finite_number
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9}
 FORCE_UNITS = {"N": 1.0, "kN": 1e3, "mN": 1e-3}
@@ -199,7 +200,7 @@ def check_setup(setup: str) -> str:
 
 
 def approach_of(displacement, setup: str):
-    """The pair approach delta of a set-up's displacement (SPEC 10, module docstring)."""
+    """The pair approach delta of a set-up's displacement (docs/model.md §10, module docstring)."""
     check_setup(setup)
     return 2.0 * np.asarray(displacement) if setup == "flat" else np.asarray(displacement)
 

@@ -40,9 +40,9 @@ from scipy.signal import savgol_filter
 
 from ..calibrate.fit import LevelData, fit_law
 from ..errors import InputError
-from ..hertz import hertz_coefficient, incipient_yield
+from ..grain.hertz import hertz_coefficient, incipient_yield
+from ..grain.material import Material
 from ..law.params import HERTZ_EXPONENT, LawParams
-from ..material import Material
 from .curve import SMOOTH_WINDOW, LabTest, Record, condition
 
 DEFAULT_POISSONS_RATIO = 0.25
@@ -365,7 +365,7 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         material = _material(kh, radius, nu, beta, m, sigma_c=sigma_c)
         fy = universal["yield_force_N"] * (hertz_coefficient(material) / hertz_coefficient(
             universal["material"])) ** -2  # Fy ~ 1/E*^2 at a fixed sigma_c
-        yield_info = {"source": "universal law (geocontact.law.for_material) of the identified "
+        yield_info = {"source": "universal law (universal.for_material) of the identified "
                                 "material", "force_N": fy}
     elif master is None:
         fy = leave["force_N"]
@@ -589,7 +589,7 @@ def provenance_of(result: LabFit) -> dict[str, Any]:
         "assumed": result.assumed,
         "universal_law": result.identification.get("universal_law") or {
             "used": False, "why": (
-                "geocontact.law.for_material (issue 12) is not in this installation"
+                "geocontact.universal.for_material (issue 12) is not in this installation"
                 if universal_law() is None else
                 "not used by this fit (--identify fe: the FE master curve instead)")},
         "contact_point": result.contact,

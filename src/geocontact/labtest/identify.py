@@ -1,4 +1,4 @@
-"""The material behind a fitted test (SPEC 9: E, nu, sigma_c, beta, m).
+"""The material behind a fitted test (docs/model.md §9: E, nu, sigma_c, beta, m).
 
 What one test separates and what it does not:
 
@@ -17,7 +17,7 @@ What one test separates and what it does not:
 * beta (and m) against sigma_c: one curve fixes one yield force, and beta moves the shape of
   F / Fy only weakly; beta and m are given (``--friction-angle``) or assumed and then
   reported with sigma_c(beta) from the analytic incipient yield at the fitted yield force;
-* with the universal law (``geocontact.law.for_material``, issue 12; ``identify_universal``):
+* with the universal law (``geocontact.universal.for_material``, issue 12; ``identify_universal``):
   sigma_c without FE runs, first from its virgin loading, then from the whole record (the whole
   law driven along every cycle), and the profile of the misfit over beta when no beta is given
   (the correlated pair).
@@ -34,9 +34,9 @@ from scipy.optimize import least_squares
 
 from ..calibrate.fit import _trapezoid_weights
 from ..errors import InputError
-from ..hertz import incipient_yield
+from ..grain.hertz import incipient_yield
+from ..grain.material import Material
 from ..law.params import HERTZ_EXPONENT
-from ..material import Material
 
 ROUNDS = 4          # FE runs at most
 TOLERANCE = 0.01    # relative change of sigma_c and E that ends the rounds
@@ -66,9 +66,9 @@ def _weighted_virgin(vd, vf, noise: float):
 
 
 def universal_law():
-    """``geocontact.law.for_material`` when this installation has it, else None."""
+    """``geocontact.universal.for_material`` when this installation has it, else None."""
     try:
-        from ..law import for_material
+        from ..universal import for_material
     except ImportError:
         return None
     return for_material
@@ -79,7 +79,7 @@ def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
     """FE monotonic loading of ``material`` to ``max_force``: delta/delta_y and F/Fy (the FE's
     own first yield force Fy and its Hertz approach delta_y)."""
     from ..fem.campaign import FemJob, run_campaign
-    from ..fem.reuse import run_key
+    from ..fem.identity import run_key
 
     job = FemJob(material, (0.0, float(max_force)), mesh=mesh, steps_per_segment=FE_STEPS,
                  label="identification")
@@ -353,7 +353,7 @@ def identify_universal(material: Material, vd, vf, noise: float, *,
     correlated pair) is added."""
     law = universal_law()
     if law is None:
-        raise InputError("identify: the universal law (geocontact.law.for_material) is not in "
+        raise InputError("identify: the universal law (universal.for_material) is not in "
                          "this installation; use --identify fe")
     vd, vf = np.asarray(vd, float), np.asarray(vf, float)
     whole = approach is not None and force is not None
@@ -369,7 +369,7 @@ def identify_universal(material: Material, vd, vf, noise: float, *,
 
     sigma, misfit, sigma_v, misfit_v = best(material)
     out: dict[str, Any] = {
-        "method": ("universal law (geocontact.law.for_material) at the fit's E, nu, beta, m: "
+        "method": ("universal law (geocontact.universal.for_material) at the fit's E, nu, beta, m: "
                    + ("sigma_c minimising the RMS over the path length of (law - record) along "
                       "the whole record, as a fraction of its peak force, searched within a "
                       f"factor {WHOLE_RANGE:g} of the virgin-loading estimate" if whole else

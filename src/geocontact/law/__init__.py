@@ -1,10 +1,9 @@
-"""The hysteretic normal contact law (SPEC section 6): parameters, the scalar reference path
+"""The hysteretic normal contact law (docs/model.md §6): parameters, the scalar reference path
 and the vectorised many-contact kernel."""
 
 from .kernel import ContactArrays
 from .params import SCHEMA, SHAKEDOWN, TRUNCATED, CyclicLaw, LawParams, load_params
 from .reference import BRANCH_NAMES, Contact, ContactState, force_history
-from .universal import for_material
 
 __all__ = [
     "BRANCH_NAMES",
@@ -16,7 +15,6 @@ __all__ = [
     "ContactState",
     "CyclicLaw",
     "LawParams",
-    "for_material",
     "force_history",
     "load_params",
 ]

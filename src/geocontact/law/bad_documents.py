@@ -27,7 +27,7 @@ from typing import Any
 
 from .. import schema
 from ..errors import ArgumentParser, InputError, run_reporting_errors
-from ..io import write_text_atomic
+from ..files import write_text_atomic
 from .params import LawParams, load_params
 
 CORPUS_SCHEMA = "geocontact.bad-law-params/1"

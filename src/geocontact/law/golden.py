@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ArgumentParser, InputError, run_reporting_errors
-from ..io import check_output_file, write_text_atomic
+from ..files import check_output_file, write_text_atomic
 from .params import LawParams, load_params
 from .reference import Contact
 

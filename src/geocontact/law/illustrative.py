@@ -11,9 +11,9 @@ import json
 from importlib import resources
 
 from ..errors import ArgumentParser, run_reporting_errors
-from ..hertz import incipient_yield
-from ..io import check_output_file
-from ..material import Material, load_material
+from ..files import check_output_file
+from ..grain.hertz import incipient_yield
+from ..grain.material import Material, load_material
 from .params import LawParams
 
 
@@ -27,7 +27,7 @@ def illustrative_params(material: Material) -> LawParams:
         "material": material.to_dict(),
         "yield": y.to_dict(),
         "provenance": {"source": "illustration (data/illustrative-law.json)",
-                       "yield": "analytic Hertz + Drucker-Prager search (geocontact.hertz)"},
+                       "yield": "analytic Hertz + Drucker-Prager search (geocontact.grain.hertz)"},
     }
     return LawParams.from_dict(document)
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import InputError
-from ..hertz import hertz_coefficient
-from ..material import Material
+from ..grain.hertz import hertz_coefficient
+from ..grain.material import Material
 from . import _core
 from .params import HERTZ_EXPONENT, SHAKEDOWN, LawParams
 
@@ -90,7 +90,8 @@ class ContactArrays:
     ``threads`` (default 1) splits the contacts over that many threads; the results are
     bitwise the same for any number.
 
-    ``radii`` (m, one per contact, optional): grains of any size by similarity (SPEC 10). Contact
+    ``radii`` (m, one per contact, optional): grains of any size by similarity (docs/model.md §10).
+    Contact
     i is the calibrated law rescaled to spheres of radius ``radii[i]`` (for two grains r1, r2:
     r_eq = 2 r1 r2 / (r1 + r2)), F = s^2 F_R(d / s) with s = radii[i] / R, stiffness s times,
     energies s^3 times; ``state`` then stays in the calibrated spheres' units (approaches / s,

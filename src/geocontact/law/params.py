@@ -1,8 +1,9 @@
-"""Law parameters: the versioned JSON document ``geocontact.law/1`` (INTERFACES, SPEC section 6).
+"""Law parameters: the versioned JSON document ``geocontact.law/1`` (docs/interfaces.md,
+docs/model.md §6).
 
 Dimensionless plastic depth ``x = max(delta_max / delta_y, 1)``. Fitted forms (docs/law.md):
 
-* virgin loading (SPEC 6): ``F = Kh d^1.5`` (d <= dy), ``Fy (d/dy)^n1`` (dy < d <= dp),
+* virgin loading (docs/model.md §6): ``F = Kh d^1.5`` (d <= dy), ``Fy (d/dy)^n1`` (dy < d <= dp),
   ``Fp (d/dp)^n2`` (d > dp), with ``dp = (fully_plastic_approach_ratio) * dy``;
 * unloading exponent ``n_u(x) = 1.5 x^pu`` (tends to 3/2 as x -> 1, Etsion et al. 2005 form);
 * reloading exponent ``n_r(x) = min(1.5 x^pr, n_u(x))`` (a reload curve never lies below the
@@ -30,9 +31,9 @@ import numpy as np
 
 from .. import schema
 from ..errors import InputError
-from ..hertz import hertz_coefficient
-from ..io import read_text_input, write_text_atomic
-from ..material import Material
+from ..files import read_text_input, write_text_atomic
+from ..grain.hertz import hertz_coefficient
+from ..grain.material import Material
 from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
@@ -86,7 +87,7 @@ TRUNCATED, SHAKEDOWN = "truncated", "shakedown"
 
 @dataclass(frozen=True)
 class CyclicLaw:
-    """Optional ratchetting and shakedown extension (SPEC 6): per-cycle residual-approach
+    """Optional ratchetting and shakedown extension (docs/model.md §6): per-cycle residual-approach
     increments and, in the shakedown form, per-cycle loop dissipation."""
 
     enabled: bool = False
@@ -146,7 +147,7 @@ class CyclicLaw:
                                  f"be in [0, 1], got {second:g}")
 
 
-# Powers of the scale s = r / R of a quantity, by the unit suffix of its key (SPEC 10).
+# Powers of the scale s = r / R of a quantity, by the unit suffix of its key (docs/model.md §10).
 _SIMILARITY_POWERS = {"_N": 2, "_m": 1, "_J": 3, "_N_per_m": 1}
 
 
@@ -313,7 +314,7 @@ class LawParams:
     # --- derived constants ---------------------------------------------------------------
     @property
     def hertz_coefficient(self) -> float:
-        """Kh of F = Kh delta^1.5 for two identical spheres (SPEC 4)."""
+        """Kh of F = Kh delta^1.5 for two identical spheres (docs/model.md §4)."""
         return hertz_coefficient(self.material)
 
     @property
@@ -329,7 +330,7 @@ class LawParams:
     def fully_plastic_force(self) -> float:
         return self.yield_force * self.fully_plastic_approach_ratio**self.elastic_plastic_exponent
 
-    # --- similarity (SPEC 10) ---------------------------------------------------------------
+    # --- similarity (docs/model.md §10) -----------------------------------------------------------
     def for_radius(self, radius: float) -> LawParams:
         """The law of two identical spheres of radius ``radius`` of the same material.
 
@@ -342,13 +343,13 @@ class LawParams:
         the FE itself: tests/test_fem_similarity.py)."""
         from dataclasses import replace
 
-        from ..material import finite_number
+        from ..schema import finite_number
 
         radius = finite_number("radius", radius)
         material = self.material.with_(radius=radius)  # the material's own radius range
         s = radius / self.material.radius
         similarity = {"from_radius_m": self.material.radius, "scale": s,
-                      "rule": "F_r(d) = s^2 F_R(d / s), s = r / R (SPEC 10)"}
+                      "rule": "F_r(d) = s^2 F_R(d / s), s = r / R (docs/model.md §10)"}
         return replace(self, material=material, yield_approach=s * self.yield_approach,
                        yield_extra=_scale_by_unit(self.yield_extra, s),
                        fit_errors=_scale_by_unit(self.fit_errors, s),
@@ -370,7 +371,7 @@ class LawParams:
                                 self.residual_transition, self.residual_log_power)
 
     def plastic_work_ratio(self, depth):
-        """The FE's Wp/W_total fitted as a function of depth (diagnostic, SPEC 6)."""
+        """The FE's Wp/W_total fitted as a function of depth (diagnostic, docs/model.md §6)."""
         return saturating_ratio(depth, self.plastic_work_limit, self.plastic_work_power,
                                 self.plastic_work_transition, self.plastic_work_log_power)
 
@@ -460,7 +461,7 @@ class LawParams:
 
     def _check_energy(self) -> None:
         """Reject parameter sets whose full-cycle plastic work is negative or shrinks with depth:
-        such a law would give back more energy than it took (SPEC 6, dissipation >= 0)."""
+        such a law would give back more energy than it took (docs/model.md §6, dissipation >= 0)."""
         dmax = _CHECK_DEPTHS * self.yield_approach
         wp = self.envelope_plastic_work(dmax) / (self.yield_force * self.yield_approach)
         bad = np.flatnonzero((wp < -1e-9) | (np.diff(wp, prepend=wp[0]) < -1e-9))
@@ -476,7 +477,7 @@ class LawParams:
 
     # --- JSON ----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        from .. import __version__
+        from .._version import __version__
 
         ydict = {
             **self.yield_extra,

@@ -1,5 +1,5 @@
 """Scalar reference implementation of the hysteretic law: one contact, written to read like
-SPEC section 6 and docs/law.md. It is the specification: the compiled law (the C++ header behind
+docs/model.md §6 and docs/law.md. It is the specification: the compiled law (the C++ header behind
 ``ContactArrays`` and the LAMMPS plugin) must agree with it (golden vectors, tests/test_law.py).
 
 Normalised coordinates on the current envelope (after the ratchet shift ``s``)::
@@ -126,7 +126,7 @@ class Contact:
         return cyclic.tolerance * (s.max_approach - s.residual_approach)
 
     def _set_envelope(self, max_approach: float) -> None:
-        """Update F_max, d_res, n_u, n_r from the largest approach reached (SPEC 6)."""
+        """Update F_max, d_res, n_u, n_r from the largest approach reached (docs/model.md §6)."""
         s, p = self.state, self.params
         x = max_approach / p.yield_approach
         s.max_approach = max_approach

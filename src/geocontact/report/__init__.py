@@ -3,15 +3,11 @@ its figures embedded, each figure's data as CSV beside it), one module per secti
 ``law``, ``sweeps``, ``seismic``, ``cycles``, ``paper_histories``) and ``build`` (which section
 each result gets)."""
 
-from .html import (  # noqa: F401
-    GENERATOR,
-    Figure,
-    Report,
-    is_our_report,
-    render_html,
-    save_figure,
-    table,
-)
+from ..figures import Figure, save_figure
+from .html import GENERATOR, Report, is_our_report, render_html, table
+
+__all__ = ["GENERATOR", "Figure", "Report", "build_report", "is_our_report", "render_html",
+           "save_figure", "table"]
 
 
 def build_report(*args, **kwargs):

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import (
+from ..files import (
     add_to_manifest,
     atomic_directory,
     provenance,

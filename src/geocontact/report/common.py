@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
 from ..errors import InputError
-from .html import Figure, save_figure
+from ..figures import Figure, save_figure
 
 FIGURES = "figures"
 REPORT_HTML = "report.html"

@@ -9,13 +9,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-from ..cyclic_fit import ROUND_OFF
+from ..calibrate.cyclic_fit import ROUND_OFF
+from ..figures import Figure
 from .common import (
     read_summary,
     relative_dir,
     save_to_figures,
 )
-from .html import Figure, Report, table
+from .html import Report, table
 
 # --- cyclic histories (geocontact cycles) --------------------------------------------------------
 

@@ -9,9 +9,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..io import read_csv_column
+from ..figures import Figure
+from ..files import read_csv_column
 from .common import read_summary, relative_dir, save_to_figures
-from .html import Figure, Report, table
+from .html import Report, table
 
 SCHEMA = "geocontact.dem/1"
 COLOURS = {"geocontact": "C0", "granular": "C1"}

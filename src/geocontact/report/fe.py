@@ -8,17 +8,18 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..io import (
+from ..fem.roundoff import clean_fe_cycles, fe_summary_resolutions
+from ..fem.roundoff import note as resolution_note
+from ..figures import Figure
+from ..files import (
     read_csv_column,
 )
-from ..resolution import clean_fe_cycles, fe_summary_resolutions
-from ..resolution import note as resolution_note
 from .common import (
     read_summary,
     relative_dir,
     save_to_figures,
 )
-from .html import Figure, Report, table
+from .html import Report, table
 
 # --- FE run --------------------------------------------------------------------------------------
 

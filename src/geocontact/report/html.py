@@ -9,8 +9,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-# the figure record and its writer live below calibrate (geocontact.figures); re-exported here
-from ..figures import Figure, save_figure  # noqa: F401
+from ..figures import Figure
 
 
 @dataclass
@@ -40,7 +39,7 @@ def render_html(report: Report, directory: Path, figures: Path | None = None) ->
     """The report as one self-contained HTML page. Images are read from ``directory`` (paths
     relative to it); those under ``figures/`` from ``figures`` when given (the figures folder
     being written beside it)."""
-    from .. import __version__
+    from .._version import __version__
 
     def image(rel: str) -> Path:
         head, _, rest = rel.partition("/")

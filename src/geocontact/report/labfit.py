@@ -11,9 +11,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..io import read_csv_column
+from ..figures import Figure, save_figure
+from ..files import read_csv_column
 from .common import relative_dir, save_to_figures
-from .html import Figure, Report, save_figure, table
+from .html import Report, table
 
 SCHEMA = "geocontact.labfit/1"
 

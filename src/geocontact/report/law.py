@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..errors import InputError
+from ..figures import Figure
 from .common import (
     LOG_FLOOR,
     LOG_POINTS,
@@ -18,7 +19,7 @@ from .common import (
     save_to_figures,
     toward,
 )
-from .html import Figure, Report, table
+from .html import Report, table
 
 # --- law parameters ------------------------------------------------------------------------------
 

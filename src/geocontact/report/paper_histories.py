@@ -12,10 +12,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from ..cyclic_fit import ROUND_OFF
+from ..calibrate.cyclic_fit import ROUND_OFF
 from ..errors import InputError
+from ..figures import Figure
 from .common import save_to_figures
-from .html import Figure, Report, table
+from .html import Report, table
 
 RATIOS = (("residual_increment_ratio", "residual-approach increment / cycle 1"),
           ("plastic_work_ratio", "plastic work / cycle 1"))

@@ -5,12 +5,13 @@ from __future__ import annotations
 from html import escape as html_escape
 from pathlib import Path
 
-from ..resolution import Resolution
+from ..fem.roundoff import Resolution
+from ..figures import Figure
 from .common import (
     read_summary,
     relative_dir,
 )
-from .html import Figure, Report, table
+from .html import Report, table
 
 # --- seismic -------------------------------------------------------------------------------------
 

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from ..io import (
+from ..figures import Figure
+from ..files import (
     read_csv_column,
 )
 from .common import (
@@ -15,7 +16,7 @@ from .common import (
     readable_log_ticks,
     save_to_figures,
 )
-from .html import Figure, Report, table
+from .html import Report, table
 
 # --- material sweeps -----------------------------------------------------------------------------
 

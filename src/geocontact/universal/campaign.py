@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, run_reporting_errors
-from ..io import write_json_atomic, write_text_atomic
+from ..files import write_json_atomic, write_text_atomic
 from .dataset import (
     DATASET_FORMAT,
     default_directory,
@@ -55,7 +55,7 @@ DEFAULT_CACHE = Path("out/cache/universal")
 def point_jobs(point: DesignPoint, mesh: str = MESH):
     """The FE runs of one point (``calibrate.campaign.calibration_jobs`` at its peaks)."""
     from ..calibrate.campaign import calibration_jobs
-    from ..hertz import incipient_yield
+    from ..grain.hertz import incipient_yield
 
     material = point.material()
     fy = incipient_yield(material).force
@@ -67,7 +67,7 @@ def point_row(point: DesignPoint, jobs, results) -> dict[str, Any]:
     """The dataset row of a point from its FE runs (see ``dataset``)."""
     from ..calibrate.campaign import extract_run, fe_fully_plastic, fe_yield
     from ..calibrate.fit import _power_exponent
-    from ..hertz import incipient_yield
+    from ..grain.hertz import incipient_yield
 
     material = point.material()
     analytic = incipient_yield(material)
@@ -124,8 +124,8 @@ def run_points(count: int, directory: str | Path | None = None,
     added. A point whose FE runs fail is recorded as failed in provenance.json and retried by
     the next call; the others go on."""
     from ..fem.campaign import CampaignError, check_scheduler_address, run_campaign
-    from ..fem.reuse import fe_code_hash
-    from ..io import provenance as provenance_record
+    from ..fem.identity import fe_code_hash
+    from ..files import provenance as provenance_record
 
     directory = Path(directory or default_directory())
     directory.mkdir(parents=True, exist_ok=True)
@@ -220,7 +220,7 @@ def _prepare(directory: Path, progress: bool) -> None:
 
 
 def _version() -> str:
-    from .. import __version__
+    from .._version import __version__
 
     return __version__
 
@@ -260,7 +260,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     def run() -> int:
-        from ..cli.common import check_workers
+        from ..fem.limits import check_workers
 
         check_workers(args.workers)
         added = run_points(args.points, args.dataset, args.cache, scheduler=args.scheduler,

@@ -1,8 +1,8 @@
 """The universal law's dataset: one row per campaign point, the normalised data the fit needs.
 
 Every quantity is dimensionless, in units of the analytic first yield of the point's material
-(``geocontact.hertz.incipient_yield``: Fy, delta_y), so that a row applies to any E and radius
-(SPEC section 10). Per point:
+(``geocontact.grain.hertz.incipient_yield``: Fy, delta_y), so that a row applies to any E and radius
+(docs/model.md §10). Per point:
 
 * ``fe_yield_ratio``: the FE first-yield force over the analytic Fy (the law's yield point is the
   Hertz approach of the FE force, as ``calibrate.campaign.fe_yield`` makes it);

@@ -1,10 +1,11 @@
 """The material space of the universal law and the campaign's deterministic point list.
 
-By similarity (SPEC section 10) the normalised response F/Fy(x = delta/delta_y) of two identical
+By similarity (docs/model.md §10) the normalised response F/Fy(x = delta/delta_y) of two identical
 Drucker-Prager spheres depends on the friction angle beta, Poisson's ratio nu and the hardening
 ratio m alone while the contact is small against the sphere; E/sigma_c enters only through the
 finite size of the sphere. The campaign therefore spans four coordinates (``AXES``); the radius
-and E are fixed (they scale out exactly: radius by SPEC 10, E at fixed E/sigma_c because the
+and E are fixed (they scale out exactly: radius by docs/model.md §10, E at fixed E/sigma_c because
+the
 continuum problem is linear in the stress scale).
 
 The point list is deterministic: the centre of the box, 8 of its corners (a half fraction),
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..material import Material
+from ..grain.material import Material
 
 # (name, low, high): the coordinates of the space, in the order
 # of every array of this package.
@@ -157,7 +158,7 @@ def largest_contact_over_radius() -> float:
     """The largest contact radius over R that a top level reaches (``fem.run`` estimate, the
     one the mesh is sized with) over the corners of the box; must stay <= 1/2."""
     from ..fem.run import largest_contact_radius_estimate
-    from ..hertz import incipient_yield
+    from ..grain.hertz import incipient_yield
 
     worst = 0.0
     for c in itertools.product(*[(a[1], a[2]) for a in AXES]):

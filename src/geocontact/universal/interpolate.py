@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..material import Material
+from ..grain.material import Material
 from .dataset import (
     LEVEL_FIELDS,
     VIRGIN_SAMPLES,
@@ -285,7 +285,7 @@ def rebuild(material: Material, values: dict[str, float]):
     """FE-like data of ``material`` from normalised quantities (a row of the dataset, or the
     interpolated one): yield approach, virgin curve and per-level ``calibrate.fit.LevelData``."""
     from ..calibrate.fit import LevelData
-    from ..hertz import hertz_coefficient, incipient_yield
+    from ..grain.hertz import hertz_coefficient, incipient_yield
 
     data = normalised_data(values, float(coordinates_of(material)[3]))
     analytic = incipient_yield(material)
@@ -360,7 +360,7 @@ def prepare(directory: str | Path | None = None, progress: bool = True,
     fit); returns the number fitted now."""
     import hashlib
 
-    from ..io import write_json_atomic
+    from ..files import write_json_atomic
     from .dataset import parse_points
 
     directory = Path(directory or default_directory())

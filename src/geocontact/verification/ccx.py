@@ -23,7 +23,7 @@ CalculiX allows:
   force reaches zero, from a power-law fit F = C (delta - delta_res)^n to the last three
   loaded points.
 
-Approaches are ball-ball (2 x the interference of the half model), as everywhere (SPEC section 2).
+Approaches are ball-ball (2 x the interference of the half model), as everywhere (docs/model.md §2).
 """
 
 from __future__ import annotations
@@ -42,9 +42,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
-from ..material import Material
+from ..grain.material import Material
 
-PAIR = 2.0  # ball-ball approach = 2 x the half model's interference (SPEC section 2)
+PAIR = 2.0  # ball-ball approach = 2 x the half model's interference (docs/model.md §2)
 CONTACT_ZONE = 0.3  # slave surface: sphere edges with z0 < 0.3 R (as solver.py's contact nodes)
 PENALTY_DEFAULT = 100.0  # contact slope = PENALTY_DEFAULT x E / h_tip
 # CalculiX expands axisymmetric elements into a 2 degree sector; the force totals it prints are

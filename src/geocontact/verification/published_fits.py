@@ -1,6 +1,6 @@
 """Published FE fits of an elastic-perfectly plastic (von Mises) sphere pressed by a rigid flat.
 
-Used to verify the FE engine in its von Mises limit (SPEC section 5, beta = 0; see
+Used to verify the FE engine in its von Mises limit (docs/model.md §5, beta = 0; see
 docs/verification.md). Both fits describe ONE deformable sphere of radius R against a rigid,
 frictionless flat, i.e. exactly the half model of :mod:`geocontact.fem` with the interference
 omega = the ball-wall interference (= half the ball-ball approach). Their elastic modulus is that
@@ -33,7 +33,7 @@ of a sphere on a rigid flat, E' = E / (1 - nu^2) (not the E* of two spheres).
   and deformation in hemispherical contacts. J. Tribol. 127, 484-493 (JCG), the second published
   residual fit, in the JG normalisation: omega_res / omega_max = 1.02 [1 - ((w + 5.9)/6.9)^-0.54].
 
-The loading work and the loop work ("what unloading does not give back", SPEC section 6) of a
+The loading work and the loop work ("what unloading does not give back", docs/model.md §6) of a
 load-unload cycle follow from KE's loading fit and EKK's unloading fit by integration
 (:func:`kogut_etsion_loading_work`, :func:`etsion_loop_work_ratio`); EKK give no energy fit of
 their own.
@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..material import Material
+from ..grain.material import Material
 
 
 @dataclass(frozen=True)

@@ -52,7 +52,7 @@ inline const char *branch_name(int branch)
   return (branch >= 0 && branch <= 4) ? names[branch] : "invalid";
 }
 
-// Elastic-plastic Drucker-Prager material of two identical spheres (INTERFACES, M.toml).
+// Elastic-plastic Drucker-Prager material of two identical spheres (docs/interfaces.md, M.toml).
 struct Material {
   double youngs_modulus = 0.0;            // E (Pa)
   double poissons_ratio = 0.0;            // nu
@@ -75,7 +75,7 @@ struct Material {
   }
 };
 
-// Optional ratchetting extension (SPEC 6): per-cycle residual-approach increments c N^-p.
+// Optional ratchetting extension (docs/model.md §6): per-cycle residual-approach increments c N^-p.
 struct CyclicLaw {
   bool enabled = false;
   double residual_ratio_coefficient = 0.0;

@@ -1,4 +1,4 @@
-"""Seismic and aftershock loading of a column of hysteretic contacts (SPEC section 8).
+"""Seismic and aftershock loading of a column of hysteretic contacts (docs/model.md §8).
 
 ``records`` (acceleration records in) -> ``column`` (velocity-Verlet column of spheres on a moving
 base, the law at every contact) -> ``classify`` (rainflow loading-history class, shakedown state,

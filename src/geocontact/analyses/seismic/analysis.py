@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError
-from ...resolution import Resolution, seismic_energy
+from ...fem.roundoff import Resolution, seismic_energy
 from . import classify
 from .column import Column, ColumnModel, law_contacts
 from .records import ProcessedRecord, load_record, process
@@ -173,7 +173,7 @@ class SeismicResult:
         return rows
 
     def summary(self) -> dict[str, Any]:
-        from ...io import provenance
+        from ...files import provenance
 
         c = self.column
         s = self.settings
@@ -248,7 +248,7 @@ class SeismicResult:
 
 
 def energy_resolution(column: Column) -> Resolution:
-    """The run's energy resolution (``geocontact.resolution``): dissipations below it are
+    """The run's energy resolution (``geocontact.fem.roundoff``): dissipations below it are
     round-off of differences of cumulative energies (a contact reloaded inside its envelope)."""
     return seismic_energy(column.base_work, column.contact_work,
                           float(np.max(np.abs(column.contacts.dissipated_energy), initial=0.0)))
@@ -363,14 +363,14 @@ def write_outputs(result: SeismicResult, out_dir: str | Path, *, figures: bool =
     """Write the run directory as one unit (``io.atomic_directory``: an existing folder only
     if it is a seismic result of ours, unless ``overwrite``); returns the summary (also in
     summary.json)."""
-    from ...io import atomic_directory
+    from ...files import atomic_directory
 
     with atomic_directory(out_dir, "seismic", overwrite=overwrite) as tmp:
         return _write_outputs(result, tmp, figures)
 
 
 def _write_outputs(result: SeismicResult, out: Path, figures: bool) -> dict[str, Any]:
-    from ...io import write_json_atomic, write_text_atomic
+    from ...files import write_json_atomic, write_text_atomic
 
     h = result.history
     n = result.column.model.spheres

@@ -2,7 +2,7 @@
 
 The paper (section "Seismic loading") sorts records by **when their peak comes**: a peak early in
 the record (El Centro < 7 %, Kobe < 19 % of the record length) makes the record an *extended
-monotonically decreasing* history (SPEC section 8: the first, largest load does the plastic work,
+monotonically decreasing* history (docs/model.md §8: the first, largest load does the plastic work,
 later smaller cycles are elastic - elastic shakedown); a later peak (Wenchuan, about 25 %) gives it
 *repeated / monotonically increasing* character (limited hardening, ratchetting possible).
 :func:`peak_time_rule` is that rule.
@@ -21,8 +21,8 @@ classified:
 
 :func:`shakedown_state` reads what the law did rather than what the force did: the growth of the
 residual approach and of the dissipated energy in the second half of the significant cycles,
-relative to their growth over the whole history, by the rule of ``geocontact.cyclic_fit``
-(:func:`geocontact.cyclic_fit.shakedown_rule`; SPEC section 6: elastic shakedown when both stop,
+relative to their growth over the whole history, by the rule of ``geocontact.calibrate.cyclic_fit``
+(:func:`calibrate.cyclic_fit.shakedown_rule`; docs/model.md §6: elastic shakedown when both stop,
 plastic shakedown when only the residual approach stops, ratchetting when it keeps growing).
 """
 
@@ -33,16 +33,14 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError
-
 # The shakedown states and their rule are shared with the cyclic-history analysis.
-from ..cycles import (  # noqa: F401  (the states are re-exported for the seismic callers)
+from ...calibrate.cyclic_fit import (
     ELASTIC,
     ELASTIC_SHAKEDOWN,
-    PLASTIC_SHAKEDOWN,
     RATCHETTING,
     shakedown_rule,
 )
+from ...errors import InputError
 
 DECREASING = "extended monotonically decreasing"
 REPEATED = "repeated"
@@ -115,7 +113,7 @@ def significant_peaks(history: np.ndarray, significance: float = 0.05
 def history_class(force: np.ndarray, *, significance: float = 0.05, tolerance: float = 0.05,
                   early_fraction: float = PAPER_EARLY_PEAK_FRACTION, min_repeats: int = 3,
                   min_rises: int = 3) -> HistoryClass:
-    """Loading-history class (SPEC section 8) of a compressive force history, from rainflow.
+    """Loading-history class (docs/model.md §8) of a compressive force history, from rainflow.
 
     ``significance``: a cycle counts if its range is at least this fraction of the history's
     range. ``tolerance``: a peak is "at the top" if within this fraction of the range below the

@@ -5,7 +5,7 @@ Model (docs/seismic.md):
 * N identical spheres (material and radius of the law parameters, density given) stacked on a
   base; sphere 0 is the top one. Contact k is below sphere k: between spheres k and k+1, and for
   k = N-1 between the bottom sphere and an identical grain fixed to the base, so that every
-  contact is a ball-ball pair of the law (SPEC section 2) and reports its ball-ball approach.
+  contact is a ball-ball pair of the law (docs/model.md §2) and reports its ball-ball approach.
 * Gravity g and an optional surcharge force S on the top sphere. The base moves vertically with
   the record's acceleration a_b(t) (positive up); the column is integrated in coordinates
   relative to the base, x_k (up, from the unstressed touching configuration), where the base
@@ -41,7 +41,7 @@ import numpy as np
 from scipy.constants import g as STANDARD_GRAVITY
 
 from ...errors import ConvergenceError, InputError
-from ...material import finite_number
+from ...schema import finite_number
 
 ContactFactory = Callable[[int], Any]  # n -> an object with the ContactArrays interface
 # The paper's column has 5 spheres. The histories keep 4 values per contact and sample (force,

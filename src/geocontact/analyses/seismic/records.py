@@ -31,7 +31,7 @@ import numpy as np
 from scipy.constants import g as STANDARD_GRAVITY
 
 from ...errors import InputError
-from ...io import read_text_input
+from ...files import read_text_input
 
 # Unit name -> factor to m/s^2. Aliases map to these canonical names.
 UNIT_FACTORS = {"g": STANDARD_GRAVITY, "m/s2": 1.0, "cm/s2": 0.01}

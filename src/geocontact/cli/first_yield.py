@@ -1,9 +1,9 @@
-"""``geocontact yield``: Hertz incipient yield of two identical spheres (SPEC section 4)."""
+"""``geocontact yield``: Hertz incipient yield of two identical spheres (docs/model.md §4)."""
 
 from __future__ import annotations
 
-from ..hertz import incipient_yield
-from ..material import load_material
+from ..grain.hertz import incipient_yield
+from ..grain.material import load_material
 from .common import print_json
 
 

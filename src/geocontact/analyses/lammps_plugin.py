@@ -13,7 +13,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import InputError
+from ..errors import InputError
 
 # Where `make plugin` builds it, relative to the working directory (the repository root): the
 # installed package does not know where a checkout is, so elsewhere set the variable.

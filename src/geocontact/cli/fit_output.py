@@ -13,16 +13,16 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from ..errors import InputError
-from ..io import (
+from ..files import (
     atomic_directory,
     check_output_file,
     check_replaceable,
     write_csv,
     write_json_atomic,
 )
+from ..labtest.curve import SMOOTH_WINDOW
+from ..labtest.fit import LabFit
 from ..law import Contact, LawParams
-from .curve import SMOOTH_WINDOW
-from .fit import LabFit
 
 SCHEMA = "geocontact.labfit/1"
 COMMAND = "fit"

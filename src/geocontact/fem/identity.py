@@ -16,6 +16,7 @@ bars, a campaign label, the output path.
 
 from __future__ import annotations
 
+import ast
 import csv
 import functools
 import hashlib
@@ -29,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..force_history import validate_forces
-from ..material import Material
+from ..grain.force_history import validate_forces
+from ..grain.material import Material
 from .mesh import MESH_RULES, mesh_preset
 from .result import (
     CURVE_COLUMNS,
@@ -49,10 +50,11 @@ SCHEMA = "geocontact.fe-identity/1"
 LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
 # detector, a solver fix) invalidates earlier results even when the version string is unchanged.
-# fem/checkpoint.py restores the state a resumed run goes on from.
-FE_SOURCES = ("fem/checkpoint.py", "fem/facet_contact.py", "fem/finite_strain.py", "fem/mesh.py",
-              "fem/plasticity.py", "fem/result.py", "fem/run.py", "fem/solver.py",
-              "force_history.py", "hertz.py", "material.py", "resolution.py")
+# fem/checkpoint.py restores the state a resumed run goes on from. Named as modules of the package;
+# what is hashed is their code (``code_fingerprint``), not where they live nor their comments.
+FE_SOURCES = ("fem.checkpoint", "fem.facet_contact", "fem.finite_strain", "fem.mesh",
+              "fem.plasticity", "fem.result", "fem.run", "fem.solver",
+              "grain.force_history", "grain.hertz", "grain.material", "fem.roundoff")
 
 # Older FE sources whose finished runs the current sources reproduce bit for bit, by the hash of
 # the current sources: {current: {older: why}}. An entry is made only for a change that cannot
@@ -67,7 +69,23 @@ _NAN_ITERATE = ("a Newton iterate with a non-finite residual (finite strain: an 
                 "NaN right-hand side gave a NaN step, which gave up)")
 _DENSE_RULE = ("the opt-in mesh rule 'contact-dense' added (fem/mesh.py; recorded in the identity "
                "as mesh_rule): the 'yield' and 'contact' meshes are the same arrays")
+_CODE_ONLY = ("the FE hash reads the sources' code (their syntax trees without docstrings and "
+              "import statements), not their file names, comments or docstrings: the package's "
+              "modules were moved (material, hertz, force_history to grain, resolution "
+              "to fem.roundoff, io to files) and their comments edited, with every syntax tree the "
+              "same as at 209c6c5f6f7c038c (checked with this function on both trees)")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "f7594263f80ad0d4": {
+        "209c6c5f6f7c038c": _CODE_ONLY,
+        "00df7dcdec639962": _CODE_ONLY + "; " + _DENSE_RULE,
+        "0fb388b18c5a441f": _CODE_ONLY + "; " + _DENSE_RULE + "; " + _NAN_ITERATE,
+        "51d4fb8435749d12": _CODE_ONLY + "; " + _DENSE_RULE + "; " + _NAN_ITERATE
+                            + ", the facet contact with finite strain allowed",
+        "4f8939b91af98a9d": _CODE_ONLY + "; " + _DENSE_RULE + "; " + _NAN_ITERATE
+                            + ", the opt-in facet contact added",
+        "4919b4f465169f88": _CODE_ONLY + "; " + _DENSE_RULE + "; " + _NAN_ITERATE
+                            + ", rescue mode and the opt-in facet contact added",
+    },
     "209c6c5f6f7c038c": {
         "00df7dcdec639962": _DENSE_RULE,
         "0fb388b18c5a441f": _DENSE_RULE + "; " + _NAN_ITERATE + " (00df7dcdec639962)",
@@ -119,15 +137,36 @@ def reproduced_code(recorded: Any) -> str | None:
     return REPRODUCED_FE_CODE.get(fe_code_hash(), {}).get(recorded)
 
 
-@functools.cache
-def fe_code_hash() -> str:
-    """Hash of the FE engine's source files (``FE_SOURCES``)."""
-    root = Path(__file__).resolve().parent.parent
+def code_fingerprint(source: str) -> str:
+    """The code of a Python source: its syntax tree without docstrings and import statements.
+    Moving a module, renaming what it imports from, or editing its comments and docstrings leaves
+    it unchanged; any change of what the code computes changes it."""
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if not isinstance(body, list):
+            continue
+        kept = [n for n in body if not isinstance(n, (ast.Import, ast.ImportFrom))]
+        if (kept and isinstance(kept[0], ast.Expr) and isinstance(kept[0].value, ast.Constant)
+                and isinstance(kept[0].value.value, str)):
+            kept = kept[1:]
+        node.body = kept or [ast.Pass()]
+    return ast.dump(tree, annotate_fields=False)
+
+
+def sources_hash(root: Path) -> str:
+    """The hash of ``FE_SOURCES``' code under the package folder ``root``."""
     digest = hashlib.sha256()
     for name in FE_SOURCES:
-        digest.update(name.encode())
-        digest.update((root / name).read_bytes())
+        path = root.joinpath(*name.split(".")).with_suffix(".py")
+        digest.update(code_fingerprint(path.read_text()).encode())
     return digest.hexdigest()[:16]
+
+
+@functools.cache
+def fe_code_hash() -> str:
+    """Hash of the FE engine's code (``FE_SOURCES``, ``code_fingerprint``)."""
+    return sources_hash(Path(__file__).resolve().parent.parent)
 
 
 @functools.cache

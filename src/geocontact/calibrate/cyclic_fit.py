@@ -1,6 +1,6 @@
 """Per-cycle analysis of repeated loading, shared by the calibration and the analyses: the
 cycle table, power laws in N, critical cycles, the shakedown classification, and the law's
-cyclic extension fitted from it (SPEC sections 6-8; the paper's eqs. 17-20).
+cyclic extension fitted from it (docs/model.md §6-8; the paper's eqs. 17-20).
 
 Input is a list of cycles as the FE engine reports them (``summary["cycles"]``: a cycle runs from
 one zero-force waypoint through its peak to the next) or as the law reports them
@@ -39,8 +39,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
-from .law.params import power_law_critical_cycle
+from ..errors import InputError
+from ..law.params import power_law_critical_cycle
 
 ELASTIC = "elastic"
 ELASTIC_SHAKEDOWN = "elastic shakedown"
@@ -65,7 +65,7 @@ RESOLUTION = 1e-5
 
 def shakedown_rule(residual_growth: float, residual_reference: float, dissipation: float,
                    dissipation_reference: float, tolerance: float) -> str:
-    """The shakedown state from late growth against a reference growth (SPEC section 6).
+    """The shakedown state from late growth against a reference growth (docs/model.md §6).
 
     Ratchetting while the residual approach still grows by more than ``tolerance`` of the
     reference; plastic shakedown when it has stopped but the dissipation has not (closed loops);
@@ -442,14 +442,15 @@ def law_first_cycle(params, peak_force: float) -> tuple[float, float]:
 
 def with_cyclic(params, analysis: CycleAnalysis, provenance: dict[str, Any] | None = None,
                 ratchet: bool = True):
-    """``params`` with ``cyclic`` filled from an analysis of repeated loading (SPEC 6, 7), in
+    """``params`` with ``cyclic`` filled from an analysis of repeated loading (docs/model.md §6,
+    7), in
     the shakedown form (docs/law.md): cycle N's residual increment and plastic work, in metres
     and joules, over the law's own cycle 1 at the FE's peak force (:class:`CyclicFit`), become
     the law's ratio laws; the analysis tolerance its tolerance (the envelope band); the fit
     errors per cycle and where they came from are recorded. With ``ratchet=False`` (the FE's
     residual approach stops at cycle 1, within its resolution) only the loops are fitted and the
     residual ratio is zero."""
-    from .law import SHAKEDOWN, CyclicLaw
+    from ..law import SHAKEDOWN, CyclicLaw
 
     rows = analysis.cycles
     residual_1, dissipation_1 = law_first_cycle(params, rows[0]["max_force_N"])

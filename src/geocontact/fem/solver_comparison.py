@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from ..material import Material
+from ..grain.material import Material
 from .run import run_history
 from .solver import LINEAR_SOLVERS
 

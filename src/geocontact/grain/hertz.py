@@ -1,7 +1,7 @@
 """Elastic Hertz contact of two identical spheres and its incipient Drucker-Prager yield.
 
-SPEC sections 2 and 4. Everything is in the ball-ball approach delta (SI units, compression
-positive); E* = E / (2 (1 - nu^2)) and R* = R / 2 come from :class:`~geocontact.material.Material`.
+docs/model.md §2 and 4. Everything is in the ball-ball approach delta (SI units, compression
+positive); E* = E / (2 (1 - nu^2)) and R* = R / 2 come from ``grain.material.Material``.
 
 Hertz (Johnson, *Contact Mechanics*, 1985, section 4.2, with E* and R*)::
 
@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import optimize
 
-from .errors import InputError
+from ..errors import InputError
 from .material import Material
 
 # --- Hertz: force, approach, contact radius, pressure, stiffness ----------------------------
@@ -171,7 +171,7 @@ def stress_field(r_over_a, z_over_a, poissons_ratio: float) -> StressField:
     return StressField(sigma_r, sigma_theta, sigma_z, tau_rz)
 
 
-# --- Drucker-Prager measure (SPEC section 3) -----------------------------------------------
+# --- Drucker-Prager measure (docs/model.md §3) -----------------------------------------------
 
 
 def pressure_and_equivalent_stress(field: StressField) -> tuple[np.ndarray, np.ndarray]:
@@ -188,7 +188,7 @@ def drucker_prager_measure(field: StressField, tan_beta: float) -> np.ndarray:
     return (q - p * tan_beta) / (1.0 - tan_beta / 3.0)
 
 
-# --- incipient yield (SPEC section 4) ------------------------------------------------------
+# --- incipient yield (docs/model.md §4) ------------------------------------------------------
 
 # Search box of the first-yield point, in units of the contact radius: outside it the field has
 # decayed (as 1/rho^2 on the surface, 1/zeta^2 on the axis) far below its maxima.
@@ -252,7 +252,7 @@ def _first_yield_point(poissons_ratio: float, friction_angle_deg: float):
 
 @dataclass(frozen=True)
 class IncipientYield:
-    """First yield of the Hertz contact (SPEC section 4); lengths in m, force in N."""
+    """First yield of the Hertz contact (docs/model.md §4); lengths in m, force in N."""
 
     force: float
     approach: float

@@ -1,4 +1,5 @@
-"""Force histories (INTERFACES ``H.toml``; SPEC section 8): the paper's named histories and the
+"""Force histories (docs/interfaces.md ``H.toml``; docs/model.md §8): the paper's named histories
+and the
 file parser, shared by the FE engine and the law's force-controlled driver."""
 
 from __future__ import annotations
@@ -9,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
-from .io import read_text_input
-from .material import finite_number
+from ..errors import InputError
+from ..files import read_text_input
+from ..schema import finite_number
 
 PRESETS = ("repeated", "mono-increasing", "mono-decreasing")
 

@@ -1,6 +1,6 @@
-"""Material and geometry of two identical Drucker-Prager spheres (SPEC sections 2-3, 9).
+"""Material and geometry of two identical Drucker-Prager spheres (docs/model.md §2-3, 9).
 
-The input format is the TOML of INTERFACES::
+The input format is the TOML of docs/interfaces.md::
 
     [material]
     youngs_modulus = 10e9
@@ -23,10 +23,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from . import schema
-from .errors import InputError
-from .io import read_text_input
-from .schema import finite_number  # noqa: F401  (its home was here: the old name works)
+from .. import schema
+from ..errors import InputError
+from ..files import read_text_input
 
 MATERIAL_KEYS = (
     "youngs_modulus",
@@ -61,7 +60,7 @@ class Material:
             object.__setattr__(self, key, schema.check_number(key, getattr(self, key), spec,
                                                               scale))
 
-    # --- derived quantities (SPEC sections 2-3) -------------------------------------------
+    # --- derived quantities (docs/model.md §2-3) -------------------------------------------
     @property
     def tan_beta(self) -> float:
         return math.tan(math.radians(self.friction_angle_deg))
