@@ -94,8 +94,8 @@ bench: $(STAMP) plugin ccx check-calibrations
 
 # Regenerate the shipped illustrative parameter files (never edited by hand).
 examples: $(STAMP)
-	$(PY) -m geocontact.law.illustrative --material reference --out examples/params-illustrative.json
-	$(PY) -m geocontact.law.illustrative --material reference-weak --out examples/params-illustrative-weak.json
+	$(PY) scripts/make_illustrative_params.py --material reference --out examples/params-illustrative.json
+	$(PY) scripts/make_illustrative_params.py --material reference-weak --out examples/params-illustrative-weak.json
 
 # FE calibrations shipped in examples/ (docs/calibration.md): the FE campaign (load-unload-reload
 # levels from 2 Fy to 6000 N) + fit + held-out acceptance runs, for sigma_c = 10 MPa and 1 MPa.
@@ -143,7 +143,7 @@ calibrate-weak-finite-coarse: $(STAMP)
 PAPER_FINITE_ONLY ?=
 PAPER_FINITE_WORKERS ?= 1
 paper-histories-finite: $(STAMP)
-	$(PY) scripts/paper_histories.py --mesh default $(WEAK_FINITE_FE) \
+	$(VENV)/bin/geocontact study paper-histories --mesh default $(WEAK_FINITE_FE) \
 	  --fe-model-materials reference-weak --workers $(PAPER_FINITE_WORKERS) \
 	  --cache datasets/fe-runs/paper-histories-finite --out out/paper-histories-finite \
 	  $(if $(PAPER_FINITE_ONLY),--only $(PAPER_FINITE_ONLY))

@@ -1,9 +1,14 @@
 import os
+import sys
 from pathlib import Path
 
 import pytest
 
 from geocontact import preset
+
+# the generators of shipped test data (golden vectors, bad law documents, illustrative laws) are
+# scripts, not part of the package: the tests import them from there
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 from geocontact.law import CyclicLaw, LawParams
 
 # The LAMMPS plugin of this checkout, for in-process tests and their MPI subprocesses (which run

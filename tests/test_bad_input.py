@@ -235,8 +235,9 @@ def test_critical_time_step_is_the_linearised_columns_stability_limit(spheres):
 
 
 def test_column_rejects_a_time_step_above_the_stability_limit():
+    from make_illustrative_params import illustrative_params
+
     from geocontact.analyses.seismic.column import Column, ColumnModel, law_contacts
-    from geocontact.law.illustrative import illustrative_params
 
     params = illustrative_params(preset("reference"))
     model = ColumnModel(5, params.material.radius, 2650.0)
@@ -265,24 +266,25 @@ def test_seismic_time_step_above_the_limit_is_a_one_line_error(tmp_path, capsys)
 
 
 # --- the generators' command lines ------------------------------------------------------------
-@pytest.mark.parametrize("module", ["golden", "illustrative"])
+@pytest.mark.parametrize("module", ["make_golden_vectors", "make_illustrative_params"])
 def test_generators_report_bad_input_in_one_line(tmp_path, capsys, module):
     import importlib
 
-    generator = importlib.import_module(f"geocontact.law.{module}")
+    generator = importlib.import_module(module)  # scripts/ (tests/conftest.py)
     (tmp_path / "bad.json").write_text("{not json")
     (tmp_path / "bad.toml").write_text(MATERIAL_TOML.format(E="true"))
-    option = ["--params", str(tmp_path / "bad.json")] if module == "golden" else [
+    option = ["--params", str(tmp_path / "bad.json")] if module == "make_golden_vectors" else [
         "--material", str(tmp_path / "bad.toml")]
     assert generator.main([*option, "--out", str(tmp_path / "out.json")]) == 2
-    one_line_error(capsys, "params: malformed JSON" if module == "golden" else "youngs_modulus")
+    one_line_error(capsys, "params: malformed JSON" if module == "make_golden_vectors"
+                   else "youngs_modulus")
     assert generator.main(["--out", str(tmp_path / "out.json"), "--bogus"]) == 2
     one_line_error(capsys, "unrecognized arguments")
     assert not (tmp_path / "out.json").exists()
 
 
 def test_golden_per_family_bounds(tmp_path, capsys):
-    from geocontact.law import golden
+    import make_golden_vectors as golden
 
     assert golden.main(["--out", str(tmp_path / "g.json"), "--per-family", "0"]) == 2
     # at least one history per parameter variant
@@ -359,7 +361,8 @@ def test_law_approach_beyond_the_radius(tmp_path, capsys):
 
 
 def test_other_output_files_naming_a_folder(tmp_path, capsys):
-    from geocontact.law import golden, illustrative
+    import make_golden_vectors as golden
+    import make_illustrative_params as illustrative
 
     folder = tmp_path / "existing"
     folder.mkdir()
@@ -382,8 +385,9 @@ def test_seismic_aftershock_count(tmp_path, capsys):
 
 
 def test_column_refuses_a_run_of_too_many_steps():
+    from make_illustrative_params import illustrative_params
+
     from geocontact.analyses.seismic.column import Column, ColumnModel, law_contacts
-    from geocontact.law.illustrative import illustrative_params
 
     params = illustrative_params(preset("reference"))
     column = Column(ColumnModel(2, params.material.radius, 2650.0), law_contacts(params),

@@ -217,8 +217,8 @@ def test_yield_and_illustrative_law_on_mutated_material_files(capsys, data):
         if data.draw(st.booleans()):
             run_cli(capsys, ["yield", "--material", str(path), *data.draw(
                 st.sampled_from([[], ["--json"]]))])
-        else:  # python -m geocontact.law.illustrative, with the CLI's error reporting
-            from geocontact.law import illustrative
+        else:  # python scripts/make_illustrative_params.py, with the CLI's error reporting
+            import make_illustrative_params as illustrative
 
             out = tmp / "P.json"
             run_cli(capsys, ["--material", str(path), "--out", str(out)], out=out,

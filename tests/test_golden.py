@@ -1,12 +1,13 @@
 """The golden vectors checked by the C++ law (plugins/lammps/tests/golden.json) are what
-`python -m geocontact.law.golden` writes today: regenerate them, never edit them."""
+`python scripts/make_golden_vectors.py` writes today: regenerate them, never edit them."""
 
 import json
 import math
 from pathlib import Path
 
+from make_golden_vectors import DEFAULT_PARAMS, generate
+
 from geocontact.law import load_params
-from geocontact.law.golden import DEFAULT_PARAMS, generate
 
 GOLDEN = Path(__file__).resolve().parents[1] / "plugins" / "lammps" / "tests" / "golden.json"
 
@@ -44,7 +45,7 @@ def test_committed_golden_vectors_match_the_python_reference():
     differences = _differences(committed, fresh)
     assert not differences, (
         f"golden vectors are stale ({len(differences)} differences, first: {differences[0]}): "
-        "run python -m geocontact.law.golden --out plugins/lammps/tests/golden.json")
+        "run python scripts/make_golden_vectors.py --out plugins/lammps/tests/golden.json")
 
 
 def test_the_staleness_check_sees_a_change_of_the_law_but_not_rounding():

@@ -5,11 +5,11 @@ import json
 
 import numpy as np
 import pytest
+from make_illustrative_params import illustrative_params
 
 from geocontact.cli import main
 from geocontact.grain.material import preset
 from geocontact.law import Contact, LawParams, load_params
-from geocontact.law.illustrative import illustrative_params
 
 EXAMPLES = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples"
 

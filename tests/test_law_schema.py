@@ -1,6 +1,6 @@
 """One schema (src/geocontact/data/law-schema.json) for the Python loader and the C++ reader of
 the law's parameter file: the corpus of bad documents (tests/data/bad-law-params/) is what
-``python -m geocontact.law.bad_documents`` writes today, covers every field's every bound, and
+``python scripts/make_bad_law_documents.py`` writes today, covers every field's every bound, and
 both readers reject each document with the same one-line message (the C++ reader here through
 the compiled core; the ctest ``params`` replays it in plain C++ too)."""
 
@@ -13,12 +13,12 @@ import math
 from pathlib import Path
 
 import pytest
+from make_bad_law_documents import DEFAULT_BASE, generate
 
 from geocontact import schema
 from geocontact.errors import InputError
 from geocontact.grain.material import Material
 from geocontact.law import LawParams, _core, load_params
-from geocontact.law.bad_documents import DEFAULT_BASE, generate
 from geocontact.law.params import CyclicLaw, LoadingSegments
 
 CORPUS = Path(__file__).resolve().parent / "data" / "bad-law-params"
@@ -30,7 +30,7 @@ def test_committed_corpus_is_what_the_generator_writes():
     fresh = generate(Path(__file__).resolve().parents[1] / DEFAULT_BASE)
     committed = {p.name: p.read_text() for p in CORPUS.iterdir() if p.suffix == ".json"}
     assert committed == fresh, (
-        "bad-document corpus is stale: run python -m geocontact.law.bad_documents "
+        "bad-document corpus is stale: run python scripts/make_bad_law_documents.py "
         "--out tests/data/bad-law-params")
 
 
@@ -312,7 +312,7 @@ def test_corpus_writer_never_touches_a_folder_it_did_not_write(tmp_path, capsys)
     """A folder with someone's files (no corpus index), or with an index of another kind, is
     refused before anything is written or removed; an index naming paths outside the folder
     removes nothing there."""
-    from geocontact.law import bad_documents
+    import make_bad_law_documents as bad_documents
 
     user = tmp_path / "user"
     user.mkdir()

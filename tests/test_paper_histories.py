@@ -193,6 +193,29 @@ def test_report_shows_the_findings_table(paper_like, tmp_path):
     assert "Drucker-Prager grains need more cycles" in html
 
 
+def test_each_finding_reads_as_one_sentence_with_its_deciding_numbers(paper_like, tmp_path):
+    """Issue 38: the report's findings table gives one sentence per statement with the numbers
+    that decide it, not the analysis' dictionaries (those stay in findings.json / .csv)."""
+    from geocontact.cli import main
+    from geocontact.files import write_json_atomic
+
+    rows = [r for r in paper_findings(paper_like) if not r.get("missing_runs")]
+    assert rows
+    for row in rows:
+        sentence = row["finding"]
+        assert "{" not in sentence and "': " not in sentence, sentence
+        assert not any(key in sentence for key in ("_N", "fitted_tol", "residual_cycle2",
+                                                   "prior_peak_N", "largest_later")), sentence
+        assert any(ch.isdigit() for ch in sentence) or "shakedown" in sentence, sentence
+    weakens = next(r for r in rows if r["statement"].startswith("Hysteresis"))
+    largest = weakens["our_value"]["repeated-10MPa"]["largest_later"]
+    assert f"{largest:.3g} (10 MPa)" in weakens["finding"]
+    write_json_atomic(tmp_path / "paper" / "findings.json", {"findings": rows})
+    assert main(["report", str(tmp_path / "paper")]) == 0
+    html = (tmp_path / "paper" / "report.html").read_text()
+    assert "what we find" in html and "plastic_work: " not in html and "cycle: " not in html
+
+
 def test_write_study_writes_every_result_file(paper_like, tmp_path):
     from geocontact.analyses.paper_histories import write_study
 
@@ -235,11 +258,11 @@ def test_report_leaves_out_statements_whose_runs_are_missing(paper_like, tmp_pat
     text = build_report(tmp_path).read_text()
     assert "not available" not in text and "n/a" not in text
     assert f"{len(missing)} more of the paper's statements need runs" in text
-    assert "repeated-1MPa" in text and "scripts/paper_histories.py" in text
+    assert "repeated-1MPa" in text and "geocontact study paper-histories" in text
 
 
 def test_fe_model_reaches_every_run_of_the_study():
-    """--kinematics/--mesh-rule/--step-rule/--max-step-ratio of scripts/paper_histories.py reach
+    """--kinematics/--mesh-rule/--step-rule/--max-step-ratio of `study paper-histories` reach
     every history run and the single loads beside the mono-increasing ones (their cache keys
     differ from the default model's)."""
     from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
@@ -356,14 +379,10 @@ def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
 
 
 def _paper_histories_script(root):
-    """scripts/paper_histories.py loaded as a module."""
-    import importlib.util
+    """The module of ``geocontact study paper-histories``."""
+    from geocontact.cli.study import paper_histories
 
-    spec = importlib.util.spec_from_file_location("paper_histories_script",
-                                                  root / "scripts" / "paper_histories.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    return script
+    return paper_histories
 
 
 def test_report_draws_every_historys_cycles_against_its_first(paper_like, tmp_path):

@@ -7,10 +7,10 @@ import json
 
 import numpy as np
 import pytest
+from make_illustrative_params import illustrative_params
 
 from geocontact import preset
 from geocontact.cli import main
-from geocontact.law.illustrative import illustrative_params
 
 pytest.importorskip("eqsig")
 pytest.importorskip("rainflow")

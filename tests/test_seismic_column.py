@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from make_illustrative_params import illustrative_params
 
 from geocontact import preset
 from geocontact.analyses.seismic.column import (
@@ -16,7 +17,6 @@ from geocontact.analyses.seismic.column import (
     virgin_approach,
 )
 from geocontact.errors import InputError
-from geocontact.law.illustrative import illustrative_params
 
 PARAMS = illustrative_params(preset("reference"))
 MATERIAL = PARAMS.material

@@ -21,12 +21,12 @@ from typing import Any
 
 import numpy as np
 
+from ._version import __version__
 from .errors import InputError
 
 
 def provenance(command: str, inputs: dict[str, Any]) -> dict[str, Any]:
     """What every result file records: the version and the inputs that made it."""
-    from ._version import __version__
 
     return {
         "geocontact_version": __version__,
@@ -203,7 +203,6 @@ def _sha256(path: Path) -> str:
 def write_manifest(directory: str | Path, command: str,
                    inputs: dict[str, Any] | None = None) -> dict[str, Any]:
     """List every file under ``directory`` (size and SHA-256) in its manifest, written last."""
-    from ._version import __version__
 
     directory = Path(directory)
     files = {}

@@ -1,5 +1,5 @@
 // Replays the golden vectors of the Python reference law (tests/golden.json, written by
-// `python -m geocontact.law.golden`) through the C++ header and checks forces, stiffnesses,
+// `python scripts/make_golden_vectors.py`) through the C++ header and checks forces, stiffnesses,
 // branches and final states; then the array path (arrays.hpp) against the one-contact path.
 // Exit status 0 when every case agrees.
 #include "geocontact/arrays.hpp"

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeocontactError, InputError
+from ..files import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
 from .lammps_plugin import mpi_library_dir, plugin_path
 
 SCHEMA = "geocontact.dem/1"
@@ -361,13 +362,6 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
             progress: Callable[[str], None] | None = None) -> dict:
     """Run ``test`` for each contact model into ``out`` (one result folder, written as a unit):
     ``CONTACT/`` with the LAMMPS outputs and the parsed CSVs, and summary.json."""
-    from ..files import (
-        atomic_directory,
-        check_replaceable,
-        provenance,
-        write_csv,
-        write_json_atomic,
-    )
 
     if test not in TESTS:
         raise InputError(f"test: must be one of {', '.join(TESTS)}, got {test!r}")

@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeocontactError, InputError
+from ..files import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
 from .dem import SCHEMA, check_run, check_sample, read_run, read_table, run_lammps
 from .lammps_plugin import plugin_path
 
@@ -296,13 +297,6 @@ def run_seismic(record: str, law: str | Path, settings: SeismicSettings, *,
     """Run ``in.seismic`` under ``record`` for each contact model into ``out`` (one result
     folder, written as a unit): ``record.csv``, ``CONTACT/`` with the LAMMPS outputs and
     ``series.csv``, and summary.json."""
-    from ..files import (
-        atomic_directory,
-        check_replaceable,
-        provenance,
-        write_csv,
-        write_json_atomic,
-    )
     from .seismic.classify import PAPER_EARLY_PEAK_FRACTION, peak_time_rule
 
     law, params = check_run(settings, law, contacts, ranks)

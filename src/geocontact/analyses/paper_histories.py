@@ -30,6 +30,7 @@ from ..calibrate.cyclic_fit import (
     ratchetting_cycles,
 )
 from ..errors import InputError
+from ..files import write_csv, write_json_atomic
 from ..grain.force_history import preset_history
 from ..grain.material import Material, preset
 from .cycles import fe_cycle_windows, reloading_stiffness
@@ -214,6 +215,26 @@ def _nc(run: PaperRun, which: str = "fitted") -> dict[str, Any]:
             "elastic_shakedown": c["elastic_shakedown"]}
 
 
+def _g(x: Any) -> str:
+    """A number as the sentences of the findings print it."""
+    return "-" if x is None else (f"{x:.3g}" if isinstance(x, float) else str(x))
+
+
+def _short(name: str) -> str:
+    """'repeated-1MPa' -> '1 MPa', 'repeated-von-mises-10MPa' -> 'von Mises'."""
+    if "von-mises" in name:
+        return "von Mises"
+    return name.rsplit("-", 1)[-1].replace("MPa", " MPa")
+
+
+def _powers_text(powers: dict[str, Any]) -> str:
+    return f"p = {_g(powers['residual'])} (residual), {_g(powers['plastic_work'])} (plastic work)"
+
+
+def _span(values: list[float]) -> str:
+    return "-" if not values else f"{min(values):.4g}-{max(values):.4g}"
+
+
 SLOWER_RULE = ("both fitted power-law decay powers p (residual increment and plastic work "
                "ratios) smaller for the run claimed to need more cycles: then its Nc is larger "
                "at every tolerance small enough; Nc at a fixed loose tolerance can tie or invert "
@@ -281,6 +302,7 @@ class Finding:
     check: Any
     paper_value: Any = None  # a callable of the paper's numbers, or None
     also_needs: str = ""  # what else the check needs when it returns None (besides ``needs``)
+    says: Any = None  # our value -> one sentence with the numbers that decide the verdict
 
     def evaluate(self, ctx: Context) -> dict[str, Any]:
         quantity = self.quantity.format(tol=ctx.tolerance)
@@ -292,18 +314,20 @@ class Finding:
         if outcome is None:  # the runs are there but lack a part the check needs
             return _missing(self.statement, quantity, missing, paper_value)
         value, agrees, rule = outcome
-        return _row(self.statement, quantity, value, agrees, paper_value=paper_value,
-                    rule=rule, runs=list(self.needs))
+        return {**_row(self.statement, quantity, value, agrees, paper_value=paper_value,
+                       rule=rule, runs=list(self.needs)),
+                "finding": self.says(value) if self.says else format_value(value)}
 
 
 FINDINGS: list[Finding] = []
 
 
-def finding(statement: str, quantity: str, needs, paper_value=None, also_needs: str = ""):
+def finding(statement: str, quantity: str, needs, paper_value=None, also_needs: str = "",
+            says=None):
     """Register the decorated check as a finding (in the order of the paper's section)."""
     def register(check):
         FINDINGS.append(Finding(statement, quantity, tuple(needs), check, paper_value,
-                                also_needs))
+                                also_needs, says))
         return check
     return register
 
@@ -325,7 +349,10 @@ def paper_findings(runs: dict[str, PaperRun]) -> list[dict[str, Any]]:
 # 1. hysteresis weakens after the first cycle
 @finding("Hysteresis (residual approach, plastic work) weakens after the first cycle",
          "cycle 2 and last cycle over cycle 1: residual increment, plastic work; largest "
-         "|ratio| of cycles 2..N", REPEATED)
+         "|ratio| of cycles 2..N", REPEATED,
+         says=lambda v: "largest ratio of a later cycle to cycle 1: " + ", ".join(
+             f"{_g(x['largest_later'])} ({_short(n)})" for n, x in v.items())
+         + f" (agrees below {WEAKER:g})")
 def _weakens(ctx: Context):
     value, ok = {}, True
     for n in REPEATED:
@@ -345,7 +372,9 @@ def _weakens(ctx: Context):
 
 # 2. elastic shakedown eventually
 @finding("Repeated loading ends in elastic shakedown",
-         "state after the run and eventual state (tolerance {tol:g})", REPEATED)
+         "state after the run and eventual state (tolerance {tol:g})", REPEATED,
+         says=lambda v: "; ".join(f"{_short(n)}: {x['after_run']} after the run, "
+                                  f"{x['eventual']} eventually" for n, x in v.items()))
 def _ends_in_shakedown(ctx: Context):
     value = {n: {"after_run": ctx.runs[n].analysis.state,
                  "eventual": ctx.runs[n].analysis.eventual_state} for n in REPEATED}
@@ -358,7 +387,11 @@ def _critical_cycles(name: str, key: str) -> None:
     @finding(f"Critical cycle Nc ({name}): residual approach, plastic work",
              "Nc fitted / measured at tolerance {tol:g} (and at "
              + ", ".join(f"{t:g}" for t in EXTRA_TOLERANCES) + ")", [name],
-             paper_value=lambda paper: paper[key])
+             paper_value=lambda paper: paper[key],
+             says=lambda v: f"fitted Nc {_g(v['fitted']['residual'])} (residual), "
+                            f"{_g(v['fitted']['plastic_work'])} (plastic work); measured "
+                            f"{_g(v['measured']['residual'])}, "
+                            f"{_g(v['measured']['plastic_work'])}")
     def check(ctx: Context):
         r = ctx.runs[name]
         value = {"fitted": _nc(r), "measured": _nc(r, "measured"),
@@ -381,7 +414,10 @@ _critical_cycles("repeated-1MPa", "critical_cycles_1MPa")
          "fitted decay powers p (residual, plastic work) and Nc of elastic shakedown at each "
          "tolerance", REPEATED,
          paper_value=lambda paper: {"10MPa": max(paper["critical_cycles_10MPa"]),
-                                    "1MPa": max(paper["critical_cycles_1MPa"])})
+                                    "1MPa": max(paper["critical_cycles_1MPa"])},
+         says=lambda v: f"10 MPa {_powers_text(v['powers_10MPa'])}; 1 MPa "
+                        f"{_powers_text(v['powers_1MPa'])}; Nc of elastic shakedown "
+                        f"{_g(v['10MPa'])} and {_g(v['1MPa'])}")
 def _stronger_faster(ctx: Context):
     a, b = ctx.runs["repeated-10MPa"], ctx.runs["repeated-1MPa"]
     value = {"10MPa": _nc(a)["elastic_shakedown"], "1MPa": _nc(b)["elastic_shakedown"],
@@ -393,7 +429,11 @@ def _stronger_faster(ctx: Context):
 
 @finding("The weaker sphere (1 MPa) ratchets longer under repeated loading",
          f"cycles after the first with a residual increment above {RESOLUTION:g} of cycle 1's "
-         "residual approach; last-cycle residual increment ratio", REPEATED)
+         "residual approach; last-cycle residual increment ratio", REPEATED,
+         says=lambda v: "ratchetting cycles after the first: " + ", ".join(
+             f"{c} ({_short(n)})" for n, c in v["ratchetting_cycles"].items())
+         + "; last residual increment ratio " + ", ".join(
+             f"{_g(r)} ({_short(n)})" for n, r in v["last_ratio"].items()))
 def _weaker_ratchets_longer(ctx: Context):
     count = {n: _ratchetting_cycles(ctx.runs[n]) for n in REPEATED}
     last = {n: ctx.runs[n].analysis.cycles[-1]["residual_increment_ratio"] for n in REPEATED}
@@ -407,7 +447,10 @@ def _weaker_ratchets_longer(ctx: Context):
 # 4. reloading stiffer after higher loads (monotonically increasing history)
 @finding("Reloading curves are stiffer after higher previous loads",
          "secant stiffness of each loading branch up to the first peak (100 N) vs prior peak",
-         ["mono-increasing-10MPa"])
+         ["mono-increasing-10MPa"],
+         says=lambda v: "secant stiffness by prior peak: " + ", ".join(
+             f"{_g(x['secant_stiffness_N_per_m'])} N/m after {_g(x['prior_peak_N'])} N"
+             for x in v))
 def _stiffer_after_higher_loads(ctx: Context):
     r = ctx.runs["mono-increasing-10MPa"]
     st = reloading_stiffness(r.curve, r.windows, r.analysis.cycles[0]["max_force_N"])
@@ -422,7 +465,9 @@ def _stiffer_after_higher_loads(ctx: Context):
 @finding("Subsequent curves are stiffer than the previous ones, especially when the yield "
          "strength is high",
          "reloading secant stiffness Fmax/(dmax_N - dres_{{N-1}}): cycle 2 over first loading, "
-         "last cycle over cycle 2", REPEATED)
+         "last cycle over cycle 2", REPEATED,
+         says=lambda v: "reload stiffness, last cycle over cycle 2: " + ", ".join(
+             f"{_g(x['last_over_cycle2'])} ({_short(n)})" for n, x in v.items()))
 def _subsequent_stiffer(ctx: Context):
     value, growth = {}, {}
     for m in REPEATED:
@@ -450,7 +495,9 @@ def _decreasing_small(name: str, strength: str) -> None:
              "sum over cycles 2-7 over cycle 1: plastic work; residual approach growth", [name],
              paper_value=lambda paper: {
                  "plastic_work": paper[f"decreasing_plastic_work_fraction_{strength}"],
-                 "residual": paper[f"decreasing_residual_fraction_{strength}"]})
+                 "residual": paper[f"decreasing_residual_fraction_{strength}"]},
+             says=lambda v: f"later cycles' plastic work {_g(v['plastic_work'])} and residual "
+                            f"growth {_g(v['residual'])} of cycle 1's ({v['state']})")
     def check(ctx: Context):
         wp, res = _decreasing_fractions(ctx.runs[name])
         value = {"plastic_work": wp, "residual": res, "state": ctx.runs[name].analysis.state}
@@ -462,7 +509,9 @@ _decreasing_small("mono-decreasing-1MPa", "1MPa")
 
 
 @finding("Under decreasing loading the weaker sphere (1 MPa) shakes down more easily",
-         "reloading plastic work and residual growth fractions, 1 MPa vs 10 MPa", DECREASING)
+         "reloading plastic work and residual growth fractions, 1 MPa vs 10 MPa", DECREASING,
+         says=lambda v: "; ".join(f"{_short(n)}: plastic work {_g(x['plastic_work'])}, residual "
+                                  f"{_g(x['residual'])} of cycle 1's" for n, x in v.items()))
 def _weaker_shakes_down_more_easily(ctx: Context):
     frac = {m: _decreasing_fractions(ctx.runs[m]) for m in DECREASING}
     ok = all(a < b for a, b in zip(frac[DECREASING[1]], frac[DECREASING[0]], strict=True))
@@ -473,7 +522,9 @@ def _weaker_shakes_down_more_easily(ctx: Context):
 # 6. no shakedown under monotonically increasing loading
 def _no_shakedown(name: str) -> None:
     @finding(f"No shakedown under monotonically increasing loading ({name})",
-             "state after the run, last-cycle residual increment ratio", [name])
+             "state after the run, last-cycle residual increment ratio", [name],
+             says=lambda v: f"{v['state']} after the run; the last cycle's residual increment "
+                            f"is {_g(v['last_residual_increment_ratio'])} x cycle 1's")
     def check(ctx: Context):
         a = ctx.runs[name].analysis
         value = {"state": a.state, "eventual": a.eventual_state,
@@ -487,7 +538,10 @@ def _versus_single(name: str) -> None:
              "little larger, plastic work per cycle lower than a single load to the same level",
              "cycle k of the history over a single load 0 -> F_k -> 0 on the same mesh, k >= 2: "
              "residual approach ratio; plastic work ratio", [name],
-             also_needs=f"single loads of {name}")
+             also_needs=f"single loads of {name}",
+             says=lambda v: "cycles 2+ over single loads: residual "
+                            f"{_span(v['residual_ratio_by_cycle'][1:])}, plastic work "
+                            f"{_span(v['plastic_work_ratio_by_cycle'][1:])}")
     def check(ctx: Context):
         run = ctx.runs[name]
         return _versus_single_loads(run) if run.single_loads else None
@@ -506,7 +560,9 @@ del _name
          "measured (tolerance {tol:g} and smaller)", MATERIALS,
          paper_value=lambda paper: {
              "von_mises": paper["von_mises_shakedown_cycle"],
-             "drucker_prager_more_than": paper["drucker_prager_shakedown_cycles_more_than"]})
+             "drucker_prager_more_than": paper["drucker_prager_shakedown_cycles_more_than"]},
+         says=lambda v: f"Drucker-Prager {_powers_text(v['powers_drucker_prager'])}; von Mises "
+                        f"{_powers_text(v['powers_von_mises'])}")
 def _drucker_prager_slower(ctx: Context):
     dp, vm = ctx.runs[MATERIALS[0]], ctx.runs[MATERIALS[1]]
     value = {"drucker_prager": {"fitted": _nc(dp), "measured": _nc(dp, "measured")},
@@ -550,7 +606,6 @@ def write_study(directory: str | Path, runs: dict[str, PaperRun],
                 record: dict[str, Any]) -> tuple[list[dict[str, Any]], list[str]]:
     """Write the study's results: one JSON per run, cycles.csv, findings.json (with
     ``record``, the provenance) and findings.csv. Returns the findings and the file names."""
-    from ..files import write_csv, write_json_atomic
     from .cycles import write_cycles_csv
 
     directory = Path(directory)
@@ -566,6 +621,7 @@ def write_study(directory: str | Path, runs: dict[str, PaperRun],
         "statement": np.array([f["statement"] for f in findings], dtype=object),
         "agrees": np.array(["n/a" if f["agrees"] is None else str(f["agrees"])
                             for f in findings], dtype=object),
+        "finding": np.array([f.get("finding", f["our_value"]) for f in findings], dtype=object),
         "rule": np.array([f["rule"] for f in findings], dtype=object),
     })
     return findings, files + ["cycles.csv", "findings.json", "findings.csv"]

@@ -29,6 +29,7 @@ import numpy as np
 from ..fem.campaign import DEFAULT_CACHE, FemJob, run_campaign
 from ..fem.identity import run_key
 from ..fem.result import FemResult
+from ..files import write_csv
 from ..grain.material import Material
 from ..law import Contact, LawParams
 from .campaign import force_range, settings, shared_mesh_force
@@ -186,7 +187,6 @@ def _columns(c: Comparison) -> dict[str, np.ndarray]:
 
 def write_comparison_data(comparisons: list[Comparison], directory: str | Path) -> list[Path]:
     """One CSV per run: approach, FE force, law force, law residual approach."""
-    from ..files import write_csv
 
     directory = Path(directory)
     paths = []

@@ -9,14 +9,14 @@ from __future__ import annotations
 import importlib
 import sys
 
+from .._version import __version__
 from ..errors import ArgumentParser, run_reporting_errors
 
-COMMANDS = ["demo", "yield_", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "dem",
-            "report", "presets", "params", "fit"]
+COMMANDS = ["demo", "first_yield", "law", "fem", "calibrate", "cycles", "sweep", "seismic", "dem",
+            "report", "presets", "params", "fit", "study"]
 
 
 def build_parser() -> ArgumentParser:
-    from .._version import __version__
 
     parser = ArgumentParser(
         prog="geocontact",
@@ -33,7 +33,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
 
     def run() -> int:
-        args = parser.parse_args(argv)
+        # a study (``geocontact study NAME ...``) parses its own flags: only it gets the rest
+        args, rest = parser.parse_known_args(argv)
+        if rest and not getattr(args, "own_flags", False):
+            parser.error(f"unrecognized arguments: {' '.join(rest)}")
+        args.rest = rest
         return args.run(args)
 
     return run_reporting_errors(run)

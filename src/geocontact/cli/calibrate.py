@@ -9,6 +9,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..fem.limits import check_resolved_force, check_steps, check_workers
 from ..files import check_output_file
+from ..grain.material import load_material
 from .common import add_fe_model_flags, add_force_flag, fe_model_of, print_json
 
 
@@ -67,7 +68,6 @@ def run(args) -> int:
     from ..calibrate.campaign import settings
     from ..calibrate.workflow import calibrate_to_file
     from ..fem.campaign import DEFAULT_CACHE
-    from ..grain.material import load_material
 
     started = time.perf_counter()
     check_steps(args.steps)

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import sys
 
+from ..errors import InputError
 from ..fem.limits import check_resolved_force, check_steps
+from ..files import check_output_file
+from ..grain.force_history import load_history
+from ..grain.material import load_material
 from .common import add_fe_model_flags, add_force_flag, print_json
 
 
@@ -43,10 +47,6 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..analyses.cycles import run_cycles
-    from ..errors import InputError
-    from ..files import check_output_file
-    from ..grain.force_history import load_history
-    from ..grain.material import load_material
     from ..law import load_params
 
     material = load_material(args.material)

@@ -55,7 +55,7 @@ class Plan:
     cyclic_count: int = 10
     cyclic_mesh: str = "coarse"
     # runs of data/paper-histories.toml for the findings table (sigma_c = 10 MPa and the von
-    # Mises grain; the 1 MPa runs are the longest and are left to scripts/paper_histories.py)
+    # Mises grain; the 1 MPa runs are the longest and are left to geocontact study paper-histories)
     paper_runs: tuple[str, ...] = ("repeated-10MPa", "mono-decreasing-10MPa",
                                    "mono-increasing-10MPa", "repeated-von-mises-10MPa")
     sweeps: tuple[str, ...] = ("E", "beta", "sigma_c", "m")

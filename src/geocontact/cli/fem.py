@@ -5,6 +5,8 @@ from __future__ import annotations
 import sys
 
 from ..fem.limits import check_resolved_force, check_steps
+from ..grain.force_history import load_history
+from ..grain.material import load_material
 from .common import add_fe_model_flags, add_force_flag, print_json
 
 
@@ -34,8 +36,6 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..fem.roundoff import fe_summary_resolutions
     from ..fem.run import run_history
-    from ..grain.force_history import load_history
-    from ..grain.material import load_material
 
     material = load_material(args.material)
     forces = load_history(args.history)

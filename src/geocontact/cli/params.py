@@ -8,7 +8,8 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..files import check_output_file
+from ..files import check_output_file, provenance
+from ..grain.material import load_material
 from .common import print_json
 
 
@@ -53,7 +54,6 @@ def check_law_file_replaceable(path: Path, force: bool) -> None:
 
 
 def run(args) -> int:
-    from ..grain.material import load_material
     from ..universal import for_material
 
     started = time.perf_counter()
@@ -72,7 +72,6 @@ def run(args) -> int:
                                   directory=args.dataset)
     else:
         params = for_material(material, extrapolate=args.extrapolate)
-    from ..files import provenance
 
     record = provenance("params", {"material": args.material, "extrapolate": args.extrapolate,
                                    "dataset": args.dataset})

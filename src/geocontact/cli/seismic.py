@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError, check_count
+from ..files import check_replaceable
 from .common import add_force_flag, print_json
 
 
@@ -82,7 +83,6 @@ def run(args) -> int:
 
     from ..analyses.seismic.analysis import EventSpec, Settings, run_seismic, write_outputs
     from ..analyses.seismic.column import MAX_AFTERSHOCKS, MAX_SPHERES
-    from ..files import check_replaceable
     from ..law import load_params
 
     check_replaceable(args.out, "seismic", overwrite=args.force)  # before the run, not after

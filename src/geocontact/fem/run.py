@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .._version import __version__
 from ..errors import ConvergenceError
 from ..files import atomic_directory, atomic_path, check_replaceable, write_json_atomic
 from ..grain.force_history import (
@@ -600,7 +601,6 @@ def run_history(
 
     curve = run.curve()
     wall = elapsed_before + time.perf_counter() - started
-    from .._version import __version__
 
     first = run.first_yield or {}
     contact, warnings = contact_resolution(material, fe_mesh, curve, run.first_yield)

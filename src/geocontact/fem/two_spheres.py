@@ -49,7 +49,9 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from .._version import __version__
 from ..errors import InputError
+from ..files import check_replaceable
 from ..grain.material import Material
 from .identity import FeRunIdentity, fe_code_hash, library_versions, load_result
 from .mesh import build_mesh, elements_across
@@ -373,8 +375,6 @@ def run_pair_history(material: Material, r1: float, r2: float, forces, mesh: str
     (inputs, this code, library versions). The run is short on the coarse mesh (about a minute), so
     it has no per-step checkpoint: an interrupted run starts over.
     """
-    from .._version import __version__
-    from ..files import check_replaceable
 
     started = time.perf_counter()
     identity = PairRunIdentity.of(material, r1, r2, forces, mesh, tolerance=tolerance,

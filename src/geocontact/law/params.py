@@ -30,10 +30,12 @@ from typing import Any
 import numpy as np
 
 from .. import schema
+from .._version import __version__
 from ..errors import InputError
 from ..files import read_text_input, write_text_atomic
 from ..grain.hertz import hertz_coefficient
 from ..grain.material import Material
+from ..schema import finite_number
 from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
@@ -343,8 +345,6 @@ class LawParams:
         the FE itself: tests/test_fem_similarity.py)."""
         from dataclasses import replace
 
-        from ..schema import finite_number
-
         radius = finite_number("radius", radius)
         material = self.material.with_(radius=radius)  # the material's own radius range
         s = radius / self.material.radius
@@ -477,7 +477,6 @@ class LawParams:
 
     # --- JSON ----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        from .._version import __version__
 
         ydict = {
             **self.yield_extra,

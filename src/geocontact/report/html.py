@@ -9,6 +9,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .._version import __version__
 from ..figures import Figure
 
 
@@ -39,7 +40,6 @@ def render_html(report: Report, directory: Path, figures: Path | None = None) ->
     """The report as one self-contained HTML page. Images are read from ``directory`` (paths
     relative to it); those under ``figures/`` from ``figures`` when given (the figures folder
     being written beside it)."""
-    from .._version import __version__
 
     def image(rel: str) -> Path:
         head, _, rest = rel.partition("/")

@@ -1,4 +1,4 @@
-"""Report section of the paper's loading-history study (``scripts/paper_histories.py``): its
+"""Report section of the paper's loading-history study (``geocontact study paper-histories``): its
 findings table, and every history's cycles against its first (``cycles.csv``)."""
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def is_paper_histories(directory: Path) -> bool:
 
 
 def paper_histories_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
-    """The paper's loading-history findings (scripts/paper_histories.py) against our numbers."""
+    """The paper's loading-history findings (``geocontact study paper-histories``) against ours."""
     from ..analyses.paper_histories import format_value as _compact
 
     try:
@@ -36,24 +36,36 @@ def paper_histories_section(report: Report, directory: Path, root: Path, figures
         raise InputError(f"{directory / 'findings.json'}: malformed ({exc})") from None
     evaluated = [f for f in findings if not f.get("missing_runs")
                  and not str(f["our_value"]).startswith("not available")]
-    rows = [[f["statement"], f["quantity"], _compact(f["our_value"]),
-             _compact(f.get("paper_value")),
+    rows = [[f["statement"], f.get("finding") or _compact(f["our_value"]),
+             _plain(f.get("paper_value")),
              "undecided" if f["agrees"] is None else ("agrees" if f["agrees"] else "disagrees")]
             for f in evaluated]
-    items = ["<p>From <code>scripts/paper_histories.py</code> (repeated, monotonically "
+    items = ["<p>From <code>geocontact study paper-histories</code> (repeated, monotonically "
              "decreasing and increasing histories to 3000 N for σc = 10 and 1 MPa, and a von "
-             "Mises grain); the rule behind each verdict is in <code>findings.json</code>.</p>",
-             table(["paper's statement", "quantity", "ours", "paper", "verdict"], rows)]
+             "Mises grain). One sentence per statement with the numbers that decide it; the "
+             "rule behind each verdict and every number are in <code>findings.json</code> and "
+             "<code>findings.csv</code>.</p>",
+             table(["paper's statement", "what we find", "paper", "verdict"], rows)]
     left_out = len(findings) - len(evaluated)
     if left_out:
         needed = sorted({run for f in findings if f not in evaluated
                          for run in f.get("missing_runs", f.get("runs", []))})
         items.append(f"<p>{left_out} more of the paper's statements need runs this directory "
                      f"does not hold ({html_escape(', '.join(needed))}): "
-                     "<code>python scripts/paper_histories.py</code> runs the whole study.</p>")
+                     "<code>geocontact study paper-histories</code> runs the whole study.</p>")
     figure = _ratios_figure(directory, figures, tolerance=_tolerance(directory))
     report.add("The paper's findings on loading histories", *items,
                *([figure] if figure is not None else []))
+
+
+def _plain(value) -> str:
+    """The paper's numbers as words: {"plastic_work": 0.05, "residual": 0.1} -> "plastic work
+    0.05, residual 0.1"; a list of numbers -> "2, 3"."""
+    from ..analyses.paper_histories import format_value
+
+    if isinstance(value, dict):
+        return ", ".join(f"{k.replace('_', ' ')} {_plain(v)}" for k, v in value.items())
+    return format_value(value)
 
 
 def _tolerance(directory: Path) -> float | None:

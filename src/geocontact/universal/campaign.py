@@ -26,8 +26,11 @@ from typing import Any
 
 import numpy as np
 
+from .._version import __version__
 from ..errors import InputError, run_reporting_errors
+from ..files import provenance as provenance_record
 from ..files import write_json_atomic, write_text_atomic
+from ..grain.hertz import incipient_yield
 from .dataset import (
     DATASET_FORMAT,
     default_directory,
@@ -55,7 +58,6 @@ DEFAULT_CACHE = Path("out/cache/universal")
 def point_jobs(point: DesignPoint, mesh: str = MESH):
     """The FE runs of one point (``calibrate.campaign.calibration_jobs`` at its peaks)."""
     from ..calibrate.campaign import calibration_jobs
-    from ..grain.hertz import incipient_yield
 
     material = point.material()
     fy = incipient_yield(material).force
@@ -67,7 +69,6 @@ def point_row(point: DesignPoint, jobs, results) -> dict[str, Any]:
     """The dataset row of a point from its FE runs (see ``dataset``)."""
     from ..calibrate.campaign import extract_run, fe_fully_plastic, fe_yield
     from ..calibrate.fit import _power_exponent
-    from ..grain.hertz import incipient_yield
 
     material = point.material()
     analytic = incipient_yield(material)
@@ -125,7 +126,6 @@ def run_points(count: int, directory: str | Path | None = None,
     the next call; the others go on."""
     from ..fem.campaign import CampaignError, check_scheduler_address, run_campaign
     from ..fem.identity import fe_code_hash
-    from ..files import provenance as provenance_record
 
     directory = Path(directory or default_directory())
     directory.mkdir(parents=True, exist_ok=True)
@@ -220,7 +220,6 @@ def _prepare(directory: Path, progress: bool) -> None:
 
 
 def _version() -> str:
-    from .._version import __version__
 
     return __version__
 

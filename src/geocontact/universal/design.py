@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..grain.hertz import incipient_yield
 from ..grain.material import Material
 
 # (name, low, high): the coordinates of the space, in the order
@@ -158,7 +159,6 @@ def largest_contact_over_radius() -> float:
     """The largest contact radius over R that a top level reaches (``fem.run`` estimate, the
     one the mesh is sized with) over the corners of the box; must stay <= 1/2."""
     from ..fem.run import largest_contact_radius_estimate
-    from ..grain.hertz import incipient_yield
 
     worst = 0.0
     for c in itertools.product(*[(a[1], a[2]) for a in AXES]):

@@ -31,7 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, run_reporting_errors
+from ..files import write_json_atomic
+from ..grain.hertz import hertz_coefficient, incipient_yield
 from ..grain.material import Material
 from .dataset import (
     LEVEL_FIELDS,
@@ -285,7 +287,6 @@ def rebuild(material: Material, values: dict[str, float]):
     """FE-like data of ``material`` from normalised quantities (a row of the dataset, or the
     interpolated one): yield approach, virgin curve and per-level ``calibrate.fit.LevelData``."""
     from ..calibrate.fit import LevelData
-    from ..grain.hertz import hertz_coefficient, incipient_yield
 
     data = normalised_data(values, float(coordinates_of(material)[3]))
     analytic = incipient_yield(material)
@@ -360,7 +361,6 @@ def prepare(directory: str | Path | None = None, progress: bool = True,
     fit); returns the number fitted now."""
     import hashlib
 
-    from ..files import write_json_atomic
     from .dataset import parse_points
 
     directory = Path(directory or default_directory())
@@ -509,8 +509,6 @@ def main_summary(params) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     import argparse
-
-    from ..errors import run_reporting_errors
 
     parser = argparse.ArgumentParser(
         prog="python -m geocontact.universal.interpolate",

@@ -21,6 +21,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...fem.roundoff import Resolution, seismic_energy
+from ...files import atomic_directory, provenance, write_json_atomic, write_text_atomic
 from . import classify
 from .column import Column, ColumnModel, law_contacts
 from .records import ProcessedRecord, load_record, process
@@ -173,7 +174,6 @@ class SeismicResult:
         return rows
 
     def summary(self) -> dict[str, Any]:
-        from ...files import provenance
 
         c = self.column
         s = self.settings
@@ -363,14 +363,12 @@ def write_outputs(result: SeismicResult, out_dir: str | Path, *, figures: bool =
     """Write the run directory as one unit (``io.atomic_directory``: an existing folder only
     if it is a seismic result of ours, unless ``overwrite``); returns the summary (also in
     summary.json)."""
-    from ...files import atomic_directory
 
     with atomic_directory(out_dir, "seismic", overwrite=overwrite) as tmp:
         return _write_outputs(result, tmp, figures)
 
 
 def _write_outputs(result: SeismicResult, out: Path, figures: bool) -> dict[str, Any]:
-    from ...files import write_json_atomic, write_text_atomic
 
     h = result.history
     n = result.column.model.spheres

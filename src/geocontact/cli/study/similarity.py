@@ -7,12 +7,12 @@ then: the normalised numbers of every run (x, F / Fy, delta_res / delta_max, Wp 
 their collapse, and the finite-size deviation from the half-space curve with its fitted form.
 
     # FE runs (cached in --cache by their inputs and the FE code: a rerun resumes) + analysis
-    PYTHONPATH=src nice -n 5 .venv/bin/python scripts/similarity_study.py --out out/similarity
+    nice -n 5 geocontact study similarity --out out/similarity
     # ... and publish the dataset (src/geocontact/data/similarity-*) and figures (docs/similarity)
-    PYTHONPATH=src nice -n 5 .venv/bin/python scripts/similarity_study.py --out out/similarity \
+    nice -n 5 geocontact study similarity --out out/similarity \
         --publish
     # figures and fits again from the committed dataset alone, no FE
-    PYTHONPATH=src .venv/bin/python scripts/similarity_study.py --from-data --out out/sim-data
+    geocontact study similarity --from-data --out out/sim-data
 """
 
 from __future__ import annotations
@@ -26,16 +26,15 @@ from pathlib import Path
 
 import numpy as np
 
-from geocontact.calibrate import similarity as sim
-from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
-from geocontact.fem.campaign import DEFAULT_CACHE, run_campaign
-from geocontact.fem.identity import fe_code_hash
-from geocontact.files import atomic_directory, atomic_path, provenance, write_csv
+from ...calibrate import similarity as sim
+from ...errors import ArgumentParser, InputError
+from ...fem.campaign import DEFAULT_CACHE, run_campaign
+from ...fem.identity import fe_code_hash
+from ...files import atomic_directory, atomic_path, provenance, write_csv
 
-ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT / "src" / "geocontact" / "data"
-DOCS = ROOT / "docs" / "similarity"
-COMMAND = "scripts/similarity_study.py"
+DATA = Path(__file__).resolve().parents[2] / "data"  # the package data --publish updates
+DOCS = Path("docs") / "similarity"  # of the checkout the study runs in
+COMMAND = "geocontact study similarity"
 ROW_KEYS = ("modulus_ratio", "poissons_ratio", "friction_angle_deg", "mesh", "peak_over_yield",
             "depth", "approach_over_radius", "contact_radius_over_radius",
             "yield_contact_radius_over_radius", "force_over_limit", "residual_ratio",
@@ -377,8 +376,8 @@ def analyse(rows, curves, folder: Path, inputs: dict) -> dict:
     return document
 
 
-def main(argv=None) -> int:
-    parser = ArgumentParser(prog="similarity_study", description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None, prog: str = "geocontact study similarity") -> int:
+    parser = ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", default="out/similarity", help="result folder")
     parser.add_argument("--cache", default=str(DEFAULT_CACHE), help="FE result cache")
     parser.add_argument("--overwrite", action="store_true")
@@ -422,6 +421,3 @@ def publish(folder: Path, data: bool = True) -> None:
         with atomic_path(where / name) as tmp:
             shutil.copyfile(folder / name, tmp)
 
-
-if __name__ == "__main__":
-    sys.exit(run_reporting_errors(main))

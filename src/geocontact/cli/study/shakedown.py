@@ -15,27 +15,25 @@ FE's (a factor; 1 is exact). Then a long history for each refit law: 1000 cycles
 100 % -> 80 % -> 100 % of 3000 N (a contact of a seismic column), the cumulative residual
 approach and dissipation after 10, 100, 500 and 1000 cycles.
 
-    PYTHONPATH=src .venv/bin/python scripts/measure_shakedown.py --mesh coarse default \
+    geocontact study shakedown --mesh coarse default \
         --work out/shakedown
 """
 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
-from geocontact.analyses.cycles import run_cycles
-from geocontact.analyses.force_driven import drive_by_force
-from geocontact.calibrate.cyclic_fit import analyse, with_cyclic
-from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
-from geocontact.files import check_output_file, write_text_atomic
-from geocontact.grain.material import preset
-from geocontact.law import load_params
+from ...analyses.cycles import run_cycles
+from ...analyses.force_driven import drive_by_force
+from ...calibrate.cyclic_fit import analyse, with_cyclic
+from ...errors import ArgumentParser, InputError, run_reporting_errors
+from ...files import check_output_file, write_text_atomic
+from ...grain.material import preset
+from ...law import load_params
 
-ROOT = Path(__file__).resolve().parents[1]
-FILES = {"reference": ROOT / "examples" / "params-reference.json",
-         "reference-weak": ROOT / "examples" / "params-reference-weak.json"}
+FILES = {"reference": Path("examples") / "params-reference.json",
+         "reference-weak": Path("examples") / "params-reference-weak.json"}
 PEAK = 3000.0
 CYCLES = 10
 
@@ -104,8 +102,8 @@ def compare(fe, shipped, refit, forces) -> dict:
     return entry
 
 
-def main(argv=None) -> int:
-    parser = ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str = "geocontact study shakedown") -> int:
+    parser = ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--mesh", nargs="+", default=["coarse"],
                         choices=["coarse", "default", "fine"])
     parser.add_argument("--material", nargs="+", default=list(FILES), choices=list(FILES))
@@ -156,6 +154,3 @@ def main(argv=None) -> int:
 
     return run_reporting_errors(run)
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,7 +12,7 @@ a few depths), those of the loading segments a third, ``base-segments.json`` (th
 curve written as segments). ``tests/test_law_schema.py`` replays the corpus through both
 readers and checks that the committed corpus is what this writes. Regenerate with::
 
-    python -m geocontact.law.bad_documents --out tests/data/bad-law-params
+    python scripts/make_bad_law_documents.py --out tests/data/bad-law-params
 
 Never edit the output by hand.
 """
@@ -25,10 +25,10 @@ import re
 from pathlib import Path
 from typing import Any
 
-from .. import schema
-from ..errors import ArgumentParser, InputError, run_reporting_errors
-from ..files import write_text_atomic
-from .params import LawParams, load_params
+from geocontact import schema
+from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
+from geocontact.files import write_text_atomic
+from geocontact.law.params import LawParams, load_params
 
 CORPUS_SCHEMA = "geocontact.bad-law-params/1"
 INDEX = "index.json"
@@ -321,7 +321,7 @@ def write(out: str | Path, base_path: str | Path = DEFAULT_BASE) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m geocontact.law.bad_documents",
+    parser = ArgumentParser(prog="python scripts/make_bad_law_documents.py",
                             description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", required=True, help="corpus folder")
     parser.add_argument("--base", default=str(DEFAULT_BASE),

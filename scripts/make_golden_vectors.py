@@ -4,7 +4,7 @@ Random approach histories (deterministic seed) run through the scalar reference 
 approaches in, and the forces, stiffnesses, branches and final states out, are written to one
 JSON file that the C++ test (``plugins/lammps/tests/test_golden.cpp``) replays. Regenerate with::
 
-    python -m geocontact.law.golden --out plugins/lammps/tests/golden.json
+    python scripts/make_golden_vectors.py --out plugins/lammps/tests/golden.json
 
 Never edit the output by hand. Each case embeds its parameter document, so the file is
 self-contained. The history families cover what a DEM contact meets: random walks with
@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ArgumentParser, InputError, run_reporting_errors
-from ..files import check_output_file, write_text_atomic
-from .params import LawParams, load_params
-from .reference import Contact
+from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
+from geocontact.files import check_output_file, write_text_atomic
+from geocontact.law.params import LawParams, load_params
+from geocontact.law.reference import Contact
 
 GOLDEN_SCHEMA = "geocontact.golden/1"
 # relative to the working directory (the repository root, where the generator is run): the
@@ -230,7 +230,7 @@ def generate(params: LawParams, n_per_family: int = PER_FAMILY, seed: int = SEED
                 })
     return {
         "schema": GOLDEN_SCHEMA,
-        "generator": "python -m geocontact.law.golden (scalar reference geocontact.law.Contact)",
+        "generator": "python scripts/make_golden_vectors.py (scalar reference geocontact.law.Contact)",
         "seed": seed,
         "params": variants,
         "cases": cases,
@@ -238,7 +238,7 @@ def generate(params: LawParams, n_per_family: int = PER_FAMILY, seed: int = SEED
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m geocontact.law.golden",
+    parser = ArgumentParser(prog="python scripts/make_golden_vectors.py",
                             description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="output JSON file")
     parser.add_argument("--params", default=str(DEFAULT_PARAMS),

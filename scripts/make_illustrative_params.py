@@ -2,38 +2,37 @@
 analytic incipient yield of a material. Clearly labelled as an illustration (not a fit); they
 let users and tests run the law before an FE calibration exists.
 
-``make examples`` regenerates the shipped files (``python -m geocontact.law.illustrative``).
+``make examples`` regenerates the shipped files (``python scripts/make_illustrative_params.py``).
 """
 
 from __future__ import annotations
 
 import json
-from importlib import resources
+from pathlib import Path
 
-from ..errors import ArgumentParser, run_reporting_errors
-from ..files import check_output_file
-from ..grain.hertz import incipient_yield
-from ..grain.material import Material, load_material
-from .params import LawParams
+from geocontact.errors import ArgumentParser, run_reporting_errors
+from geocontact.files import check_output_file
+from geocontact.grain.hertz import incipient_yield
+from geocontact.grain.material import Material, load_material
+from geocontact.law.params import LawParams
 
 
 def illustrative_params(material: Material) -> LawParams:
-    blocks = json.loads((resources.files("geocontact") / "data" / "illustrative-law.json")
-                        .read_text())
+    blocks = json.loads(Path(__file__).with_name("illustrative-law.json").read_text())
     y = incipient_yield(material)
     document = {
         "schema": "geocontact.law/1",
         **blocks,
         "material": material.to_dict(),
         "yield": y.to_dict(),
-        "provenance": {"source": "illustration (data/illustrative-law.json)",
+        "provenance": {"source": "illustration (scripts/illustrative-law.json)",
                        "yield": "analytic Hertz + Drucker-Prager search (geocontact.grain.hertz)"},
     }
     return LawParams.from_dict(document)
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m geocontact.law.illustrative", description=__doc__)
+    parser = ArgumentParser(prog="python scripts/make_illustrative_params.py", description=__doc__)
     parser.add_argument("--material", default="reference", help="material TOML or preset name")
     parser.add_argument("--out", required=True)
 

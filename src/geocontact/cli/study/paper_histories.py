@@ -15,33 +15,31 @@ with ``geocontact.analyses.cycles``; writes to ``out/paper-histories/``:
   the repeated runs;
 * ``index.json`` - settings, wall time, file list.
 
-    PYTHONPATH=src python scripts/paper_histories.py [--mesh coarse] [--steps N] [--workers 2]
+    geocontact study paper-histories [--mesh coarse] [--steps N] [--workers 2]
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
 
-from geocontact.analyses.paper_histories import format_value as fmt
-from geocontact.analyses.paper_histories import run_paper_histories, write_study
-from geocontact.calibrate.cyclic_fit import with_cyclic
-from geocontact.cli.common import add_fe_model_flags, fe_model_of
-from geocontact.errors import InputError, run_reporting_errors
-from geocontact.files import (
+from ...analyses.paper_histories import format_value as fmt
+from ...analyses.paper_histories import run_paper_histories, write_study
+from ...calibrate.cyclic_fit import with_cyclic
+from ...errors import ArgumentParser, InputError
+from ...files import (
     atomic_directory,
     check_replaceable,
     provenance,
     write_json_atomic,
     write_text_atomic,
 )
-from geocontact.law import load_params
+from ...law import load_params
+from ..common import add_fe_model_flags, fe_model_of
 
-ROOT = Path(__file__).resolve().parents[1]
-CALIBRATED = {"reference": ROOT / "examples" / "params-reference.json",
-                "reference-weak": ROOT / "examples" / "params-reference-weak.json"}
+CALIBRATED = {"reference": Path("examples") / "params-reference.json",
+                "reference-weak": Path("examples") / "params-reference-weak.json"}
 
 
 def _model(inputs: dict) -> str:
@@ -78,13 +76,13 @@ def markdown(runs, findings) -> str:
     for f in findings:
         verdict = {True: "yes", False: "**no**", None: "n/a"}[f["agrees"]]
         paper = "-" if f["paper_value"] is None else fmt(f["paper_value"])
-        lines.append(f"| {f['statement']} | {f['quantity']} | {fmt(f['our_value'])} | "
-                     f"{paper} | {verdict} |")
+        ours = f.get("finding") or fmt(f["our_value"])
+        lines.append(f"| {f['statement']} | {f['quantity']} | {ours} | {paper} | {verdict} |")
     return "\n".join(lines) + "\n"
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str = "geocontact study paper-histories") -> int:
+    ap = ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
     ap.add_argument("--steps", type=int, default=None, help="FE steps per monotonic segment")
     ap.add_argument("--tolerance", type=float, default=0.01)
@@ -115,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     # the whole study lands as one folder: an interrupted rerun never mixes old and new files
     with atomic_directory(out, "paper-histories", overwrite=args.force,
                           inputs=vars(args)) as tmp:
-        record = provenance("scripts/paper_histories.py", vars(args))
+        record = provenance("geocontact study paper-histories", vars(args))
         findings, files = write_study(tmp, runs, record)
         write_text_atomic(tmp / "tables.md", markdown(runs, findings))
         files.append("tables.md")
@@ -127,8 +125,8 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 fitted = with_cyclic(params, run.analysis, provenance={
                     "fe_run": name, "fe_inputs": run.summary.get("inputs"),
-                    "base_params": str(CALIBRATED[run.material_name].relative_to(ROOT)),
-                    "command": "scripts/paper_histories.py"})
+                    "base_params": str(CALIBRATED[run.material_name]),
+                    "command": "geocontact study paper-histories"})
             except InputError as exc:  # a ratchetting run has no cyclic law: say so, keep going
                 print(f"{name}: no cyclic law fitted ({exc})", file=sys.stderr)
                 continue
@@ -161,6 +159,3 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {out} in {wall:.0f} s", file=sys.stderr)
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(run_reporting_errors(main))

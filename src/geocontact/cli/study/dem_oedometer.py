@@ -2,24 +2,23 @@
 2 ranks, each a `geocontact dem oedometer` result folder, then one table of runtime, residual
 strain and dissipation per cycle (printed, and written as DIR/study.json).
 
-    .venv/bin/python scripts/dem_study.py --grains 5000 --ranks 1 2 --out out/dem-study [--force]
+    geocontact study dem-oedometer --grains 5000 --ranks 1 2 --out out/dem-study [--force]
 
 Not part of `make test` (minutes per run); a run that fails is reported and the others go on.
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
-from geocontact.analyses.dem import CONTACTS, Settings, run_dem
-from geocontact.errors import GeocontactError, run_reporting_errors
-from geocontact.files import check_replaceable, provenance, write_json_atomic
+from ...analyses.dem import CONTACTS, Settings, run_dem
+from ...errors import ArgumentParser, GeocontactError, run_reporting_errors
+from ...files import check_replaceable, provenance, write_json_atomic
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str = "geocontact study dem-oedometer") -> int:
+    parser = ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--law", default="examples/params-reference.json")
     parser.add_argument("--grains", type=int, default=5000)
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
@@ -71,6 +70,3 @@ def main(argv: list[str] | None = None) -> int:
 
     return run_reporting_errors(run)
 
-
-if __name__ == "__main__":
-    sys.exit(main())
