@@ -103,6 +103,7 @@ def test_the_old_module_names_still_import_the_moved_modules():
         with pytest.warns(DeprecationWarning, match="moved to"):
             module = importlib.import_module(old)
         assert module is importlib.import_module(new)
+        assert module.__spec__.name == new and module.__package__ == module.__spec__.parent
 
 
 def test_calibrate_uses_the_shared_figure_record():

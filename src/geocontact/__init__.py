@@ -55,10 +55,14 @@ class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     def create_module(self, spec):
         warnings.warn(f"{spec.name} moved to {MOVED[spec.name]}; the old name goes in a later "
                       "release", DeprecationWarning, stacklevel=3)
-        return importlib.import_module(MOVED[spec.name])
+        module = importlib.import_module(MOVED[spec.name])
+        spec.loader_state = module.__spec__  # its own spec, which the import system overwrites
+        return module
 
     def exec_module(self, module):
-        pass
+        # the import system gave the module the old name's spec: give it back its own, so its
+        # relative imports, pickling and multiprocessing see where it really lives
+        module.__spec__ = module.__spec__.loader_state
 
 
 if not any(isinstance(finder, _MovedModules) for finder in sys.meta_path):
