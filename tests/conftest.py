@@ -80,14 +80,14 @@ def no_work(monkeypatch):
     import geocontact.analyses.sweeps as sweeps
     import geocontact.calibrate.campaign as calibration
     import geocontact.cli.demo as demo
+    import geocontact.fem.campaign as fem_campaign
     import geocontact.fem.run as fem_run
-    import geocontact.labtest as labtest
 
     monkeypatch.setattr(fem_run, "history_mesh", _stop)
     monkeypatch.setattr(calibration, "run_campaign", _stop)
     monkeypatch.setattr(sweeps, "run_campaign", _stop)
     monkeypatch.setattr(column.Column, "run", _stop)
-    monkeypatch.setattr(dem, "run_dem", _stop)
-    monkeypatch.setattr(dem_seismic, "run_seismic", _stop)
+    monkeypatch.setattr(fem_campaign, "run_campaign", _stop)  # fit's FE master curve
+    monkeypatch.setattr(dem, "run_lammps", _stop)
+    monkeypatch.setattr(dem_seismic, "run_lammps", _stop)
     monkeypatch.setattr(demo, "_write_demo", _stop)
-    monkeypatch.setattr(labtest, "fit_test", _stop)
