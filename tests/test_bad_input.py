@@ -264,7 +264,7 @@ def test_seismic_time_step_above_the_limit_is_a_one_line_error(tmp_path, capsys)
     code = main(["seismic", str(record), "--params", str(PARAMS), "--out", str(tmp_path / "o"),
                  "--time-step", "0.01", "--no-figures"])
     assert code == 2
-    one_line_error(capsys, "time_step", "stability limit")
+    one_line_error(capsys, "--time-step", "stability limit")
     assert not (tmp_path / "o").exists()
 
 
@@ -454,6 +454,14 @@ def command_line(tmp: Path, command: str, out: Path | None = None) -> list[str]:
         "dem": ["dem", "oedometer", "--law", str(PARAMS), "--out", o or str(tmp / "run")],
         "dem seismic": ["dem", "seismic", "KOBE/NIS000", "--law", str(PARAMS), "--out",
                         o or str(tmp / "run")],
+        "study paper-histories": ["study", "paper-histories", "--mesh", "coarse", "--cache",
+                                  str(tmp / "cache"), "--out", o or str(tmp / "run")],
+        "study similarity": ["study", "similarity", "--from-data", "--out",
+                             o or str(tmp / "run")],
+        "study dem-oedometer": ["study", "dem-oedometer", "--law", str(PARAMS), "--out",
+                                o or str(tmp / "run")],
+        "study shakedown": ["study", "shakedown", "--work", str(tmp / "work"), "--json",
+                            o or str(tmp / "shakedown.json")],
     }
     return lines[command]
 
@@ -493,6 +501,10 @@ USER_OUTPUTS = [
     ("demo", "run", "folder", [], "--out"),
     ("dem", "run", "folder", [], "--out"),
     ("dem seismic", "run", "folder", [], "--out"),
+    ("study paper-histories", "run", "folder", [], "--out"),
+    ("study similarity", "run", "folder", [], "--out"),
+    ("study dem-oedometer", "run", "folder", [], "--out"),
+    ("study shakedown", "shakedown.json", "file", [], "--json"),
 ]
 
 
@@ -554,15 +566,17 @@ def unwritable(tmp_path):
 
 
 UNWRITABLE = ["calibrate", "fit", "law", "params", "cycles", "fem", "sweep", "seismic", "demo",
-              "dem", "dem seismic"]
+              "dem", "dem seismic", "study paper-histories", "study similarity",
+              "study dem-oedometer", "study shakedown"]
+FIELD = {"study shakedown": "--json"}  # the option naming the output, where not --out
 
 
 @pytest.mark.parametrize("command", UNWRITABLE)
 def test_corpus_unwritable_destination(tmp_path, capsys, no_work, unwritable, command):
-    name = "P.json" if command in ("calibrate", "fit", "params") else (
+    name = "P.json" if command in ("calibrate", "fit", "params", "study shakedown") else (
         "F.csv" if command == "law" else "run")
-    refused(capsys, command_line(tmp_path, command, unwritable / name), "--out",
-            f"cannot write in {unwritable}")
+    refused(capsys, command_line(tmp_path, command, unwritable / name),
+            FIELD.get(command, "--out"), f"cannot write in {unwritable}")
 
 
 @pytest.mark.parametrize("command", ["law", "fem"])
@@ -706,7 +720,8 @@ def running(path: Path):
 
 
 CONCURRENT = ["calibrate", "fit", "law", "params", "cycles", "fem", "sweep", "seismic", "demo",
-              "dem", "dem seismic", "report"]
+              "dem", "dem seismic", "report", "study paper-histories", "study similarity",
+              "study dem-oedometer", "study shakedown"]
 
 
 @pytest.mark.parametrize("command", CONCURRENT)
@@ -718,7 +733,7 @@ def test_corpus_a_second_run_on_one_destination_is_refused(tmp_path, capsys, no_
         argv = command_line(tmp_path, command)
     out = Path(argv[1] if command == "report" else argv[-1])
     with running(out):
-        refused(capsys, argv, "DIR" if command == "report" else "--out",
+        refused(capsys, argv, "DIR" if command == "report" else FIELD.get(command, "--out"),
                 "being written by another geocontact run", f"PID {os.getpid()}")
 
 
@@ -756,7 +771,10 @@ EDITED = [("fem", "fem", "run", "--out"), ("cycles", "cycles", "run", "--out"),
           ("sweep", "sweep", "run", "--out"), ("seismic", "seismic", "run", "--out"),
           ("demo", "demo", "run", "--out"), ("dem", "dem", "run", "--out"),
           ("dem seismic", "dem", "run", "--out"), ("fit", "fit", "P.fit", "--out"),
-          ("calibrate", "calibrate", "P.acceptance", "--out")]
+          ("calibrate", "calibrate", "P.acceptance", "--out"),
+          ("study paper-histories", "paper-histories", "run", "--out"),
+          ("study similarity", "geocontact study similarity", "run", "--out"),
+          ("study dem-oedometer", "dem-study", "run", "--out")]
 
 
 @pytest.mark.parametrize("command, manifest_command, name, field", EDITED,
