@@ -869,3 +869,33 @@ def test_corpus_counts():
               "concurrent runs": len(CONCURRENT) + 1,
               "edited results": len(EDITED) + 3 + 1}
     assert all(n >= 9 for n in counts.values()), counts
+
+
+# the LAMMPS plugin's parameter file: the C++ reader (params.hpp, the compiled core) gives the
+# Python loader's message for a NaN or infinity literal; a folder: ctest (test_params.cpp)
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_corpus_non_finite_literal_in_a_parameter_file_both_readers(tmp_path, value):
+    from geocontact.law import _core
+
+    document = json.loads(PARAMS.read_text())
+    document["residual_approach"]["limit"] = value
+    text = json.dumps(document, indent=2)  # writes NaN, Infinity, -Infinity
+    (tmp_path / "p.json").write_text(text)
+    with pytest.raises(InputError, match=r"^params: malformed JSON in .*p\.json: -?(NaN|Infinity) "
+                                         r"at line \d+ column \d+ \(JSON has no NaN") as python:
+        load_params(tmp_path / "p.json")
+    with pytest.raises(ValueError) as compiled:
+        _core.parse_params(text, str(tmp_path / "p.json"))
+    assert str(compiled.value) == str(python.value)
+    document["residual_approach"]["limit"] = 0.5
+    document["label"] = "NaN and -Infinity in a string are text"
+    text = json.dumps(document, indent=2)
+    (tmp_path / "p.json").write_text(text)
+    load_params(tmp_path / "p.json")
+    _core.parse_params(text, "p.json")
+
+
+def test_corpus_parameter_file_naming_a_folder(tmp_path, capsys):
+    assert main(["law", "--params", str(tmp_path), "--approach", "a.csv", "--out",
+                 str(tmp_path / "F.csv")]) == 2
+    one_line_error(capsys, f"params: {tmp_path} is a directory, expected a file")
