@@ -61,7 +61,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
     from ..files import Output, check_output_folder, claim
     from ..labtest import read_test
     from .fit_output import check_outputs
