@@ -104,13 +104,15 @@ examples: $(STAMP)
 # datasets/fe-runs/weak-finite-coarse (no FE work; the default-mesh campaign calibrate-weak-finite
 # replaces it when finished).
 CALIBRATE_MESH ?= default
+# --force: the shipped files are replaced on purpose (git keeps the previous ones; a fresh clone
+# has no ledger saying geocontact wrote them, README "Results you can trust").
 calibrate-examples: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference --mesh $(CALIBRATE_MESH) --acceptance \
-	  --out examples/params-reference.json
+	  --force --out examples/params-reference.json
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh default --levels 13 \
 	  --kinematics finite --mesh-rule contact --max-step-ratio 1.01 \
 	  --cache datasets/fe-runs/weak-finite --residual-form table --loading-form segments \
-	  --acceptance --out examples/params-reference-weak.json
+	  --acceptance --force --out examples/params-reference-weak.json
 
 # The weak grain recalibrated with finite strain (issue 15): many CPU hours, so its FE runs are
 # cached in a committed dataset (datasets/fe-runs/README.md): every finished run is committed and a

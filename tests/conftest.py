@@ -59,3 +59,35 @@ def assert_energy_balance(curve, tolerance: float = 0.01) -> None:
     imbalance = work - curve["elastic_energy_J"][1:] - curve["plastic_dissipation_J"][1:]
     assert np.all(np.abs(imbalance) <= tolerance * work)
     assert np.all(np.diff(curve["plastic_dissipation_J"]) >= -1e-12 * work.max())
+
+
+class Reached(Exception):
+    """The command got past validation to the expensive work: the input was accepted."""
+
+
+def _stop(*args, **kwargs):
+    raise Reached
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Stop a valid FE run at its mesh, a valid seismic run at its time integration, a sweep or
+    calibration at its campaign, a DEM run at LAMMPS and a demo at its first step: a test of
+    validation never does the work (tests/test_fuzz_cli.py, tests/test_bad_input.py)."""
+    import geocontact.analyses.dem as dem
+    import geocontact.analyses.dem_seismic as dem_seismic
+    import geocontact.analyses.seismic.column as column
+    import geocontact.analyses.sweeps as sweeps
+    import geocontact.calibrate.campaign as calibration
+    import geocontact.cli.demo as demo
+    import geocontact.fem.campaign as fem_campaign
+    import geocontact.fem.run as fem_run
+
+    monkeypatch.setattr(fem_run, "history_mesh", _stop)
+    monkeypatch.setattr(calibration, "run_campaign", _stop)
+    monkeypatch.setattr(sweeps, "run_campaign", _stop)
+    monkeypatch.setattr(column.Column, "run", _stop)
+    monkeypatch.setattr(fem_campaign, "run_campaign", _stop)  # fit's FE master curve
+    monkeypatch.setattr(dem, "run_lammps", _stop)
+    monkeypatch.setattr(dem_seismic, "run_lammps", _stop)
+    monkeypatch.setattr(demo, "_write_demo", _stop)

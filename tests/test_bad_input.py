@@ -3,8 +3,11 @@ one-line ``error: ...`` naming the field and its allowed range, exit code 2."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -261,7 +264,7 @@ def test_seismic_time_step_above_the_limit_is_a_one_line_error(tmp_path, capsys)
     code = main(["seismic", str(record), "--params", str(PARAMS), "--out", str(tmp_path / "o"),
                  "--time-step", "0.01", "--no-figures"])
     assert code == 2
-    one_line_error(capsys, "time_step", "stability limit")
+    one_line_error(capsys, "--time-step", "stability limit")
     assert not (tmp_path / "o").exists()
 
 
@@ -414,3 +417,487 @@ def test_library_errors_name_parameters_and_the_command_line_names_flags(tmp_pat
     assert "--" not in str(caught.value)
     shown = for_the_command_line(str(caught.value))
     assert shown.startswith("--out: ") and shown.endswith("pass --force")
+
+
+# --- the corpus of bad inputs and faults (issue 39) ---------------------------------------------
+# Every command is replayed against each class of fault below; each case expects exit 2 and ONE
+# line naming the option (or the documented refusal), never a traceback, and the user's files
+# as they were. The expensive work is stubbed (conftest.no_work): a case that got past the
+# checks would raise Reached instead of running. Add the new command's cases when a command
+# is added.
+CURVE = EXAMPLES / "tests" / "platens-quartzite.csv"
+HISTORY = "[history]\nforces = [0, 100, 0, 100, 0, 100, 0]\n"
+
+
+def command_line(tmp: Path, command: str, out: Path | None = None) -> list[str]:
+    """A valid command line of ``command`` writing to ``out`` (its default beside ``tmp``)."""
+    (tmp / "h.toml").write_text(HISTORY)
+    (tmp / "a.csv").write_text("approach_m\n0\n1e-4\n0\n")
+    o = str(out) if out is not None else None
+    lines = {
+        "calibrate": ["calibrate", "--material", "reference", "--mesh", "coarse", "--cache",
+                      str(tmp / "cache"), "--out", o or str(tmp / "P.json")],
+        "fit": ["fit", str(CURVE), "--setup", "platens", "--radius", "4e-3", "--out",
+                o or str(tmp / "P.json")],
+        "law": ["law", "--params", str(PARAMS), "--approach", str(tmp / "a.csv"), "--out",
+                o or str(tmp / "F.csv")],
+        "params": ["params", "--material", "reference", "--out", o or str(tmp / "P.json")],
+        "cycles": ["cycles", "--material", "reference", "--history", str(tmp / "h.toml"),
+                   "--mesh", "coarse", "--out", o or str(tmp / "run")],
+        "fem": ["fem", "--material", "reference", "--history", str(tmp / "h.toml"), "--mesh",
+                "coarse", "--out", o or str(tmp / "run")],
+        "sweep": ["sweep", "--cache", str(tmp / "cache"), "--out", o or str(tmp / "run")],
+        "seismic": ["seismic", "KOBE/NIS000", "--params", str(PARAMS), "--no-figures", "--out",
+                    o or str(tmp / "run")],
+        "demo": ["demo", "--quick", "--cache", str(tmp / "cache"), "--out",
+                 o or str(tmp / "run")],
+        "dem": ["dem", "oedometer", "--law", str(PARAMS), "--out", o or str(tmp / "run")],
+        "dem seismic": ["dem", "seismic", "KOBE/NIS000", "--law", str(PARAMS), "--out",
+                        o or str(tmp / "run")],
+        "study paper-histories": ["study", "paper-histories", "--mesh", "coarse", "--cache",
+                                  str(tmp / "cache"), "--out", o or str(tmp / "run")],
+        "study similarity": ["study", "similarity", "--from-data", "--out",
+                             o or str(tmp / "run")],
+        "study dem-oedometer": ["study", "dem-oedometer", "--law", str(PARAMS), "--out",
+                                o or str(tmp / "run")],
+        "study shakedown": ["study", "shakedown", "--work", str(tmp / "work"), "--json",
+                            o or str(tmp / "shakedown.json")],
+    }
+    return lines[command]
+
+
+def refused(capsys, argv: list[str], *fields: str) -> str:
+    """Run ``argv``: exit 2, one line naming ``fields``, no traceback, the work never reached."""
+    from conftest import Reached
+
+    capsys.readouterr()
+    try:
+        code = main(argv)
+    except Reached:
+        pytest.fail(f"{argv}: got past its checks to the work")
+    assert code == 2, capsys.readouterr()
+    return one_line_error(capsys, *fields)
+
+
+# class 1: a file or folder of the user's at every output --------------------------------------
+# (command, the output's name relative to tmp, what the user has there, extra argv, the option)
+USER_OUTPUTS = [
+    ("calibrate", "P.json", "file", [], "--out"),
+    ("calibrate", "P.acceptance.json", "file", ["--acceptance"], "--out"),
+    ("calibrate", "P.acceptance", "folder", ["--acceptance"], "--out"),
+    ("fit", "P.json", "file", [], "--out"),
+    ("fit", "P.fit", "folder", [], "--out"),
+    ("law", "F.csv", "file", [], "--out"),
+    ("law", "F.csv.meta.json", "file", [], "--out"),
+    ("params", "P.json", "file", [], "--out"),
+    ("cycles", "fit.json", "file", ["--params", str(PARAMS), "--fit-params", "{tmp}/fit.json"],
+     "--fit-params"),
+    ("cycles", "run", "folder", [], "--out"),
+    ("cycles", "run", "file", [], "--out"),
+    ("fem", "run", "folder", [], "--out"),
+    ("fem", "run", "file", [], "--out"),
+    ("sweep", "run", "folder", [], "--out"),
+    ("seismic", "run", "folder", [], "--out"),
+    ("demo", "run", "folder", [], "--out"),
+    ("dem", "run", "folder", [], "--out"),
+    ("dem seismic", "run", "folder", [], "--out"),
+    ("study paper-histories", "run", "folder", [], "--out"),
+    ("study similarity", "run", "folder", [], "--out"),
+    ("study dem-oedometer", "run", "folder", [], "--out"),
+    ("study shakedown", "shakedown.json", "file", [], "--json"),
+]
+
+
+@pytest.mark.parametrize("command, name, kind, extra, field", USER_OUTPUTS,
+                         ids=[f"{c[0]}:{c[1]}:{c[2]}" for c in USER_OUTPUTS])
+def test_corpus_a_users_file_at_every_output(tmp_path, capsys, no_work, command, name, kind,
+                                             extra, field):
+    mine = tmp_path / name
+    if kind == "folder":
+        mine.mkdir()
+        (mine / "notes.txt").write_text("months of work\n")
+    else:
+        mine.write_text('{"my": "notes"}\n')
+    argv = command_line(tmp_path, command) + [a.format(tmp=tmp_path) for a in extra]
+    refused(capsys, argv, field, str(mine))
+    if kind == "folder":
+        assert (mine / "notes.txt").read_text() == "months of work\n"
+        assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
+    else:
+        assert mine.read_text() == '{"my": "notes"}\n'
+    assert not list(tmp_path.glob(".*.lock"))
+
+
+def test_report_keeps_a_users_report(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "P.json").write_text(PARAMS.read_text())
+    (run / "report.html").write_text("<p>mine</p>")
+    refused(capsys, ["report", str(run)], "report", "was not written by geocontact")
+    assert (run / "report.html").read_text() == "<p>mine</p>"
+
+
+def test_a_file_geocontact_wrote_is_replaced_and_a_changed_one_is_not(tmp_path, capsys):
+    argv = command_line(tmp_path, "law")
+    assert main(argv) == 0 and main(argv) == 0  # its own file: replaced
+    out = tmp_path / "F.csv"
+    out.write_text(out.read_text() + "# my remark\n")
+    refused(capsys, argv, "--out", "changed since")
+    assert out.read_text().endswith("# my remark\n")
+    assert main(argv + ["--force"]) == 0
+    assert "# my remark" not in out.read_text()
+
+
+# class 2: unwritable destinations ---------------------------------------------------------------
+@pytest.fixture
+def unwritable(tmp_path):
+    """A folder nothing can be written in: read-only by its mode, or (root ignores modes) a
+    folder of /proc."""
+    if os.geteuid() != 0:
+        folder = tmp_path / "read-only"
+        folder.mkdir()
+        folder.chmod(0o555)
+        yield folder
+        folder.chmod(0o755)
+    elif Path("/proc/self").is_dir():
+        yield Path("/proc/self")
+    else:
+        pytest.skip("no folder is unwritable for root here")
+
+
+UNWRITABLE = ["calibrate", "fit", "law", "params", "cycles", "fem", "sweep", "seismic", "demo",
+              "dem", "dem seismic", "study paper-histories", "study similarity",
+              "study dem-oedometer", "study shakedown"]
+FIELD = {"study shakedown": "--json"}  # the option naming the output, where not --out
+
+
+@pytest.mark.parametrize("command", UNWRITABLE)
+def test_corpus_unwritable_destination(tmp_path, capsys, no_work, unwritable, command):
+    name = "P.json" if command in ("calibrate", "fit", "params", "study shakedown") else (
+        "F.csv" if command == "law" else "run")
+    refused(capsys, command_line(tmp_path, command, unwritable / name),
+            FIELD.get(command, "--out"), f"cannot write in {unwritable}")
+
+
+@pytest.mark.parametrize("command", ["law", "fem"])
+def test_corpus_destination_below_something_not_a_folder(tmp_path, capsys, no_work, command):
+    (tmp_path / "plain").write_text("x")
+    refused(capsys, command_line(tmp_path, command, tmp_path / "plain" / "sub" / "out"),
+            "--out", str(tmp_path / "plain"))
+
+
+def test_corpus_uncreatable_folder(tmp_path, capsys, no_work):
+    if not Path("/sys").is_dir() or os.access("/sys", os.W_OK) and os.geteuid() != 0:
+        pytest.skip("no /sys")
+    refused(capsys, command_line(tmp_path, "fem", Path("/sys/geocontact-test/run")), "--out",
+            "cannot")
+
+
+# class 3: wrong kinds of path -------------------------------------------------------------------
+def wrong_kinds(tmp: Path) -> list[tuple[list[str], list[str]]]:
+    folder, plain = tmp / "folder", tmp / "plain.csv"
+    folder.mkdir(exist_ok=True)
+    plain.write_text("x\n")
+    law = command_line(tmp, "law")
+    return [
+        (["law", "--params", str(PARAMS), "--approach", str(folder), "--out",
+          str(tmp / "F.csv")], ["approach_m", "is a directory"]),
+        (["law", "--params", str(folder), "--approach", str(tmp / "a.csv"), "--out",
+          str(tmp / "F.csv")], ["params", "is a directory"]),
+        (law[:-1] + [str(folder)], ["--out", "existing folder"]),
+        (command_line(tmp, "calibrate")[:5] + ["--cache", str(plain), "--out",
+                                               str(tmp / "P.json")], ["--cache", "is a file"]),
+        (["sweep", "--cache", str(plain), "--out", str(tmp / "run")], ["--cache", "is a file"]),
+        (["demo", "--cache", str(plain), "--out", str(tmp / "run")], ["--cache", "is a file"]),
+        (command_line(tmp, "fit") + ["--cache", str(plain)], ["--cache", "is a file"]),
+        (["fit", str(folder), "--setup", "platens", "--radius", "4e-3", "--out",
+          str(tmp / "P.json")], ["curve", "is not a file"]),
+        (["yield", "--material", str(folder)], ["material", "is a directory"]),
+        (["fem", "--material", "reference", "--history", str(folder), "--out",
+          str(tmp / "run")], ["history", "is a directory"]),
+        (["seismic", str(folder), "--params", str(PARAMS), "--out", str(tmp / "run")],
+         ["record", "is a directory"]),
+        (["cycles", "--material", "reference", "--history", str(tmp / "h.toml"), "--params",
+          str(folder), "--out", str(tmp / "run")], ["params", "is a directory"]),
+        (["dem", "oedometer", "--law", str(folder), "--out", str(tmp / "run")],
+         ["--law", "is a directory"]),
+        (["report", str(plain)], ["DIR", "not a directory"]),
+        (["params", "--material", "reference", "--out", str(folder)],
+         ["--out", "expected a .json file name"]),
+        (command_line(tmp, "cycles") + ["--params", str(PARAMS), "--fit-params", str(folder)],
+         ["--fit-params", "existing folder"]),
+    ]
+
+
+WRONG_KINDS = len(wrong_kinds(Path(tempfile.mkdtemp(prefix="geocontact-kinds-"))))
+
+
+@pytest.mark.parametrize("case", range(WRONG_KINDS))
+def test_corpus_wrong_kind_of_path(tmp_path, capsys, no_work, case):
+    argv, fields = wrong_kinds(tmp_path)[case]
+    refused(capsys, argv, *fields)
+
+
+# class 4: bounds on every numeric option ----------------------------------------------------------
+# (command, extra argv, words of the one line)
+BOUNDS = [
+    ("fem", ["--steps", "0"], ["--steps", "[1, 10000]"]),
+    ("fem", ["--max-step-ratio", "0.5"], ["max_step_ratio"]),
+    ("cycles", ["--tolerance", "-1"], ["--tolerance"]),
+    ("cycles", ["--steps", "10001"], ["--steps"]),
+    ("calibrate", ["--levels", "2"], ["--levels"]),
+    ("calibrate", ["--max-force", "-1"], ["--max-force"]),
+    ("calibrate", ["--max-force", "1e9"], ["--max-force", "a <= R/2"]),
+    ("calibrate", ["--workers", "0"], ["--workers"]),
+    ("calibrate", ["--peak-forces", "100,-5,300"], ["--peak-forces"]),
+    ("sweep", ["--peak-force", "-1"], ["--peak-force"]),
+    ("sweep", ["--workers", "257"], ["--workers"]),
+    ("law", ["--radius", "0"], ["--radius"]),
+    ("law", ["--radius", "1e9"], ["--radius"]),
+    ("fit", ["--radius", "0"], ["--radius"]),
+    ("fit", ["--bootstrap", "-1"], ["--bootstrap"]),
+    ("fit", ["--poissons-ratio", "0.6"], ["--poissons-ratio"]),
+    ("fit", ["--friction-angle", "100"], ["--friction-angle"]),
+    ("fit", ["--hardening-ratio", "-1"], ["--hardening-ratio"]),
+    ("fit", ["--machine-stiffness", "-1"], ["--machine-stiffness"]),
+    ("seismic", ["--pga", "1e6"], ["--pga", "sphere radius"]),
+    ("seismic", ["--pga", "0"], ["--pga"]),
+    ("seismic", ["--aftershock", "KOBE/NIS090@1e7"], ["--pga", "sphere radius"]),
+    ("seismic", ["--surcharge", "1e12"], ["--surcharge", "sphere radius"]),
+    ("seismic", ["--surcharge", "-1"], ["--surcharge"]),
+    ("seismic", ["--column", "0"], ["--column"]),
+    ("seismic", ["--density", "0"], ["--density"]),
+    ("seismic", ["--damping", "-1"], ["--damping"]),
+    ("seismic", ["--gap", "-1"], ["--gap"]),
+    ("seismic", ["--output-interval", "0"], ["--output-interval"]),
+    ("seismic", ["--time-step-safety", "0"], ["--time-step-safety"]),
+    ("seismic", ["--time-step", "10"], ["--time-step"]),
+    ("dem", ["--grains", "0"], ["--grains", "[50, "]),
+    ("dem", ["--ranks", "0"], ["--ranks"]),
+    ("dem", ["--stress", "-1"], ["--stress"]),
+    ("dem", ["--radius", "0"], ["--radius"]),
+    ("dem", ["--spread", "-1"], ["--spread"]),
+    ("dem", ["--inertia", "0"], ["--inertia"]),
+    ("dem seismic", ["--grains", "0"], ["--grains"]),
+    ("dem seismic", ["--strain", "0"], ["--strain"]),
+    ("dem seismic", ["--decimate", "0"], ["--decimate"]),
+]
+
+
+@pytest.mark.parametrize("command, extra, fields", BOUNDS,
+                         ids=[f"{c[0]}{' '.join(c[1])}" for c in BOUNDS])
+def test_corpus_numeric_bounds(tmp_path, capsys, no_work, command, extra, fields):
+    refused(capsys, command_line(tmp_path, command) + extra, *fields)
+    assert not (tmp_path / "run").exists() and not (tmp_path / "P.json").exists()
+    assert not list(tmp_path.glob(".*.lock"))
+
+
+def test_corpus_history_preset_needs_its_peak_force(tmp_path, capsys, no_work):
+    argv = command_line(tmp_path, "fem")
+    (tmp_path / "h.toml").write_text('[history]\npreset = "repeated"\n')  # was 3000 N
+    refused(capsys, argv, "history.peak_force: missing")
+
+
+def test_corpus_fit_params_with_too_few_cycles_fails_before_the_fe(tmp_path, capsys, no_work):
+    argv = command_line(tmp_path, "cycles") + ["--params", str(PARAMS), "--fit-params",
+                                               str(tmp_path / "fit.json")]
+    (tmp_path / "h.toml").write_text("[history]\nforces = [0, 100, 0, 100, 0]\n")
+    refused(capsys, argv, "--fit-params", "2 load-unload cycles", "at least 3")
+
+
+# class 5: concurrent runs ----------------------------------------------------------------------
+@contextlib.contextmanager
+def running(path: Path):
+    """Hold ``path``'s lock as a run in progress does (a lock of its own open file: the
+    command's attempt conflicts with it even in this process)."""
+    from geocontact.files import _acquire, _release
+
+    fd = _acquire(path, "test")
+    try:
+        yield
+    finally:
+        _release(path, fd)
+
+
+CONCURRENT = ["calibrate", "fit", "law", "params", "cycles", "fem", "sweep", "seismic", "demo",
+              "dem", "dem seismic", "report", "study paper-histories", "study similarity",
+              "study dem-oedometer", "study shakedown"]
+
+
+@pytest.mark.parametrize("command", CONCURRENT)
+def test_corpus_a_second_run_on_one_destination_is_refused(tmp_path, capsys, no_work, command):
+    if command == "report":
+        (tmp_path / "run").mkdir()
+        argv = ["report", str(tmp_path / "run")]
+    else:
+        argv = command_line(tmp_path, command)
+    out = Path(argv[1] if command == "report" else argv[-1])
+    with running(out):
+        refused(capsys, argv, "DIR" if command == "report" else FIELD.get(command, "--out"),
+                "being written by another geocontact run", f"PID {os.getpid()}")
+
+
+def test_a_killed_runs_lock_does_not_stay(tmp_path, capsys):
+    """A run killed with SIGKILL holds its lock no more (the system drops it): the next run
+    proceeds, and the lock file's stale PID does not matter."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "F.csv"
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time\nfrom geocontact.files import Output, claim\n"
+        f"with claim([Output({str(out)!r})], 'law'):\n"
+        "    print('held', flush=True)\n    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        argv = command_line(tmp_path, "law")
+        refused(capsys, argv, "--out", f"PID {holder.pid}")
+        holder.send_signal(signal.SIGKILL)
+        holder.wait(timeout=10)
+        deadline = time.monotonic() + 5.0
+        while main(argv) != 0:  # the kernel releases the lock with the process
+            assert time.monotonic() < deadline, capsys.readouterr().err
+            time.sleep(0.05)
+    finally:
+        holder.kill()
+        holder.wait()
+    assert out.is_file() and not list(tmp_path.glob(".*.lock"))
+
+
+# class 6: edited results --------------------------------------------------------------------------
+EDITED = [("fem", "fem", "run", "--out"), ("cycles", "cycles", "run", "--out"),
+          ("sweep", "sweep", "run", "--out"), ("seismic", "seismic", "run", "--out"),
+          ("demo", "demo", "run", "--out"), ("dem", "dem", "run", "--out"),
+          ("dem seismic", "dem", "run", "--out"), ("fit", "fit", "P.fit", "--out"),
+          ("calibrate", "calibrate", "P.acceptance", "--out"),
+          ("study paper-histories", "paper-histories", "run", "--out"),
+          ("study similarity", "geocontact study similarity", "run", "--out"),
+          ("study dem-oedometer", "dem-study", "run", "--out")]
+
+
+@pytest.mark.parametrize("command, manifest_command, name, field", EDITED,
+                         ids=[e[0] for e in EDITED])
+def test_corpus_an_edited_result_is_the_users(tmp_path, capsys, no_work, command,
+                                              manifest_command, name, field):
+    from geocontact.files import atomic_directory
+
+    with atomic_directory(tmp_path / name, manifest_command) as work:
+        (work / "summary.json").write_text('{"steps": 3}\n')
+    (tmp_path / name / "summary.json").write_text('{"steps": 3, "my": "correction"}\n')
+    extra = ["--acceptance"] if command == "calibrate" else []
+    refused(capsys, command_line(tmp_path, command) + extra, field, "changed since")
+    assert "correction" in (tmp_path / name / "summary.json").read_text()
+
+
+@pytest.mark.parametrize("command", ["params", "calibrate", "fit"])
+def test_corpus_an_edited_parameter_file_is_the_users(tmp_path, capsys, no_work, command):
+    from geocontact.files import record_written
+
+    out = tmp_path / "P.json"
+    out.write_text(PARAMS.read_text())
+    record_written([out], command)  # as if the command wrote it
+    out.write_text(PARAMS.read_text().replace('"label"', '"label" ', 1))
+    refused(capsys, command_line(tmp_path, command), "--out", "changed since")
+
+
+def test_force_takes_an_edited_result(tmp_path, capsys, no_work):
+    from conftest import Reached
+
+    from geocontact.files import atomic_directory
+
+    with atomic_directory(tmp_path / "run", "fem") as work:
+        (work / "summary.json").write_text("{}\n")
+    (tmp_path / "run" / "summary.json").write_text('{"edited": 1}\n')
+    with pytest.raises(Reached):  # past every check, to the FE mesh
+        main(command_line(tmp_path, "fem") + ["--force"])
+
+
+# --- smaller mismatches ------------------------------------------------------------------------
+def test_shipped_presets_are_material_templates(tmp_path, capsys):
+    from importlib import resources
+
+    template = resources.files("geocontact") / "data" / "presets" / "reference.toml"
+    (tmp_path / "m.toml").write_text(template.read_text())
+    assert main(["yield", "--material", str(tmp_path / "m.toml"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["force_N"] == pytest.approx(2.75721, rel=1e-5)
+    (tmp_path / "m.toml").write_text("note = 3\n" + template.read_text())
+    assert main(["yield", "--material", str(tmp_path / "m.toml")]) == 2
+    err = one_line_error(capsys, "note: unknown key")
+    assert "section" not in err
+
+
+def test_yield_names_the_materials_radius_not_a_flag(tmp_path, capsys):
+    (tmp_path / "m.toml").write_text(MATERIAL_TOML.format(E="10e9").replace("0.1", "1e9"))
+    assert main(["yield", "--material", str(tmp_path / "m.toml")]) == 2
+    err = one_line_error(capsys, "radius: must be in")
+    assert "--radius" not in err
+    assert main(["law", "--params", str(PARAMS), "--approach", "a.csv", "--out",
+                 str(tmp_path / "F.csv"), "--radius", "0"]) == 2
+    one_line_error(capsys, "--radius: must be in")  # law has the flag
+
+
+def test_report_and_demo_take_json(tmp_path, capsys, monkeypatch):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "P.json").write_text(PARAMS.read_text())
+    assert main(["report", str(run), "--json"]) == 0
+    document = json.loads(capsys.readouterr().out)
+    assert document["report"] == str(run / "report.html") and document["figure_files"]
+    import geocontact.cli.demo as demo
+
+    def fake_demo(out, progress, *, quick, cache_dir, overwrite):
+        from geocontact.files import atomic_directory
+
+        with atomic_directory(out, "demo", overwrite=overwrite) as work:
+            (work / "summary.json").write_text('{"cases": {}}\n')
+        return Path(out) / "report.html"
+
+    monkeypatch.setattr(demo, "run_demo", fake_demo)
+    assert main(["demo", "--quick", "--out", str(tmp_path / "demo"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == {
+        "report": str(tmp_path / "demo" / "report.html"), "cases": {}}
+
+
+def test_corpus_counts():
+    """The corpus by class (the issue's closing note): grows with every new command."""
+    counts = {"a user's file at every output": len(USER_OUTPUTS) + 2,
+              "unwritable destinations": len(UNWRITABLE) + 2 + 1,
+              "wrong kinds of path": WRONG_KINDS + 1,
+              "the plugin's parameter file (NaN, infinity, a folder)": 3 + 1,
+              "bounds on numeric options": len(BOUNDS) + 2,
+              "concurrent runs": len(CONCURRENT) + 1,
+              "edited results": len(EDITED) + 3 + 1}
+    assert all(n >= 4 for n in counts.values()), counts
+    assert sum(counts.values()) >= 130, counts
+
+
+# the LAMMPS plugin's parameter file: the C++ reader (params.hpp, the compiled core) gives the
+# Python loader's message for a NaN or infinity literal; a folder: ctest (test_params.cpp)
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_corpus_non_finite_literal_in_a_parameter_file_both_readers(tmp_path, value):
+    from geocontact.law import _core
+
+    document = json.loads(PARAMS.read_text())
+    document["residual_approach"]["limit"] = value
+    text = json.dumps(document, indent=2)  # writes NaN, Infinity, -Infinity
+    (tmp_path / "p.json").write_text(text)
+    with pytest.raises(InputError, match=r"^params: malformed JSON in .*p\.json: -?(NaN|Infinity) "
+                                         r"at line \d+ column \d+ \(JSON has no NaN") as python:
+        load_params(tmp_path / "p.json")
+    with pytest.raises(ValueError) as compiled:
+        _core.parse_params(text, str(tmp_path / "p.json"))
+    assert str(compiled.value) == str(python.value)
+    document["residual_approach"]["limit"] = 0.5
+    document["label"] = "NaN and -Infinity in a string are text"
+    text = json.dumps(document, indent=2)
+    (tmp_path / "p.json").write_text(text)
+    load_params(tmp_path / "p.json")
+    _core.parse_params(text, "p.json")
+
+
+def test_corpus_parameter_file_naming_a_folder(tmp_path, capsys):
+    assert main(["law", "--params", str(tmp_path), "--approach", "a.csv", "--out",
+                 str(tmp_path / "F.csv")]) == 2
+    one_line_error(capsys, f"params: {tmp_path} is a directory, expected a file")

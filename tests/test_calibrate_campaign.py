@@ -406,6 +406,10 @@ def test_params_and_acceptance_reference_each_other_and_stale_ones_go(calibrated
     # recalibrating without --acceptance (from the cache) removes the stale table and figures
     stale = work / "P.acceptance" / "fitted-1.png"
     assert stale.exists()
-    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(params)]) == 0
+    # the edited P.json is the user's now: replaced only with --force (README, "Results you
+    # can trust")
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(params)]) == 2
+    assert main(["calibrate", *ARGS, "--cache", str(root / "cache"), "--out", str(params),
+                 "--force"]) == 0
     assert not stale.exists() and not (work / "P.acceptance.json").exists()
     assert not (work / "P.acceptance").exists()

@@ -170,7 +170,8 @@ def test_never_writes_into_the_shipped_folder(tmp_path, capsys):
 
 def test_reruns_what_the_makefile_calibrate_examples_target_runs():
     """The script's CALIBRATIONS are the Makefile's calibrate-examples commands (less
-    ``--mesh $(CALIBRATE_MESH)``, --acceptance and --out, which the script sets itself)."""
+    ``--mesh $(CALIBRATE_MESH)``, --acceptance and --out, which the script sets itself, and
+    --force: the script writes into a new temporary folder)."""
     makefile = (ROOT / "Makefile").read_text()
     recipe = re.search(r"^calibrate-examples:.*?\n((?:\t.*\n)+)", makefile, re.M).group(1)
     commands = [shlex.split(line) for line in recipe.replace("\\\n", " ").splitlines()]
@@ -186,7 +187,7 @@ def test_reruns_what_the_makefile_calibrate_examples_target_runs():
             elif word == "--out" or (word == "--mesh" and
                                      args[args.index(word) + 1] == "$(CALIBRATE_MESH)"):
                 skip = True
-            elif word != "--acceptance":
+            elif word not in ("--acceptance", "--force"):
                 rest.append(word)
         found[Path(out).name] = rest
         assert Path(out).parent.name == "examples"

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import Reached
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -46,26 +47,6 @@ OUTCOMES: dict[str, int] = {}  # hunting mode: exit codes by command, in the tem
 
 def fuzz(examples: int):
     return settings(FUZZ, max_examples=examples * max(HUNT, 1))
-
-
-class Reached(Exception):
-    """The command got past validation to the expensive work: the input was accepted."""
-
-
-def _stop(*args, **kwargs):
-    raise Reached
-
-
-@pytest.fixture
-def no_work(monkeypatch):
-    """Stop a valid FE run at its mesh and a valid seismic run at its time integration."""
-    import geocontact.analyses.seismic.column as column
-    import geocontact.calibrate.campaign as calibration
-    import geocontact.fem.run as fem_run
-
-    monkeypatch.setattr(fem_run, "history_mesh", _stop)
-    monkeypatch.setattr(calibration, "run_campaign", _stop)
-    monkeypatch.setattr(column.Column, "run", _stop)
 
 
 # --- values and mutations ---------------------------------------------------------------------

@@ -300,7 +300,7 @@ def test_cli_writes_a_valid_law_a_result_folder_and_a_report(tmp_path, capsys):
     (["--setup", "anvil"], "invalid choice"),
     (["--radius", "-1"], "radius"),
     (["--bootstrap", "-2"], "--bootstrap"),
-    (["--poissons-ratio", "0.7"], "poissons_ratio"),
+    (["--poissons-ratio", "0.7"], "--poissons-ratio"),
 ])
 def test_cli_bad_arguments_are_one_line(tmp_path, capsys, extra, match):
     from geocontact.cli import main

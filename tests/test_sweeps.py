@@ -51,4 +51,4 @@ def test_bad_sweep_input(tmp_path, capsys):
     with pytest.raises(InputError, match="unknown sweep"):
         run_sweeps(tmp_path / "x", ["nu"], progress=False)
     assert main(["sweep", "--sweeps", "E", "--peak-force", "-5", "--out", str(tmp_path / "y")]) == 2
-    assert "peak_force" in capsys.readouterr().err
+    assert "--peak-force" in capsys.readouterr().err  # the command's flag for peak_force

@@ -175,7 +175,7 @@ def test_params_never_overwrites_a_file_it_did_not_write(slice_dir, slice_data, 
     assert main(["params", "--material", "reference", "--out", str(mine), "--dataset",
                  str(slice_dir)]) != 0
     err = capsys.readouterr().err.strip()
-    assert "refusing to overwrite" in err and "\n" not in err
+    assert "refusing to replace" in err and "\n" not in err
     assert mine.read_text() == '{"my": "notes"}\n'
 
 

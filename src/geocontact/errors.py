@@ -55,24 +55,35 @@ CLI_FLAGS = {"max_force": "--max-force", "levels": "--levels", "peaks": "--peak-
              "grains": "--grains", "ranks": "--ranks", "contact": "--contact",
              "stress": "--stress", "radius": "--radius", "spread": "--spread",
              "inertia": "--inertia", "targets": "--targets", "seed": "--seed",
-             "walls": "--walls", "law": "--law", "fe_model_materials": "--fe-model-materials"}
+             "walls": "--walls", "law": "--law", "fe_model_materials": "--fe-model-materials",
+             "pga": "--pga", "surcharge": "--surcharge", "strain": "--strain",
+             "decimate": "--decimate", "gap": "--gap", "output_interval": "--output-interval",
+             "time_step_safety": "--time-step-safety", "time_step": "--time-step",
+             "damping_ratio": "--damping", "density": "--density", "peak_force": "--peak-force",
+             "tolerance": "--tolerance", "poissons_ratio": "--poissons-ratio",
+             "friction_angle_deg": "--friction-angle", "hardening_ratio": "--hardening-ratio",
+             "machine_stiffness": "--machine-stiffness"}
 
 
-def for_the_command_line(message: str) -> str:
-    """An error message of the library as the command line shows it (``CLI_FLAGS``)."""
+def for_the_command_line(message: str, flags: set[str] | None = None) -> str:
+    """An error message of the library as the command line shows it (``CLI_FLAGS``); with
+    ``flags`` (the options of the command that ran) only a flag the command has is named: a
+    material file's ``radius`` is not ``--radius`` in ``geocontact yield``."""
     name, colon, rest = message.partition(":")
-    if colon and name in CLI_FLAGS:
+    if colon and name in CLI_FLAGS and (flags is None or CLI_FLAGS[name] in flags):
         message = CLI_FLAGS[name] + colon + rest
     return (message.replace("pass overwrite=True", "pass --force")
             .replace("(unit: g, m/s2 or cm/s2)", "(--unit g|m/s2|cm/s2)"))
 
 
-def run_reporting_errors(run: Callable[[], int | None]) -> int:
+def run_reporting_errors(run: Callable[[], int | None],
+                         flags: Callable[[], set[str] | None] = lambda: None) -> int:
     """Run a command and turn the errors geocontact raises on purpose into one line on stderr
     and the exit code: 2 for bad input, 1 for any other GeocontactError, 130 on Ctrl-C and 143
     on SIGTERM (handled like Ctrl-C: a clean exit, checkpoints kept). Used by the
     ``geocontact`` CLI and the ``python -m geocontact...`` generators alike; messages name the
-    command line's flags (``for_the_command_line``)."""
+    command line's flags (``for_the_command_line``; ``flags()``: the options of the command
+    that ran, when known)."""
     previous = None
     try:
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
@@ -81,10 +92,10 @@ def run_reporting_errors(run: Callable[[], int | None]) -> int:
     try:
         return int(run() or 0)
     except InputError as exc:
-        print(f"error: {for_the_command_line(str(exc))}", file=sys.stderr)
+        print(f"error: {for_the_command_line(str(exc), flags())}", file=sys.stderr)
         return 2
     except GeocontactError as exc:
-        print(f"error: {for_the_command_line(str(exc))}", file=sys.stderr)
+        print(f"error: {for_the_command_line(str(exc), flags())}", file=sys.stderr)
         return 1
     except Terminated:
         print("terminated (SIGTERM); checkpoints kept, rerun with --resume where offered",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import ctypes
+import fcntl
 import hashlib
 import json
 import math
@@ -15,6 +16,7 @@ import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -108,6 +110,18 @@ def check_output_file(path: str | Path, what: str) -> Path:
     return path
 
 
+def check_output_folder(path: str | Path, what: str) -> Path:
+    """``path`` as a folder to write into (a cache): not an existing file, not below a file."""
+    path = Path(path)
+    for place in [path, *path.parents]:
+        if place.exists():
+            if not place.is_dir():
+                raise InputError(f"{what}: {place} is a file, expected a folder"
+                                 + ("" if place == path else f" (for {path})"))
+            break
+    return path
+
+
 @contextmanager
 def atomic_path(path: str | Path, what: str = "output") -> Iterator[Path]:
     """A temporary path beside ``path`` (same suffix, so writers infer the format) that is
@@ -190,6 +204,23 @@ def check_replaceable(path: str | Path, command: str, *, overwrite: bool = False
         extra = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
         raise InputError(f"{field}: {foreign[0]}{extra} in {path} was not written by geocontact "
                          f"{command}; refusing to replace the folder: {_KEEP_HINT}")
+    edited = _edited_files(path, manifest)
+    if edited:  # the manifest's SHA-256 no longer holds: someone worked on the result
+        extra = f" and {len(edited) - 1} more" if len(edited) > 1 else ""
+        raise InputError(f"{field}: {edited[0]}{extra} in {path} changed since geocontact "
+                         f"{command} wrote it; refusing to replace the folder: {_KEEP_HINT}")
+
+
+def _edited_files(directory: Path, manifest: dict[str, Any]) -> list[Path]:
+    """Files the manifest lists whose size or SHA-256 differ from what was written (a file
+    removed since is not an edit: nothing of the user's would be lost)."""
+    edited = []
+    for name, entry in manifest.get("files", {}).items():
+        path = directory / name
+        if path.is_file() and (path.stat().st_size != entry.get("bytes")
+                               or _sha256(path) != entry.get("sha256")):
+            edited.append(path)
+    return edited
 
 
 def _sha256(path: Path) -> str:
@@ -343,6 +374,8 @@ def read_csv_column(path: str | Path, column: str, ragged: bool = False) -> np.n
     p = Path(path)
     if not p.exists():
         raise InputError(f"{column}: file not found: {path}")
+    if p.is_dir():
+        raise InputError(f"{column}: {path} is a directory, expected a CSV file")
     try:
         with p.open(newline="") as handle:
             reader = csv.DictReader(row for row in handle if not row.startswith("#"))
@@ -386,3 +419,202 @@ def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
 
     lines = [",".join(names)] + [",".join(cell(c, r) for c in values) for r in range(length)]
     write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+# --- the one write path of every command -------------------------------------------------------
+# Every output a command writes is claimed before its work starts (``claim``): its kind is
+# checked (a file name, not a folder; a folder, not a file), it must be ours to replace, its
+# folder must be writable, and a lock beside it keeps a second run away until the first ends.
+#
+# What is ours. A result folder: its manifest (``RESULT_MANIFEST``) names the command and every
+# file with its SHA-256; anything added or changed since is the user's (``check_replaceable``).
+# A single file (P.json, F.csv): the ledger ``FILES_LEDGER`` of its folder records the SHA-256 of
+# every file a command wrote there; a file is replaced only if the ledger holds its present
+# bytes, i.e. geocontact wrote it and nobody changed it since. Anything else -- a file of the
+# user's, one geocontact wrote and the user edited, one written by a version before the ledger
+# -- needs ``overwrite`` (``--force``).
+FILES_LEDGER = ".geocontact-files.json"
+FILES_SCHEMA = "geocontact.files/1"
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output of a command: a ``file`` (written whole by ``atomic_path``), a ``folder``
+    (a result of ``command``, ``atomic_directory``) or a ``report`` folder (an existing run
+    directory the command writes into). ``field`` is the option that named it."""
+
+    path: Path
+    kind: str = "file"
+    field: str = "out"
+
+
+def _ledger(directory: Path) -> dict[str, Any]:
+    try:
+        document = json.loads((directory / FILES_LEDGER).read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(document, dict) or document.get("schema") != FILES_SCHEMA:
+        return {}
+    files = document.get("files")
+    return files if isinstance(files, dict) else {}
+
+
+def written_by_us(path: str | Path) -> bool:
+    """Whether ``path`` holds exactly the bytes a geocontact command last wrote there."""
+    path = Path(path)
+    entry = _ledger(path.parent).get(path.name)
+    return (isinstance(entry, dict) and path.is_file()
+            and path.stat().st_size == entry.get("bytes") and _sha256(path) == entry.get("sha256"))
+
+
+def check_file_replaceable(path: str | Path, *, overwrite: bool = False,
+                           field: str = "out") -> Path:
+    """``path`` as a single-file output: a file name (``check_output_file``) that is missing or
+    holds what geocontact wrote there (``written_by_us``); ``overwrite`` lifts the second check."""
+    path = check_output_file(path, field)
+    if overwrite or not os.path.lexists(path) or written_by_us(path):
+        return path
+    raise InputError(f"{field}: {path} exists and is not a file geocontact wrote (or it was "
+                     "changed since); refusing to replace it: choose another name, move it "
+                     "away, or pass overwrite=True")
+
+
+def record_written(paths: list[Path], command: str) -> None:
+    """Add the files a command just wrote to their folders' ledgers (under a lock on the
+    folder: two commands writing beside each other keep both entries)."""
+    by_folder: dict[Path, list[Path]] = {}
+    for path in paths:
+        if path.is_file():
+            by_folder.setdefault(path.parent, []).append(path)
+    for folder, files in by_folder.items():
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            ledger = _ledger(folder)
+            stamp = datetime.now(UTC).isoformat(timespec="seconds")
+            for path in files:
+                ledger[path.name] = {"bytes": path.stat().st_size, "sha256": _sha256(path),
+                                     "command": command, "written_utc": stamp}
+            write_text_atomic(folder / FILES_LEDGER, json.dumps(
+                {"schema": FILES_SCHEMA, "files": dict(sorted(ledger.items()))}, indent=2)
+                + "\n")
+        finally:
+            os.close(fd)
+
+
+def _lock_path(path: Path) -> Path:
+    path = Path(os.path.abspath(path))  # ``DIR/.`` and ``DIR`` are one destination
+    return path.parent / f".{path.name}.lock"
+
+
+def _make_parents(path: Path, field: str) -> list[Path]:
+    """Create the missing folders above ``path``; returns them (outermost first) so that a run
+    that fails can remove them again. A folder that cannot be made is a one-line error."""
+    missing = []
+    for parent in [path.parent, *path.parent.parents]:
+        if os.path.lexists(parent):
+            break
+        missing.append(parent)
+    for folder in reversed(missing):
+        try:
+            folder.mkdir()
+        except OSError as exc:
+            _remove_empty(missing)
+            raise InputError(f"{field}: cannot create the folder {folder} for {path}: "
+                             f"{exc.strerror}") from None
+    return list(reversed(missing))
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    for folder in sorted(folders, key=lambda f: len(f.parts), reverse=True):
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
+
+
+def _holder(fd: int) -> str:
+    os.lseek(fd, 0, os.SEEK_SET)
+    text = os.read(fd, 64).decode(errors="replace").strip()
+    return f"PID {text}" if text.isdigit() else "PID unknown"
+
+
+def _acquire(path: Path, field: str) -> int:
+    """Hold the lock of destination ``path`` (``fcntl.flock`` on ``.NAME.lock`` beside it, so
+    the system releases it when a run dies however it dies) and write our PID into it; a
+    destination held by another run is a one-line error naming that run's PID. Creating the
+    lock file is also the check that the destination's folder is writable."""
+    lock = _lock_path(path)
+    while True:
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise InputError(f"{field}: cannot write in {path.parent}: {exc.strerror}"
+                             ) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = _holder(fd)
+            os.close(fd)
+            raise InputError(f"{field}: {path} is being written by another geocontact run "
+                             f"({holder}); wait for it to end or choose another name") from None
+        try:
+            same = os.stat(lock).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:  # not a lock file its last holder removed while we waited to open it
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            return fd
+        os.close(fd)
+
+
+def _release(path: Path, fd: int) -> None:
+    Path(_lock_path(path)).unlink(missing_ok=True)  # while held: the next run makes a new one
+    os.close(fd)
+
+
+def _check_writable_folder(directory: Path, field: str) -> None:
+    """A folder the command writes into (``report``): try it, permissions alone do not tell
+    (root ignores them; a read-only file system does not)."""
+    try:
+        with tempfile.TemporaryFile(dir=directory):
+            pass
+    except OSError as exc:
+        raise InputError(f"{field}: cannot write in {directory}: {exc.strerror}") from None
+
+
+@contextmanager
+def claim(outputs: list[Output], command: str, *, overwrite: bool = False) -> Iterator[None]:
+    """The one write path of every command: claim ``outputs`` before the work starts and keep
+    them until it ends. Each is checked for its kind and that it is ours to replace
+    (``check_file_replaceable``, ``check_replaceable``; ``overwrite`` lifts that), its folder is
+    created and shown writable, and its lock is taken: a second run on the same destination is
+    refused at once, naming the first one's PID. When the block succeeds, the single files
+    written join their folder's ledger (``record_written``); when it fails, folders made for
+    the outputs are removed again if they are still empty."""
+    outputs = [replace(o, path=Path(o.path)) for o in outputs]
+    for o in outputs:
+        if o.kind == "file":
+            check_file_replaceable(o.path, overwrite=overwrite, field=o.field)
+        elif o.kind == "folder":
+            check_replaceable(o.path, command, overwrite=overwrite, field=o.field)
+        elif not o.path.is_dir():
+            raise InputError(f"{o.field}: not a directory: {o.path}")
+    made: list[Path] = []
+    held: list[tuple[Path, int]] = []
+    succeeded = False
+    try:
+        for o in outputs:
+            made += _make_parents(o.path, o.field)
+            held.append((o.path, _acquire(o.path, o.field)))
+            if o.kind == "report":
+                _check_writable_folder(o.path, o.field)
+        yield
+        succeeded = True
+        record_written([o.path for o in outputs if o.kind == "file"], command)
+    finally:
+        for path, fd in reversed(held):
+            _release(path, fd)
+        if not succeeded:
+            _remove_empty(made)

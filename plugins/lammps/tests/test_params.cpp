@@ -124,6 +124,24 @@ int main(int argc, char **argv)
   }
   expect_error(replace(good, "\"coefficient\": 0.3,", "\"coefficient\": 3.0,"),
                "cyclic.residual_ratio: the cycle-2 ratio", "cycle-2 ratio above 1");
+  // a folder and the literals NaN/Infinity get the Python loader's messages
+  // (files.read_text_input; law.params.non_finite_literal)
+  try {
+    geocontact::load_params(argv[2]);
+    ++failures;
+  } catch (const geocontact::InputError &e) {
+    if (std::string(e.what()) != "params: " + std::string(argv[2]) +
+                                     " is a directory, expected a file") {
+      std::fprintf(stderr, "FAIL folder: %s\n", e.what());
+      ++failures;
+    }
+  }
+  expect_error(replace(good, "\"limit\": 0.9", "\"limit\": NaN"), "malformed JSON in test.json: NaN at line",
+               "NaN literal");
+  expect_error(replace(good, "\"limit\": 0.9", "\"limit\": -Infinity"), ": -Infinity at line",
+               "-Infinity literal");
+  geocontact::parse_params(replace(good, "\"label\": \"", "\"label\": \"NaN, Infinity: "),
+                           "literals in a string");
   const int cases = replay_corpus(argv[2]);
   std::printf("params: %d bad documents replayed, %d failures\n", cases, failures);
   return failures == 0 ? 0 : 1;

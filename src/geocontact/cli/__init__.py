@@ -6,6 +6,7 @@ function; ``COMMANDS`` lists them in the order ``--help`` shows them.
 
 from __future__ import annotations
 
+import argparse
 import importlib
 import sys
 
@@ -31,6 +32,7 @@ def build_parser() -> ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    chosen: dict[str, set[str]] = {}
 
     def run() -> int:
         # a study (``geocontact study NAME ...``) parses its own flags: only it gets the rest
@@ -38,9 +40,16 @@ def main(argv: list[str] | None = None) -> int:
         if rest and not getattr(args, "own_flags", False):
             parser.error(f"unrecognized arguments: {' '.join(rest)}")
         args.rest = rest
+        chosen["flags"] = _flags(parser, args.command)
         return args.run(args)
 
-    return run_reporting_errors(run)
+    return run_reporting_errors(run, lambda: chosen.get("flags"))
+
+
+def _flags(parser: ArgumentParser, command: str) -> set[str]:
+    """The options of sub-command ``command`` (``--out``, ...)."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return set(sub.choices[command]._option_string_actions)
 
 
 if __name__ == "__main__":  # pragma: no cover

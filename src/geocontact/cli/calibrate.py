@@ -8,9 +8,9 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..fem.limits import check_resolved_force, check_steps, check_workers
-from ..files import check_output_file
-from ..grain.material import load_material
+from ..files import Output, check_output_file, check_output_folder, claim
 from .common import add_fe_model_flags, add_force_flag, fe_model_of, print_json
+from .common import load_material_arg as load_material
 
 
 def register(sub) -> None:
@@ -88,7 +88,7 @@ def run(args) -> int:
         default = settings()["campaign"]["max_force_N"]
         check_resolved_force(material, default if args.max_force is None else args.max_force,
                              "--max-force")
-    cache = Path(args.cache) if args.cache else DEFAULT_CACHE
+    cache = check_output_folder(args.cache, "--cache") if args.cache else DEFAULT_CACHE
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache)}
@@ -98,12 +98,17 @@ def run(args) -> int:
     inputs.update(fe_model)
     if args.residual_form != "saturating":  # files of the default form read as before
         inputs["residual_form"] = args.residual_form
-    params, runs, table = calibrate_to_file(
-        material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
-        acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
-        cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
-        progress=not args.json, overwrite=args.force, fe_model=fe_model,
-        residual_form=args.residual_form, loading_form=args.loading_form)
+    outputs = [Output(out, "file", "--out")]
+    if args.acceptance:  # P.acceptance.json and P.acceptance/ beside P.json
+        outputs += [Output(out.with_suffix(".acceptance.json"), "file", "--out"),
+                    Output(out.with_suffix(".acceptance"), "folder", "--out")]
+    with claim(outputs, "calibrate", overwrite=args.force):
+        params, runs, table = calibrate_to_file(
+            material, out, inputs, peaks=peaks, levels=args.levels, max_force=args.max_force,
+            acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
+            cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
+            progress=not args.json, overwrite=args.force, fe_model=fe_model,
+            residual_form=args.residual_form, loading_form=args.loading_form)
     acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:

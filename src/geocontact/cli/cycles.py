@@ -6,10 +6,11 @@ import sys
 
 from ..errors import InputError
 from ..fem.limits import check_resolved_force, check_steps
-from ..files import check_output_file
-from ..grain.force_history import load_history
-from ..grain.material import load_material
+from ..files import Output, check_file_replaceable, claim
+from ..grain.force_history import cycle_windows
 from .common import add_fe_model_flags, add_force_flag, print_json
+from .common import load_history_arg as load_history
+from .common import load_material_arg as load_material
 
 
 def register(sub) -> None:
@@ -46,7 +47,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..analyses.cycles import run_cycles
     from ..law import load_params
 
     material = load_material(args.material)
@@ -54,19 +54,15 @@ def run(args) -> int:
     params = load_params(args.params) if args.params else None
     if args.fit_params and params is None:
         raise InputError("--fit-params: needs --params (the law whose cyclic part to fit)")
+    outputs = [Output(args.out, "folder", "--out")]
     if args.fit_params:
-        check_output_file(args.fit_params, "--fit-params")
+        check_file_replaceable(args.fit_params, overwrite=args.force, field="--fit-params")
+        check_cycles_to_fit(forces)
+        outputs.append(Output(args.fit_params, "file", "--fit-params"))
     check_steps(args.steps)
     check_resolved_force(material, max(forces), "history.forces")
-    summary = run_cycles(
-        material, forces, args.out, params=params, mesh=args.mesh, steps_per_segment=args.steps,
-        tolerance=args.tolerance, resume=args.resume, fit_params=args.fit_params,
-        progress=sys.stderr.isatty() or not args.json,
-        inputs={"material": str(args.material), "history": str(args.history),
-                "params": args.params},
-        overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
-        step_rule=args.step_rule, max_step_ratio=args.max_step_ratio, contact=args.contact,
-    )
+    with claim(outputs, "cycles", overwrite=args.force):
+        summary = _run(args, material, forces, params)
     if args.json:
         print_json(summary)
         return 0
@@ -80,3 +76,32 @@ def run(args) -> int:
     if args.fit_params:
         print(f"wrote {args.fit_params} (cyclic extension fitted to the FE)")
     return 0
+
+
+# with_cyclic fits the ratios of cycles N >= 2 to cycle 1 with a power law in N: cycle 1 and at
+# least two more (calibrate.cyclic_fit.fit_ratio_law).
+MIN_CYCLES_TO_FIT = 3
+
+
+def check_cycles_to_fit(forces: list[float]) -> None:
+    """--fit-params needs a history of at least ``MIN_CYCLES_TO_FIT`` load-unload cycles: known
+    from the history, so refused before the FE run rather than after it."""
+    count = len(cycle_windows(forces, list(range(len(forces)))))
+    if count < MIN_CYCLES_TO_FIT:
+        raise InputError(f"--fit-params: the history has {count} load-unload cycle"
+                         f"{'s' if count != 1 else ''}; fitting the cyclic law needs at least "
+                         f"{MIN_CYCLES_TO_FIT} (cycle 1 and two after it)")
+
+
+def _run(args, material, forces, params) -> dict:
+    from ..analyses.cycles import run_cycles
+
+    return run_cycles(
+        material, forces, args.out, params=params, mesh=args.mesh, steps_per_segment=args.steps,
+        tolerance=args.tolerance, resume=args.resume, fit_params=args.fit_params,
+        progress=sys.stderr.isatty() or not args.json,
+        inputs={"material": str(args.material), "history": str(args.history),
+                "params": args.params},
+        overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
+        step_rule=args.step_rule, max_step_ratio=args.max_step_ratio, contact=args.contact,
+    )

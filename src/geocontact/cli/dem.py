@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
+from ..files import Output, claim
 from .common import add_force_flag, print_json
 
 
@@ -84,15 +85,16 @@ def run(args) -> int:
     for name in ("strain", "decimate", "baseline"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: only for the seismic test")
-    settings = Settings(grains=args.grains or 2000)
+    settings = Settings(grains=2000 if args.grains is None else args.grains)
     for name in ("stress", "radius", "spread", "inertia", "seed", "walls"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
     if args.targets is not None:
         settings.targets = tuple(args.targets)
     contacts = CONTACTS if args.contact == "both" else (args.contact,)
-    document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
-                       out=args.out, overwrite=args.force, progress=_progress)
+    with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
+        document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
+                           out=args.out, overwrite=args.force, progress=_progress)
     if args.json:
         print_json(document)
         return 0
@@ -128,8 +130,9 @@ def run_seismic(args) -> int:
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
     contacts = CONTACTS if args.contact == "both" else (args.contact,)
-    document = run(args.record, args.law, settings, contacts=contacts, ranks=args.ranks,
-                   out=args.out, overwrite=args.force, progress=_progress)
+    with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
+        document = run(args.record, args.law, settings, contacts=contacts, ranks=args.ranks,
+                       out=args.out, overwrite=args.force, progress=_progress)
     if args.json:
         print_json(document)
         return 0

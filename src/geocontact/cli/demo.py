@@ -21,6 +21,7 @@ the cyclic history (which keep their ParaView fields), is carried over from the 
 
 from __future__ import annotations
 
+import json
 import shutil
 import sys
 import time
@@ -31,12 +32,19 @@ import matplotlib.pyplot as plt
 
 from ..analyses.force_driven import drive_by_force
 from ..fem.campaign import DEFAULT_CACHE
-from ..files import atomic_directory, provenance, write_json_atomic
+from ..files import (
+    Output,
+    atomic_directory,
+    check_output_folder,
+    claim,
+    provenance,
+    write_json_atomic,
+)
 from ..grain.force_history import preset_history
 from ..grain.hertz import incipient_yield
 from ..grain.material import preset
 from ..report import Figure, save_figure, table
-from .common import add_force_flag
+from .common import add_force_flag, print_json
 
 CASES = (("reference", "σc = 10 MPa"), ("reference-weak", "σc = 1 MPa"))
 
@@ -299,11 +307,19 @@ def register(sub) -> None:
                    "not the reference results")
     p.add_argument("--cache", default="out/cache/fem", help="FE result cache directory")
     add_force_flag(p)
+    p.add_argument("--json", action="store_true",
+                   help="print the demo's summary.json (with the report's path) on stdout")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
-    path = run_demo(args.out, progress=lambda m: print(m, file=sys.stderr), quick=args.quick,
-                    cache_dir=args.cache, overwrite=args.force)
-    print(f"report: {path}")
+    check_output_folder(args.cache, "--cache")
+    with claim([Output(args.out, "folder", "--out")], "demo", overwrite=args.force):
+        path = run_demo(args.out, progress=lambda m: print(m, file=sys.stderr),
+                        quick=args.quick, cache_dir=args.cache, overwrite=args.force)
+    if args.json:
+        summary = json.loads((Path(args.out) / "summary.json").read_text())
+        print_json({"report": str(path), **summary})
+    else:
+        print(f"report: {path}")
     return 0

@@ -5,9 +5,10 @@ from __future__ import annotations
 import sys
 
 from ..fem.limits import check_resolved_force, check_steps
-from ..grain.force_history import load_history
-from ..grain.material import load_material
+from ..files import Output, claim
 from .common import add_fe_model_flags, add_force_flag, print_json
+from .common import load_history_arg as load_history
+from .common import load_material_arg as load_material
 
 
 def register(sub) -> None:
@@ -41,12 +42,13 @@ def run(args) -> int:
     forces = load_history(args.history)
     check_steps(args.steps)
     check_resolved_force(material, max(forces), "history.forces")
-    result = run_history(material, forces, mesh=args.mesh, out=args.out,
-                         steps_per_segment=args.steps, resume=args.resume, overwrite=args.force,
-                         kinematics=args.kinematics, mesh_rule=args.mesh_rule,
-                         step_rule=args.step_rule, max_step_ratio=args.max_step_ratio,
-                         contact=args.contact,
-                         progress=sys.stderr.isatty() or not args.json)
+    with claim([Output(args.out, "folder", "--out")], "fem", overwrite=args.force):
+        result = run_history(material, forces, mesh=args.mesh, out=args.out,
+                             steps_per_segment=args.steps, resume=args.resume,
+                             overwrite=args.force, kinematics=args.kinematics,
+                             mesh_rule=args.mesh_rule, step_rule=args.step_rule,
+                             max_step_ratio=args.max_step_ratio, contact=args.contact,
+                             progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:
         print_json(s)

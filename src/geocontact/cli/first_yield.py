@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..grain.hertz import incipient_yield
-from ..grain.material import load_material
+from .common import load_material_arg as load_material
 from .common import print_json
 
 

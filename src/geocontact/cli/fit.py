@@ -61,16 +61,27 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
-
-    from ..labtest import fit_test, read_test
-    from .fit_output import check_outputs, write_fit
+    from ..files import Output, check_output_folder, claim
+    from ..labtest import read_test
+    from .fit_output import check_outputs
 
     started = time.perf_counter()
     if not 0 <= args.bootstrap <= MAX_BOOTSTRAP:
         raise InputError(f"--bootstrap: must be in [0, {MAX_BOOTSTRAP}], got {args.bootstrap}")
-    check_outputs(args.out, args.force)
+    out, folder = check_outputs(args.out, args.force)
+    if args.cache:
+        check_output_folder(args.cache, "--cache")
     record = read_test(args.curve, args.columns)
+    with claim([Output(out, "file", "--out"), Output(folder, "folder", "--out")], "fit",
+               overwrite=args.force):
+        return _fit(args, record, started)
+
+
+def _fit(args, record, started: float) -> int:
+    from pathlib import Path
+
+    from ..labtest import fit_test
+    from .fit_output import write_fit
 
     def progress(k, n):
         print(f"\rbootstrap {k}/{n}", end="" if k < n else "\n", file=sys.stderr, flush=True)

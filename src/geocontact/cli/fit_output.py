@@ -15,7 +15,7 @@ from scipy.signal import savgol_filter
 from ..errors import InputError
 from ..files import (
     atomic_directory,
-    check_output_file,
+    check_file_replaceable,
     check_replaceable,
     write_csv,
     write_json_atomic,
@@ -42,7 +42,7 @@ def check_outputs(out: str | Path, overwrite: bool = False) -> tuple[Path, Path]
     out = Path(out)
     if out.suffix != ".json":
         raise InputError(f"out: expected a .json file name, got {str(out)!r}")
-    check_output_file(out, "out")
+    check_file_replaceable(out, overwrite=overwrite, field="out")
     folder = folder_of(out)
     check_replaceable(folder, COMMAND, overwrite=overwrite)
     return out, folder

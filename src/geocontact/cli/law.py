@@ -5,9 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..files import check_output_file, provenance, read_csv_column, write_csv, write_json_atomic
+from ..files import (
+    Output,
+    check_file_replaceable,
+    claim,
+    provenance,
+    read_csv_column,
+    write_csv,
+    write_json_atomic,
+)
 from ..law import BRANCH_NAMES, Contact, load_params
-from .common import print_json
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -18,13 +26,15 @@ def register(sub) -> None:
     p.add_argument("--radius", type=float, default=None, metavar="R",
                    help="sphere radius in m: the law for two spheres of radius R by similarity "
                         "(F_r(d) = s^2 F(d/s), s = R / the file's radius; docs/model.md §10)")
+    add_force_flag(p, "file")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
-    check_output_file(args.out, "--out")
-    check_output_file(f"{args.out}.meta.json", "--out")
+    outputs = [Output(args.out, "file", "--out"), Output(f"{args.out}.meta.json", "file", "--out")]
+    for output in outputs:
+        check_file_replaceable(output.path, overwrite=args.force, field="--out")
     params = load_params(args.params)
     if args.radius is not None:
         params = params.for_radius(args.radius)
@@ -36,6 +46,11 @@ def run(args) -> int:
         raise InputError(f"approach_m: must be <= the sphere radius {radius:g} m (a ball-ball "
                          f"approach; far beyond any contact law), got {approaches[i]:g} "
                          f"(value {i + 1} of {args.approach})")
+    with claim(outputs, "law", overwrite=args.force):
+        return _run(args, params, approaches)
+
+
+def _run(args, params, approaches) -> int:
     contact = Contact(params)
     n = approaches.size
     force, stiffness = np.empty(n), np.empty(n)

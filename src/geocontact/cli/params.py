@@ -3,14 +3,13 @@ FE run (docs/interfaces.md; docs/universal.md)."""
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..files import check_output_file, provenance
-from ..grain.material import load_material
-from .common import print_json
+from ..files import Output, check_file_replaceable, claim, provenance
+from .common import add_force_flag, print_json
+from .common import load_material_arg as load_material
 
 
 def register(sub) -> None:
@@ -31,43 +30,31 @@ def register(sub) -> None:
                         "says so)")
     p.add_argument("--dataset", default=None, metavar="DIR",
                    help="universal dataset folder (default: the one shipped with the package)")
-    p.add_argument("--force", action="store_true",
-                   help="replace --out even if it is not a law parameter file")
+    add_force_flag(p, "file")
     p.add_argument("--json", action="store_true", help="print a summary as JSON")
     p.set_defaults(run=run)
 
 
-def check_law_file_replaceable(path: Path, force: bool) -> None:
-    """An existing --out is replaced only if it is a geocontact law parameter file (what this
-    command and ``calibrate`` write) or with --force: never a file of the user's."""
-    if force or not path.exists() or path.is_dir():
-        return
-    from ..law.params import SCHEMA
-
-    try:
-        ours = json.loads(path.read_text()).get("schema") == SCHEMA
-    except (OSError, ValueError, AttributeError):
-        ours = False
-    if not ours:
-        raise InputError(f"--out: {path} exists and is not a {SCHEMA} parameter file; "
-                         "refusing to overwrite it (pass --force to replace it)")
-
-
 def run(args) -> int:
-    from ..universal import for_material
 
     started = time.perf_counter()
     out = Path(args.out)
     if out.suffix != ".json":
         raise InputError(f"--out: expected a .json file name, got {args.out!r}")
-    check_output_file(out, "--out")
-    check_law_file_replaceable(out, args.force)
+    check_file_replaceable(out, overwrite=args.force, field="--out")
     material = load_material(args.material)
+    if args.dataset is not None and not Path(args.dataset, "points.csv").is_file():
+        raise InputError(f"--dataset: no points.csv in {args.dataset}")
+    with claim([Output(out, "file", "--out")], "params", overwrite=args.force):
+        return _write(args, out, material, started)
+
+
+def _write(args, out: Path, material, started: float) -> int:
+    from ..universal import for_material
+
     if args.dataset is not None:
         from ..universal.interpolate import universal_params
 
-        if not Path(args.dataset, "points.csv").is_file():
-            raise InputError(f"--dataset: no points.csv in {args.dataset}")
         params = universal_params(material, extrapolate=args.extrapolate,
                                   directory=args.dataset)
     else:

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .common import add_force_flag
+from ..report.common import FIGURES
+from .common import add_force_flag, print_json
 
 
 def register(sub) -> None:
@@ -16,12 +17,22 @@ def register(sub) -> None:
     p.add_argument("directory", metavar="DIR", help="a run directory")
     p.add_argument("--title", default=None, help="report title")
     add_force_flag(p)
+    p.add_argument("--json", action="store_true",
+                   help="print what was written as one JSON document")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
+    from ..files import Output, claim
     from ..report import build_report
 
-    path = build_report(args.directory, title=args.title, overwrite=args.force)
-    print(f"report: {path}")
+    with claim([Output(args.directory, "report", "DIR")], "report", overwrite=args.force):
+        path = build_report(args.directory, title=args.title, overwrite=args.force)
+    if args.json:
+        figures = path.parent / FIGURES
+        print_json({"report": str(path), "figures": str(figures),
+                    "figure_files": sorted(p.name for p in figures.iterdir()
+                                           if not p.name.startswith("."))})
+    else:
+        print(f"report: {path}")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError, check_count
-from ..files import check_replaceable
+from ..files import Output, check_replaceable, claim
 from .common import add_force_flag, print_json
 
 
@@ -106,9 +106,11 @@ def run(args) -> int:
     aftershock_pga = args.aftershock_pga if args.aftershock_pga is not None else settings.target_pga
     main = EventSpec(args.record, settings.target_pga)
     aftershocks = [EventSpec.parse(text, aftershock_pga) for text in args.aftershock]
-    result = run_seismic(params, main, aftershocks, settings, params_source=str(args.params),
-                         progress=_progress)
-    summary = write_outputs(result, args.out, figures=not args.no_figures, overwrite=args.force)
+    with claim([Output(args.out, "folder", "--out")], "seismic", overwrite=args.force):
+        result = run_seismic(params, main, aftershocks, settings,
+                             params_source=str(args.params), progress=_progress)
+        summary = write_outputs(result, args.out, figures=not args.no_figures,
+                                overwrite=args.force)
     if args.json:
         print_json(summary)
     else:

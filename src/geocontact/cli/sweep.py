@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..fem.limits import check_workers
+from ..files import Output, check_output_folder, claim
 from .common import add_force_flag, print_json
 
 
@@ -36,9 +37,11 @@ def run(args) -> int:
 
         check_scheduler_address(args.scheduler)
     names = [n.strip() for n in args.sweeps.split(",")] if args.sweeps else None
-    summary = run_sweeps(args.out, names, mesh=args.mesh, peak_force=args.peak_force,
-                         cache_dir=args.cache, scheduler=args.scheduler, workers=args.workers,
-                         overwrite=args.force)
+    check_output_folder(args.cache, "--cache")
+    with claim([Output(args.out, "folder", "--out")], "sweep", overwrite=args.force):
+        summary = run_sweeps(args.out, names, mesh=args.mesh, peak_force=args.peak_force,
+                             cache_dir=args.cache, scheduler=args.scheduler,
+                             workers=args.workers, overwrite=args.force)
     if args.json:
         print_json(summary)
         return 0

@@ -577,10 +577,40 @@ def _saturating_dict(limit: float, power: float, transition: float,
     return out
 
 
+NON_FINITE_LITERALS = ("-Infinity", "Infinity", "NaN")
+
+
+def non_finite_literal(text: str, source: str) -> None:
+    """JSON has no NaN or infinity, but ``json.loads`` reads the literals NaN, Infinity and
+    -Infinity: refuse them first, in one line with their place, the message the C++ reader
+    gives (params.hpp, reject_non_finite_literals), so the two readers never disagree."""
+    in_string, line, line_start, i = False, 1, 0, 0
+    while i < len(text):
+        c = text[i]
+        if c == "\n":
+            line, line_start = line + 1, i + 1
+        elif in_string:
+            if c == "\\":
+                i += 1
+            elif c == '"':
+                in_string = False
+        elif c == '"':
+            in_string = True
+        else:
+            for literal in NON_FINITE_LITERALS:
+                if text.startswith(literal, i):
+                    raise InputError(f"params: malformed JSON in {source}: {literal} at line "
+                                     f"{line} column {i - line_start + 1} (JSON has no NaN or "
+                                     "infinity; give a finite number)")
+        i += 1
+
+
 def load_params(path: str | Path) -> LawParams:
     """Read and validate a ``geocontact.law/1`` parameter file."""
+    text = read_text_input(path, "params")
+    non_finite_literal(text, str(path))
     try:
-        data = json.loads(read_text_input(path, "params"))
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(
             f"params: malformed JSON in {path}: {exc.msg} at line {exc.lineno}"

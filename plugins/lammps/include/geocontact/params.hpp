@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -425,15 +426,49 @@ inline LawParams params_from_json(const json::Value &doc)
   return p;
 }
 
+// JSON has no NaN or infinity, but Python's json reads the literals NaN, Infinity and
+// -Infinity: both readers refuse them first, with the same message (geocontact.law.params,
+// non_finite_literal), so the two never disagree on such a file.
+inline void reject_non_finite_literals(const std::string &text, const std::string &source)
+{
+  static const char *const literals[] = {"-Infinity", "Infinity", "NaN"};
+  bool in_string = false;
+  int line = 1;
+  size_t line_start = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      line_start = i + 1;
+    } else if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else {
+      for (const char *literal : literals)
+        if (text.compare(i, std::char_traits<char>::length(literal), literal) == 0)
+          throw InputError("params: malformed JSON in " + source + ": " + literal +
+                           " at line " + std::to_string(line) + " column " +
+                           std::to_string(i - line_start + 1) +
+                           " (JSON has no NaN or infinity; give a finite number)");
+    }
+  }
+}
+
 inline LawParams parse_params(const std::string &text, const std::string &source = "parameters")
 {
+  reject_non_finite_literals(text, source);
   return params_from_json(json::parse(text, source));
 }
 
 inline std::string read_text_file(const std::string &path)
 {
+  // the messages of Python's files.read_text_input
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("params: file not found or unreadable: " + path);
+  if (!in) throw InputError("params: file not found: " + path);
+  if (std::filesystem::is_directory(path))
+    throw InputError("params: " + path + " is a directory, expected a file");
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();

@@ -303,6 +303,28 @@ def _classify_window(column: Column, history: dict[str, np.ndarray], event: Even
     event.settlement = float(column.static_top - np.mean(history["top_displacement"][late]))
 
 
+def check_approach_bound(params, model: ColumnModel, pga: float) -> None:
+    """Refuse, before the time integration, a shaking that presses the base contact past the
+    approach R (the sphere radius: no contact law holds beyond, README): at rest under the peak
+    base acceleration the base contact carries n m (g + PGA) + S (the column's equation of
+    motion, column.py, without dynamic amplification, so a lower bound of the run's peak)."""
+    radius = model.radius
+    limit, _ = law_contacts(params)(1).step(np.array([radius]))  # virgin curve at approach R
+    limit = float(limit[0])
+    force = model.spheres * model.mass * (model.gravity + pga) + model.surcharge
+    if force <= limit:
+        return
+    if model.static_forces()[-1] > limit:
+        raise InputError(f"surcharge: the column's base contact would carry "
+                         f"{model.static_forces()[-1]:.4g} N at rest, beyond the {limit:.4g} N "
+                         f"at which the law's approach reaches the sphere radius {radius:g} m "
+                         "(approaches <= R)")
+    raise InputError(f"pga: {pga:g} m/s^2 would press the column's base contact with "
+                     f"{force:.4g} N even at rest (n m (g + PGA) + surcharge), beyond the "
+                     f"{limit:.4g} N at which the law's approach reaches the sphere radius "
+                     f"{radius:g} m (approaches <= R); lower the PGA")
+
+
 def run_seismic(params, main: EventSpec, aftershocks: list[EventSpec], settings: Settings, *,
                 params_source: str = "", progress: Callable[[str], None] | None = None
                 ) -> SeismicResult:
@@ -315,6 +337,7 @@ def run_seismic(params, main: EventSpec, aftershocks: list[EventSpec], settings:
         processed.append(process(record, spec.pga, settings.baseline))
     model = ColumnModel(settings.spheres, params.material.radius, settings.density,
                         surcharge=settings.surcharge, damping_ratio=settings.damping_ratio)
+    check_approach_bound(params, model, max(rec.pga for rec in processed))
     column = Column(model, law_contacts(params), time_step=settings.time_step,
                     safety=settings.time_step_safety,
                     probe_force_factor=settings.stiffness_probe_force_factor,
@@ -342,6 +365,11 @@ def run_seismic(params, main: EventSpec, aftershocks: list[EventSpec], settings:
         column.run(settings.gap, None, event=i)
         events.append(EventResult(label, spec, rec, start, end, column.t))
     history = column.history.arrays()
+    deepest = float(np.max(history["approach"]))
+    if deepest > model.radius:  # dynamic amplification beyond the quasi-static bound
+        raise InputError(f"pga: the column's contacts reached an approach of {deepest:.4g} m, "
+                         f"beyond the sphere radius {model.radius:g} m where no contact law "
+                         "holds (approaches <= R); lower the PGA or the surcharge")
     for event in events:
         _classify_window(column, history, event, settings)
     return SeismicResult(settings, params_source, column, events, history,

@@ -29,8 +29,9 @@ from ...analyses.paper_histories import run_paper_histories, write_study
 from ...calibrate.cyclic_fit import with_cyclic
 from ...errors import ArgumentParser, InputError
 from ...files import (
+    Output,
     atomic_directory,
-    check_replaceable,
+    claim,
     provenance,
     write_json_atomic,
     write_text_atomic,
@@ -102,7 +103,12 @@ def main(argv: list[str] | None = None, prog: str = "geocontact study paper-hist
                          "finite strain only for reference-weak (default: every run)")
     args = ap.parse_args(argv)
     out = Path(args.out)
-    check_replaceable(out, "paper-histories", overwrite=args.force)  # before the FE runs
+    # before the FE runs: ours to replace, writable, no other run on it
+    with claim([Output(out, "folder", "--out")], "paper-histories", overwrite=args.force):
+        return _study(args, out)
+
+
+def _study(args, out: Path) -> int:
     started = time.perf_counter()
     runs = run_paper_histories(args.mesh, args.cache, steps_per_segment=args.steps,
                                tolerance=args.tolerance, workers=args.workers, only=args.only,

@@ -28,7 +28,7 @@ from ...analyses.cycles import run_cycles
 from ...analyses.force_driven import drive_by_force
 from ...calibrate.cyclic_fit import analyse, with_cyclic
 from ...errors import ArgumentParser, InputError, run_reporting_errors
-from ...files import check_output_file, write_text_atomic
+from ...files import Output, claim, write_text_atomic
 from ...grain.material import preset
 from ...law import load_params
 
@@ -112,45 +112,50 @@ def main(argv: list[str] | None = None, prog: str = "geocontact study shakedown"
                         help="FE cache: the calibration's own repeated run is taken from it "
                              "when it is this history on this mesh (default: %(default)s)")
     parser.add_argument("--json", help="also write every number to this JSON file")
+    parser.add_argument("--force", action="store_true",
+                        help="replace --json even if geocontact did not write it")
 
     def run() -> int:
         args = parser.parse_args(argv)
-        if args.json:
-            check_output_file(args.json, "--json")  # before the FE work, not after
-        forces = [0.0] + [PEAK, 0.0] * CYCLES
-        report = {}
-        for name in args.material:
-            shipped = load_params(FILES[name])
-            for mesh in args.mesh:
-                out = Path(args.work) / f"{name}-{mesh}"
-                refit_path = Path(args.work) / f"{name}-{mesh}.refit.json"
-                print(f"{name} / {mesh}: FE 10 x {PEAK:g} N ...", flush=True)
-                cached = calibration_run(shipped, mesh, Path(args.cache), forces)
-                if cached is not None:  # the calibration's own repeated run: no FE rerun
-                    print(f"  FE from the calibration's repeated run ({cached})")
-                    analysis = analyse(json.loads(cached.read_text())["cycles"])
-                    try:
-                        refit = with_cyclic(shipped, analysis)
-                    except InputError as error:
-                        print(f"  no cyclic refit: {error}")
-                        refit = None
-                    report[f"{name}/{mesh}"] = compare(analysis.cycles, shipped, refit, forces)
-                    continue
-                try:
-                    summary = run_cycles(preset(name), forces, out, params=shipped, mesh=mesh,
-                                         resume=True, fit_params=refit_path, progress=False)
-                    refit = load_params(refit_path)
-                except InputError as error:  # e.g. the FE shakes down at once: nothing to fit
-                    print(f"  no cyclic refit: {error}")
-                    summary = run_cycles(preset(name), forces, out, params=shipped, mesh=mesh,
-                                         resume=True, progress=False)
-                    refit = None
-                fe = summary["analyses"]["fe"]["cycles"]
-                entry = compare(fe, shipped, refit, forces)
-                report[f"{name}/{mesh}"] = entry
-        if args.json:
-            write_text_atomic(args.json, json.dumps(report, indent=1) + "\n")
-        return 0
+        outputs = [Output(args.json, "file", "--json")] if args.json else []
+        with claim(outputs, "study shakedown", overwrite=args.force):  # before the FE work
+            return _study(args)
 
     return run_reporting_errors(run)
 
+
+def _study(args) -> int:
+    forces = [0.0] + [PEAK, 0.0] * CYCLES
+    report = {}
+    for name in args.material:
+        shipped = load_params(FILES[name])
+        for mesh in args.mesh:
+            out = Path(args.work) / f"{name}-{mesh}"
+            refit_path = Path(args.work) / f"{name}-{mesh}.refit.json"
+            print(f"{name} / {mesh}: FE 10 x {PEAK:g} N ...", flush=True)
+            cached = calibration_run(shipped, mesh, Path(args.cache), forces)
+            if cached is not None:  # the calibration's own repeated run: no FE rerun
+                print(f"  FE from the calibration's repeated run ({cached})")
+                analysis = analyse(json.loads(cached.read_text())["cycles"])
+                try:
+                    refit = with_cyclic(shipped, analysis)
+                except InputError as error:
+                    print(f"  no cyclic refit: {error}")
+                    refit = None
+                report[f"{name}/{mesh}"] = compare(analysis.cycles, shipped, refit, forces)
+                continue
+            try:
+                summary = run_cycles(preset(name), forces, out, params=shipped, mesh=mesh,
+                                     resume=True, fit_params=refit_path, progress=False)
+                refit = load_params(refit_path)
+            except InputError as error:  # e.g. the FE shakes down at once: nothing to fit
+                print(f"  no cyclic refit: {error}")
+                summary = run_cycles(preset(name), forces, out, params=shipped, mesh=mesh,
+                                     resume=True, progress=False)
+                refit = None
+            fe = summary["analyses"]["fe"]["cycles"]
+            entry = compare(fe, shipped, refit, forces)
+            report[f"{name}/{mesh}"] = entry
+    if args.json:
+        write_text_atomic(args.json, json.dumps(report, indent=1) + "\n")
+    return 0

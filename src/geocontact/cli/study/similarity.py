@@ -30,7 +30,7 @@ from ...calibrate import similarity as sim
 from ...errors import ArgumentParser, InputError
 from ...fem.campaign import DEFAULT_CACHE, run_campaign
 from ...fem.identity import fe_code_hash
-from ...files import atomic_directory, atomic_path, provenance, write_csv
+from ...files import Output, atomic_directory, atomic_path, claim, provenance, write_csv
 
 DATA = Path(__file__).resolve().parents[2] / "data"  # the package data --publish updates
 DOCS = Path("docs") / "similarity"  # of the checkout the study runs in
@@ -387,6 +387,11 @@ def main(argv: list[str] | None = None, prog: str = "geocontact study similarity
                         help="copy the dataset into src/geocontact/data and the figures into "
                              "docs/similarity")
     args = parser.parse_args(argv)
+    with claim([Output(args.out, "folder", "--out")], COMMAND, overwrite=args.overwrite):
+        return _study(args)
+
+
+def _study(args) -> int:
     start = time.time()
     if args.from_data:
         rows = sim.read_rows(DATA / sim.DATASET)
