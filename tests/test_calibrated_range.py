@@ -341,3 +341,17 @@ def test_files_without_the_block_give_no_warning_anywhere():
         force_history(p, deep)
         ContactArrays(p, 50).step(deep)
         assert ContactArrays(p, 50).range_excess() is None
+
+
+def test_commands_show_the_warning_as_one_line(capsys):
+    """Any command whose contacts go beyond (cycles, seismic, ...) prints the API's warning as
+    one ``warning:`` line; other warnings go to the previous handler."""
+    from geocontact.cli import _one_line_warnings
+
+    seen = []
+    show = _one_line_warnings(lambda *args: seen.append(args[1]))
+    show(BeyondCalibratedRangeWarning("3 of 5 contacts went beyond"),
+         BeyondCalibratedRangeWarning, "x.py", 1)
+    show(DeprecationWarning("old"), DeprecationWarning, "x.py", 2)
+    assert capsys.readouterr().err == "warning: 3 of 5 contacts went beyond\n"
+    assert seen == [DeprecationWarning]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
 
 from .._version import __version__
 from ..errors import ArgumentParser, run_reporting_errors
@@ -38,9 +39,26 @@ def main(argv: list[str] | None = None) -> int:
         if rest and not getattr(args, "own_flags", False):
             parser.error(f"unrecognized arguments: {' '.join(rest)}")
         args.rest = rest
-        return args.run(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warnings(warnings.showwarning)
+            return args.run(args)
 
     return run_reporting_errors(run)
+
+
+def _one_line_warnings(show):
+    """``warnings.showwarning`` that prints a warning meant for the user (a contact beyond its
+    law's calibrated range) as one ``warning:`` line, like the commands' own, and hands any
+    other to ``show``."""
+    from ..law.calibrated_range import BeyondCalibratedRangeWarning
+
+    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, BeyondCalibratedRangeWarning):
+            print(f"warning: {message}", file=sys.stderr if file is None else file)
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    return one_line
 
 
 if __name__ == "__main__":  # pragma: no cover
