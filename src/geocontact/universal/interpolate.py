@@ -459,7 +459,7 @@ def universal_params(material: Material, *, extrapolate: bool = False,
             raise
         raise InputError(f"{problems[0]}; extrapolated that far the data give no valid law "
                          f"({exc})") from None
-    params = _with_valid_depth(params, analytic.force)
+    params = _with_valid_depth(params)
     return replace(params, label="universal", yield_extra={
         "analytic_force_N": analytic.force, "analytic_approach_m": analytic.approach,
         "fe_over_analytic_force": data["fe_yield_ratio"],
@@ -493,12 +493,13 @@ def _fit_within_energy(material, yield_approach, d_virgin, f_virgin, levels, pro
                 "reason": f"the law fitted with it creates energy ({exc})"})
 
 
-def _with_valid_depth(params, yield_force: float):
+def _with_valid_depth(params):
     """The calibrated range of a universal law (``fit_law``'s: its top level, after any level
     left out) said as the campaign's: ``provenance.universal.valid_depth`` and the range's
     source. Beyond it the law extrapolates, and ``geocontact law`` and the API say so."""
     u = params.provenance["universal"]
-    top = params.calibrated_range["max_force_N"] / yield_force
+    kept = len(u["levels_force_over_yield"]) - len(u.get("levels_left_out", []))
+    top = u["levels_force_over_yield"][kept - 1]
     u["valid_depth"] = {
         "levels_force_over_yield": [u["levels_force_over_yield"][0], top],
         "max_depth": params.calibrated_depth,
