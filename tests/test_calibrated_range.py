@@ -105,6 +105,9 @@ def test_universal_law_records_the_campaigns_top_level_at_the_material(tmp_path,
     out = tmp_path / "P.json"
     assert main(["params", "--material", "reference-weak", "--out", str(out)]) == 0
     params = load_params(out)
+    # the screen says it too
+    assert (f"calibrated to delta_max/delta_y = {params.calibrated_depth:.4g} "
+            f"({params.calibrated_range['max_force_N']:.4g} N") in capsys.readouterr().out
     u = params.provenance["universal"]
     depth = u["valid_depth"]
     assert isinstance(depth, dict)
