@@ -358,3 +358,22 @@ def test_commands_show_the_warning_as_one_line(capsys):
     show(DeprecationWarning("old"), DeprecationWarning, "x.py", 2)
     assert capsys.readouterr().err == "warning: 3 of 5 contacts went beyond\n"
     assert seen == [DeprecationWarning]
+
+
+def test_seismic_column_says_once_after_its_run(tmp_path, capsys):
+    """The column's contacts report after the whole run (not at the static settle, so that a
+    refused input stays one error line): one ``warning:`` line with the count of its contacts
+    beyond the illustration's range (every loaded one: the static load is past yield) and the
+    largest depth, the state's own."""
+    pytest.importorskip("eqsig")
+    t = np.arange(41) * 0.005
+    record = tmp_path / "rec.csv"
+    record.write_text("time_s,acceleration_g\n" + "".join(
+        f"{float(a)!r},{0.2 * math.sin(2 * math.pi * 5.0 * a)!r}\n" for a in t))
+    params = EXAMPLES / "params-illustrative.json"
+    assert main(["seismic", str(record), "--params", str(params), "--out",
+                 str(tmp_path / "quake"), "--no-figures", "--column", "3", "--gap", "0"]) == 0
+    err = [line for line in capsys.readouterr().err.splitlines()
+           if line.startswith("warning:")]  # beside the progress lines
+    assert len(err) == 1 and err[0].startswith("warning: 3 of 3 contacts went beyond")
+    assert f"calibrated range of {params}" in err[0]

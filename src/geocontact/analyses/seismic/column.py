@@ -60,10 +60,12 @@ MAX_STEPS_PER_RUN = 10**8
 
 
 def law_contacts(params) -> ContactFactory:
-    """Contacts of the hysteretic law of ``params`` (a :class:`~geocontact.law.LawParams`)."""
+    """Contacts of the hysteretic law of ``params`` (a :class:`~geocontact.law.LawParams`).
+    They do not warn step by step about the law's calibrated range: the column says once,
+    after its run, how many went beyond and how deep (``Column.range_excess``)."""
     from ...law import ContactArrays
 
-    return lambda n: ContactArrays(params, n)
+    return lambda n: ContactArrays(params, n, beyond_range="ignore")
 
 
 def hertz_contacts(material) -> ContactFactory:
@@ -384,6 +386,12 @@ class Column:
                 raise ConvergenceError(f"column: the integration diverged at t = {self.t:.6g} s "
                                        f"(dt = {dt:.3g} s); lower time_step_safety")
         self.max_stiffness_seen = k_seen
+
+    def range_excess(self):
+        """The column's contacts beyond their law's calibrated depth so far (count, largest
+        depth; ``geocontact.law.calibrated_range``), None if none is (or plain Hertz)."""
+        excess = getattr(self.contacts, "range_excess", None)
+        return None if excess is None else excess()
 
     @staticmethod
     def _total_force(force: np.ndarray, damping: np.ndarray, rate: np.ndarray) -> np.ndarray:
