@@ -258,13 +258,7 @@ def test_seismic_time_step_above_the_limit_is_a_one_line_error(tmp_path, capsys)
     record = tmp_path / "rec.csv"
     record.write_text("time_s,acceleration_g\n" + "".join(f"{a:.4f},{b:.8g}\n"
                                                            for a, b in zip(t, acc, strict=True)))
-    # the illustration without its calibrated range: its column's static load (beyond yield)
-    # would be reported first (a warning line), and this is about the error alone
-    document = json.loads(PARAMS.read_text())
-    del document["calibrated_range"]
-    params = tmp_path / "params.json"
-    params.write_text(json.dumps(document))
-    code = main(["seismic", str(record), "--params", str(params), "--out", str(tmp_path / "o"),
+    code = main(["seismic", str(record), "--params", str(PARAMS), "--out", str(tmp_path / "o"),
                  "--time-step", "0.01", "--no-figures"])
     assert code == 2
     one_line_error(capsys, "time_step", "stability limit")
