@@ -26,6 +26,7 @@ import numpy as np
 
 from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
 from geocontact.files import check_output_file, write_text_atomic
+from geocontact.law.calibrated_range import IGNORE
 from geocontact.law.params import LawParams, load_params
 from geocontact.law.reference import Contact
 
@@ -111,7 +112,7 @@ def _repeated_peaks(rng, law: LawParams):
     implementations may round differently; 1e-12 is thousands of bits away.)"""
     dy = law.yield_approach
     jitter = float(rng.choice([1e-12, 1e-9]))
-    contact = Contact(law)
+    contact = Contact(law, beyond_range=IGNORE)  # vectors go far beyond an illustration
     path: list[float] = []
 
     def leg(end: float) -> None:
@@ -209,7 +210,7 @@ def generate(params: LawParams, n_per_family: int = PER_FAMILY, seed: int = SEED
         for family, make in FAMILIES.items():
             for k in range(n_per_family // len(variants)):
                 approaches = make(rng, law)
-                contact = Contact(law)
+                contact = Contact(law, beyond_range=IGNORE)
                 forces, stiffnesses, branches = [], [], []
                 for a in approaches:
                     f, s = contact.update(a)

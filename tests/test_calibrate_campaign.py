@@ -70,6 +70,27 @@ def test_cli_writes_a_valid_calibrated_parameter_file(calibrated):
     assert e["elastic_recovery_rms_relative"] < 0.05
 
 
+def test_calibration_records_its_deepest_fe_level_as_its_range(calibrated):
+    """``calibrated_range``: the deepest level's delta_max/delta_y and force, and the contact
+    radius at that run's peak (read here from its curve.csv) over R."""
+    root, out = calibrated
+    params = load_params(out)
+    doc = json.loads(out.read_text())
+    fe = doc["provenance"]["fe"]
+    deepest = max(range(len(fe["peak_forces_N"])), key=fe["peak_forces_N"].__getitem__)
+    assert params.calibrated_depth == max(level["depth"]
+                                          for level in doc["fit_errors"]["per_level"])
+    block = doc["calibrated_range"]
+    assert block["max_force_N"] == fe["peak_forces_N"][deepest]
+    curve = np.genfromtxt(root / "cache" / fe["cache_keys"][deepest] / "curve.csv",
+                          delimiter=",", names=True)
+    peak = int(np.argmax(curve["force_N"]))
+    assert block["max_approach_m"] == pytest.approx(curve["approach_m"][peak], rel=1e-9)
+    assert block["contact_radius_ratio"] == pytest.approx(
+        curve["contact_radius_m"][peak] / params.material.radius, rel=1e-9)
+    assert block["source"] == "the deepest of the 4 FE levels (peak 300 N)"
+
+
 def test_law_reproduces_the_fe_curves_it_was_fitted_to(calibrated):
     root, out = calibrated
     table = json.loads((root / "P.acceptance.json").read_text())

@@ -135,6 +135,22 @@ def test_cache_keys_and_versions_are_reported_not_failed():
         "provenance.fe.cache_keys", "provenance.geocontact_version"}
 
 
+def test_a_contact_radius_only_a_rerun_knows_is_reported_not_failed():
+    """A shipped file given its calibrated range from its own record lacks the contact radius
+    when the FE summaries were not at hand (scripts/add_calibrated_range.py); a rerun has
+    it. Any other difference of the block is a mismatch."""
+    shipped = _document(calibrated_range={"max_depth": 249.0, "max_force_N": 6000.0})
+    rerun = _document(calibrated_range={"max_depth": 249.0, "max_force_N": 6000.0,
+                                        "contact_radius_ratio": 0.05})
+    rows = check.compare_documents(shipped, rerun)
+    assert [r.path for r in rows if r.status == "info"] == [
+        "calibrated_range.contact_radius_ratio"]
+    assert _mismatches(shipped, rerun) == []
+    assert _mismatches(rerun, shipped) == ["calibrated_range.contact_radius_ratio"]
+    deeper = _document(calibrated_range={"max_depth": 250.0, "max_force_N": 6000.0})
+    assert _mismatches(shipped, deeper) == ["calibrated_range.max_depth"]
+
+
 def _folder(tmp_path, name, **changes):
     folder = tmp_path / name
     folder.mkdir()

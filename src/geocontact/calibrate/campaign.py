@@ -370,4 +370,29 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
              (r.second_residual_approach - r.level.residual_approach)
              / r.level.residual_approach)}
         for r in runs]
-    return replace(params, yield_extra=extra, fit_errors=errors)
+    deepest = int(np.argmax([r.level.max_approach for r in runs]))
+    return replace(params, yield_extra=extra, fit_errors=errors,
+                   calibrated_range_extra=fe_calibrated_range(
+                       runs[deepest].level.max_approach, runs[deepest].level.max_force,
+                       len(runs), runs[deepest].result.summary, material.radius))
+
+
+def top_contact_radius(summary: dict) -> float | None:
+    """The FE's contact radius at a run's peak (m; its summary's contact resolution), None
+    when the summary does not record it."""
+    peak = (summary.get("contact_resolution", {}).get("elements_across_contact_radius", {})
+            .get("peak", {}))
+    radius = peak.get("contact_radius_m") if isinstance(peak, dict) else None
+    return float(radius) if isinstance(radius, (int, float)) else None
+
+
+def fe_calibrated_range(max_approach: float, max_force: float, levels: int,
+                        summary: dict | None, radius: float) -> dict:
+    """What an FE calibration's ``calibrated_range`` says beside its max_depth (``fit_law``'s):
+    the deepest level's approach and force, its contact radius over R when the run records it,
+    and where the range comes from. One place for ``fit_runs`` and for a shipped file given
+    its range from its own record (``scripts/add_calibrated_range.py``)."""
+    a = None if summary is None else top_contact_radius(summary)
+    return {"max_approach_m": max_approach, "max_force_N": max_force,
+            **({} if a is None else {"contact_radius_ratio": a / radius}),
+            "source": f"the deepest of the {levels} FE levels (peak {max_force:.6g} N)"}

@@ -390,9 +390,15 @@ def fit_law(material: Material, yield_approach: float, loading_approach, loading
                        "residual_ratio": float(r), "plastic_work_ratio": float(w)}
                       for x, nu, nr, r, w in zip(depth, n_u, n_r, residual, work, strict=True)],
     }
+    top = levels[int(np.argmax(depth))]
     values = dict(
         material=material,
         yield_approach=yield_approach,
+        # beyond the deepest level every form below is extrapolated (docs/law.md)
+        calibrated_depth=float(depth.max()),
+        calibrated_range_extra={"max_approach_m": top.max_approach,
+                                "max_force_N": top.max_force,
+                                "source": f"the deepest of the {len(levels)} levels fitted"},
         unloading_power=p_u,
         reloading_power=p_r,
         **({"residual_table": table} if residual_form == TABLE else {

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
 from .._version import __version__
 from ..errors import ArgumentParser, run_reporting_errors
@@ -41,7 +42,9 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"unrecognized arguments: {' '.join(rest)}")
         args.rest = rest
         chosen["flags"] = _flags(parser, args.command)
-        return args.run(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warnings(warnings.showwarning)
+            return args.run(args)
 
     return run_reporting_errors(run, lambda: chosen.get("flags"))
 
@@ -50,6 +53,21 @@ def _flags(parser: ArgumentParser, command: str) -> set[str]:
     """The options of sub-command ``command`` (``--out``, ...)."""
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     return set(sub.choices[command]._option_string_actions)
+
+
+def _one_line_warnings(show):
+    """``warnings.showwarning`` that prints a warning meant for the user (a contact beyond its
+    law's calibrated range) as one ``warning:`` line, like the commands' own, and hands any
+    other to ``show``."""
+    from ..law.calibrated_range import BeyondCalibratedRangeWarning
+
+    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, BeyondCalibratedRangeWarning):
+            print(f"warning: {message}", file=sys.stderr if file is None else file)
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    return one_line
 
 
 if __name__ == "__main__":  # pragma: no cover

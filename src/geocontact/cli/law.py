@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from ..errors import InputError
@@ -15,6 +17,7 @@ from ..files import (
     write_json_atomic,
 )
 from ..law import BRANCH_NAMES, Contact, load_params
+from ..law.calibrated_range import IGNORE
 from .common import add_force_flag, print_json
 
 
@@ -26,6 +29,10 @@ def register(sub) -> None:
     p.add_argument("--radius", type=float, default=None, metavar="R",
                    help="sphere radius in m: the law for two spheres of radius R by similarity "
                         "(F_r(d) = s^2 F(d/s), s = R / the file's radius; docs/model.md §10)")
+    p.add_argument("--strict-range", action="store_true",
+                   help="refuse (exit 2, nothing written) a history that loads the contact "
+                        "beyond the law's calibrated depth (calibrated_range in the file); "
+                        "without it such steps are counted and warned about")
     add_force_flag(p, "file")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.set_defaults(run=run)
@@ -51,7 +58,7 @@ def run(args) -> int:
 
 
 def _run(args, params, approaches) -> int:
-    contact = Contact(params)
+    contact = Contact(params, beyond_range=IGNORE)  # said once below, with the whole count
     n = approaches.size
     force, stiffness = np.empty(n), np.empty(n)
     residual, dissipated = np.empty(n), np.empty(n)
@@ -62,6 +69,9 @@ def _run(args, params, approaches) -> int:
         residual[i] = s.residual_approach + s.ratchet_shift
         dissipated[i] = contact.dissipated_energy
         branch.append(BRANCH_NAMES[s.branch])
+    beyond = contact.range_excess()
+    if beyond is not None and args.strict_range:
+        raise InputError(f"approach_m: {beyond.message(str(args.params))} (--strict-range)")
     write_csv(args.out, {
         "approach_m": approaches,
         "force_N": force,
@@ -77,11 +87,18 @@ def _run(args, params, approaches) -> int:
         "residual_approach_m": float(residual[-1]),
         "dissipated_energy_J": float(dissipated[-1]),
         "radius_m": params.material.radius,
+        # the file's calibrated range and how far beyond it the history went (null: within)
+        "calibrated_range": params.calibrated_range or None,
+        "beyond_calibrated_range": None if beyond is None else beyond.to_dict(),
         "provenance": provenance("law", {"params": str(args.params),
                                          "approach": str(args.approach),
-                                         "radius_m": args.radius}),
+                                         "radius_m": args.radius,
+                                         "strict_range": args.strict_range}),
     }
     write_json_atomic(f"{args.out}.meta.json", summary)
+    if beyond is not None:
+        print(f"warning: {beyond.message(str(args.params))} (--strict-range refuses it)",
+              file=sys.stderr)
     if args.json:
         print_json(summary)
     else:

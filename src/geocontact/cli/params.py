@@ -77,6 +77,7 @@ def _write(args, out: Path, material, started: float) -> int:
                     "inside_range": u["inside_range"], "outside_range": u["outside_range"],
                     "dataset_points": u["points"], "dataset_sha256": u["dataset_sha256"],
                     "expected_error_loo": u["expected_error_loo"],
+                    "calibrated_range": params.calibrated_range,
                     "fit_errors": {k: v for k, v in params.fit_errors.items()
                                    if k != "per_level"}})
         return 0
@@ -87,4 +88,8 @@ def _write(args, out: Path, material, started: float) -> int:
           f"interpolation error (LOO): residual ratio {e['residual_ratio']:.3g}, work ratio "
           f"{e['plastic_work_ratio']:.3g}, log10 approach {e['virgin_log10_approach']:.3g}, "
           f"unloading exponent {e['unloading_exponent']:.3g}")
+    top = params.calibrated_range
+    print(f"calibrated to delta_max/delta_y = {top['max_depth']:.4g} "
+          f"({top['max_force_N']:.4g} N, the campaign's top level here); beyond it the law "
+          "extrapolates and geocontact law warns (--strict-range refuses)")
     return 0

@@ -403,6 +403,10 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     provenance = {"source": "laboratory test (geocontact fit)", "test": test.inputs()}
     with np.errstate(divide="ignore"):  # a level with no residual: its relative error is inf
         params = fit_law(material, dy, vd, vf, deep, provenance=provenance)
+    # beyond the record's deepest closed cycle the law extrapolates (docs/fit.md)
+    params = replace(params, calibrated_range_extra={
+        **params.calibrated_range_extra,
+        "source": f"the deepest of the record's {len(deep)} closed cycles past yield"})
     given = {"poissons_ratio": poissons_ratio, "friction_angle_deg": friction_angle,
              "hardening_ratio": hardening_ratio, "radius_m": radius, "setup": setup,
              "machine_stiffness_N_per_m": machine_stiffness}

@@ -296,7 +296,8 @@ def _record_misfit(law, material: Material, approach, force, weights) -> float:
     reloading and residual-approach laws) driven along the record's approach history."""
     from ..law import ContactArrays
 
-    contacts = ContactArrays(law(material), 1)
+    # a trial material's law along the record: the identification's objective, not a use of it
+    contacts = ContactArrays(law(material), 1, beyond_range="ignore")
     one = np.empty(1)
     model = np.empty_like(approach)
     for i, a in enumerate(approach):

@@ -44,14 +44,18 @@ struct Contacts {
   {
   }
 
-  void step(const double *approach)
+  // returns the largest delta_max of the contacts after the step (shifted coordinates; 0 for
+  // plain Hertz, which has no envelope): kernel.py compares it with the calibrated range
+  double step(const double *approach)
   {
+    double deepest = 0.0;
     if (hertz_only)
       geocontact::hertz_step(params.hertz_coefficient, hertz_approach, approach, force.data(),
                              stiffness.data(), threads);
     else
-      geocontact::step(params, state, approach, nullptr, stiffness.data(), threads);
+      deepest = geocontact::step(params, state, approach, nullptr, stiffness.data(), threads);
     envelopes_current = hertz_only;
+    return deepest;
   }
 
   // the envelopes of contacts on the virgin curve, which the array step computes lazily
@@ -153,6 +157,7 @@ NB_MODULE(_core, m)
       .def_rw("plastic_work_log_power", &LawParams::plastic_work_log_power)
       .def_rw("deep_plastic_approach_ratio", &LawParams::deep_plastic_approach_ratio)
       .def_rw("deep_plastic_exponent", &LawParams::deep_plastic_exponent)
+      .def_rw("calibrated_depth", &LawParams::calibrated_depth)
       .def_rw("cyclic", &LawParams::cyclic)
       .def(
           "set_loading_segments",
@@ -227,10 +232,11 @@ NB_MODULE(_core, m)
                                      std::to_string(approach.shape(0)) + ",)")
                                         .c_str());
             nb::gil_scoped_release release;
-            c.step(approach.data());
+            return c.step(approach.data());
           },
           "approach"_a,
-          "Advance contact i to approach[i]; the results are in force and stiffness.")
+          "Advance contact i to approach[i]; the results are in force and stiffness. Returns "
+          "the largest delta_max of the contacts after the step (shifted coordinates, m).")
       .def("reset", &Contacts::reset, "Every contact back to untouched.")
       .def("refresh_envelopes", &Contacts::refresh_envelopes,
            "Bring the envelope (residual approach, n_u, n_r, cycles) of every contact on the "

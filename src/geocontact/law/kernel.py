@@ -11,6 +11,7 @@ structure (the speed floor).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -18,7 +19,8 @@ import numpy as np
 from ..errors import InputError
 from ..grain.hertz import hertz_coefficient
 from ..grain.material import Material
-from . import _core
+from . import _core, calibrated_range
+from .calibrated_range import WARN
 from .params import HERTZ_EXPONENT, SHAKEDOWN, LawParams
 
 # The per-contact state (docs/law.md "State per contact"), in the order of ContactState.
@@ -64,7 +66,7 @@ def core_params(params: LawParams) -> _core.LawParams:
                  "residual_limit", "residual_power", "residual_transition", "residual_log_power",
                  "plastic_work_limit", "plastic_work_power", "plastic_work_transition",
                  "plastic_work_log_power", "deep_plastic_approach_ratio",
-                 "deep_plastic_exponent"):
+                 "deep_plastic_exponent", "calibrated_depth"):
         setattr(p, name, float(getattr(params, name)))
     if params.loading_segments:
         p.set_loading_segments(list(params.loading_segments.depth),
@@ -95,15 +97,27 @@ class ContactArrays:
     i is the calibrated law rescaled to spheres of radius ``radii[i]`` (for two grains r1, r2:
     r_eq = 2 r1 r2 / (r1 + r2)), F = s^2 F_R(d / s) with s = radii[i] / R, stiffness s times,
     energies s^3 times; ``state`` then stays in the calibrated spheres' units (approaches / s,
-    forces / s^2), the properties below are in the grains' own."""
+    forces / s^2), the properties below are in the grains' own.
+
+    ``beyond_range``: the first step after which a contact's envelope is beyond the law's
+    calibrated depth (``calibrated_range``) ``"warn"``s (a ``BeyondCalibratedRangeWarning``
+    with how many contacts and how deep; once, until ``reset``), ``"refuse"``s (a
+    ``BeyondCalibratedRangeError`` from that step; the contacts have been advanced) or
+    ``"ignore"``s; ``range_excess()`` says it at any time. The check costs the kernel one max
+    per contact (of the delta_max it has just written) and the step one comparison."""
 
     def __init__(self, params: LawParams | None, n: int, *, threads: int = 1,
-                 radii=None, _core_contacts: _core.Contacts | None = None):
+                 radii=None, beyond_range: str = WARN,
+                 _core_contacts: _core.Contacts | None = None):
         if n < 0:
             raise InputError(f"contacts: number of contacts must be >= 0, got {n}")
         _check_threads(threads)
         self.params = params
         self.n = int(n)
+        self.beyond_range = calibrated_range.check_policy(beyond_range)
+        # delta_max (shifted, calibrated spheres' units) beyond the range; inf: none recorded
+        self._range_top = math.inf if params is None else params.calibrated_approach
+        self._range_said = False
         self._core = (_core.Contacts(core_params(params), self.n, threads)
                       if _core_contacts is None else _core_contacts)
         self._state = StateArrays(**self._core.state_views())
@@ -155,19 +169,37 @@ class ContactArrays:
             raise InputError(f"approach: expected shape ({self.n},), got {approach.shape}")
         if not np.all(np.isfinite(approach)):
             raise InputError("approach: must be finite numbers of metres (found NaN or inf)")
-        return self.step_unchecked(approach)
+        return self._step(approach)
 
     def step_unchecked(self, approach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``step`` without the finiteness check, for a DEM loop that guarantees finite input
         (a float64 array of shape (n,); other arrays are converted)."""
+        return self._step(approach)
+
+    def _step(self, approach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self._scale is None:
-            self._core.step(approach)
-            return self.force, self.stiffness
-        np.divide(approach, self._scale, out=self._scaled_approach)
-        self._core.step(self._scaled_approach)
-        np.multiply(self._core.force, self._scale**2, out=self.force)
-        np.multiply(self._core.stiffness, self._scale, out=self.stiffness)
+            deepest = self._core.step(approach)
+        else:
+            np.divide(approach, self._scale, out=self._scaled_approach)
+            deepest = self._core.step(self._scaled_approach)
+            np.multiply(self._core.force, self._scale**2, out=self.force)
+            np.multiply(self._core.stiffness, self._scale, out=self.stiffness)
+        if deepest > self._range_top and not self._range_said:
+            self._range_said = True
+            # the warning names the caller of step / step_unchecked
+            calibrated_range.report(self.range_excess(), self.beyond_range, stacklevel=4)
         return self.force, self.stiffness
+
+    def range_excess(self) -> calibrated_range.RangeExcess | None:
+        """The contacts whose envelope is beyond the law's calibrated depth and the largest
+        delta_max/delta_y among them (one pass over the state); None if none is."""
+        if math.isinf(self._range_top):
+            return None
+        depth = self._state.max_approach / self.params.yield_approach  # always current
+        beyond = depth > self.params.calibrated_depth
+        count = int(np.count_nonzero(beyond))
+        return calibrated_range.excess(self.params, float(depth.max()) if count else 0.0,
+                                       count, self.n)
 
     def _length(self, values: np.ndarray) -> np.ndarray:
         return values if self._scale is None else values * self._scale
@@ -178,6 +210,7 @@ class ContactArrays:
     def reset(self) -> None:
         """Every contact back to untouched (as constructed)."""
         self._core.reset()
+        self._range_said = False
 
     @property
     def max_approach(self) -> np.ndarray:

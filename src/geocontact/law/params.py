@@ -267,11 +267,19 @@ class LawParams:
     # the tabulated residual form instead of the closed one (empty: the closed form)
     residual_table: ResidualTable = field(default_factory=ResidualTable)
     yield_extra: dict[str, Any] = field(default_factory=dict)
+    # how deep the law was calibrated (``calibrated_range``, docs/law.md): the largest
+    # delta_max/delta_y of its data, beyond which the fitted forms extrapolate (inf: not
+    # recorded, nothing is checked), and the file's other keys there (max_force_N, ...)
+    calibrated_depth: float = math.inf
+    calibrated_range_extra: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
     fit_errors: dict[str, Any] = field(default_factory=dict)
     label: str = ""
 
     def __post_init__(self) -> None:
+        if not math.isinf(self.calibrated_depth):  # a range set in code: the file's rule
+            schema.check_number("calibrated_range.max_depth", self.calibrated_depth,
+                                schema.field("calibrated_range.max_depth"))
         if self.loading_segments:
             depth, exponent = _check_segments(self.loading_segments.depth,
                                               self.loading_segments.exponent)
@@ -313,6 +321,18 @@ class LawParams:
         return (self.residual_limit, self.residual_power, self.residual_transition,
                 self.residual_log_power)
 
+    @property
+    def calibrated_range(self) -> dict[str, Any]:
+        """The file's ``calibrated_range`` block (empty when not recorded)."""
+        if math.isinf(self.calibrated_depth):
+            return {}
+        return {"max_depth": self.calibrated_depth, **self.calibrated_range_extra}
+
+    @property
+    def calibrated_approach(self) -> float:
+        """delta_max of the deepest calibrated level, max_depth delta_y (m; inf: not recorded)."""
+        return self.calibrated_depth * self.yield_approach
+
     # --- derived constants ---------------------------------------------------------------
     @property
     def hertz_coefficient(self) -> float:
@@ -352,6 +372,7 @@ class LawParams:
                       "rule": "F_r(d) = s^2 F_R(d / s), s = r / R (docs/model.md §10)"}
         return replace(self, material=material, yield_approach=s * self.yield_approach,
                        yield_extra=_scale_by_unit(self.yield_extra, s),
+                       calibrated_range_extra=_scale_by_unit(self.calibrated_range_extra, s),
                        fit_errors=_scale_by_unit(self.fit_errors, s),
                        provenance={**self.provenance, "similarity": similarity})
 
@@ -514,6 +535,8 @@ class LawParams:
                                              self.plastic_work_transition,
                                              self.plastic_work_log_power),
             "cyclic": {**self.cyclic.to_dict(), "critical_cycle": self.cyclic.critical_cycle()},
+            # optional block, written when recorded (files without it read as before)
+            **({"calibrated_range": self.calibrated_range} if self.calibrated_range else {}),
             "provenance": {"geocontact_version": __version__, **self.provenance},
             "fit_errors": self.fit_errors,
         }
@@ -554,7 +577,8 @@ class LawParams:
         params = cls(material=Material(**groups["material"]), cyclic=cyclic,
                      residual_table=ResidualTable(**groups["residual_table"]),
                      loading_segments=segments,
-                     yield_extra=values["yield.*"], **top)
+                     yield_extra=values["yield.*"],
+                     calibrated_range_extra=values.get("calibrated_range.*", {}), **top)
         if "yield.force_N" in values:
             given = values["yield.force_N"]
             if abs(given - params.yield_force) > 1e-6 * params.yield_force:

@@ -39,6 +39,8 @@ import math
 from dataclasses import dataclass
 
 from ..errors import InputError
+from . import calibrated_range
+from .calibrated_range import WARN
 from .params import HERTZ_EXPONENT, LawParams
 
 APART, VIRGIN, UNLOADING, RELOADING, RATCHET = 0, 1, 2, 3, 4
@@ -67,13 +69,22 @@ class ContactState:
 
 
 class Contact:
-    """One contact advanced along an approach history: ``update(d) -> (force, stiffness)``."""
+    """One contact advanced along an approach history: ``update(d) -> (force, stiffness)``.
 
-    def __init__(self, params: LawParams):
+    ``beyond_range``: when the envelope first goes beyond the law's calibrated depth
+    (``calibrated_range``), ``"warn"`` (a ``BeyondCalibratedRangeWarning``, once per contact),
+    ``"refuse"`` (a ``BeyondCalibratedRangeError`` from that update, the state advanced) or
+    ``"ignore"``; ``range_excess()`` says how far it went and for how many steps."""
+
+    def __init__(self, params: LawParams, *, beyond_range: str = WARN):
         self.params = params
         self.kh = params.hertz_coefficient
         self.yield_approach = params.yield_approach
         self.state = ContactState()
+        self.beyond_range = calibrated_range.check_policy(beyond_range)
+        self._range_top = params.calibrated_approach  # inf: no range recorded
+        self.steps = 0
+        self.steps_beyond = 0  # updates that left the approach beyond the calibrated top
 
     # --- curves of the current branch --------------------------------------------------------
     def _elastic(self) -> bool:
@@ -289,7 +300,19 @@ class Contact:
             raise RuntimeError("law: step did not terminate")
         s.approach = float(approach)
         s.force = float(self._force_on_branch(target))
+        self.steps += 1
+        if target > self._range_top:
+            self.steps_beyond += 1
+            if self.steps_beyond == 1:  # the first time only: said once per contact
+                calibrated_range.report(self.range_excess(), self.beyond_range)
         return s.force, self._stiffness(target, s.force)
+
+    def range_excess(self) -> calibrated_range.RangeExcess | None:
+        """How far beyond its calibrated depth this contact has been loaded: the steps whose
+        approach was beyond it, and the envelope's depth; None if never."""
+        return calibrated_range.excess(self.params, self.state.max_approach
+                                       / self.yield_approach, self.steps_beyond, self.steps,
+                                       unit="steps")
 
     # --- energies ---------------------------------------------------------------------------
     @property
@@ -308,12 +331,17 @@ class Contact:
         return self.state.work - self.elastic_energy
 
 
-def force_history(params: LawParams, approaches) -> tuple[list[float], list[float]]:
-    """The law along an approach history, scalar path: (forces, stiffnesses)."""
-    contact = Contact(params)
+def force_history(params: LawParams, approaches, *, beyond_range: str = WARN
+                  ) -> tuple[list[float], list[float]]:
+    """The law along an approach history, scalar path: (forces, stiffnesses). Steps beyond
+    the law's calibrated depth are reported once, at the end (``beyond_range`` as
+    ``Contact``'s): how many and how deep."""
+    policy = calibrated_range.check_policy(beyond_range)
+    contact = Contact(params, beyond_range=calibrated_range.IGNORE)
     forces, stiffnesses = [], []
     for a in approaches:
         f, k = contact.update(float(a))
         forces.append(f)
         stiffnesses.append(k)
+    calibrated_range.report(contact.range_excess(), policy)
     return forces, stiffnesses

@@ -48,7 +48,7 @@ def law_curves(params, depths) -> list[tuple]:
     dy = params.yield_approach
     curves = []
     for depth in depths:
-        c = Contact(params)
+        c = Contact(params, beyond_range="ignore")  # figures of the curves, to any depth asked
         dmax = depth * dy
         up = np.geomspace(LOG_FLOOR * dy, dmax, LOG_POINTS)
         fu = np.array([c.update(d)[0] for d in up])

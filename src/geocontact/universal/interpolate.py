@@ -447,8 +447,6 @@ def universal_params(material: Material, *, extrapolate: bool = False,
                    "extrapolates and the real error can be larger" if problems else "")),
             "fe_mesh": "coarse",
             "levels_force_over_yield": [lv["force"] for lv in data["levels_used"]],
-            "valid_depth": "calibrated from 2 Fy to the top level "
-                           f"{data['levels'][-1]['force']:.4g} Fy (contact radius <= R/2)",
             "saturating_fit_start": ("the fits of the nearest campaign points (fits.json)"
                                      if starts else "the fit's full start grid"),
         },
@@ -461,6 +459,7 @@ def universal_params(material: Material, *, extrapolate: bool = False,
             raise
         raise InputError(f"{problems[0]}; extrapolated that far the data give no valid law "
                          f"({exc})") from None
+    params = _with_valid_depth(params)
     return replace(params, label="universal", yield_extra={
         "analytic_force_N": analytic.force, "analytic_approach_m": analytic.approach,
         "fe_over_analytic_force": data["fe_yield_ratio"],
@@ -489,14 +488,29 @@ def _fit_within_energy(material, yield_approach, d_virgin, f_virgin, levels, pro
             dropped = levels.pop()
             keep = f_virgin <= levels[-1].max_force * (1.0 + 1e-9)
             d_virgin, f_virgin = d_virgin[keep], f_virgin[keep]
-            u = provenance["universal"]
-            u.setdefault("levels_left_out", []).append({
+            provenance["universal"].setdefault("levels_left_out", []).append({
                 "force_N": dropped.max_force,
                 "reason": f"the law fitted with it creates energy ({exc})"})
-            u["valid_depth"] = (f"calibrated from 2 Fy to {levels[-1].max_force:.4g} N "
-                                f"(delta_max/delta_y = "
-                                f"{levels[-1].max_approach / yield_approach:.4g}); higher "
-                                "levels left out (levels_left_out)")
+
+
+def _with_valid_depth(params):
+    """The calibrated range of a universal law (``fit_law``'s: its top level, after any level
+    left out) said as the campaign's: ``provenance.universal.valid_depth`` and the range's
+    source. Beyond it the law extrapolates, and ``geocontact law`` and the API say so."""
+    u = params.provenance["universal"]
+    kept = len(u["levels_force_over_yield"]) - len(u.get("levels_left_out", []))
+    top = u["levels_force_over_yield"][kept - 1]
+    u["valid_depth"] = {
+        "levels_force_over_yield": [u["levels_force_over_yield"][0], top],
+        "max_depth": params.calibrated_depth,
+        "max_force_N": params.calibrated_range["max_force_N"],
+        "note": "the campaign's levels at this material (in the analytic Fy; higher levels "
+                "left out: levels_left_out); beyond max_depth the law extrapolates "
+                "(calibrated_range)"}
+    extra = {**params.calibrated_range_extra,
+             "source": f"the campaign's top level at this material, {top:.4g} Fy "
+                       "(interpolated; provenance.universal.valid_depth)"}
+    return replace(params, calibrated_range_extra=extra)
 
 
 def main_summary(params) -> dict[str, Any]:

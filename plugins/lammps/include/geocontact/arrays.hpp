@@ -82,27 +82,41 @@ constexpr std::size_t kHertzStepBytes = 4 * sizeof(double);
 
 namespace detail {
 
+// Returns the largest delta_max (shifted coordinates) of the block's contacts after the step:
+// one max of a field the step has just written (in L1), so a caller can tell whether any
+// contact went beyond the law's calibrated depth without a pass over the records.
 template <bool WriteForce>
-inline void step_contacts(const LawParams &p, ContactRecord *contacts, const double *approach,
-                          double *force, double *stiffness, std::size_t begin, std::size_t end)
+inline double step_contacts(const LawParams &p, ContactRecord *contacts, const double *approach,
+                            double *force, double *stiffness, std::size_t begin,
+                            std::size_t end)
 {
   // a local copy: the records' stores cannot alias it, so its constants stay in registers
   const LawParams local = p;
+  double deepest = 0.0;
   for (std::size_t i = begin; i < end; ++i) {
     const StepResult r = step<true>(local, contacts[i], approach[i]);
     if (WriteForce) force[i] = r.force;
     stiffness[i] = r.stiffness;
+    deepest = std::max(deepest, contacts[i].max_approach);
   }
+  return deepest;
 }
 
 // (the test of `force` hoisted out of the loop: one loop each way)
-inline void step_block(const LawParams &p, StateArrays &a, const double *approach,
-                       double *force, double *stiffness, std::size_t begin, std::size_t end)
+inline double step_block(const LawParams &p, StateArrays &a, const double *approach,
+                         double *force, double *stiffness, std::size_t begin, std::size_t end)
 {
   if (force)
-    step_contacts<true>(p, a.contacts.data(), approach, force, stiffness, begin, end);
-  else
-    step_contacts<false>(p, a.contacts.data(), approach, force, stiffness, begin, end);
+    return step_contacts<true>(p, a.contacts.data(), approach, force, stiffness, begin, end);
+  return step_contacts<false>(p, a.contacts.data(), approach, force, stiffness, begin, end);
+}
+
+// target = max(target, value), from any thread (once per chunk of contacts)
+inline void atomic_max(std::atomic<double> &target, double value)
+{
+  double seen = target.load(std::memory_order_relaxed);
+  while (value > seen && !target.compare_exchange_weak(seen, value, std::memory_order_relaxed)) {
+  }
 }
 
 // Plain elastic Hertz, F = Kh d^1.5 (the speed floor of a normal law): no history but the
@@ -157,12 +171,18 @@ void parallel_blocks(std::size_t n, int threads, const Block &block)
 // The caller guarantees finite approaches and arrays of state.size() elements. `force` may be
 // null: the force of contact i is also state[i].force (what the Python binding returns, 16 B
 // of memory traffic per update fewer than a separate array: its write and write-allocate read).
-inline void step(const LawParams &p, StateArrays &state, const double *approach, double *force,
-                 double *stiffness, int threads = 1)
+// Returns the largest delta_max of every contact after the step (shifted coordinates, m; 0 for
+// none): against p.calibrated_depth * p.yield_approach it says whether any contact is beyond
+// the calibrated range (the same for any thread count: a max has no order).
+inline double step(const LawParams &p, StateArrays &state, const double *approach,
+                   double *force, double *stiffness, int threads = 1)
 {
+  std::atomic<double> deepest{0.0};
   detail::parallel_blocks(state.size(), threads, [&](std::size_t begin, std::size_t end) {
-    detail::step_block(p, state, approach, force, stiffness, begin, end);
+    detail::atomic_max(deepest,
+                       detail::step_block(p, state, approach, force, stiffness, begin, end));
   });
+  return deepest.load();
 }
 
 // Bring the envelope of every contact on the virgin curve up to date (see the top of this file).

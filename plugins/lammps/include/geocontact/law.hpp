@@ -211,6 +211,10 @@ struct LawParams {
   CyclicLaw cyclic;
   ResidualTable residual_table;  // non-empty: the residual ratio is this table (limit etc unused)
   std::string label;
+  // `calibrated_range.max_depth`: the largest delta_max/delta_y of the data the law was fitted
+  // to; beyond it the forms extrapolate (infinite: not recorded). Not used by the step: for
+  // callers that say when a contact goes beyond it (docs/law.md, "The calibrated range").
+  double calibrated_depth = std::numeric_limits<double>::infinity();
 
   // derived (derive())
   double hertz_coefficient = 0.0;       // Kh = (4/3) E* sqrt(R*)

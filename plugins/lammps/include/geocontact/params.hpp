@@ -287,7 +287,8 @@ inline double *number_slot(LawParams &p, const std::string &name)
       {"plastic_work_limit", &LawParams::plastic_work_limit},
       {"plastic_work_power", &LawParams::plastic_work_power},
       {"plastic_work_transition", &LawParams::plastic_work_transition},
-      {"plastic_work_log_power", &LawParams::plastic_work_log_power}};
+      {"plastic_work_log_power", &LawParams::plastic_work_log_power},
+      {"calibrated_depth", &LawParams::calibrated_depth}};
   static const std::map<std::string, double Material::*> material = {
       {"youngs_modulus", &Material::youngs_modulus},
       {"poissons_ratio", &Material::poissons_ratio},

@@ -22,6 +22,7 @@ import numpy as np
 from ...errors import InputError
 from ...fem.roundoff import Resolution, seismic_energy
 from ...files import atomic_directory, provenance, write_json_atomic, write_text_atomic
+from ...law import calibrated_range
 from . import classify
 from .column import Column, ColumnModel, law_contacts
 from .records import ProcessedRecord, load_record, process
@@ -364,6 +365,9 @@ def run_seismic(params, main: EventSpec, aftershocks: list[EventSpec], settings:
         end = column.t
         column.run(settings.gap, None, event=i)
         events.append(EventResult(label, spec, rec, start, end, column.t))
+    # once, with the whole run's count and depth (after any refusal of the input)
+    calibrated_range.report(column.range_excess(), calibrated_range.WARN,
+                            what=params_source or "the law")
     history = column.history.arrays()
     deepest = float(np.max(history["approach"]))
     if deepest > model.radius:  # dynamic amplification beyond the quasi-static bound

@@ -60,10 +60,12 @@ MAX_STEPS_PER_RUN = 10**8
 
 
 def law_contacts(params) -> ContactFactory:
-    """Contacts of the hysteretic law of ``params`` (a :class:`~geocontact.law.LawParams`)."""
+    """Contacts of the hysteretic law of ``params`` (a :class:`~geocontact.law.LawParams`).
+    They do not warn step by step about the law's calibrated range: the column says once,
+    after its run, how many went beyond and how deep (``Column.range_excess``)."""
     from ...law import ContactArrays
 
-    return lambda n: ContactArrays(params, n)
+    return lambda n: ContactArrays(params, n, beyond_range="ignore")
 
 
 def hertz_contacts(material) -> ContactFactory:
@@ -136,6 +138,16 @@ def critical_time_step(mass: float, stiffness: float, spheres: int,
     return 2.0 * (math.sqrt(1.0 + xi * xi) - xi) / omega
 
 
+def _probe(factory: ContactFactory, n: int):
+    """Contacts that measure the law (its virgin curve, its stiffness), not contacts of the
+    column: however deep they go, there is nothing to report about the law's calibrated range
+    (the column's own contacts report it)."""
+    contacts = factory(n)
+    if hasattr(contacts, "beyond_range"):
+        contacts.beyond_range = "ignore"
+    return contacts
+
+
 def virgin_approach(factory: ContactFactory, forces: np.ndarray, *, rtol: float = 1e-12,
                     max_iter: int = 60) -> np.ndarray:
     """Approaches at which the law's virgin loading curve carries ``forces``.
@@ -153,13 +165,13 @@ def virgin_approach(factory: ContactFactory, forces: np.ndarray, *, rtol: float 
     guess = np.full(target.shape, 1e-9)
     # bracket: grow the guess until it carries the force (a power law: a few doublings of 10)
     for _ in range(40):
-        f, _ = factory(target.size).step(guess)
+        f, _ = _probe(factory, target.size).step(guess)
         low = f < target
         if not low.any():
             break
         guess = np.where(low, guess * 10.0, guess)
     for _ in range(max_iter):
-        f, k = factory(target.size).step(guess)
+        f, k = _probe(factory, target.size).step(guess)
         f, k = f.copy(), k.copy()
         if np.all(np.abs(f - target) <= rtol * target):
             approach[loaded] = guess
@@ -267,7 +279,7 @@ class Column:
         scale = np.maximum(self.static_force, self.model.spheres * self.mass * STANDARD_GRAVITY)
         probe_force = factor * scale
         approach = virgin_approach(factory, probe_force)
-        probe = factory(approach.size)
+        probe = _probe(factory, approach.size)
         _, k_load = probe.step(approach)
         k_load = k_load.copy()
         _, k_unload = probe.step(approach * (1.0 - 1e-9))
@@ -374,6 +386,12 @@ class Column:
                 raise ConvergenceError(f"column: the integration diverged at t = {self.t:.6g} s "
                                        f"(dt = {dt:.3g} s); lower time_step_safety")
         self.max_stiffness_seen = k_seen
+
+    def range_excess(self):
+        """The column's contacts beyond their law's calibrated depth so far (count, largest
+        depth; ``geocontact.law.calibrated_range``), None if none is (or plain Hertz)."""
+        excess = getattr(self.contacts, "range_excess", None)
+        return None if excess is None else excess()
 
     @staticmethod
     def _total_force(force: np.ndarray, damping: np.ndarray, rate: np.ndarray) -> np.ndarray:
