@@ -148,30 +148,21 @@ inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law,
   return c;
 }
 
-// Two grains whose law is the calibrated one scaled by s (docs/model.md §10).
+// The contact's stiffnesses by the similarity rule (geocontact::Similarity, docs/model.md §10): the
+// calibrated unloading stiffness S_R scaled to the contact (s for two grains; 2 s for a grain on
+// a rigid wall, the FE half model: dF/dw = 2 S, which is 2 E*_wall a with the sphere-flat
+// modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with G*_wall = G / (2 - nu)
+// = 2 G*, a rigid wall adding no compliance), the contact radius s a_R of the pair in both.
 inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
                                           const StiffnessConstants &constants,
-                                          const geocontact::ContactState &state, double scale)
+                                          const geocontact::ContactState &state,
+                                          const geocontact::Similarity &sim)
 {
-  // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
-  const double normal_si = scale * geocontact::unloading_stiffness(law, state);
-  const double a = normal_si * constants.radius_per_stiffness;
-  return {normal_si * constants.stiffness_to_run, constants.mindlin_modulus * a, a};
-}
-
-// A grain on a rigid flat wall, the FE half model of the pair (docs/model.md §10): at interference w it
-// is one half of the pair at approach d = 2 w, so its contact is the pair's contact (the same
-// contact radius a, the symmetry plane of the pair being the wall), F_wall(w) = F_pair(2 w),
-// and its stiffnesses are twice the pair's: dF/dw = 2 S, which is 2 E*_wall a with the
-// sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
-// G*_wall = G / (2 - nu) = 2 G* (a rigid wall adds no compliance).
-inline ContactStiffness wall_contact_stiffness(const geocontact::LawParams &law,
-                                               const StiffnessConstants &constants,
-                                               const geocontact::ContactState &state,
-                                               double scale)
-{
-  const ContactStiffness pair = contact_stiffness(law, constants, state, scale);
-  return {2.0 * pair.normal, 2.0 * pair.tangential, pair.radius};
+  const double calibrated = geocontact::unloading_stiffness(law, state);
+  const double a = sim.scale * calibrated * constants.radius_per_stiffness;
+  const double halves = sim.stiffness / sim.scale;  // 1 for two grains, 2 for a wall
+  return {sim.stiffness * calibrated * constants.stiffness_to_run,
+          halves * constants.mindlin_modulus * a, a};
 }
 
 inline double reduced_mass(double mi, double mj)
@@ -393,6 +384,89 @@ inline void twisting_torque(double &phi, double *torque, const double *n, const 
   }
   if (advance) phi = angle;
   for (int k3 = 0; k3 < 3; ++k3) torque[k3] = mt * n[k3];
+}
+
+// --- one contact step, shared by the pair and the walls ---------------------------------------
+//
+// In the manner of LAMMPS's GranularModel (one object a pair and a wall both call): given where
+// and how the bodies touch, the law's step, the stiffnesses, damping, the tangential force and
+// the rolling and twisting torques, with the record's springs kept and rescaled. The pair and
+// the walls differ only in their geometry (ContactGeometry), the wall's similarity being the FE
+// half model's (geocontact::wall_similarity).
+
+// The model's coefficients of a type pair or a wall.
+struct ContactCoeffs {
+  double friction;             // Coulomb mu
+  double damping;              // fraction of critical beta
+  const RollingCoeffs *resistance;
+};
+
+// Where and how body i touches body j (a wall: no spin, arm 0).
+struct ContactGeometry {
+  double overlap;      // delta of two grains, or the interference w with a wall (run lengths)
+  geocontact::Similarity sim;  // pair_similarity or wall_similarity (law.hpp, SPEC 10)
+  const double *n;     // unit normal towards i (read only when touching)
+  const double *vi, *vj, *wi, *wj;
+  double armi, armj;   // centre to contact point (contact_frame)
+  double reff;         // rolling radius R*
+  double meff;         // reduced mass (a grain on a wall: its mass)
+};
+
+struct ContactResult {
+  double law_force;    // the law's normal force (run units), before damping
+  double fn;           // normal force with damping, never tensile
+  double ft[3];        // tangential force on i
+  double torque[3];    // rolling and twisting torque on i (the tangential force's: the caller's)
+  double stiffness;    // normal stiffness (0 apart)
+  ContactFrame frame;
+};
+
+// No tangential, rolling or twist spring, and no contact radius (a contact not touching). `Record`:
+// the law state `law` and the springs `tangential`, `rolling`, `twist` and `contact_radius` (pair
+// and wall records alike).
+template <class Record> inline void clear_springs(Record &rec)
+{
+  rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+  rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
+  rec.twist = 0.0;
+  rec.contact_radius = 0.0;
+}
+
+// One step of a contact (`Record` as for clear_springs). `commit` false (setup): the springs are
+// not advanced (LAMMPS's history update off), so the force is the one the last step ended with.
+template <class Record>
+inline ContactResult contact_step(const geocontact::LawParams &law, const StiffnessConstants &c,
+                                  const ContactCoeffs &coeffs, Record &rec,
+                                  const ContactGeometry &g, double dt, bool commit)
+{
+  ContactResult out{};
+  const geocontact::StepResult res =
+      geocontact::step(law, rec.law, g.overlap * (g.sim.approach * c.approach_to_law));
+  out.law_force = g.sim.force * res.force * c.force_to_run;
+  if (!(out.law_force > 0.0)) {
+    clear_springs(rec);
+    return out;
+  }
+  out.frame = contact_frame(g.n, g.vi, g.vj, g.wi, g.wj, g.armi, g.armj);
+  const ContactStiffness k = contact_stiffness(law, c, rec.law, g.sim);
+  out.stiffness = k.normal;
+  const RadiusChange change = radius_change(rec.contact_radius, k.radius);
+  rec.contact_radius = k.radius;
+  const Damping damping = damping_coefficients(coeffs.damping, c.damping_mass * g.meff, k);
+  out.fn = damped_normal_force(out.law_force, damping.normal, out.frame.vn);
+  if (coeffs.friction > 0.0)
+    tangential_force(rec.tangential, out.ft, out.frame, k.tangential, damping.tangential,
+                     coeffs.friction, out.fn, commit ? dt : 0.0, change.tangential);
+  const RollingCoeffs &rc = *coeffs.resistance;
+  if (rc.rolling)
+    rolling_torque(rec.rolling, out.torque, rc, g.n, g.wi, g.wj, g.reff, out.fn, dt, commit);
+  if (rc.twisting) {
+    double twist[3];
+    twisting_torque(rec.twist, twist, g.n, g.wi, g.wj, k.tangential, damping.tangential,
+                    coeffs.friction, k.radius, out.fn, dt, commit, change.twist);
+    for (int m = 0; m < 3; ++m) out.torque[m] += twist[m];
+  }
+  return out;
 }
 
 // --- a law state as doubles (history tables, exchange and restart buffers) ------------------

@@ -28,14 +28,6 @@ namespace {
 
 constexpr double kDefaultFriction = 0.5;
 
-// No tangential, rolling or twist spring, and no contact radius yet (a contact not touching).
-template <class Record> inline void clear_springs(Record &rec)
-{
-  rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
-  rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
-  rec.twist = 0.0;
-  rec.contact_radius = 0.0;
-}
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
 constexpr const char *kUsage =
@@ -409,9 +401,10 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       const double interference = radius[i] - distance;
       WallRecord &stored = records_[static_cast<size_t>(i) * nwalls + w];
       if (!stored.active && interference <= 0.0) continue;  // apart, never touched
-      const double scale = radius[i] / c.calibrated_radius;
-      // F(w) = F_pair(2 w): energies half the pair's, in the run's units
-      const double energy_scale = 0.5 * scale * scale * scale * c.energy_to_run;
+      // the FE half model: F(w) = F_pair(2 w), energies half the pair's (law.hpp)
+      const geocontact::Similarity sim =
+          geocontact::wall_similarity(radius[i], c.calibrated_radius);
+      const double energy_scale = sim.energy * c.energy_to_run;
       if (stored.active && interference < -skin) {
         // left the wall by more than the skin: forgotten, as a pair leaving the neighbor list
         if (commit) {
@@ -430,44 +423,22 @@ void FixWallGeocontact::post_force(int /*vflag*/)
         clear_springs(rec);
         rec.active = 1;
       } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
-        rec.contact_radius = wall_contact_stiffness(law_, c, rec.law, scale).radius;
+        rec.contact_radius = contact_stiffness(law_, c, rec.law, sim).radius;
       }
-      const geocontact::StepResult res =
-          geocontact::step(law_, rec.law, 2.0 * interference * (c.approach_to_law / scale));
-      const double law_force = scale * scale * res.force * c.force_to_run;
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
-      if (law_force > 0.0) {
-        // the contact is on the wall's surface, r - w from the centre (contact_frame)
-        const double arm = radius[i] - interference;
-        const ContactFrame frame = contact_frame(n, v[i], vw, omega[i], no_spin, arm, 0.0);
-        const ContactStiffness stiffness = wall_contact_stiffness(law_, c, rec.law, scale);
-        const RadiusChange change = radius_change(rec.contact_radius, stiffness.radius);
-        rec.contact_radius = stiffness.radius;
-        const Damping damping =
-            damping_coefficients(damping_, c.damping_mass * rmass[i], stiffness);
-        fn = damped_normal_force(law_force, damping.normal, frame.vn);
-        // setup: the stored spring, not advanced (LAMMPS's granular models with the history
-        // update off), so the force is the one the last committed step ended with
-        if (friction_ > 0.0)
-          tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
-                           friction_, fn, commit ? dt : 0.0, change.tangential);
-        // the wall as body j: no spin, flat (R* = r)
-        if (resistance_.rolling)
-          rolling_torque(rec.rolling, extra, resistance_, n, omega[i], no_spin, radius[i], fn,
-                         dt, commit);
-        if (resistance_.twisting) {
-          double twist[3];
-          twisting_torque(rec.twist, twist, n, omega[i], no_spin, stiffness.tangential,
-                          damping.tangential, friction_, stiffness.radius, fn, dt, commit,
-                          change.twist);
-          for (int k = 0; k < 3; ++k) extra[k] += twist[k];
-        }
-        max_stiffness_ = std::max(max_stiffness_, stiffness.normal);
+      // the contact is on the wall's surface, r - w from the centre (contact_frame)
+      const double arm = radius[i] - interference;
+      const ContactGeometry geometry{interference, sim, n, v[i], vw, omega[i], no_spin,
+                                     arm, 0.0, radius[i], rmass[i]};
+      const ContactCoeffs cc{friction_, damping_, &resistance_};
+      const ContactResult res =
+          contact_step(law_, c, cc, rec, geometry, dt, commit);
+      const double fn = res.fn;
+      const double *ft = res.ft;
+      if (res.stiffness > 0.0) {
+        max_stiffness_ = std::max(max_stiffness_, res.stiffness);
         const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
                                n[0] * ft[1] - n[1] * ft[0]};
-        for (int k = 0; k < 3; ++k) torque[i][k] += extra[k] - arm * tor[k];
-      } else {
-        clear_springs(rec);
+        for (int k = 0; k < 3; ++k) torque[i][k] += res.torque[k] - arm * tor[k];
       }
 
       const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
@@ -480,10 +451,10 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
       tally_[G_ELASTIC] += stored_energy;
       if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
-      // the state's approaches are the pair's in the calibrated units: w = s d / 2
-      const double half_scale = 0.5 * scale * c.length_to_run;
+      // the state's approaches are the pair's in the calibrated units: w = d / approach
+      const double half_scale = c.length_to_run / sim.approach;
       out[0] = interference;
-      out[1] = scale * scale * st.force * c.force_to_run;
+      out[1] = sim.force * st.force * c.force_to_run;
       out[2] = std::sqrt(dot3(rec.tangential, rec.tangential));
       out[3] = half_scale * (st.max_approach + st.ratchet_shift);
       out[4] = half_scale * (st.residual_approach + st.ratchet_shift);

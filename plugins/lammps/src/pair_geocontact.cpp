@@ -36,26 +36,6 @@ constexpr int kRestartTag = 0x53504347;
 // without them.
 constexpr int kRestartLayoutVersion = 3;
 
-// Grains of any size by similarity (docs/model.md §10): two spheres of radii ri, rj behave as two
-// identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
-// elastic-plastic problem while the contact is small against both), and spheres of radius
-// r = s R as the calibrated spheres of radius R scaled by s: F_r(d) = s^2 F_R(d / s), every
-// approach (and the law's state) s times, energies s^3 times. The contact's state is kept in
-// the calibrated spheres' units.
-inline double similarity_scale(double ri, double rj, double calibrated_radius)
-{
-  return 2.0 * ri * rj / ((ri + rj) * calibrated_radius);
-}
-
-// No tangential, rolling or twist spring, and no contact radius yet (a contact not touching).
-inline void clear_springs(ContactRecord &rec)
-{
-  rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
-  rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
-  rec.twist = 0.0;
-  rec.contact_radius = 0.0;
-}
-
 }  // namespace
 
 PairGeocontact::PairGeocontact(LAMMPS *lmp) : Pair(lmp)
@@ -386,11 +366,11 @@ void PairGeocontact::sync_mirrors()
 // once, whole if both grains are owned here, half if shared with another rank.
 void PairGeocontact::tally_contact(const geocontact::LawParams &law,
                                    const StiffnessConstants &constants,
-                                   const geocontact::ContactState &state, double scale,
-                                   bool owned_pair)
+                                   const geocontact::ContactState &state,
+                                   const geocontact::Similarity &sim, bool owned_pair)
 {
   const double w = owned_pair ? 1.0 : 0.5;
-  const double energy_scale = scale * scale * scale * constants.energy_to_run;  // energies s^3
+  const double energy_scale = sim.energy * constants.energy_to_run;
   const double stored = energy_scale * geocontact::elastic_energy(law, state);
   pvector[GV_DISSIPATED] += w * (energy_scale * state.work - stored);
   pvector[GV_ELASTIC] += w * stored;
@@ -504,7 +484,8 @@ void PairGeocontact::compute(int eflag, int vflag)
       const TypePairLaw &tp = coeffs_[itype][jtype];
       const geocontact::LawParams &law = laws_[tp.law];
       const StiffnessConstants &constants = stiffness_constants_[tp.law];
-      const double scale = similarity_scale(radi, radius[j], constants.calibrated_radius);
+      const geocontact::Similarity sim =
+          geocontact::pair_similarity(radi, radius[j], constants.calibrated_radius);
 
       // the record itself when the step commits (most calls), a scratch copy in setup
       ContactRecord scratch;
@@ -514,61 +495,35 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.law = geocontact::ContactState();
         clear_springs(rec);
       } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
-        rec.contact_radius = contact_stiffness(law, constants, rec.law, scale).radius;
+        rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
       }
       const double r = std::sqrt(rsq);
       const double overlap = radsum - r;
-      const geocontact::StepResult res =
-          geocontact::step(law, rec.law, overlap * (constants.approach_to_law / scale));
-      rec.energy_scale = scale * scale * scale;
+      const double rinv = 1.0 / r;
+      const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
+      const double half = 0.5 * overlap;  // the contact plane halves the overlap
+      const ContactGeometry geometry{overlap, sim, n, v[i], v[j], omega[i], omega[j],
+                                     radi - half, radius[j] - half, radi * radius[j] / radsum,
+                                     reduced_mass(rmass[i], rmass[j])};
+      const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
+      const ContactResult res =
+          contact_step(law, constants, cc, rec, geometry, dt, commit);
+      rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
-      const double law_force = scale * scale * res.force * constants.force_to_run;
-
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
-      ContactFrame frame{};
-      if (law_force > 0.0) {
-        const double rinv = 1.0 / r;
-        const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
-        const double half = 0.5 * overlap;
-        frame = contact_frame(n, v[i], v[j], omega[i], omega[j], radi - half, radius[j] - half);
-        const ContactStiffness stiffness = contact_stiffness(law, constants, rec.law, scale);
-        const RadiusChange change = radius_change(rec.contact_radius, stiffness.radius);
-        rec.contact_radius = stiffness.radius;
-        const double meff = constants.damping_mass * reduced_mass(rmass[i], rmass[j]);
-        const Damping damping = damping_coefficients(tp.damping, meff, stiffness);
-        fn = damped_normal_force(law_force, damping.normal, frame.vn);
-        // setup: the stored spring, not advanced (LAMMPS's granular models with the history
-        // update off), so the force is the one the last committed step ended with
-        if (tp.friction > 0.0)
-          tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
-                           tp.friction, fn, commit ? dt : 0.0, change.tangential);
-        const RollingCoeffs &rc = tp.resistance;
-        if (rc.rolling) {
-          const double reff = radi * radius[j] / radsum;
-          rolling_torque(rec.rolling, extra, rc, n, omega[i], omega[j], reff, fn, dt, commit);
-        }
-        if (rc.twisting) {
-          double twist[3];
-          twisting_torque(rec.twist, twist, n, omega[i], omega[j], stiffness.tangential,
-                          damping.tangential, tp.friction, stiffness.radius, fn, dt, commit,
-                          change.twist);
-          for (int c = 0; c < 3; ++c) extra[c] += twist[c];
-        }
-        if (eflag_global) note_stiffness(stiffness.normal);
-      } else {
-        clear_springs(rec);
-      }
+      if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
+      const double fn = res.fn;
+      const double *ft = res.ft;
 
       if (commit) {
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }
-      if (eflag_global) tally_contact(law, constants, rec.law, scale, j < nlocal);
+      if (eflag_global) tally_contact(law, constants, rec.law, sim, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
-      const double energy = eflag ? scale * scale * scale * constants.energy_to_run *
-                                        geocontact::elastic_energy(law, rec.law)
-                                  : 0.0;
-      apply_contact_force(i, j, fn, ft, frame.n, del, energy, extra, 0.5 * overlap);
+      const double energy =
+          eflag ? sim.energy * constants.energy_to_run * geocontact::elastic_energy(law, rec.law)
+                : 0.0;
+      apply_contact_force(i, j, fn, ft, n, del, energy, res.torque, half);
     }
   }
   if (eflag_global) finish_stiffness_outputs();
@@ -590,9 +545,10 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
   const geocontact::ContactState &st = rec.law;
   // the state is in the calibrated spheres' SI units: approaches s, forces s^2, energies s^3,
   // then in the run's units
-  const double s = similarity_scale(atom->radius[i], atom->radius[j], c.calibrated_radius);
-  const double length = s * c.length_to_run, force = s * s * c.force_to_run;
-  const double energy = s * s * s * c.energy_to_run;
+  const geocontact::Similarity sim =
+      geocontact::pair_similarity(atom->radius[i], atom->radius[j], c.calibrated_radius);
+  const double length = sim.scale * c.length_to_run, force = sim.force * c.force_to_run;
+  const double energy = sim.energy * c.energy_to_run;
   const double r = std::sqrt(rsq);
   fforce = r > 0.0 ? force * st.force / r : 0.0;
   svector[SV_APPROACH] = length * st.approach;

@@ -12,6 +12,9 @@
 // force (Coulomb). Optional viscous damping: ratio beta of the critical damping of the contact's
 // unloading (normal) and Mindlin (tangential) stiffness. Optional rolling and twisting
 // resistance as LAMMPS's pair granular `rolling sds` and `twisting marshall` (contact_forces.h).
+// The tangential force is rescaled by a / a_prev when the contact radius falls (no spring gains
+// energy) and acts at r - delta/2 from each centre. Units: the law file is SI and is converted to
+// the run's unit style (si, cgs, micro, nano, metal, real, electron; lj is refused).
 #ifdef PAIR_CLASS
 // clang-format off
 PairStyle(geocontact,PairGeocontact);
@@ -76,7 +79,8 @@ class PairGeocontact : public Pair {
   int add_law(const std::string &text, const std::string &source);
   void tally_contact(const geocontact::LawParams &law,
                      const geocontact_forces::StiffnessConstants &constants,
-                     const geocontact::ContactState &state, double scale, bool owned_pair);
+                     const geocontact::ContactState &state, const geocontact::Similarity &sim,
+                     bool owned_pair);
   void note_stiffness(double normal_stiffness);
   void finish_stiffness_outputs();
   void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
