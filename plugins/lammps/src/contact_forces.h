@@ -160,9 +160,10 @@ inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
 {
   const double calibrated = geocontact::unloading_stiffness(law, state);
   const double a = sim.scale * calibrated * constants.radius_per_stiffness;
-  const double halves = sim.stiffness / sim.scale;  // 1 for two grains, 2 for a wall
-  return {sim.stiffness * calibrated * constants.stiffness_to_run,
-          halves * constants.mindlin_modulus * a, a};
+  // k_t = 8 G* a for two grains, twice that on a wall: sim.stiffness / s times 8 G* a
+  const double kt = sim.stiffness * calibrated * constants.radius_per_stiffness *
+                    constants.mindlin_modulus;
+  return {sim.stiffness * calibrated * constants.stiffness_to_run, kt, a};
 }
 
 inline double reduced_mass(double mi, double mj)
