@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geocontact.lammps_plugin import open_lammps
+from geocontact.analyses.lammps_plugin import open_lammps
 from geocontact.law import load_params
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import constants as si
 
-from geocontact.lammps_plugin import open_lammps
+from geocontact.analyses.lammps_plugin import open_lammps
 from geocontact.law import Contact, load_params
 
 ROOT = Path(__file__).resolve().parents[1]

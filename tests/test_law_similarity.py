@@ -151,7 +151,7 @@ def test_law_hpp_owns_the_similarity_rule_of_pairs_and_walls(r1, r2):
     """The binding of law.hpp's pair_similarity and wall_similarity (used by the LAMMPS plugin,
     the kernel's radii and for_radius): two grains as identical spheres of r_eq = 2 r1 r2 /
     (r1 + r2), scaled by s = r_eq / R; a grain on a flat as the half of the pair of two such
-    grains at d = 2 w (SPEC 10)."""
+    grains at d = 2 w (docs/model.md §10)."""
     from geocontact.law import _core
 
     big = 0.1

@@ -148,11 +148,12 @@ inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law,
   return c;
 }
 
-// The contact's stiffnesses by the similarity rule (geocontact::Similarity, docs/model.md §10): the
-// calibrated unloading stiffness S_R scaled to the contact (s for two grains; 2 s for a grain on
-// a rigid wall, the FE half model: dF/dw = 2 S, which is 2 E*_wall a with the sphere-flat
-// modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with G*_wall = G / (2 - nu)
-// = 2 G*, a rigid wall adding no compliance), the contact radius s a_R of the pair in both.
+// The contact's stiffnesses by the similarity rule (geocontact::Similarity, docs/model.md §10):
+// the calibrated unloading stiffness S_R scaled to the contact (s for two grains; 2 s for a
+// grain on a rigid wall, the FE half model: dF/dw = 2 S, which is 2 E*_wall a with the
+// sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
+// G*_wall = G / (2 - nu) = 2 G*, a rigid wall adding no compliance), the contact radius s a_R of
+// the pair in both.
 inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
                                           const StiffnessConstants &constants,
                                           const geocontact::ContactState &state,
@@ -405,7 +406,7 @@ struct ContactCoeffs {
 // Where and how body i touches body j (a wall: no spin, arm 0).
 struct ContactGeometry {
   double overlap;      // delta of two grains, or the interference w with a wall (run lengths)
-  geocontact::Similarity sim;  // pair_similarity or wall_similarity (law.hpp, SPEC 10)
+  geocontact::Similarity sim;  // pair_similarity or wall_similarity (law.hpp, docs/model.md §10)
   const double *n;     // unit normal towards i (read only when touching)
   const double *vi, *vj, *wi, *wj;
   double armi, armj;   // centre to contact point (contact_frame)

@@ -196,10 +196,10 @@ NB_MODULE(_core, m)
   m.def("parse_params", &geocontact::parse_params, "text"_a, "source"_a = "parameters",
         "A `geocontact.law/1` document read and validated by params.hpp.");
 
-  // the similarity rule of law.hpp (SPEC 10), its one owner: grains of any size
+  // the similarity rule of law.hpp (docs/model.md §10), its one owner: grains of any size
   using geocontact::Similarity;
   nb::class_<Similarity>(m, "Similarity",
-                         "A contact's similarity to the calibrated pair (law.hpp, SPEC 10).")
+                         "A contact's similarity to the calibrated pair (law.hpp, docs/model.md §10).")
       .def_ro("scale", &Similarity::scale)
       .def_ro("approach", &Similarity::approach)
       .def_ro("force", &Similarity::force)

@@ -810,7 +810,7 @@ inline void refresh_envelope(const LawParams &p, State &s)
   s.cycles = cycles;
 }
 
-// --- similarity: grains of any size (SPEC 10) -------------------------------------------------
+// --- similarity: grains of any size (docs/model.md §10) ----------------------------------------
 //
 // The rate-independent continuum problem has no length scale, so two spheres of radius r = s R
 // behave as the calibrated pair of radius R scaled by s: F_r(d) = s^2 F_R(d / s), approaches
