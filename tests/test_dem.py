@@ -5,6 +5,7 @@ cycled, for the geocontact law and LAMMPS's granular Hertz-Mindlin, on 1 and 2 r
 from __future__ import annotations
 
 import json
+import math
 import signal
 import subprocess
 import sys
@@ -51,6 +52,21 @@ def test_stress_reached_and_outputs_parsed(both):
         stress = read_csv_column(out / contact / "series.csv", "stress_Pa")
         assert len(strain) == len(stress) > 50
         assert read_csv_column(out / contact / "cycles.csv", "cycle").tolist() == [1]
+
+
+def test_the_time_step_is_checked_against_the_contacts_critical_step(both):
+    """examples/lammps/timestep.lmp: the smallest critical time step of geocontact's contacts
+    at the leg ends: the step the example chose (dtfrac 0.2 of the Hertz bound at 10 times the
+    peak force, 0.14 of its critical step) is a larger fraction of it (the stiffest contact,
+    plastic and after the fast first leg, is stiffer than the bound), still below dtsafe = 0.3,
+    without a warning; the granular run has no geocontact contacts to check."""
+    _, doc = both
+    geo, granular = doc["runs"]["geocontact"], doc["runs"]["granular"]
+    hertz_bound = math.sqrt(2) * geo["hertz_time_s"]  # 2 sqrt(m_min / (2 k_bound))
+    assert 0.15 < geo["timestep_s"] / geo["critical_timestep_min_s"] < 0.3
+    assert geo["critical_timestep_min_s"] < hertz_bound
+    assert geo["timestep_warning_step"] is None
+    assert granular["critical_timestep_min_s"] is None
 
 
 def test_geocontact_dents_granular_does_not(both):

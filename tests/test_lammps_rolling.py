@@ -266,12 +266,17 @@ def test_restart_with_rolling_and_twist_history_continues_as_the_uninterrupted_r
     assert np.abs(before[-1, 3 * n:]).max() > 0.1 * np.abs(torques).max()
 
 
-@pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart"])
+@pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart", "pair-v3.restart"])
 def test_pair_restart_files_of_older_layouts_are_still_read(name):
     """Files written by older plugins (tests/data/make_layout_restarts.py): version 1, before
-    rolling, and version 2, before the cumulative dissipation tally: the pair's contacts carry on
-    as the same run with this plugin (zero rolling and twist history; the energy scale set at
-    the next step)."""
+    rolling, version 2, before the cumulative dissipation tally, and version 3, before the
+    contact radius in the record: the pair's contacts carry on as the same run with this plugin
+    (zero rolling and twist history; the energy scale set and the contact radius taken from the
+    law state at the next step). The normal history is the run's to round-off. The tangential
+    force these plugins stored was not rescaled as the contact radius fell (issue 34), so the
+    file's differs from this plugin's run: it is rescaled at the first step (and never above
+    the Coulomb limit), and from the second step on, with the grain sliding again, it is the
+    run's."""
     import test_lammps_plugin as pair_tests
 
     path = pair_tests.approach_path(pair_tests.PARAMS.yield_approach)[:50]
@@ -286,19 +291,25 @@ def test_pair_restart_files_of_older_layouts_are_still_read(name):
         lmp.command(line)
     after = pair_tests.drive_slipping_pair(lmp, path[33:])
     lmp.close()
+    scale = np.abs(uninterrupted).max()
     assert abs(uninterrupted[32, 1]) > 0  # a tangential force carried by the file
-    assert np.abs(after - uninterrupted[33:]).max() <= 1e-12 * np.abs(uninterrupted).max()
+    normal = [0, 2, 3, 5, 6, 7]  # force x; p1, p2, p4, p5, p6 (p3: the tangential force)
+    assert np.abs(after[:, normal] - uninterrupted[33:, normal]).max() <= 1e-12 * scale
+    assert np.abs(after[1:] - uninterrupted[34:]).max() <= 1e-12 * scale
+    assert after[0, 4] <= 0.5 * after[0, 3] * (1 + 1e-12)  # the slipping pair's friction 0.5
 
 
-def test_wall_restart_file_of_layout_version_1_is_still_read():
-    """The wall's file written by the plugin before rolling (tests/data/make_layout_restarts.py)
-    carries on as the same contact with this plugin."""
+@pytest.mark.parametrize("name", ["wall-v1.restart", "wall-v2.restart"])
+def test_wall_restart_files_of_older_layouts_are_still_read(name):
+    """The wall's files written by the plugin before rolling (version 1) and before the contact
+    radius (version 2; tests/data/make_layout_restarts.py) carry on as the same contact with
+    this plugin."""
     import test_lammps_wall as wall_tests
 
     radius = 0.1
     w = 10 * wall_tests.BASE.for_radius(radius).yield_approach
     lmp = open_lammps()
-    lmp.command(f"read_restart {DATA / 'wall-v1.restart'}")
+    lmp.command(f"read_restart {DATA / name}")
     lmp.command(f"fix wall all wall/geocontact {wall_tests.CALIBRATED_FILE} friction 0 "
                 "damping 0 zplane 0.0 0.5")
     lmp.command(f"set atom 1 z {radius - 0.5 * w!r}")

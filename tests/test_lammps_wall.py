@@ -176,9 +176,9 @@ def test_an_elastic_wall_contact_is_hertz_sphere_on_flat_with_its_mindlin_stiffn
         forces.append(-lmp.numpy.extract_atom("f")[0][1])
     assert forces[0] / (speed * dt) == pytest.approx(k_t, rel=1e-6)
     assert forces[-1] == pytest.approx(friction * f_n, rel=1e-9)
-    # the torque of the tangential force at the contact point (0, 0, -r) about the centre:
-    # (0, 0, -r) x (0, -F_t, 0) = (-r F_t, 0, 0)
-    assert lmp.numpy.extract_atom("torque")[0][0] == pytest.approx(-radius * forces[-1],
+    # the torque of the tangential force at the contact point, on the wall's surface
+    # (0, 0, -(r - w)), about the centre: (0, 0, -(r - w)) x (0, -F_t, 0) = (-(r - w) F_t, 0, 0)
+    assert lmp.numpy.extract_atom("torque")[0][0] == pytest.approx(-(radius - w) * forces[-1],
                                                                    rel=1e-12)
     lmp.close()
 
@@ -431,13 +431,13 @@ def test_restart_with_pair_and_wall_histories_together(tmp_path):
 
 # the per-atom layout tag as the fix writes it (fix_wall_geocontact.h): "GCWA" in the high, the
 # layout version in the low 32 bits of a 64-bit word, once per atom
-ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCWA", "little") << 32) | 2)
+ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCWA", "little") << 32) | 3)
 
 
 @pytest.mark.parametrize(("edit", "fix", "message"), [
     (None, "zplane 0.0 0.5", None),
-    (ATOM_TAG[:4].replace(b"\x02", b"\x03") + ATOM_TAG[4:], "zplane 0.0 0.5",
-     "wall contacts have wall layout version 3; this fix reads wall layout versions 1 to 2 "
+    (ATOM_TAG[:4].replace(b"\x03", b"\x04") + ATOM_TAG[4:], "zplane 0.0 0.5",
+     "wall contacts have wall layout version 4; this fix reads wall layout versions 1 to 3 "
      "only"),
     (struct.pack("<d", 1.0), "zplane 0.0 0.5", "wall contacts have no wall/geocontact layout tag"),
     (None, "zplane 0.0 NULL", "wall contacts are for 2 wall\\(s\\), this fix wall has 1"),

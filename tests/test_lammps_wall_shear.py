@@ -7,7 +7,8 @@ Below yield the geocontact wall is Hertz sphere-on-flat, which LAMMPS's hertz/ma
 with E_wall = 2 E (its wall is a body of the grain's material, ours rigid); LAMMPS's tangential
 model is linear_history with our sphere-flat Mindlin stiffness 8 G a / (2 - nu), a = sqrt(r w),
 constant while the grain is held at its interference (tests/test_lammps_rolling.py does the
-same for rolling)."""
+same for rolling). LAMMPS's wall torque has the arm r, ours r - w (the contact on the wall's
+surface), which a spinning grain feels at O(w / r)."""
 
 from __future__ import annotations
 
@@ -111,8 +112,13 @@ def test_a_grain_free_to_spin_on_a_shearing_wall_is_fix_wall_gran_shear(rolling)
     v = speed(time_step())
     ours = sheared("ours", f"shear x {v!r}", rolling=rolling, spin=True)
     theirs = sheared("lammps", f"shear x {v!r}", rolling=rolling, spin=True)
+    # LAMMPS's wall acts at the arm r; ours at the contact point on the wall's surface, r - w
+    # (in the torque and in the contact point's velocity alike), so the spring's rotational
+    # stiffness, k_t arm^2, is 2 w / r lower and the spin's oscillation drifts in phase by
+    # 2 pi (w / r) per period (time_step: 50 steps a period)
+    drift = 2 * math.pi * (STEPS / 50) * 2 * W / R
     for k in (slice(0, 3), slice(3, 6)):  # torque, spin
-        assert np.abs(ours[:, k] - theirs[:, k]).max() <= 1e-9 * np.abs(theirs[:, k]).max()
+        assert np.abs(ours[:, k] - theirs[:, k]).max() <= drift * np.abs(theirs[:, k]).max()
     # the drag at the bottom (+x) spins the grain about -y
     assert ours[-1, 4] < 0 and np.all(ours[:, 3] == 0)
 

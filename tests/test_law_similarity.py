@@ -144,3 +144,27 @@ def test_contact_arrays_with_radii_follow_each_grains_scaled_law():
         ContactArrays(base, 3, radii=[0.1, -0.1, 0.1])
     with pytest.raises(InputError, match="radii"):
         ContactArrays(base, 3, radii=[0.1, 0.2])
+
+
+@pytest.mark.parametrize(("r1", "r2"), [(0.01, 0.01), (0.004, 0.02), (1e-3, 7e-4)])
+def test_law_hpp_owns_the_similarity_rule_of_pairs_and_walls(r1, r2):
+    """The binding of law.hpp's pair_similarity and wall_similarity (used by the LAMMPS plugin,
+    the kernel's radii and for_radius): two grains as identical spheres of r_eq = 2 r1 r2 /
+    (r1 + r2), scaled by s = r_eq / R; a grain on a flat as the half of the pair of two such
+    grains at d = 2 w (docs/model.md §10)."""
+    from geocontact.law import _core
+
+    big = 0.1
+    s = 2 * r1 * r2 / ((r1 + r2) * big)
+    pair = _core.pair_similarity(r1, r2, big)
+    assert pair.scale == pytest.approx(s, rel=1e-15)
+    assert (pair.approach, pair.force, pair.stiffness, pair.energy) == pytest.approx(
+        (1 / s, s**2, s, s**3), rel=1e-15)
+    wall = _core.wall_similarity(r1, big)
+    w = r1 / big
+    assert (wall.scale, wall.approach, wall.force, wall.stiffness, wall.energy) == pytest.approx(
+        (w, 2 / w, w**2, 2 * w, 0.5 * w**3), rel=1e-15)
+    # for_radius takes the same rule for two grains of radius r1
+    base = load_params(CALIBRATED)
+    assert base.for_radius(r1).provenance["similarity"]["scale"] == _core.pair_similarity(
+        r1, r1, base.material.radius).scale

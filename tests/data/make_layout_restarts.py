@@ -7,9 +7,11 @@ checkout of that layout (`make plugin` there):
 Version 1 (before rolling and twisting; commit cfc27db): pair-v1.restart and wall-v1.restart.
 Version 2 (before the cumulative dissipation tally; commit e6b383e): pair-v2.restart (the wall's
 layout did not change).
+Version 3 (before the contact radius in the records, when the tangential force was not rescaled
+with it; commit 6d76908): pair-v3.restart and wall-v2.restart (the wall's layout version 2).
 
 pair-vN.restart: the slipping pair of test_lammps_plugin.py after PAIR_STEPS steps of its
-approach path (plastic, unloading, a tangential force built up); wall-v1.restart: the grain of
+approach path (plastic, unloading, a tangential force built up); wall-vN.restart: the grain of
 test_lammps_wall.py pressed 10 wall yield interferences into a zplane 0.0 0.5 wall.
 """
 
@@ -26,6 +28,8 @@ import test_lammps_wall as wall_tests  # noqa: E402
 
 PAIR_STEPS = 33
 WALL_RADIUS = 0.1
+# the wall's layout version at the commit of each pair (history) layout version that wrote one
+WALL_LAYOUT = {1: 1, 3: 2}
 
 
 def wall_interference() -> float:
@@ -38,12 +42,12 @@ def main(version: int) -> None:
         pair_tests.PARAMS.yield_approach)[:PAIR_STEPS])
     lmp.command(f"write_restart {HERE / f'pair-v{version}.restart'}")
     lmp.close()
-    if version != 1:
+    if version not in WALL_LAYOUT:
         return
     w = wall_interference()
     lmp = wall_tests.grains([WALL_RADIUS], [(0.0, 0.0, WALL_RADIUS - w)], "zplane 0.0 0.5")
     lmp.command("run 1")
-    lmp.command(f"write_restart {HERE / 'wall-v1.restart'}")
+    lmp.command(f"write_restart {HERE / f'wall-v{WALL_LAYOUT[version]}.restart'}")
     lmp.close()
 
 

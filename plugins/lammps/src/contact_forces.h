@@ -11,7 +11,9 @@
 
 #include "comm.h"
 #include "error.h"
+#include "force.h"
 #include "lammps.h"
+#include "update.h"
 #include "utils.h"
 
 #include <cmath>
@@ -36,8 +38,12 @@ inline void cross3(const double *a, const double *b, double *c)
 
 // Where the bodies touch and how the contact point moves: the unit normal n (towards body i),
 // the normal relative speed (positive when separating) and the tangential relative velocity of
-// the contact point of i with respect to that of j. A wall is body j with its velocity, no
-// spin and radius 0.
+// the contact point of i with respect to that of j. The contact point is armi from the centre
+// of i and armj from that of j: r - delta/2 for two grains at overlap delta (their contact
+// plane halves the overlap), r - w for a grain at interference w with a wall (the contact is on
+// the wall's surface); the torques of the tangential force use the same arms, so the power of
+// the contact forces is that of the springs. A wall is body j with its velocity, no spin and
+// arm 0.
 struct ContactFrame {
   double n[3];
   double vn;
@@ -45,65 +51,120 @@ struct ContactFrame {
 };
 
 inline ContactFrame contact_frame(const double *n, const double *vi, const double *vj,
-                                  const double *wi, const double *wj, double radi, double radj)
+                                  const double *wi, const double *wj, double armi, double armj)
 {
   ContactFrame c;
   for (int k = 0; k < 3; ++k) c.n[k] = n[k];
   const double vr[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
   c.vn = dot3(vr, c.n);
-  const double wr[3] = {radi * wi[0] + radj * wj[0], radi * wi[1] + radj * wj[1],
-                        radi * wi[2] + radj * wj[2]};
+  const double wr[3] = {armi * wi[0] + armj * wj[0], armi * wi[1] + armj * wj[1],
+                        armi * wi[2] + armj * wj[2]};
   c.vt[0] = vr[0] - c.vn * c.n[0] - (wr[1] * c.n[2] - wr[2] * c.n[1]);
   c.vt[1] = vr[1] - c.vn * c.n[1] - (wr[2] * c.n[0] - wr[0] * c.n[2]);
   c.vt[2] = vr[2] - c.vn * c.n[2] - (wr[0] * c.n[1] - wr[1] * c.n[0]);
   return c;
 }
 
-// Stiffnesses of the contact for damping and friction: the unloading stiffness S = 2 E* a of
-// the law's current branch gives the contact radius a, and Mindlin's k_t = 8 G* a.
-struct ContactStiffness {
-  double normal;      // S, N/m
-  double tangential;  // k_t, N/m
-  double radius;      // contact radius a, m
+// --- the run's units -------------------------------------------------------------------------
+//
+// The law file is SI (docs/law.md); a LAMMPS run counts lengths, forces and energies in the units
+// of its unit style. The SI size of each style's units, from LAMMPS's `units` documentation
+// (CODATA 2018 for eV, the Bohr radius and the Hartree; the thermochemical kcal, 4184 J). `lj`
+// has no physical size: the law cannot be placed in it.
+struct RunUnits {
+  double length;       // m per length unit of the run
+  double force;        // N per force unit
+  double energy;       // J per energy unit
+  double ftm2v = 1.0;  // LAMMPS's force->ftm2v: 1 where mass, length and time are coherent
 };
 
-// The material's part of the stiffnesses, computed once per law (divisions off the force loop):
-// a = S / (2 E*), k_t = 8 G* a.
-struct StiffnessConstants {
-  double radius_per_stiffness;  // 1 / (2 E*): a per unit of S
-  double mindlin_modulus;       // 8 G*
-};
-
-inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law)
+inline bool physical_units(const std::string &style, RunUnits &u)
 {
-  return {1.0 / (2.0 * law.material.effective_modulus()),
-          8.0 * law.material.effective_shear_modulus()};
+  constexpr double eV = 1.602176634e-19, kcal_per_mol = 4184.0 / 6.02214076e23;
+  constexpr double bohr = 5.29177210903e-11, hartree = 4.3597447222071e-18;
+  if (style == "si") u = {1.0, 1.0, 1.0};
+  else if (style == "cgs") u = {1e-2, 1e-5, 1e-7};            // cm, dyne, erg
+  else if (style == "micro") u = {1e-6, 1e-9, 1e-15};         // um, pg um/us^2, pg um^2/us^2
+  else if (style == "nano") u = {1e-9, 1e-12, 1e-21};         // nm, ag nm/ns^2, ag nm^2/ns^2
+  else if (style == "metal") u = {1e-10, eV / 1e-10, eV};     // Angstrom, eV/Angstrom, eV
+  else if (style == "real") u = {1e-10, kcal_per_mol / 1e-10, kcal_per_mol};
+  else if (style == "electron") u = {bohr, hartree / bohr, hartree};
+  else return false;
+  return true;
 }
 
-// Two grains whose law is the calibrated one scaled by s (docs/model.md §10).
+// The run's units, or a one-line error naming the unit style (who opens it).
+inline RunUnits run_units(LAMMPS *lmp, const std::string &who)
+{
+  RunUnits u{};
+  const std::string style = lmp->update->unit_style ? lmp->update->unit_style : "";
+  if (!physical_units(style, u))
+    lmp->error->all(FLERR, "{}: units {} have no physical size, and the law file is SI; use "
+                           "units si, cgs, micro, nano, metal, real or electron", who, style);
+  u.ftm2v = lmp->force->ftm2v;
+  return u;
+}
+
+// Stiffnesses of the contact for damping and friction, in the run's units: the unloading
+// stiffness S = 2 E* a of the law's current branch gives the contact radius a, and Mindlin's
+// k_t = 8 G* a.
+struct ContactStiffness {
+  double normal;      // S, force / length
+  double tangential;  // k_t, force / length
+  double radius;      // contact radius a, length
+};
+
+// The law file's numbers in the run's units, computed once per law and run (off the force
+// loop): the calibrated radius R, the law's approach per run length, and the factors that take
+// the law's SI stiffness S (N/m) to S, a and k_t in the run's units; forces, energies.
+struct StiffnessConstants {
+  double calibrated_radius;     // R in run lengths
+  double approach_to_law;       // m per run length: the law's approach is L d / s
+  double force_to_run;          // 1 / (N per force unit)
+  double energy_to_run;         // 1 / (J per energy unit)
+  double length_to_run;         // 1 / (m per run length)
+  double stiffness_to_run;      // (m per length) / (N per force): N/m to the run's
+  double radius_per_stiffness;  // 1 / (2 E* L): a in run lengths per N/m of S
+  double mindlin_modulus;       // 8 G* L^2 / F: k_t in the run's units per run length of a
+  // 1 / ftm2v: sqrt(m k / ftm2v) is a damping coefficient in force per velocity also where the
+  // run's mass, length, time and force units are not coherent (metal, real, electron)
+  double damping_mass;
+};
+
+inline StiffnessConstants stiffness_constants(const geocontact::LawParams &law,
+                                              const RunUnits &u)
+{
+  StiffnessConstants c;
+  c.calibrated_radius = law.material.radius / u.length;
+  c.approach_to_law = u.length;
+  c.force_to_run = 1.0 / u.force;
+  c.energy_to_run = 1.0 / u.energy;
+  c.length_to_run = 1.0 / u.length;
+  c.stiffness_to_run = u.length / u.force;
+  c.radius_per_stiffness = 1.0 / (2.0 * law.material.effective_modulus() * u.length);
+  c.mindlin_modulus = 8.0 * law.material.effective_shear_modulus() * u.length * u.length /
+                      u.force;
+  c.damping_mass = 1.0 / u.ftm2v;
+  return c;
+}
+
+// The contact's stiffnesses by the similarity rule (geocontact::Similarity, docs/model.md §10):
+// the calibrated unloading stiffness S_R scaled to the contact (s for two grains; 2 s for a
+// grain on a rigid wall, the FE half model: dF/dw = 2 S, which is 2 E*_wall a with the
+// sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
+// G*_wall = G / (2 - nu) = 2 G*, a rigid wall adding no compliance), the contact radius s a_R of
+// the pair in both.
 inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
                                           const StiffnessConstants &constants,
-                                          const geocontact::ContactState &state, double scale)
+                                          const geocontact::ContactState &state,
+                                          const geocontact::Similarity &sim)
 {
-  // dF/dd of the scaled law is s times the calibrated one (F s^2, d s)
-  const double normal = scale * geocontact::unloading_stiffness(law, state);
-  const double a = normal * constants.radius_per_stiffness;
-  return {normal, constants.mindlin_modulus * a, a};
-}
-
-// A grain on a rigid flat wall, the FE half model of the pair (docs/model.md §10): at interference w it
-// is one half of the pair at approach d = 2 w, so its contact is the pair's contact (the same
-// contact radius a, the symmetry plane of the pair being the wall), F_wall(w) = F_pair(2 w),
-// and its stiffnesses are twice the pair's: dF/dw = 2 S, which is 2 E*_wall a with the
-// sphere-flat modulus E*_wall = E / (1 - nu^2) = 2 E*, and Mindlin 8 G*_wall a with
-// G*_wall = G / (2 - nu) = 2 G* (a rigid wall adds no compliance).
-inline ContactStiffness wall_contact_stiffness(const geocontact::LawParams &law,
-                                               const StiffnessConstants &constants,
-                                               const geocontact::ContactState &state,
-                                               double scale)
-{
-  const ContactStiffness pair = contact_stiffness(law, constants, state, scale);
-  return {2.0 * pair.normal, 2.0 * pair.tangential, pair.radius};
+  const double calibrated = geocontact::unloading_stiffness(law, state);
+  const double a = sim.scale * calibrated * constants.radius_per_stiffness;
+  // k_t = 8 G* a for two grains, twice that on a wall: sim.stiffness / s times 8 G* a
+  const double kt = sim.stiffness * calibrated * constants.radius_per_stiffness *
+                    constants.mindlin_modulus;
+  return {sim.stiffness * calibrated * constants.stiffness_to_run, kt, a};
 }
 
 inline double reduced_mass(double mi, double mj)
@@ -112,7 +173,7 @@ inline double reduced_mass(double mi, double mj)
 }
 
 // Viscous damping at a fraction beta of critical, 2 beta sqrt(m_eff k), per direction (a
-// grain on a wall: m_eff its mass).
+// grain on a wall: m_eff its mass); meff here is m_eff times StiffnessConstants::damping_mass.
 struct Damping {
   double normal;
   double tangential;
@@ -132,13 +193,37 @@ inline double damped_normal_force(double law_force, double damping, double vn)
   return fn > 0.0 ? fn : 0.0;
 }
 
-// Incremental Mindlin-Coulomb tangential force. The stored force fs (not a displacement, so a
-// changing contact radius never makes the force jump) is first rotated into the current
-// tangent plane keeping its magnitude, then incremented by -k_t v_t dt; the force on the
-// grain adds the tangential damping and is capped by mu fn, where sliding makes the stored
-// force the Coulomb force.
+// How the springs whose stiffness follows the contact radius a respond when a changes from
+// a_prev (the last step's) to a, so that no spring gains energy from a change of stiffness
+// (Walton 1993; Thornton et al. 2013; LAMMPS's `mindlin_rescale/force`). The tangential spring
+// keeps a force f_s with k_t = 8 G* a, energy f_s^2 / (2 k_t): when a falls f_s is scaled by
+// a / a_prev (its energy by a / a_prev), when a rises f_s is kept (its energy falls). The twist
+// spring keeps an angle phi with k_tw = k_t a^2 / 2, proportional to a^3, energy k_tw phi^2 / 2:
+// when a falls phi is kept (its energy falls as (a / a_prev)^3), when a rises phi is scaled by
+// (a_prev / a)^3, which keeps its torque (its energy falls). a_prev <= 0: a new contact.
+struct RadiusChange {
+  double tangential;  // factor on the stored tangential force
+  double twist;       // factor on the stored twist angle
+};
+
+inline RadiusChange radius_change(double a_prev, double a)
+{
+  if (a < a_prev) return {a / a_prev, 1.0};
+  if (a > a_prev && a_prev > 0.0) {
+    const double r = a_prev / a;
+    return {1.0, r * r * r};
+  }
+  return {1.0, 1.0};
+}
+
+// Incremental Mindlin-Coulomb tangential force. The stored force fs (not a displacement) is
+// first rotated into the current tangent plane keeping its magnitude and scaled by `rescale`
+// (radius_change), then incremented by -k_t v_t dt; the force on the grain adds the tangential
+// damping and is capped by mu fn, where sliding sets the spring to the capped force less the
+// damping part (as LAMMPS's granular models: the dashpot's force is not stored in the spring).
 inline void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt,
-                             double damping, double friction, double fn, double dt)
+                             double damping, double friction, double fn, double dt,
+                             double rescale)
 {
   const double fsn = dot3(fs, c.n);
   if (fsn != 0.0) {  // already in the plane (a flat wall's contact): the rotation is exactly 1
@@ -150,6 +235,8 @@ inline void tangential_force(double *fs, double *ft, const ContactFrame &c, doub
       for (int k = 0; k < 3; ++k) fs[k] *= scale;
     }
   }
+  if (rescale != 1.0)
+    for (int k = 0; k < 3; ++k) fs[k] *= rescale;
   for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
   for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];
   const double limit = friction * fn;
@@ -158,7 +245,7 @@ inline void tangential_force(double *fs, double *ft, const ContactFrame &c, doub
     const double scale = mag > 0.0 ? limit / mag : 0.0;
     for (int k = 0; k < 3; ++k) {
       ft[k] *= scale;
-      fs[k] = ft[k];
+      fs[k] = ft[k] + damping * c.vt[k];
     }
   }
 }
@@ -279,12 +366,14 @@ inline void rolling_torque(double *xi, double *torque, const RollingCoeffs &c, c
 // (history) advances by the twist rate (w_i - w_j) . n; the torque -k_tw phi - g_tw rate along
 // n, capped by mu_tw fn, with the coefficients of the tangential model spread over the contact
 // disc of radius a: k_tw = k_t a^2 / 2, g_tw = g_t a^2 / 2 and mu_tw = 2/3 mu a (here k_t is
-// the Mindlin stiffness 8 G* a in N/m; LAMMPS's mindlin passes 8 G* instead).
+// the Mindlin stiffness 8 G* a; LAMMPS's mindlin passes 8 G* instead). `rescale` scales the
+// stored angle first (radius_change).
 inline void twisting_torque(double &phi, double *torque, const double *n, const double *wi,
                             const double *wj, double kt, double damping_t, double friction,
-                            double a, double fn, double dt, bool advance)
+                            double a, double fn, double dt, bool advance, double rescale)
 {
   const double rate = (wi[0] - wj[0]) * n[0] + (wi[1] - wj[1]) * n[1] + (wi[2] - wj[2]) * n[2];
+  if (advance) phi *= rescale;  // radius_change: the spring's stiffness follows a^3
   const double k = 0.5 * kt * a * a;
   const double g = 0.5 * damping_t * a * a;
   const double limit = (2.0 / 3.0) * friction * a * fn;
@@ -297,6 +386,89 @@ inline void twisting_torque(double &phi, double *torque, const double *n, const 
   }
   if (advance) phi = angle;
   for (int k3 = 0; k3 < 3; ++k3) torque[k3] = mt * n[k3];
+}
+
+// --- one contact step, shared by the pair and the walls ---------------------------------------
+//
+// In the manner of LAMMPS's GranularModel (one object a pair and a wall both call): given where
+// and how the bodies touch, the law's step, the stiffnesses, damping, the tangential force and
+// the rolling and twisting torques, with the record's springs kept and rescaled. The pair and
+// the walls differ only in their geometry (ContactGeometry), the wall's similarity being the FE
+// half model's (geocontact::wall_similarity).
+
+// The model's coefficients of a type pair or a wall.
+struct ContactCoeffs {
+  double friction;             // Coulomb mu
+  double damping;              // fraction of critical beta
+  const RollingCoeffs *resistance;
+};
+
+// Where and how body i touches body j (a wall: no spin, arm 0).
+struct ContactGeometry {
+  double overlap;      // delta of two grains, or the interference w with a wall (run lengths)
+  geocontact::Similarity sim;  // pair_similarity or wall_similarity (law.hpp, docs/model.md §10)
+  const double *n;     // unit normal towards i (read only when touching)
+  const double *vi, *vj, *wi, *wj;
+  double armi, armj;   // centre to contact point (contact_frame)
+  double reff;         // rolling radius R*
+  double meff;         // reduced mass (a grain on a wall: its mass)
+};
+
+struct ContactResult {
+  double law_force;    // the law's normal force (run units), before damping
+  double fn;           // normal force with damping, never tensile
+  double ft[3];        // tangential force on i
+  double torque[3];    // rolling and twisting torque on i (the tangential force's: the caller's)
+  double stiffness;    // normal stiffness (0 apart)
+  ContactFrame frame;
+};
+
+// No tangential, rolling or twist spring, and no contact radius (a contact not touching). `Record`:
+// the law state `law` and the springs `tangential`, `rolling`, `twist` and `contact_radius` (pair
+// and wall records alike).
+template <class Record> inline void clear_springs(Record &rec)
+{
+  rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
+  rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
+  rec.twist = 0.0;
+  rec.contact_radius = 0.0;
+}
+
+// One step of a contact (`Record` as for clear_springs). `commit` false (setup): the springs are
+// not advanced (LAMMPS's history update off), so the force is the one the last step ended with.
+template <class Record>
+inline ContactResult contact_step(const geocontact::LawParams &law, const StiffnessConstants &c,
+                                  const ContactCoeffs &coeffs, Record &rec,
+                                  const ContactGeometry &g, double dt, bool commit)
+{
+  ContactResult out{};
+  const geocontact::StepResult res =
+      geocontact::step(law, rec.law, g.overlap * (g.sim.approach * c.approach_to_law));
+  out.law_force = g.sim.force * res.force * c.force_to_run;
+  if (!(out.law_force > 0.0)) {
+    clear_springs(rec);
+    return out;
+  }
+  out.frame = contact_frame(g.n, g.vi, g.vj, g.wi, g.wj, g.armi, g.armj);
+  const ContactStiffness k = contact_stiffness(law, c, rec.law, g.sim);
+  out.stiffness = k.normal;
+  const RadiusChange change = radius_change(rec.contact_radius, k.radius);
+  rec.contact_radius = k.radius;
+  const Damping damping = damping_coefficients(coeffs.damping, c.damping_mass * g.meff, k);
+  out.fn = damped_normal_force(out.law_force, damping.normal, out.frame.vn);
+  if (coeffs.friction > 0.0)
+    tangential_force(rec.tangential, out.ft, out.frame, k.tangential, damping.tangential,
+                     coeffs.friction, out.fn, commit ? dt : 0.0, change.tangential);
+  const RollingCoeffs &rc = *coeffs.resistance;
+  if (rc.rolling)
+    rolling_torque(rec.rolling, out.torque, rc, g.n, g.wi, g.wj, g.reff, out.fn, dt, commit);
+  if (rc.twisting) {
+    double twist[3];
+    twisting_torque(rec.twist, twist, g.n, g.wi, g.wj, k.tangential, damping.tangential,
+                    coeffs.friction, k.radius, out.fn, dt, commit, change.twist);
+    for (int m = 0; m < 3; ++m) out.torque[m] += twist[m];
+  }
+  return out;
 }
 
 // --- a law state as doubles (history tables, exchange and restart buffers) ------------------

@@ -82,7 +82,7 @@ void FixGeocontactHistory::set_arrays(int i)
 }
 
 // Layout: [count, (partner, 13 law slots, 3 tangential, 3 rolling, twist, energy scale, law
-// index) x count]
+// index, contact radius) x count]
 int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, double *buf)
 {
   int m = 0;
@@ -97,6 +97,7 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = r.twist;
     buf[m++] = r.energy_scale;
     buf[m++] = static_cast<double>(r.law_index);
+    buf[m++] = r.contact_radius;
   }
   return m;
 }
@@ -105,6 +106,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
                                        int layout_version)
 {
   const bool with_rolling = layout_version >= 2, with_scale = layout_version >= 3;
+  const bool with_radius = layout_version >= 4;
   int m = 0;
   const int n = static_cast<int>(buf[m++]);
   table.resize(n);
@@ -118,6 +120,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     r.twist = with_rolling ? buf[m++] : 0.0;
     r.energy_scale = with_scale ? buf[m++] : 0.0;
     r.law_index = with_scale ? static_cast<int>(buf[m++]) : 0;
+    r.contact_radius = with_radius ? buf[m++] : -1.0;
   }
   return m;
 }
@@ -148,7 +151,8 @@ int FixGeocontactHistory::pack_restart(int i, double *buf)
 // A record of another layout (an older plugin's file has the count where the tag is now) is
 // never unpacked: the atom is left without history, and init() refuses the run on every rank.
 // Layout version 1 (no rolling and twist slots) is read with both at zero, version 2 (no
-// energy scale) with the scale unknown until the record's next step.
+// energy scale) with the scale unknown until the record's next step, version 3 (no contact
+// radius) with the radius taken from the law state at the record's next step.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -160,7 +164,10 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
   const int length = static_cast<int>(record[0]);
   const int version = (tag & ~int64_t(0xffffffff)) == kRestartTagBase
                           ? static_cast<int>(tag & 0xffffffff) : 0;
-  const int size = version == 1 ? kRecordSizeV1 : version == 2 ? kRecordSizeV2 : kRecordSize;
+  const int size = version == 1   ? kRecordSizeV1
+                   : version == 2 ? kRecordSizeV2
+                   : version == 3 ? kRecordSizeV3
+                                  : kRecordSize;
   const int count =
       version >= 1 && version <= kRestartLayoutVersion ? static_cast<int>(record[2]) : -1;
   if (count < 0 || length != kRestartHeader + count * size) {

@@ -41,20 +41,26 @@ struct ContactRecord {
   // is dropped (the partner may be gone by then); 0 = not known yet (an older restart's record)
   double energy_scale = 0.0;
   int law_index = 0;
+  // the contact radius a of the last step (run lengths): the springs that follow a are rescaled
+  // when it changes (contact_forces.h radius_change); < 0 = not known (an older restart's
+  // record: taken from its law state at its next step)
+  double contact_radius = -1.0;
 };
 
 class FixGeocontactHistory : public Fix {
  public:
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
-  // rolling components, the twist angle, the energy scale and the law index
-  static constexpr int kRecordSize = 23;
+  // rolling components, the twist angle, the energy scale, the law index and the contact radius
+  static constexpr int kRecordSize = 24;
   // Per-atom restart layout: bumped whenever the packed record changes. Versions 1 (records
-  // without rolling and twist, kRecordSizeV1 doubles) and 2 (without the energy scale and law
-  // index, kRecordSizeV2) are still read: contacts that have not rolled or twisted yet, and
-  // whose energy scale the next step sets.
-  static constexpr int kRestartLayoutVersion = 3;
+  // without rolling and twist, kRecordSizeV1 doubles), 2 (without the energy scale and law
+  // index, kRecordSizeV2) and 3 (without the contact radius, kRecordSizeV3) are still read:
+  // contacts that have not rolled or twisted yet, whose energy scale the next step sets, and
+  // whose contact radius is taken from their law state.
+  static constexpr int kRestartLayoutVersion = 4;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
+  static constexpr int kRecordSizeV3 = 23;
   // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
   // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
   // it travels as the bit pattern of a (normal, finite) double.

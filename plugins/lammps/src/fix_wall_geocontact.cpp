@@ -7,6 +7,7 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
+#include "force.h"
 #include "input.h"
 #include "memory.h"
 #include "modify.h"
@@ -26,6 +27,7 @@ using namespace FixConst;
 namespace {
 
 constexpr double kDefaultFriction = 0.5;
+
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
 constexpr const char *kUsage =
@@ -53,6 +55,7 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
 
   law_ = parse_law(lmp, read_text_collective(lmp, arg[3], "Fix wall/geocontact"), arg[3],
                    "Fix wall/geocontact");
+  constants_ = stiffness_constants(law_, run_units(lmp, "Fix wall/geocontact"));
 
   int iarg = 4;
   while (iarg < narg) {
@@ -243,7 +246,7 @@ void FixWallGeocontact::init()
       error->all(FLERR, "Fix wall/geocontact: the restart file's per-atom wall contacts have no "
                         "wall/geocontact layout tag (0x{:016x}); this fix reads wall layout "
                         "versions 1 to {} only", static_cast<uint64_t>(tag), kRestartLayoutVersion);
-    if (tag != kAtomTag && tag != kAtomTagV1)
+    if ((tag & 0xffffffff) < 1 || (tag & 0xffffffff) > kRestartLayoutVersion)
       error->all(FLERR, "Fix wall/geocontact: the restart file's per-atom wall contacts have wall "
                         "layout version {}; this fix reads wall layout versions 1 to {} only",
                  tag & 0xffffffff, kRestartLayoutVersion);
@@ -329,8 +332,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   const bool commit = !update->setupflag;
   const double dt = update->dt;
   const double skin = neighbor->skin;
-  const double calibrated_radius = law_.material.radius;
-  const StiffnessConstants constants = stiffness_constants(law_);
+  const StiffnessConstants &c = constants_;
 
   double wall_velocity = 0.0;
   const double shift = wall_displacement(wall_velocity);
@@ -371,6 +373,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   for (int k = 0; k < G_COUNT; ++k) tally_[k] = 0.0;
   tally_[G_DISSIPATED] = forgotten_dissipated_;
   totals_current_ = false;
+  max_stiffness_ = 0.0;
 
   for (int i = 0; i < nlocal; ++i) {
     double *out = array_atom[i];
@@ -398,8 +401,10 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       const double interference = radius[i] - distance;
       WallRecord &stored = records_[static_cast<size_t>(i) * nwalls + w];
       if (!stored.active && interference <= 0.0) continue;  // apart, never touched
-      const double scale = radius[i] / calibrated_radius;
-      const double energy_scale = 0.5 * scale * scale * scale;  // F(w) = F_pair(2 w): half
+      // the FE half model: F(w) = F_pair(2 w), energies half the pair's (law.hpp)
+      const geocontact::Similarity sim =
+          geocontact::wall_similarity(radius[i], c.calibrated_radius);
+      const double energy_scale = sim.energy * c.energy_to_run;
       if (stored.active && interference < -skin) {
         // left the wall by more than the skin: forgotten, as a pair leaving the neighbor list
         if (commit) {
@@ -415,58 +420,41 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       WallRecord &rec = commit ? stored : (scratch = stored);
       if (!rec.active) {
         rec.law = geocontact::ContactState();
-        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
-        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
-        rec.twist = 0.0;
+        clear_springs(rec);
         rec.active = 1;
+      } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
+        rec.contact_radius = contact_stiffness(law_, c, rec.law, sim).radius;
       }
-      const geocontact::StepResult res =
-          geocontact::step(law_, rec.law, 2.0 * interference / scale);
-      const double law_force = scale * scale * res.force;
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
-      if (law_force > 0.0) {
-        const ContactFrame frame = contact_frame(n, v[i], vw, omega[i], no_spin, radius[i], 0.0);
-        const ContactStiffness stiffness = wall_contact_stiffness(law_, constants, rec.law, scale);
-        const Damping damping = damping_coefficients(damping_, rmass[i], stiffness);
-        fn = damped_normal_force(law_force, damping.normal, frame.vn);
-        // setup: the stored spring, not advanced (LAMMPS's granular models with the history
-        // update off), so the force is the one the last committed step ended with
-        if (friction_ > 0.0)
-          tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
-                           friction_, fn, commit ? dt : 0.0);
-        // the wall as body j: no spin, flat (R* = r)
-        if (resistance_.rolling)
-          rolling_torque(rec.rolling, extra, resistance_, n, omega[i], no_spin, radius[i], fn,
-                         dt, commit);
-        if (resistance_.twisting) {
-          double twist[3];
-          twisting_torque(rec.twist, twist, n, omega[i], no_spin, stiffness.tangential,
-                          damping.tangential, friction_, stiffness.radius, fn, dt, commit);
-          for (int c = 0; c < 3; ++c) extra[c] += twist[c];
-        }
-      } else {
-        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
-        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
-        rec.twist = 0.0;
+      // the contact is on the wall's surface, r - w from the centre (contact_frame)
+      const double arm = radius[i] - interference;
+      const ContactGeometry geometry{interference, sim, n, v[i], vw, omega[i], no_spin,
+                                     arm, 0.0, radius[i], rmass[i]};
+      const ContactCoeffs cc{friction_, damping_, &resistance_};
+      const ContactResult res =
+          contact_step(law_, c, cc, rec, geometry, dt, commit);
+      const double fn = res.fn;
+      const double *ft = res.ft;
+      if (res.stiffness > 0.0) {
+        max_stiffness_ = std::max(max_stiffness_, res.stiffness);
+        const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
+                               n[0] * ft[1] - n[1] * ft[0]};
+        for (int k = 0; k < 3; ++k) torque[i][k] += res.torque[k] - arm * tor[k];
       }
 
       const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
-      const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
-                             n[0] * ft[1] - n[1] * ft[0]};
-      for (int c = 0; c < 3; ++c) {
-        f[i][c] += fc[c];
-        torque[i][c] += extra[c] - radius[i] * tor[c];
-        tally_[GF_X + c] -= fc[c];  // the grain pushes the wall the other way
+      for (int k = 0; k < 3; ++k) {
+        f[i][k] += fc[k];
+        tally_[GF_X + k] -= fc[k];  // the grain pushes the wall the other way
       }
       const geocontact::ContactState &st = rec.law;
       const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
       tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
       tally_[G_ELASTIC] += stored_energy;
       if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
-      // the state's approaches are the pair's in the calibrated units: w = s d / 2
-      const double half_scale = 0.5 * scale;
+      // the state's approaches are the pair's in the calibrated units: w = d / approach
+      const double half_scale = c.length_to_run / sim.approach;
       out[0] = interference;
-      out[1] = scale * scale * st.force;
+      out[1] = sim.force * st.force * c.force_to_run;
       out[2] = std::sqrt(dot3(rec.tangential, rec.tangential));
       out[3] = half_scale * (st.max_approach + st.ratchet_shift);
       out[4] = half_scale * (st.residual_approach + st.ratchet_shift);
@@ -475,10 +463,24 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   }
 }
 
+// Sums over ranks, except [7-8]: the largest normal stiffness of a wall contact k_max and the
+// critical time step it implies for the lightest grain of the group, velocity Verlet on one
+// grain of mass m against the rigid wall being stable for omega dt < 2, omega = sqrt(k / m)
+// (sqrt(k ftm2v / m) in the run's units): dt_crit = 2 sqrt(m_min / k_max), 0 while no grain
+// touches.
 double FixWallGeocontact::compute_vector(int n)
 {
   if (!totals_current_) {
-    MPI_Allreduce(tally_, totals_, G_COUNT, MPI_DOUBLE, MPI_SUM, world);
+    MPI_Allreduce(tally_, totals_, G_MAX_STIFFNESS, MPI_DOUBLE, MPI_SUM, world);
+    double lightest = INFINITY;
+    for (int i = 0; i < atom->nlocal; ++i)
+      if (atom->mask[i] & groupbit) lightest = std::min(lightest, atom->rmass[i]);
+    double local[2] = {max_stiffness_, -lightest}, all[2] = {0.0, 0.0};
+    MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_MAX, world);
+    const double k = all[0], m = -all[1];
+    totals_[G_MAX_STIFFNESS] = k;
+    totals_[G_CRITICAL_DT] =
+        k > 0.0 && std::isfinite(m) ? 2.0 * std::sqrt(m / (k * force->ftm2v)) : 0.0;
     totals_current_ = true;
   }
   return totals_[n];
@@ -512,9 +514,7 @@ void FixWallGeocontact::set_arrays(int i)
   for (size_t w = 0; w < nwalls; ++w) {
     WallRecord &r = records_[i * nwalls + w];
     r.law = geocontact::ContactState();
-    r.tangential[0] = r.tangential[1] = r.tangential[2] = 0.0;
-    r.rolling[0] = r.rolling[1] = r.rolling[2] = 0.0;
-    r.twist = 0.0;
+    clear_springs(r);
     r.active = 0;
   }
   for (int c = 0; c < size_peratom_cols; ++c) array_atom[i][c] = 0.0;
@@ -529,11 +529,13 @@ int FixWallGeocontact::pack_record(const WallRecord &r, double *buf)
   buf[m++] = r.active;
   for (int k = 0; k < 3; ++k) buf[m++] = r.rolling[k];
   buf[m++] = r.twist;
+  buf[m++] = r.contact_radius;
   return m;
 }
 
-int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, bool with_rolling)
+int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layout_version)
 {
+  const bool with_rolling = layout_version >= 2, with_radius = layout_version >= 3;
   int m = unpack_state(r.law, buf);
   r.tangential[0] = buf[m++];
   r.tangential[1] = buf[m++];
@@ -541,6 +543,7 @@ int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, bool with
   r.active = static_cast<int>(buf[m++]);
   for (int k = 0; k < 3; ++k) r.rolling[k] = with_rolling ? buf[m++] : 0.0;
   r.twist = with_rolling ? buf[m++] : 0.0;
+  r.contact_radius = with_radius ? buf[m++] : -1.0;
   return m;
 }
 
@@ -574,7 +577,8 @@ int FixWallGeocontact::pack_restart(int i, double *buf)
 
 // A record of another layout or wall count is never unpacked: the atom is left without wall
 // contacts and init() refuses the run on every rank. Layout version 1 (no rolling and twist)
-// is read with both at zero.
+// is read with both at zero, versions 1-2 (no contact radius) with the radius taken from the
+// law state at the record's next step.
 void FixWallGeocontact::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -584,11 +588,13 @@ void FixWallGeocontact::unpack_restart(int nlocal, int nth)
   set_arrays(nlocal);
   const double *record = &extra[nlocal][m];
   const int64_t tag = ubuf(record[1]).i;
-  const bool v1 = tag == kAtomTagV1;
-  const int walls = tag == kAtomTag || v1 ? static_cast<int>(record[2]) : -1;
+  const int version = (tag & ~int64_t(0xffffffff)) == kAtomTagBase
+                          ? static_cast<int>(tag & 0xffffffff) : 0;
+  const bool known = version >= 1 && version <= kRestartLayoutVersion;
+  const int walls = known ? static_cast<int>(record[2]) : -1;
   const int length = static_cast<int>(record[0]);
-  const int expected = kAtomHeader + static_cast<int>(sides_.size()) *
-      (v1 ? kRecordSizeV1 : kRecordSize);
+  const int size = version == 1 ? kRecordSizeV1 : version == 2 ? kRecordSizeV2 : kRecordSize;
+  const int expected = kAtomHeader + static_cast<int>(sides_.size()) * size;
   if (walls != static_cast<int>(sides_.size()) || length != expected) {
     if (!unreadable_restart_) {
       unreadable_tag_ = tag;
@@ -599,7 +605,8 @@ void FixWallGeocontact::unpack_restart(int nlocal, int nth)
   }
   const size_t nwalls = sides_.size();
   const double *buf = record + kAtomHeader;
-  for (size_t w = 0; w < nwalls; ++w) buf += unpack_record(records_[nlocal * nwalls + w], buf, !v1);
+  for (size_t w = 0; w < nwalls; ++w)
+    buf += unpack_record(records_[nlocal * nwalls + w], buf, version);
 }
 
 int FixWallGeocontact::size_restart(int /*i*/)
@@ -636,7 +643,9 @@ void FixWallGeocontact::restart(char *buf)
   double data[kGlobalSize];
   memcpy(data, buf, sizeof(data));
   const int64_t tag = ubuf(data[0]).i;
-  if (tag != kGlobalTag && tag != (kGlobalTagBase | 1))  // the global layout of version 1
+  const int64_t version = tag & 0xffffffff;  // the global layout is the same in versions 1-3
+  if ((tag & ~int64_t(0xffffffff)) != kGlobalTagBase || version < 1 ||
+      version > kRestartLayoutVersion)
     error->all(FLERR, "Fix wall/geocontact: the restart file's global wall data has {} (tag "
                       "0x{:016x}); this fix reads wall layout versions 1 to {} only",
                (tag & ~int64_t(0xffffffff)) == (kGlobalTag & ~int64_t(0xffffffff))

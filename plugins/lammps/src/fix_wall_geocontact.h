@@ -20,11 +20,13 @@
 // record per wall per atom (law state, tangential force, rolling displacement, twist angle)
 // travels with the atom between ranks and into restart files.
 //
-// Output: global vector [1-3] force of the grains on the wall (N), [4] energy the law dissipated
-// at the wall (J, contacts since the fix was defined), [5] stored elastic energy (J), [6] number
-// of wall contacts; per-atom array, kOutputColumns per wall (lo wall first): interference w (m),
-// normal force (N), |tangential force| (N), max interference (m), residual interference (m),
-// branch of the law.
+// Output (the run's units; the law file is SI and converted, contact_forces.h RunUnits):
+// global vector [1-3] force of the grains on the wall, [4] energy the law dissipated at the
+// wall (contacts since the fix was defined), [5] stored elastic energy, [6] number of wall
+// contacts, [7] the largest normal stiffness of a wall contact and [8] the critical time step it
+// implies for the lightest grain of the group (0 while none touches); per-atom array,
+// kOutputColumns per wall (lo wall first): interference w, normal force, |tangential force|,
+// max interference, residual interference, branch of the law.
 #ifdef FIX_CLASS
 // clang-format off
 FixStyle(wall/geocontact,FixWallGeocontact);
@@ -47,17 +49,20 @@ namespace LAMMPS_NS {
 class FixWallGeocontact : public Fix {
  public:
   // doubles per wall record: 13 law slots, 3 tangential components, the active flag, 3 rolling
-  // components, the twist angle (layout version 1: the first 17 of them)
-  static constexpr int kRecordSize = 21;
+  // components, the twist angle, the contact radius (layout version 1: the first 17 of them,
+  // version 2: the first 21)
+  static constexpr int kRecordSize = 22;
   static constexpr int kRecordSizeV1 = 17;
+  static constexpr int kRecordSizeV2 = 21;
   static constexpr int kOutputColumns = 6;
   // Restart layouts, bumped whenever a packed record changes: per atom [length, tag, walls,
   // records], the tag "GCWA" in the high and the version in the low 32 bits; global [tag
   // "GCWG" + version, time origin, wall position and velocity of the position variable and its
   // step, dissipated energy of forgotten contacts, walls]. Version 2 adds rolling and twist to
-  // the per-atom records (the global layout is unchanged); version 1 is still read, with them
-  // at zero.
-  static constexpr int kRestartLayoutVersion = 2;
+  // the per-atom records, version 3 the contact radius (the global layout is unchanged);
+  // versions 1 and 2 are still read, with what they lack at zero (the contact radius: from the
+  // law state).
+  static constexpr int kRestartLayoutVersion = 3;
   static constexpr int64_t kAtomTagBase = static_cast<int64_t>(0x41574347) << 32;
   static constexpr int64_t kAtomTag = kAtomTagBase | kRestartLayoutVersion;
   static constexpr int64_t kAtomTagV1 = kAtomTagBase | 1;
@@ -91,7 +96,11 @@ class FixWallGeocontact : public Fix {
   enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3 };
   enum Motion { STATIC, WIGGLE, VELOCITY, POSITION, SHEAR };
   enum Side { LO, HI, CYLINDER };
-  enum Global { GF_X, GF_Y, GF_Z, G_DISSIPATED, G_ELASTIC, G_CONTACTS, G_COUNT };
+  // the sums over ranks come first (compute_vector)
+  enum Global {
+    GF_X, GF_Y, GF_Z, G_DISSIPATED, G_ELASTIC, G_CONTACTS, G_MAX_STIFFNESS, G_CRITICAL_DT,
+    G_COUNT
+  };
 
   struct WallRecord {
     geocontact::ContactState law;  // in the calibrated spheres' units, at d = 2 w / s
@@ -99,6 +108,7 @@ class FixWallGeocontact : public Fix {
     int active;                    // 1 while the atom is within the skin of the wall
     double rolling[3];             // rolling displacement (m)
     double twist;                  // twist angle (rad)
+    double contact_radius;         // a of the last step (run lengths); < 0: not known
   };
 
   void parse_wall(int &iarg, int narg, char **arg);
@@ -106,9 +116,11 @@ class FixWallGeocontact : public Fix {
   double wall_displacement(double &velocity);
   void check_atoms();
   static int pack_record(const WallRecord &r, double *buf);
-  static int unpack_record(WallRecord &r, const double *buf, bool with_rolling = true);
+  static int unpack_record(WallRecord &r, const double *buf,
+                           int layout_version = kRestartLayoutVersion);
 
   geocontact::LawParams law_;
+  geocontact_forces::StiffnessConstants constants_;  // the law in the run's units
   double friction_, damping_;
   geocontact_forces::RollingCoeffs resistance_;
   int wallstyle_;
@@ -132,6 +144,7 @@ class FixWallGeocontact : public Fix {
   double tally_[G_COUNT];            // this rank's sums at the last post_force
   double totals_[G_COUNT];
   bool totals_current_;
+  double max_stiffness_ = 0.0;       // this rank's stiffest wall contact at the last post_force
 
   bool unreadable_restart_;
   int64_t unreadable_tag_;

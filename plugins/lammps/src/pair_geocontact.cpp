@@ -36,17 +36,6 @@ constexpr int kRestartTag = 0x53504347;
 // without them.
 constexpr int kRestartLayoutVersion = 3;
 
-// Grains of any size by similarity (docs/model.md §10): two spheres of radii ri, rj behave as two
-// identical spheres of radius r_eq = 2 ri rj / (ri + rj) (exact for Hertz, and for the
-// elastic-plastic problem while the contact is small against both), and spheres of radius
-// r = s R as the calibrated spheres of radius R scaled by s: F_r(d) = s^2 F_R(d / s), every
-// approach (and the law's state) s times, energies s^3 times. The contact's state is kept in
-// the calibrated spheres' units.
-inline double similarity_scale(double ri, double rj, double calibrated_radius)
-{
-  return 2.0 * ri * rj / ((ri + rj) * calibrated_radius);
-}
-
 }  // namespace
 
 PairGeocontact::PairGeocontact(LAMMPS *lmp) : Pair(lmp)
@@ -123,7 +112,8 @@ int PairGeocontact::add_law(const std::string &text, const std::string &source)
   for (size_t k = 0; k < law_texts_.size(); ++k)
     if (law_texts_[k] == text) return static_cast<int>(k);
   laws_.push_back(parse_law(lmp, text, source, "pair_coeff geocontact"));
-  stiffness_constants_.push_back(stiffness_constants(laws_.back()));
+  stiffness_constants_.push_back(
+      stiffness_constants(laws_.back(), run_units(lmp, "Pair geocontact")));
   law_texts_.push_back(text);
   return static_cast<int>(laws_.size()) - 1;
 }
@@ -253,7 +243,7 @@ double PairGeocontact::init_one(int i, int j)
   coeffs_[j][i] = coeffs_[i][j];
   // grains touch when their centres are closer than the sum of their radii: the largest pair
   // of the two types (the parameter file's radius if no atom of a type exists yet)
-  const double fallback = laws_[coeffs_[i][j].law].material.radius;
+  const double fallback = stiffness_constants_[coeffs_[i][j].law].calibrated_radius;
   const double ri = type_max_radius_[i] > 0.0 ? type_max_radius_[i] : fallback;
   const double rj = type_max_radius_[j] > 0.0 ? type_max_radius_[j] : fallback;
   return ri + rj;
@@ -307,6 +297,7 @@ void PairGeocontact::index_contacts()
       } else if (table[k].energy_scale > 0.0) {
         const ContactRecord &gone = table[k];
         departed += 0.5 * gone.energy_scale *
+                    stiffness_constants_[gone.law_index].energy_to_run *
                     geocontact::dissipated_energy(laws_[gone.law_index], gone.law);
       }
     }
@@ -374,11 +365,12 @@ void PairGeocontact::sync_mirrors()
 // The contact's share of the global energy tallies (compute pair geocontact): each contact
 // once, whole if both grains are owned here, half if shared with another rank.
 void PairGeocontact::tally_contact(const geocontact::LawParams &law,
-                                   const geocontact::ContactState &state, double scale,
-                                   bool owned_pair)
+                                   const StiffnessConstants &constants,
+                                   const geocontact::ContactState &state,
+                                   const geocontact::Similarity &sim, bool owned_pair)
 {
   const double w = owned_pair ? 1.0 : 0.5;
-  const double energy_scale = scale * scale * scale;  // energies s^3
+  const double energy_scale = sim.energy * constants.energy_to_run;
   const double stored = energy_scale * geocontact::elastic_energy(law, state);
   pvector[GV_DISSIPATED] += w * (energy_scale * state.work - stored);
   pvector[GV_ELASTIC] += w * stored;
@@ -386,29 +378,57 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
 }
 
+// The stiffest contact of this step (energy steps only, as the other global outputs).
+void PairGeocontact::note_stiffness(double normal_stiffness)
+{
+  if (normal_stiffness > max_stiffness_) max_stiffness_ = normal_stiffness;
+}
+
+// The largest normal stiffness k_max over all ranks and the critical time step it implies for
+// the lightest grain: velocity Verlet on one contact of stiffness k between grains of reduced
+// mass m_eff is stable for omega dt < 2, omega = sqrt(k / m_eff) (sqrt(k ftm2v / m_eff) in the
+// run's units), and two of the lightest grains, mass m_min, have m_eff = m_min / 2:
+// dt_crit = 2 sqrt(m_min / (2 k_max)). Rank 0 carries both (compute pair sums over ranks);
+// 0 while no contact carries force.
+void PairGeocontact::finish_stiffness_outputs()
+{
+  double lightest = INFINITY;
+  const double *rmass = atom->rmass;
+  for (int i = 0; i < atom->nlocal; ++i) lightest = std::min(lightest, rmass[i]);
+  double local[2] = {max_stiffness_, -lightest}, all[2] = {0.0, 0.0};
+  MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_MAX, world);
+  max_stiffness_ = 0.0;
+  if (comm->me != 0) return;
+  const double k = all[0], m = -all[1];
+  pvector[GV_MAX_STIFFNESS] = k;
+  pvector[GV_CRITICAL_DT] =
+      k > 0.0 && std::isfinite(m) ? 2.0 * std::sqrt(0.5 * m / (k * force->ftm2v)) : 0.0;
+}
+
 // Normal and tangential force on grain i (and the opposite on j if owned here), with the
-// torques of the tangential force about each centre, -r (n x Ft), and the rolling and twisting
-// torque on i (the opposite on j).
+// torques of the tangential force about each centre, -(r - delta/2) (n x Ft) (contact_frame),
+// and the rolling and twisting torque on i (the opposite on j).
 void PairGeocontact::apply_contact_force(int i, int j, double fn, const double *ft,
                                          const double *n, const double *del, double energy,
-                                         const double *extra_torque)
+                                         const double *extra_torque, double half_overlap)
 {
   double **f = atom->f;
   double **torque = atom->torque;
   const double *radius = atom->radius;
   const int nlocal = atom->nlocal;
+  const double armi = radius[i] - half_overlap, armj = radius[j] - half_overlap;
   const double fx = fn * n[0] + ft[0], fy = fn * n[1] + ft[1], fz = fn * n[2] + ft[2];
   const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
                          n[0] * ft[1] - n[1] * ft[0]};
   f[i][0] += fx;
   f[i][1] += fy;
   f[i][2] += fz;
-  for (int k = 0; k < 3; ++k) torque[i][k] += extra_torque[k] - radius[i] * tor[k];
+  for (int k = 0; k < 3; ++k) torque[i][k] += extra_torque[k] - armi * tor[k];
   if (j < nlocal) {
     f[j][0] -= fx;
     f[j][1] -= fy;
     f[j][2] -= fz;
-    for (int k = 0; k < 3; ++k) torque[j][k] -= extra_torque[k] + radius[j] * tor[k];
+    for (int k = 0; k < 3; ++k) torque[j][k] -= extra_torque[k] + armj * tor[k];
   }
   if (evflag) ev_tally_xyz(i, j, nlocal, 0, energy, 0.0, fx, fy, fz, del[0], del[1], del[2]);
 }
@@ -463,7 +483,9 @@ void PairGeocontact::compute(int eflag, int vflag)
       const int jtype = type[j];
       const TypePairLaw &tp = coeffs_[itype][jtype];
       const geocontact::LawParams &law = laws_[tp.law];
-      const double scale = similarity_scale(radi, radius[j], law.material.radius);
+      const StiffnessConstants &constants = stiffness_constants_[tp.law];
+      const geocontact::Similarity sim =
+          geocontact::pair_similarity(radi, radius[j], constants.calibrated_radius);
 
       // the record itself when the step commits (most calls), a scratch copy in setup
       ContactRecord scratch;
@@ -471,60 +493,40 @@ void PairGeocontact::compute(int eflag, int vflag)
       if (!known) {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
-        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
-        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
-        rec.twist = 0.0;
+        clear_springs(rec);
+      } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
+        rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
       }
       const double r = std::sqrt(rsq);
-      const geocontact::StepResult res = geocontact::step(law, rec.law, (radsum - r) / scale);
-      rec.energy_scale = scale * scale * scale;
+      const double overlap = radsum - r;
+      const double rinv = 1.0 / r;
+      const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
+      const double half = 0.5 * overlap;  // the contact plane halves the overlap
+      const ContactGeometry geometry{overlap, sim, n, v[i], v[j], omega[i], omega[j],
+                                     radi - half, radius[j] - half, radi * radius[j] / radsum,
+                                     reduced_mass(rmass[i], rmass[j])};
+      const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
+      const ContactResult res =
+          contact_step(law, constants, cc, rec, geometry, dt, commit);
+      rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
-      const double law_force = scale * scale * res.force;
-
-      double fn = 0.0, ft[3] = {0.0, 0.0, 0.0}, extra[3] = {0.0, 0.0, 0.0};
-      ContactFrame frame{};
-      if (law_force > 0.0) {
-        const double rinv = 1.0 / r;
-        const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
-        frame = contact_frame(n, v[i], v[j], omega[i], omega[j], radi, radius[j]);
-        const ContactStiffness stiffness =
-            contact_stiffness(law, stiffness_constants_[tp.law], rec.law, scale);
-        const double meff = reduced_mass(rmass[i], rmass[j]);
-        const Damping damping = damping_coefficients(tp.damping, meff, stiffness);
-        fn = damped_normal_force(law_force, damping.normal, frame.vn);
-        // setup: the stored spring, not advanced (LAMMPS's granular models with the history
-        // update off), so the force is the one the last committed step ended with
-        if (tp.friction > 0.0)
-          tangential_force(rec.tangential, ft, frame, stiffness.tangential, damping.tangential,
-                           tp.friction, fn, commit ? dt : 0.0);
-        const RollingCoeffs &rc = tp.resistance;
-        if (rc.rolling) {
-          const double reff = radi * radius[j] / radsum;
-          rolling_torque(rec.rolling, extra, rc, n, omega[i], omega[j], reff, fn, dt, commit);
-        }
-        if (rc.twisting) {
-          double twist[3];
-          twisting_torque(rec.twist, twist, n, omega[i], omega[j], stiffness.tangential,
-                          damping.tangential, tp.friction, stiffness.radius, fn, dt, commit);
-          for (int c = 0; c < 3; ++c) extra[c] += twist[c];
-        }
-      } else {
-        rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
-        rec.rolling[0] = rec.rolling[1] = rec.rolling[2] = 0.0;
-        rec.twist = 0.0;
-      }
+      if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
+      const double fn = res.fn;
+      const double *ft = res.ft;
 
       if (commit) {
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }
-      if (eflag_global) tally_contact(law, rec.law, scale, j < nlocal);
+      if (eflag_global) tally_contact(law, constants, rec.law, sim, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
       const double energy =
-          eflag ? scale * scale * scale * geocontact::elastic_energy(law, rec.law) : 0.0;
-      apply_contact_force(i, j, fn, ft, frame.n, del, energy, extra);
+          eflag ? sim.energy * constants.energy_to_run * geocontact::elastic_energy(law, rec.law)
+                : 0.0;
+      apply_contact_force(i, j, fn, ft, n, del, energy, res.torque, half);
     }
   }
+  if (eflag_global) finish_stiffness_outputs();
 }
 
 double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
@@ -537,24 +539,29 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
   const int slot = FixGeocontactHistory::find(history_->tables[i], atom->tag[j]);
   if (slot < 0) return 0.0;
   const ContactRecord &rec = history_->tables[i][slot];
-  const geocontact::LawParams &law = laws_[coeffs_[itype][jtype].law];
+  const int law_index = coeffs_[itype][jtype].law;
+  const geocontact::LawParams &law = laws_[law_index];
+  const StiffnessConstants &c = stiffness_constants_[law_index];
   const geocontact::ContactState &st = rec.law;
-  // the state is in the calibrated spheres' units: approaches s, forces s^2, energies s^3
-  const double s = similarity_scale(atom->radius[i], atom->radius[j], law.material.radius);
-  const double s2 = s * s, s3 = s2 * s;
+  // the state is in the calibrated spheres' SI units: approaches s, forces s^2, energies s^3,
+  // then in the run's units
+  const geocontact::Similarity sim =
+      geocontact::pair_similarity(atom->radius[i], atom->radius[j], c.calibrated_radius);
+  const double length = sim.scale * c.length_to_run, force = sim.force * c.force_to_run;
+  const double energy = sim.energy * c.energy_to_run;
   const double r = std::sqrt(rsq);
-  fforce = r > 0.0 ? s2 * st.force / r : 0.0;
-  svector[SV_APPROACH] = s * st.approach;
-  svector[SV_NORMAL_FORCE] = s2 * st.force;
+  fforce = r > 0.0 ? force * st.force / r : 0.0;
+  svector[SV_APPROACH] = length * st.approach;
+  svector[SV_NORMAL_FORCE] = force * st.force;
   svector[SV_TANGENTIAL_FORCE] = std::sqrt(dot3(rec.tangential, rec.tangential));
-  svector[SV_MAX_APPROACH] = s * (st.max_approach + st.ratchet_shift);
-  svector[SV_RESIDUAL_APPROACH] = s * (st.residual_approach + st.ratchet_shift);
+  svector[SV_MAX_APPROACH] = length * (st.max_approach + st.ratchet_shift);
+  svector[SV_RESIDUAL_APPROACH] = length * (st.residual_approach + st.ratchet_shift);
   svector[SV_BRANCH] = st.branch;
   svector[SV_CYCLES] = st.cycles;
-  svector[SV_WORK] = s3 * st.work;
-  svector[SV_DISSIPATED] = s3 * geocontact::dissipated_energy(law, st);
-  svector[SV_CONTACT_RADIUS] = s * geocontact::contact_radius(law, st);
-  return s3 * geocontact::elastic_energy(law, st);
+  svector[SV_WORK] = energy * st.work;
+  svector[SV_DISSIPATED] = energy * geocontact::dissipated_energy(law, st);
+  svector[SV_CONTACT_RADIUS] = length * geocontact::contact_radius(law, st);
+  return energy * geocontact::elastic_energy(law, st);
 }
 
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so

@@ -12,6 +12,9 @@
 // force (Coulomb). Optional viscous damping: ratio beta of the critical damping of the contact's
 // unloading (normal) and Mindlin (tangential) stiffness. Optional rolling and twisting
 // resistance as LAMMPS's pair granular `rolling sds` and `twisting marshall` (contact_forces.h).
+// The tangential force is rescaled by a / a_prev when the contact radius falls (no spring gains
+// energy) and acts at r - delta/2 from each centre. Units: the law file is SI and is converted to
+// the run's unit style (si, cgs, micro, nano, metal, real, electron; lj is refused).
 #ifdef PAIR_CLASS
 // clang-format off
 PairStyle(geocontact,PairGeocontact);
@@ -54,8 +57,11 @@ class PairGeocontact : public Pair {
     SV_BRANCH, SV_CYCLES, SV_WORK, SV_DISSIPATED, SV_CONTACT_RADIUS, SV_COUNT
   };
   // global values (compute pair geocontact, summed over ranks)
+  // [5] the largest normal contact stiffness (force/length) and [6] the critical time step it
+  // implies for the lightest grain (time; finish_stiffness_outputs)
   enum GlobalValue {
-    GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_COUNT
+    GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_MAX_STIFFNESS,
+    GV_CRITICAL_DT, GV_COUNT
   };
 
  protected:
@@ -71,14 +77,20 @@ class PairGeocontact : public Pair {
   void index_contacts();
   void sync_mirrors();
   int add_law(const std::string &text, const std::string &source);
-  void tally_contact(const geocontact::LawParams &law, const geocontact::ContactState &state,
-                     double scale, bool owned_pair);
+  void tally_contact(const geocontact::LawParams &law,
+                     const geocontact_forces::StiffnessConstants &constants,
+                     const geocontact::ContactState &state, const geocontact::Similarity &sim,
+                     bool owned_pair);
+  void note_stiffness(double normal_stiffness);
+  void finish_stiffness_outputs();
   void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
-                           const double *del, double energy, const double *extra_torque);
+                           const double *del, double energy, const double *extra_torque,
+                           double half_overlap);
 
   FixGeocontactHistory *history_;
   std::vector<geocontact::LawParams> laws_;
-  std::vector<geocontact_forces::StiffnessConstants> stiffness_constants_;  // per law
+  // per law: its numbers in the run's units (contact_forces.h)
+  std::vector<geocontact_forces::StiffnessConstants> stiffness_constants_;
   std::vector<std::string> law_texts_;  // the parameter documents, for restart files
   TypePairLaw **coeffs_;
   double *type_max_radius_;             // largest radius of each type's atoms (m): cutoffs
@@ -93,6 +105,7 @@ class PairGeocontact : public Pair {
   // separated beyond the neighbor skin), summed over all ranks: compute pair geocontact's [1]
   // adds it, so the total never falls when a contact leaves the neighbor list.
   double departed_dissipation_ = 0.0;
+  double max_stiffness_ = 0.0;  // this rank's stiffest contact since the last energy step
 };
 
 }  // namespace LAMMPS_NS

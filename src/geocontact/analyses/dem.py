@@ -218,6 +218,16 @@ def read_run(path: Path) -> dict[str, str]:
     return {r[0]: r[1] if len(r) > 1 else "" for r in rows}
 
 
+def critical_timestep(run: dict[str, str]) -> dict:
+    """The smallest critical time step of geocontact's contacts seen at the checks of
+    examples/lammps/timestep.lmp (None without geocontact contacts) and the step of its warning
+    (None if dt stayed below dtsafe times it)."""
+    value = float(run.get("critical_timestep_min_s", "inf"))
+    warning = run.get("timestep_warning_step")
+    return {"critical_timestep_min_s": value if value < 1e300 else None,
+            "timestep_warning_step": int(warning) if warning is not None else None}
+
+
 def read_contacts(path: Path) -> np.ndarray:
     """The last snapshot of ``dump local``: rows of (approach, largest, residual approach)."""
     lines = path.read_text().splitlines()
@@ -296,6 +306,7 @@ def parse_run(folder: Path, settings: Settings) -> dict:
         "timestep_s": float(run["timestep_s"]),
         "hertz_time_s": float(run["hertz_time_s"]),
         "rayleigh_time_s": float(run["rayleigh_time_s"]),
+        **critical_timestep(run),
         "side_m": side,
         "reference_height_m": h_ref,
         "reference_stress_Pa": leg_value(reference, "stress"),

@@ -43,7 +43,15 @@ import numpy as np
 
 from ..errors import GeocontactError, InputError
 from ..files import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
-from .dem import SCHEMA, check_run, check_sample, read_run, read_table, run_lammps
+from .dem import (
+    SCHEMA,
+    check_run,
+    check_sample,
+    critical_timestep,
+    read_run,
+    read_table,
+    run_lammps,
+)
 from .lammps_plugin import plugin_path
 
 TEST = "seismic"
@@ -232,6 +240,7 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
         "shaking_steps": int(run["steps_total"]) - start,
         "timestep_s": dt,
         "hertz_time_s": float(run["hertz_time_s"]),
+        **critical_timestep(run),
         "steps_per_sample": int(run["steps_per_sample"]),
         "timescale": timescale,
         "simulated_duration_s": duration / timescale,

@@ -201,6 +201,33 @@ NB_MODULE(_core, m)
   m.def("parse_params", &geocontact::parse_params, "text"_a, "source"_a = "parameters",
         "A `geocontact.law/1` document read and validated by params.hpp.");
 
+  // the similarity rule of law.hpp (docs/model.md §10), its one owner: grains of any size
+  using geocontact::Similarity;
+  nb::class_<Similarity>(m, "Similarity",
+                         "A contact's similarity to the calibrated pair (law.hpp, docs/model.md §10).")
+      .def_ro("scale", &Similarity::scale)
+      .def_ro("approach", &Similarity::approach)
+      .def_ro("force", &Similarity::force)
+      .def_ro("stiffness", &Similarity::stiffness)
+      .def_ro("energy", &Similarity::energy);
+  m.def("pair_similarity", &geocontact::pair_similarity, "r1"_a, "r2"_a, "calibrated_radius"_a,
+        "Two grains of radii r1, r2: s = 2 r1 r2 / ((r1 + r2) R).");
+  m.def("wall_similarity", &geocontact::wall_similarity, "r"_a, "calibrated_radius"_a,
+        "A grain of radius r on a rigid flat (the FE half model): s = r / R, approach 2 w / s.");
+  m.def(
+      "pair_similarity_scales",
+      [](Approach r1, Approach r2, double calibrated_radius,
+         nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> out) {
+        const std::size_t n = out.shape(0);
+        if (r1.shape(0) != n || r2.shape(0) != n)
+          throw nb::value_error("pair_similarity_scales: r1, r2 and out differ in length");
+        for (std::size_t k = 0; k < n; ++k)
+          out.data()[k] =
+              geocontact::pair_similarity(r1.data()[k], r2.data()[k], calibrated_radius).scale;
+      },
+      "r1"_a, "r2"_a, "calibrated_radius"_a, "out"_a,
+      "pair_similarity(r1[k], r2[k], R).scale into out[k].");
+
   auto contacts = nb::class_<Contacts>(m, "Contacts");
   contacts
       .def(

@@ -247,7 +247,8 @@ class ContactArrays:
 
 
 def _scales(params: LawParams | None, radii, n: int) -> np.ndarray:
-    """s = r / R per contact, checked (one radius, or one per contact, each > 0)."""
+    """s = r / R per contact (two grains of radius r: law.hpp's pair_similarity), checked (one
+    radius, or one per contact, each > 0)."""
     if params is None:
         raise InputError("radii: the Hertz floor takes no radii (build it for the material)")
     try:
@@ -257,7 +258,9 @@ def _scales(params: LawParams | None, radii, n: int) -> np.ndarray:
                          f"{np.shape(radii)}") from None
     if not np.all(np.isfinite(r) & (r > 0.0)):
         raise InputError("radii: every radius must be a finite number of metres > 0")
-    return r / params.material.radius
+    scales = np.empty(n)
+    _core.pair_similarity_scales(r, r, params.material.radius, scales)  # law.hpp owns the rule
+    return scales
 
 
 def _check_threads(threads) -> None:

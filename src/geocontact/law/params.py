@@ -36,6 +36,7 @@ from ..files import read_text_input, write_text_atomic
 from ..grain.hertz import hertz_coefficient
 from ..grain.material import Material
 from ..schema import finite_number
+from . import _core
 from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
@@ -367,7 +368,8 @@ class LawParams:
 
         radius = finite_number("radius", radius)
         material = self.material.with_(radius=radius)  # the material's own radius range
-        s = radius / self.material.radius
+        # two grains of radius r: law.hpp's similarity rule, its one owner (the binding)
+        s = _core.pair_similarity(radius, radius, self.material.radius).scale
         similarity = {"from_radius_m": self.material.radius, "scale": s,
                       "rule": "F_r(d) = s^2 F_R(d / s), s = r / R (docs/model.md §10)"}
         return replace(self, material=material, yield_approach=s * self.yield_approach,

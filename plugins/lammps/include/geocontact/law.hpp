@@ -814,6 +814,38 @@ inline void refresh_envelope(const LawParams &p, State &s)
   s.cycles = cycles;
 }
 
+// --- similarity: grains of any size (docs/model.md §10) ----------------------------------------
+//
+// The rate-independent continuum problem has no length scale, so two spheres of radius r = s R
+// behave as the calibrated pair of radius R scaled by s: F_r(d) = s^2 F_R(d / s), approaches
+// (and the law's state) s times, stiffnesses s, energies s^3. Two grains of radii r1, r2 act as
+// two identical spheres of radius r_eq = 2 r1 r2 / (r1 + r2) (exact for Hertz; for the
+// elastic-plastic problem while the contact is small against both): s = r_eq / R. A grain of
+// radius r on a rigid flat at interference w is one half of the pair of two such grains at
+// d = 2 w (the FE half model; the pair's symmetry plane is the flat): s = r / R, the calibrated
+// approach 2 w / s, F = s^2 F_R, dF/dw twice the pair's, energies (the work of F over w) half.
+// The contact radius is the pair's, s a_R, in both. The one owner of the rule: the LAMMPS
+// plugin and the Python kernel (through the binding) call these.
+struct Similarity {
+  double scale;      // s
+  double approach;   // calibrated approach per unit of the contact's overlap: 1/s (wall: 2/s)
+  double force;      // s^2
+  double stiffness;  // dF/d(overlap) per calibrated dF/dd: s (wall: 2 s)
+  double energy;     // s^3 (wall: s^3 / 2)
+};
+
+inline Similarity pair_similarity(double r1, double r2, double calibrated_radius)
+{
+  const double s = 2.0 * r1 * r2 / ((r1 + r2) * calibrated_radius);
+  return {s, 1.0 / s, s * s, s, s * s * s};
+}
+
+inline Similarity wall_similarity(double r, double calibrated_radius)
+{
+  const double s = r / calibrated_radius;
+  return {s, 2.0 / s, s * s, 2.0 * s, 0.5 * s * s * s};
+}
+
 // --- diagnostics of a contact state ---------------------------------------------------------
 
 // Energy unloading from here would give back: E = F (d' - d_res) / (n_u + 1) (docs/law.md).
