@@ -12,10 +12,12 @@ with two of its pieces replaced, the equations unchanged:
   (tests/test_fem_kernels.py);
 - the bordered system of a contact set is assembled by ``_kernels.scatter`` straight from the
   element matrices through one precomputed map (element entry -> position in the reduced CSC
-  data, with the sign of u_top = -w), and factorised by ``factoriser``: "umfpack" or "klu"
-  (``geocontact.fem._sparse_lu``, SuiteSparse, the symbolic analysis of the contact set's
-  pattern done once and reused by every iteration), "pardiso" (Intel MKL PARDISO through
-  pypardiso, if installed) or "superlu" (today's :func:`~geocontact.fem.solver._lu`).
+  data, with the sign of u_top = -w), and factorised by ``factoriser``: "cholmod" (default:
+  the engine's CHOLMOD LDL^T, :func:`~geocontact.fem.solver.factorise`, the tangent being
+  symmetric to round-off), "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
+  "pardiso" or "pardiso-sym" (Intel MKL PARDISO's LU or LDL^T through pypardiso, if installed)
+  or "superlu" (the numpy path's :func:`~geocontact.fem.solver._lu`); all but SuperLU keep
+  the symbolic analysis of a contact set's pattern and reuse it at every iteration.
 
 Everything else (contact, load control, the predictor with its cached CHOLMOD factorisation,
 outputs) is the engine's own. The results equal the numpy path's within the Newton tolerance,
