@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
 	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
-	test-plugin ccx chromium check-figures cholmod calibrate-weak-finite \
+	test-plugin ccx chromium check-figures cholmod suitesparse calibrate-weak-finite \
 	calibrate-weak-finite-coarse paper-histories-finite
 
 $(PY):
@@ -16,7 +16,8 @@ $(PY):
 
 # The editable install builds the law's compiled core (CMakeLists.txt: the C++ header bound with
 # nanobind, incrementally in build/python); a change of any of its sources reinstalls.
-CORE_SOURCES := CMakeLists.txt src/geocontact/law/_core.cpp $(wildcard plugins/lammps/include/geocontact/*.hpp) \
+CORE_SOURCES := CMakeLists.txt src/geocontact/law/_core.cpp src/geocontact/fem/_kernels.cpp \
+  src/geocontact/fem/_sparse_lu.cpp $(wildcard plugins/lammps/include/geocontact/*.hpp) \
   src/geocontact/data/law-schema.json $(wildcard plugins/lammps/cmake/*)
 
 # The editable install maps the package's modules where it found them: a module added, moved or
@@ -27,9 +28,18 @@ $(shell mkdir -p $(VENV) && find src/geocontact -name '*.py' | LC_ALL=C sort > $
   && (cmp -s $(PY_FILES).now $(PY_FILES) || mv $(PY_FILES).now $(PY_FILES)); rm -f $(PY_FILES).now)
 
 $(STAMP): pyproject.toml $(CORE_SOURCES) $(PY_FILES) | $(PY)
+	$(MAKE) --no-print-directory suitesparse
 	$(PY) -m pip install -q -e ".[fem,campaign,seismic,test]"
 	$(MAKE) --no-print-directory cholmod
 	touch $(STAMP)
+
+# SuiteSparse (Debian/Ubuntu libsuitesparse-dev) before the package is built: CHOLMOD below, and
+# UMFPACK/KLU for geocontact.fem._sparse_lu (CMakeLists.txt builds it only when they are found).
+suitesparse:
+	test -f /usr/include/suitesparse/cholmod.h \
+	  || (apt-get update && apt-get install -y libsuitesparse-dev) \
+	  || (sudo apt-get update && sudo apt-get install -y libsuitesparse-dev) \
+	  || echo "note: libsuitesparse-dev not installed; the FE uses SuperLU (same results, slower)"
 
 # CHOLMOD (SuiteSparse), the FE's factorisation (docs/benchmarks.md), through scikit-sparse built
 # on the Debian/Ubuntu libsuitesparse-dev (the 0.4 line: 0.5 needs SuiteSparse 7). Without it the

@@ -2,7 +2,7 @@
 
 Writes out/bench/*.json and the results table of docs/benchmarks.md.
 Usage: python benchmarks/run.py [law] [lammps] [lammps_poly] [lammps_wall] [fem] [ccx]
-       [fem_finite] [ccx_nlgeom] [--quick]
+       [fem_finite] [ccx_nlgeom] [fem_kernels] [--quick]
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def main(argv: list[str]) -> int:
     quick = "--quick" in argv
     names = ([a for a in argv if not a.startswith("--")]
              or ["law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx", "fem_finite",
-                 "ccx_nlgeom"])
+                 "ccx_nlgeom", "fem_kernels"])
     if "law" in names:
         import bench_law
 
@@ -58,6 +58,10 @@ def main(argv: list[str]) -> int:
         import bench_ccx
 
         bench_ccx.main_nlgeom(quick=quick)
+    if "fem_kernels" in names:
+        import bench_fem_kernels
+
+        bench_fem_kernels.main(mesh="coarse" if quick else "default")
     write_table()
     return 0
 

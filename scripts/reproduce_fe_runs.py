@@ -1,6 +1,6 @@
 """Run committed FE runs again with the current FE code and compare them bit for bit.
 
-The evidence behind an entry of ``fem.reuse.REPRODUCED_FE_CODE`` (older FE sources whose
+The evidence behind an entry of ``fem.identity.REPRODUCED_FE_CODE`` (older FE sources whose
 finished runs the current sources reproduce): a change that only acts where the older code gave
 up must leave every run that finished under it as it was. This script takes finished runs of a
 committed campaign folder (``datasets/fe-runs/<campaign>``; the cheapest first, or the ones
@@ -56,6 +56,7 @@ def rerun(folder: Path, out: Path):
         kinematics=inputs.get("kinematics", "small"),
         step_rule=inputs.get("step_rule", "segment"),
         max_step_ratio=inputs.get("max_step_ratio"), contact=inputs.get("contact", "node"),
+        kernels=inputs.get("kernels", "numpy"),
         resume=True, write_fields=False,
         overwrite=True, progress=True)
 

@@ -32,6 +32,7 @@ import numpy as np
 from ..errors import InputError
 from ..grain.force_history import validate_forces
 from ..grain.material import Material
+from .compiled import KERNELS
 from .mesh import MESH_RULES, mesh_preset
 from .result import (
     CURVE_COLUMNS,
@@ -74,7 +75,23 @@ _CODE_ONLY = ("the FE hash reads the sources' code (their syntax trees without d
               "modules were moved (material, hertz, force_history to grain, resolution "
               "to fem.roundoff, io to files) and their comments edited, with every syntax tree the "
               "same as at 209c6c5f6f7c038c (checked with this function on both trees)")
+_COMPILED_KERNELS = ("the opt-in compiled finite-strain kernels added (kernels='compiled', "
+                     "fem/compiled.py; recorded in the identity as kernels): fem.run._solver "
+                     "builds the numpy path's solvers as before")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
+    "07275231518417f5": {
+        "f7594263f80ad0d4": _COMPILED_KERNELS,
+        "209c6c5f6f7c038c": _COMPILED_KERNELS + "; " + _CODE_ONLY,
+        "00df7dcdec639962": _COMPILED_KERNELS + "; " + _CODE_ONLY + "; " + _DENSE_RULE,
+        "0fb388b18c5a441f": _COMPILED_KERNELS + "; " + _CODE_ONLY + "; " + _DENSE_RULE + "; "
+                            + _NAN_ITERATE,
+        "51d4fb8435749d12": _COMPILED_KERNELS + "; " + _CODE_ONLY + "; " + _DENSE_RULE + "; "
+                            + _NAN_ITERATE + ", the facet contact with finite strain allowed",
+        "4f8939b91af98a9d": _COMPILED_KERNELS + "; " + _CODE_ONLY + "; " + _DENSE_RULE + "; "
+                            + _NAN_ITERATE + ", the opt-in facet contact added",
+        "4919b4f465169f88": _COMPILED_KERNELS + "; " + _CODE_ONLY + "; " + _DENSE_RULE + "; "
+                            + _NAN_ITERATE + ", rescue mode and the opt-in facet contact added",
+    },
     "f7594263f80ad0d4": {
         "209c6c5f6f7c038c": _CODE_ONLY,
         "00df7dcdec639962": _CODE_ONLY + "; " + _DENSE_RULE,
@@ -201,6 +218,7 @@ class FeRunIdentity:
     step_rule: str = "segment"
     max_step_ratio: float | None = None
     contact: str = "node"
+    kernels: str = "numpy"
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse", *,
@@ -208,7 +226,8 @@ class FeRunIdentity:
            volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
            mesh_rule: str = "yield", kinematics: str = "small",
            step_rule: str = "segment",
-           max_step_ratio: float | None = None, contact: str = "node") -> FeRunIdentity:
+           max_step_ratio: float | None = None, contact: str = "node",
+           kernels: str = "numpy") -> FeRunIdentity:
         """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
         an input the FE would refuse."""
         forces = tuple(validate_forces(list(forces)))
@@ -223,9 +242,13 @@ class FeRunIdentity:
                                      ("mesh_rule", mesh_rule, MESH_RULES),
                                      ("kinematics", kinematics, KINEMATICS),
                                      ("step_rule", step_rule, STEP_RULES),
-                                     ("contact", contact, CONTACTS)):
+                                     ("contact", contact, CONTACTS),
+                                     ("kernels", kernels, KERNELS)):
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
+        if kernels == "compiled" and (kinematics != "finite" or contact != "node"):
+            raise InputError("kernels: 'compiled' is the finite-strain engine with the node "
+                             f"contact (got kinematics {kinematics!r}, contact {contact!r})")
         if max_step_ratio is not None and (
                 isinstance(max_step_ratio, bool)
                 or not isinstance(max_step_ratio, (int, float))
@@ -241,7 +264,7 @@ class FeRunIdentity:
                              f"got {mesh_force!r}")
         return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
                    float(mesh_force), mesh_rule, kinematics, step_rule,
-                   None if max_step_ratio is None else float(max_step_ratio), contact)
+                   None if max_step_ratio is None else float(max_step_ratio), contact, kernels)
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
@@ -264,6 +287,8 @@ class FeRunIdentity:
             extra["max_step_ratio"] = self.max_step_ratio
         if self.contact != "node":
             extra["contact"] = self.contact
+        if self.kernels != "numpy":
+            extra["kernels"] = self.kernels
         return extra
 
     def to_dict(self) -> dict[str, Any]:
@@ -297,6 +322,8 @@ class FeRunIdentity:
             settings.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
         if self.contact != "node":
             settings.append(f"{self.contact} contact")
+        if self.kernels != "numpy":
+            settings.append(f"{self.kernels} kernels")
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "

@@ -428,7 +428,9 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
 def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> ContactSolver:
     bbar, order = VOLUMETRIC[identity.volumetric]
     kind = ContactSolver
-    if identity.kinematics == "finite":
+    if identity.kernels == "compiled":  # opt-in (fem/compiled.py); the defaults' path unchanged
+        from .compiled import compiled_solver as kind
+    elif identity.kinematics == "finite":
         from .finite_strain import FiniteStrainSolver as kind
     if identity.contact != "node":  # the default's arguments as they were
         return kind(material, fe_mesh, force_scale=max(identity.forces),
@@ -461,6 +463,7 @@ def run_history(
     step_rule: str = "segment",
     max_step_ratio: float | None = None,
     contact: str = "node",
+    kernels: str = "numpy",
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
@@ -492,7 +495,10 @@ def run_history(
     solved through geometric sub-steps and recorded as before; summary.json ``step_control``).
     ``contact``: "node" (default, the exact node-to-flat constraint) or "facet" (a penalty
     contact integrated over the surface facets with the contact edge inside an element,
-    ``fem.facet_contact``; small or finite strain). All five are part of the run's identity.
+    ``fem.facet_contact``; small or finite strain). ``kernels``: "numpy" (default) or
+    "compiled" (finite strain, node contact: the compiled element kernels and the measured
+    factoriser of ``fem.compiled``, equal to the numpy path within the Newton tolerance). All
+    six are part of the run's identity.
     """
     from .identity import FeRunIdentity, finished_run
 
@@ -501,7 +507,8 @@ def run_history(
                                 tolerance=tolerance, volumetric=volumetric,
                                 mesh_force=mesh_force, mesh_rule=mesh_rule,
                                 kinematics=kinematics, step_rule=step_rule,
-                                max_step_ratio=max_step_ratio, contact=contact)
+                                max_step_ratio=max_step_ratio, contact=contact,
+                                kernels=kernels)
     forces, steps = list(identity.forces), identity.steps_per_segment
     if resume and out is not None and not keep_states:
         why: list[str] = []

@@ -1,0 +1,300 @@
+"""The finite-strain FE engine on compiled element kernels and a factorisation that fits its
+tangent (issue 36).
+
+:class:`CompiledFiniteStrainSolver` is :class:`~geocontact.fem.finite_strain.FiniteStrainSolver`
+with two of its pieces replaced, the equations unchanged:
+
+- the evaluation at a Newton iterate (``_evaluate``: kinematics with F-bar, the Hencky update
+  with the Drucker-Prager return mapping and its consistent tangent, internal force, element
+  matrices) is one call of ``geocontact.fem._kernels.finite_strain``, C++ written line by line
+  after the numpy of ``fem/finite_strain.py`` and ``fem/plasticity.py``, a loop over elements and
+  their points with no temporary arrays; it agrees with the numpy path to round-off
+  (tests/test_fem_kernels.py);
+- the bordered system of a contact set is assembled by ``_kernels.scatter`` straight from the
+  element matrices through one precomputed map (element entry -> position in the reduced CSC
+  data, with the sign of u_top = -w), and factorised by ``factoriser``: "cholmod" (default:
+  the engine's CHOLMOD LDL^T, :func:`~geocontact.fem.solver.factorise`, the tangent being
+  symmetric to round-off), "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
+  "pardiso" or "pardiso-sym" (Intel MKL PARDISO's LU or LDL^T through pypardiso, if installed)
+  or "superlu" (the numpy path's :func:`~geocontact.fem.solver._lu`); all but SuperLU keep
+  the symbolic analysis of a contact set's pattern and reuse it at every iteration.
+
+Everything else (contact, load control, the predictor with its cached CHOLMOD factorisation,
+outputs) is the engine's own. The results equal the numpy path's within the Newton tolerance,
+not bit for bit, so it is an opt-in (``run_history(kernels="compiled")``, recorded in the run's
+identity) and the engine's default stays the numpy path until the committed datasets are rerun
+with this one (docs/fem.md "Compiled kernels").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .finite_strain import FiniteStrainSolver
+from .solver import ContactSolver, State, _cholmod, _lu, _Reduced
+
+FACTORISERS = ("cholmod", "umfpack", "klu", "pardiso", "pardiso-sym", "superlu")
+# run_history(kernels=...): the numpy path of fem/finite_strain.py (default) or this module's
+KERNELS = ("numpy", "compiled")
+# The factoriser of kernels="compiled", the first available: CHOLMOD's LDL^T of the symmetric
+# tangent (what `make` installs). Measured on the 22 624-unknown tangent (docs/benchmarks.md
+# "Newton iteration"): PARDISO's LDL^T (pypardiso, not installed by `make`: ~1 GB of MKL) is
+# ~25 % faster, UMFPACK, KLU and SuperLU 2-3x slower. Not "whichever is installed", so that a
+# run's arithmetic does not depend on an optional package.
+PREFERRED_FACTORISERS = ("cholmod", "superlu")
+
+
+def kernels():
+    """The compiled kernels module (built with the package: CMakeLists.txt)."""
+    from . import _kernels
+
+    return _kernels
+
+
+def sparse_lu():
+    """``geocontact.fem._sparse_lu`` (UMFPACK, KLU), or None if it was not built (no
+    SuiteSparse at install time)."""
+    try:
+        from . import _sparse_lu
+    except ImportError:
+        return None
+    return _sparse_lu
+
+
+def available_factorisers() -> tuple[str, ...]:
+    names = ["cholmod"] if _cholmod() is not None else []
+    if sparse_lu() is not None:
+        names += ["umfpack", "klu"]
+    try:
+        import pypardiso  # noqa: F401
+
+        names += ["pardiso", "pardiso-sym"]
+    except ImportError:
+        pass
+    return (*names, "superlu")
+
+
+@dataclass
+class PointUpdate:
+    """The constitutive update at every point, as ``FiniteUpdate`` gives it to the solver."""
+
+    stress: np.ndarray  # (4, e, q) Kirchhoff
+    cp: np.ndarray  # (4, e, q) C_p^-1 - I
+    eqps: np.ndarray  # (e, q)
+    status: np.ndarray  # (e, q) int8
+    plastic_strain: np.ndarray  # (4, e, q) eps_e^trial - eps_e, the logarithmic increment
+
+
+@dataclass
+class _Plan:
+    """One contact set's bordered system: where each element-matrix entry goes, and its
+    factoriser (which keeps the symbolic analysis of the pattern)."""
+
+    reduced: _Reduced
+    slot: np.ndarray  # (e * 144,) position in the reduced CSC data, -1: not in the system
+    weight: np.ndarray  # (e * 144,) +-1 (u_top = -w)
+    factoriser: object = None
+
+
+class _Pardiso:
+    """pypardiso's solver for one pattern: analysis (phase 11) once, numeric factorisation
+    (phase 22) per matrix, solve (phase 33). PARDISO takes CSR: the CSC data of the system are
+    permuted into the CSR order of the same matrix (the permutation found once). ``symmetric``:
+    the symmetric indefinite mode (mtype -2, Bunch-Kaufman pivoting) on the upper triangle, half
+    the work of the LU (mtype 11) for the finite-strain tangent, symmetric to round-off."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, *, symmetric: bool = False):
+        import pypardiso
+
+        n = len(indptr) - 1
+        order = sp.csc_matrix((np.arange(len(indices), dtype=float), indices, indptr),
+                              shape=(n, n)).tocsr()
+        order.sort_indices()
+        if symmetric:
+            order = sp.triu(order, format="csr")
+            order.sort_indices()
+        self.order = order.data.astype(np.int64)  # CSR entry -> CSC entry
+        self.indptr, self.indices = order.indptr, order.indices
+        self.solver = pypardiso.PyPardisoSolver(mtype=-2 if symmetric else 11)
+        self.matrix = None
+        self.analysed = False
+
+    def factor(self, data: np.ndarray) -> bool:
+        n = len(self.indptr) - 1
+        self.matrix = sp.csr_matrix((data[self.order], self.indices, self.indptr), shape=(n, n))
+        dummy = np.zeros(n)
+        try:
+            if not self.analysed:
+                self.solver.set_phase(11)
+                self.solver._call_pardiso(self.matrix, dummy)
+                self.analysed = True
+            self.solver.set_phase(22)
+            self.solver._call_pardiso(self.matrix, dummy)
+        except Exception:  # pypardiso raises its own error class on a singular matrix
+            return False
+        return True
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        self.solver.set_phase(33)
+        return self.solver._call_pardiso(self.matrix, np.ascontiguousarray(rhs, dtype=float))
+
+
+class _Cholmod:
+    """CHOLMOD's simplicial LDL^T (scikit-sparse) as the engine's ``solver.factorise`` uses it,
+    for a symmetric matrix of one pattern: AMD analysis once, numeric factorisation per matrix."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
+        self.indptr, self.indices = indptr, indices
+        self.symbolic, self.factor_ = None, None
+
+    def factor(self, data: np.ndarray) -> bool:
+        analyze, errors = _cholmod()
+        n = len(self.indptr) - 1
+        matrix = sp.csc_matrix((data, self.indices, self.indptr), shape=(n, n))
+        try:
+            if self.symbolic is None:
+                self.symbolic = analyze(matrix, mode="simplicial", ordering_method="amd")
+            self.factor_ = self.symbolic.cholesky(matrix)
+        except errors:
+            return False
+        return True
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        return self.factor_.solve_A(rhs)
+
+
+def make_factoriser(name: str, indptr: np.ndarray, indices: np.ndarray):
+    """A factoriser object with ``factor(data) -> bool`` and ``solve(rhs)`` for one CSC
+    pattern (the symbolic analysis is made at the first ``factor`` and kept)."""
+    if name == "cholmod":
+        if _cholmod() is None:
+            raise ValueError("factoriser 'cholmod' needs scikit-sparse (make cholmod)")
+        return _Cholmod(indptr, indices)
+    if name in ("umfpack", "klu"):
+        module = sparse_lu()
+        if module is None:
+            raise ValueError(f"factoriser {name!r} needs geocontact.fem._sparse_lu (SuiteSparse "
+                             "at install time: make .venv/.installed)")
+        kind = module.Umfpack if name == "umfpack" else module.Klu
+        return kind(np.asarray(indptr, dtype=np.int64), np.asarray(indices, dtype=np.int64))
+    if name == "pardiso":
+        return _Pardiso(indptr, indices)
+    if name == "pardiso-sym":
+        return _Pardiso(indptr, indices, symmetric=True)
+    raise ValueError(f"factoriser must be one of {', '.join(FACTORISERS)}, got {name!r}")
+
+
+class CompiledFiniteStrainSolver(FiniteStrainSolver):
+    """The finite-strain solver on the compiled kernels (the module docstring). ``factoriser``
+    is set after construction (``solver.factoriser = "klu"``) or by :func:`compiled_solver`."""
+
+    factoriser: str = "cholmod"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self._grad0 = np.ascontiguousarray(self.G0.transpose(2, 3, 1, 0))  # (e, q, 5, 12)
+        self._dofs = np.ascontiguousarray(self.element_dofs.T, dtype=np.int64)  # (e, 12)
+        self._projection = self._projection_matrices()
+        self._plans: dict[int, _Plan] = {}
+
+    def _projection_matrices(self) -> np.ndarray:
+        """The B-bar / F-bar projection of a point field as a matrix per element (e, q, q):
+        the P1 operator, the r-weighted mean (P0) or the identity (no projection)."""
+        dv = self.dvolume
+        e, q = dv.shape
+        if not self.bbar:
+            return np.ascontiguousarray(np.broadcast_to(np.eye(q), (e, q, q)))
+        if self.volumetric_order == 0:
+            weights = dv / np.sum(dv, axis=1, keepdims=True)
+            return np.ascontiguousarray(np.broadcast_to(weights[:, None, :], (e, q, q)))
+        return np.ascontiguousarray(self._projection_operator())
+
+    # --- the evaluation at an iterate -----------------------------------------------------
+    def _evaluate(self, old: State, u: np.ndarray, *, elastic: bool, tangent: bool = True):
+        e, q = self.dvolume.shape
+        update = PointUpdate(stress=np.empty((4, e, q)), cp=np.empty((4, e, q)),
+                             eqps=np.empty((e, q)), status=np.empty((e, q), dtype=np.int8),
+                             plastic_strain=np.empty((4, e, q)))
+        f_int = np.empty(self.ndofs)
+        local = np.empty((e, 12, 12) if tangent else (0, 12, 12))
+        m = self.model
+        kernels().finite_strain(
+            self._grad0, self._dofs, np.ascontiguousarray(u, dtype=float), self._projection,
+            self.dvolume, np.ascontiguousarray(old.strain), np.ascontiguousarray(old.eqps),
+            m.shear_modulus, m.bulk_modulus, m.tan_beta, m.yield_stress, m.hardening_modulus,
+            self.plastic and not elastic, update.stress, update.cp, update.eqps, update.status,
+            update.plastic_strain, f_int, local)
+        return update, f_int, (local if tangent else None)
+
+    def _dissipation(self, old: State, u: np.ndarray, stress: np.ndarray,
+                     strain: np.ndarray) -> float:
+        update = self._evaluate(old, u, elastic=False, tangent=False)[0]
+        return 0.5 * float(np.sum(np.sum((old.stress + stress) * update.plastic_strain, axis=0)
+                                  * self.dvolume))
+
+    # --- the linear system ----------------------------------------------------------------
+    def _plan(self, reduced: _Reduced) -> _Plan:
+        """The element-entry map of a contact set's bordered system (made once per set)."""
+        plan = self._plans.get(id(reduced))
+        if plan is not None and plan.reduced is reduced:
+            return plan
+        a = self._assembly
+        where = np.full(len(a.indices), -1, dtype=np.int64)  # global CSR entry -> kept entry
+        where[reduced.keep] = np.arange(len(reduced.keep))
+        kept = where[a.slot]
+        inside = kept >= 0
+        slot = np.where(inside, reduced.slot[np.where(inside, kept, 0)], -1).astype(np.int64)
+        weight = np.where(inside, reduced.weight[np.where(inside, kept, 0)], 0.0)
+        plan = _Plan(reduced=reduced, slot=slot, weight=weight)
+        live = {id(r) for r in self._reduced_maps.values()}
+        self._plans = {k: p for k, p in self._plans.items() if k in live}
+        self._plans[id(reduced)] = plan
+        return plan
+
+    def _bordered_data(self, local: np.ndarray, plan: _Plan) -> np.ndarray:
+        data = np.empty(plan.reduced.nnz)
+        kernels().scatter(local.reshape(-1), plan.slot, plan.weight, data)
+        return data
+
+    def _bordered_system(self, local: np.ndarray, reduced: _Reduced) -> sp.csc_matrix:
+        data = self._bordered_data(local, self._plan(reduced))
+        size = reduced.n + 1
+        return sp.csc_matrix((data, reduced.indices, reduced.indptr), shape=(size, size))
+
+    def _factor(self, local, reduced):
+        if local is self._cache.get("elastic_local") or self.factoriser == "superlu":
+            return super()._factor(local, reduced)  # the predictor's CHOLMOD, or SuperLU
+        if self.factoriser == "cholmod":  # LDL^T of the symmetric tangent (its symbolic
+            return ContactSolver._factor(self, local, reduced)  # analysis: the predictor's)
+        self.factorisations += 1
+        plan = self._plan(reduced)
+        if plan.factoriser is None:
+            plan.factoriser = make_factoriser(self.factoriser, reduced.indptr, reduced.indices)
+        data = self._bordered_data(local, plan)
+        if not (np.all(np.isfinite(data)) and plan.factoriser.factor(data)):
+            size = reduced.n + 1  # singular or not finite: SuperLU's verdict, as before
+            return _lu(sp.csc_matrix((data, reduced.indices, reduced.indptr),
+                                     shape=(size, size)))
+        return plan.factoriser.solve
+
+
+def default_factoriser() -> str:
+    available = available_factorisers()
+    return next(name for name in PREFERRED_FACTORISERS if name in available)
+
+
+def compiled_solver(material, mesh, *, factoriser: str | None = None,
+                    **kwargs) -> CompiledFiniteStrainSolver:
+    """A :class:`CompiledFiniteStrainSolver` with ``factoriser`` (one of ``FACTORISERS``;
+    default: :func:`default_factoriser`)."""
+    if factoriser is None:
+        factoriser = default_factoriser()
+    if factoriser not in FACTORISERS:
+        raise ValueError(f"factoriser must be one of {', '.join(FACTORISERS)}, "
+                         f"got {factoriser!r}")
+    solver = CompiledFiniteStrainSolver(material, mesh, **kwargs)
+    solver.factoriser = factoriser
+    return solver

@@ -1,0 +1,237 @@
+"""The compiled finite-strain kernels and factorisers (fem.compiled, issue 36): equal to the numpy
+path of fem.finite_strain to round-off at every point and in every element matrix (cone and apex
+returns, each volumetric treatment, from a virgin and from a plastic state), their tangent the
+derivative of their internal force (central differences), the bordered system and its
+factorisers (UMFPACK, KLU, PARDISO, SuperLU) the same solution, and load steps solved with them
+the same as with the numpy path within the Newton tolerance."""
+
+import numpy as np
+import pytest
+from test_fem_finite_strain import _large_deformation
+
+from geocontact.errors import InputError
+from geocontact.fem.compiled import (
+    CompiledFiniteStrainSolver,
+    available_factorisers,
+    compiled_solver,
+    make_factoriser,
+)
+from geocontact.fem.finite_strain import FiniteStrainSolver
+from geocontact.fem.identity import FeRunIdentity
+from geocontact.fem.mesh import build_mesh
+from geocontact.fem.plasticity import APEX, CONE
+from geocontact.fem.run import run_history
+from geocontact.grain.material import preset
+
+ROUND_OFF = 1e-13  # relative to the largest entry of each output
+
+
+@pytest.fixture(scope="module")
+def material():
+    return preset("reference")
+
+
+@pytest.fixture(scope="module")
+def mesh(material):
+    return build_mesh(material.radius, 0.02 * material.radius, 0.05 * material.radius, "coarse")
+
+
+def _close(numpy_value, compiled_value, scale=None):
+    scale = np.max(np.abs(numpy_value)) if scale is None else scale
+    return np.max(np.abs(numpy_value - compiled_value)) <= ROUND_OFF * scale
+
+
+def _both(material, mesh, **kwargs):
+    return (FiniteStrainSolver(material, mesh, **kwargs),
+            compiled_solver(material, mesh, factoriser="superlu", **kwargs))
+
+
+def _compare(reference, compiled, old, u, *, elastic=False):
+    a, force_a, local_a = reference._evaluate(old, u, elastic=elastic)
+    b, force_b, local_b = compiled._evaluate(old, u, elastic=elastic)
+    assert np.array_equal(a.status, b.status)
+    for numpy_value, compiled_value in ((a.stress, b.stress), (a.eqps, b.eqps),
+                                        (force_a, force_b), (local_a, local_b)):
+        assert _close(numpy_value, compiled_value)
+    # C_p^-1 - I and the plastic strain increment are differences (zero where elastic): their
+    # round-off is that of the identity and of the strain
+    assert _close(a.cp, b.cp, 1.0)
+    assert _close(a.trial_strain - a.elastic_strain, b.plastic_strain,
+                  np.max(np.abs(a.trial_strain)))
+    return a
+
+
+@pytest.mark.parametrize("volumetric", [(True, 1), (True, 0), (False, 0)])
+def test_kernels_equal_the_numpy_path(material, mesh, volumetric):
+    bbar, order = volumetric
+    reference, compiled = _both(material, mesh, bbar=bbar, volumetric_order=order)
+    old = reference.initial_state()
+    u = _large_deformation(reference)
+    assert np.count_nonzero(_compare(reference, compiled, old, u).status == APEX) > 1000
+    # a hundredth of it: mostly cone returns
+    first = _compare(reference, compiled, old, 0.01 * u)
+    assert np.count_nonzero(first.status == CONE) > 1000
+    assert np.count_nonzero(first.status == APEX) > 0
+    _compare(reference, compiled, old, u, elastic=True)
+    # from the plastic state just reached (C_p^-1 != I, eqps > 0), loaded further
+    plastic = reference.initial_state()
+    plastic.strain, plastic.eqps = first.cp, first.eqps
+    _compare(reference, compiled, plastic, 0.011 * u)
+    _compare(reference, compiled, plastic, 0.009 * u)
+
+
+def test_kernels_equal_the_numpy_path_for_von_mises(mesh):
+    material = preset("von-mises")  # tan(beta) = 0: no apex
+    reference, compiled = _both(material, mesh)
+    first = _compare(reference, compiled, reference.initial_state(),
+                     0.1 * _large_deformation(reference))
+    assert np.count_nonzero(first.status == CONE) > 1000
+
+
+@pytest.mark.parametrize("plastic", [False, True])
+def test_compiled_tangent_is_the_derivative_of_the_internal_force(material, mesh, plastic):
+    solver = compiled_solver(material, mesh, plastic=plastic)
+    old = solver.initial_state()
+    u = _large_deformation(solver, seed=3)
+    update, _, local = solver._evaluate(old, u, elastic=False)
+    if plastic:
+        assert np.count_nonzero(update.status) > 100
+    stiffness = solver.stiffness(local)
+    rng = np.random.default_rng(4)
+    v = 1e-3 * material.radius * rng.standard_normal(solver.ndofs)
+    v[solver.axis_dofs] = 0.0
+    errors = []
+    for h in (1e-3, 1e-4):
+        plus = solver._evaluate(old, u + h * v, elastic=False, tangent=False)[1]
+        minus = solver._evaluate(old, u - h * v, elastic=False, tangent=False)[1]
+        fd = (plus - minus) / (2 * h)
+        errors.append(np.linalg.norm(fd - stiffness @ v) / np.linalg.norm(fd))
+    # central differences: the error falls as h^2 (a wrong tangent would stall at O(1))
+    assert errors[1] < 1e-6
+    assert errors[1] < 0.05 * errors[0]
+
+
+def _plastic_system(material, mesh):
+    solver = compiled_solver(material, mesh)
+    old = solver.initial_state()
+    local = solver._evaluate(old, 0.01 * _large_deformation(solver), elastic=False)[2]
+    active = np.zeros(len(solver.candidate_dofs), dtype=bool)
+    active[:5] = True
+    reduced = solver._reduced(active)
+    return solver, local, reduced
+
+
+def test_bordered_system_is_the_engines(material, mesh):
+    solver, local, reduced = _plastic_system(material, mesh)
+    expected = FiniteStrainSolver._bordered_system(solver, local, reduced).toarray()
+    assembled = solver._bordered_system(local, reduced).toarray()
+    assert np.max(np.abs(assembled - expected)) <= ROUND_OFF * np.max(np.abs(expected))
+
+
+@pytest.mark.parametrize("scale", [0.01, 0.03, 1.0])
+def test_finite_strain_tangent_is_symmetric(material, mesh, scale):
+    """With associated flow the return mapping's D^ep is symmetric, so the Kirchhoff stress is
+    locally the gradient of a potential of eps_e^trial = ln(F C_p^-1 F^T) / 2 at fixed C_p; the
+    consistent tangent of the exponential-map update is then the Hessian of that potential in F
+    (Simo 1992), symmetric, F-bar included (variational). Checked from the virgin state and from
+    a plastic one (C_p != I), cone and apex returns (scale 1: mostly apex)."""
+    solver = compiled_solver(material, mesh)
+    u = scale * _large_deformation(solver)
+    old = solver.initial_state()
+    for _ in range(2):
+        update, _, local = solver._evaluate(old, u, elastic=False)
+        assert np.count_nonzero(update.status) > 100
+        k = solver.stiffness(local)
+        assert abs(k - k.T).max() <= 1e-14 * abs(k).max()
+        old = solver.initial_state()
+        old.strain, old.eqps = update.cp, update.eqps
+        u = 1.2 * u
+
+
+@pytest.mark.parametrize("name", [n for n in available_factorisers() if n != "superlu"])
+def test_factorisers_solve_the_bordered_system(material, mesh, name):
+    solver, local, reduced = _plastic_system(material, mesh)
+    matrix = solver._bordered_system(local, reduced)
+    factoriser = make_factoriser(name, reduced.indptr, reduced.indices)
+    rng = np.random.default_rng(5)
+    for scale in (1.0, 2.0):  # the second factorisation reuses the symbolic analysis
+        a = matrix.copy()
+        a.data = a.data * (1.0 + 0.1 * scale * rng.random(a.nnz))
+        if name in ("cholmod", "pardiso-sym"):  # LDL^T: symmetric (the tangent is, to round-off)
+            a = ((a + a.T) / 2).tocsc()
+            a.sort_indices()
+        assert factoriser.factor(a.data)
+        rhs = rng.standard_normal(a.shape[0])
+        x = factoriser.solve(rhs)
+        assert np.linalg.norm(a @ x - rhs) <= 1e-10 * np.linalg.norm(rhs) * np.abs(a).max()
+        assert np.allclose(x, np.linalg.solve(a.toarray(), rhs), rtol=1e-8, atol=1e-14)
+
+
+def test_factoriser_reports_a_singular_matrix(material, mesh):
+    if "umfpack" not in available_factorisers():
+        pytest.skip("geocontact.fem._sparse_lu not built (no SuiteSparse)")
+    _, _, reduced = _plastic_system(material, mesh)
+    for name in ("umfpack", "klu"):
+        factoriser = make_factoriser(name, reduced.indptr, reduced.indices)
+        assert not factoriser.factor(np.zeros(reduced.nnz))
+    with pytest.raises(ValueError, match="factoriser must be one of"):
+        compiled_solver(material, mesh, factoriser="lapack")
+
+
+@pytest.mark.parametrize("name", available_factorisers())
+def test_load_steps_equal_the_numpy_path(name):
+    """0 -> 3 load steps past first yield -> back to 0 with the weak grain (plastic, finite
+    strain): the same forces, approaches and plastic work as the numpy path within the Newton
+    tolerance."""
+    material = preset("reference-weak")
+    radius = material.radius
+    mesh = build_mesh(radius, 0.02 * radius, 0.05 * radius, "coarse")
+    reference = FiniteStrainSolver(material, mesh, force_scale=40.0)
+    compiled = compiled_solver(material, mesh, factoriser=name, force_scale=40.0)
+    assert isinstance(compiled, CompiledFiniteStrainSolver)
+    states = {"numpy": reference.initial_state(), "compiled": compiled.initial_state()}
+    for force in (10.0, 25.0, 40.0, 15.0):
+        states["numpy"] = reference.solve_step(states["numpy"], force)
+        states["compiled"] = compiled.solve_step(states["compiled"], force)
+        a, b = states["numpy"], states["compiled"]
+        assert abs(b.top_displacement / a.top_displacement - 1.0) < 1e-7
+        assert np.array_equal(a.active, b.active)
+    assert a.plastic_dissipation > 0.0
+    assert abs(b.plastic_dissipation / a.plastic_dissipation - 1.0) < 1e-6
+    assert np.max(np.abs(b.eqps - a.eqps)) <= 1e-6 * np.max(a.eqps)
+
+
+def test_identity_of_the_compiled_kernels(material):
+    numpy_path = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite")
+    compiled = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="compiled")
+    assert numpy_path.key() != compiled.key()
+    # the default is not written, so the keys of earlier runs stay as they were
+    assert "kernels" not in numpy_path.inputs()
+    assert compiled.inputs()["kernels"] == "compiled"
+    assert "compiled kernels" in compiled.describe()
+    with pytest.raises(InputError, match="^kernels: unknown 'fortran'"):
+        FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="fortran")
+    with pytest.raises(InputError, match="^kernels: 'compiled' is the finite-strain engine"):
+        FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
+    with pytest.raises(InputError, match="^kernels: 'compiled' is the finite-strain engine"):
+        FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", contact="facet",
+                         kernels="compiled")
+
+
+def test_run_history_with_compiled_kernels_equals_the_numpy_path(material):
+    """The reference grain to 10 Fy and back (coarse, 4 steps per segment; the run of
+    tests/test_fem_finite_strain.py) through run_history on both paths: the same steps, and the
+    curve and the cycle's residual approach and plastic work within the Newton tolerance."""
+    forces = [0.0, 27.6, 0.0]
+    runs = {k: run_history(material, forces, mesh="coarse", steps_per_segment=4,
+                           write_fields=False, kinematics="finite", kernels=k)
+            for k in ("numpy", "compiled")}
+    a, b = runs["numpy"], runs["compiled"]
+    assert b.summary["identity"]["inputs"]["kernels"] == "compiled"
+    # the same schedule (its steps near Fy follow the probed yield force, equal to round-off)
+    assert np.allclose(a.curve["force_N"], b.curve["force_N"], rtol=1e-9, atol=0.0)
+    approach = np.max(np.abs(b.curve["approach_m"] - a.curve["approach_m"]))
+    assert approach <= 1e-6 * np.max(a.curve["approach_m"])
+    ca, cb = a.summary["cycles"][0], b.summary["cycles"][0]
+    assert abs(cb["residual_approach_m"] / ca["residual_approach_m"] - 1) < 1e-5
+    assert abs(cb["plastic_work_J"] / ca["plastic_work_J"] - 1) < 1e-6
