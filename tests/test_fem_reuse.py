@@ -141,6 +141,11 @@ def test_cycles_resume_reuses_only_a_run_of_the_same_code(material, tmp_path, mo
     summary = json.loads(summary_path.read_text())
     summary["identity"]["fe_code"] = "0123456789abcdef"
     summary_path.write_text(json.dumps(summary))
+    # as that code would have written it: a whole result, its manifest holding this summary (an
+    # edited result is the user's and is refused, issue 39)
+    from geocontact.files import add_to_manifest
+
+    add_to_manifest(out, ["fe/summary.json"])
     capsys.readouterr()
     run_cycles(material, FORCES, out, mesh="coarse", steps_per_segment=STEPS, resume=True)
     assert len(steps) == 10
