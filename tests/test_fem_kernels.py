@@ -7,7 +7,7 @@ the same as with the numpy path within the Newton tolerance."""
 
 import numpy as np
 import pytest
-from test_fem_finite_strain import _large_deformation
+from test_fem_finite_strain import _large_deformation, assert_tangent_is_the_derivative
 
 from geocontact.errors import InputError
 from geocontact.fem.compiled import (
@@ -91,24 +91,7 @@ def test_kernels_equal_the_numpy_path_for_von_mises(mesh):
 @pytest.mark.parametrize("plastic", [False, True])
 def test_compiled_tangent_is_the_derivative_of_the_internal_force(material, mesh, plastic):
     solver = compiled_solver(material, mesh, plastic=plastic)
-    old = solver.initial_state()
-    u = _large_deformation(solver, seed=3)
-    update, _, local = solver._evaluate(old, u, elastic=False)
-    if plastic:
-        assert np.count_nonzero(update.status) > 100
-    stiffness = solver.stiffness(local)
-    rng = np.random.default_rng(4)
-    v = 1e-3 * material.radius * rng.standard_normal(solver.ndofs)
-    v[solver.axis_dofs] = 0.0
-    errors = []
-    for h in (1e-3, 1e-4):
-        plus = solver._evaluate(old, u + h * v, elastic=False, tangent=False)[1]
-        minus = solver._evaluate(old, u - h * v, elastic=False, tangent=False)[1]
-        fd = (plus - minus) / (2 * h)
-        errors.append(np.linalg.norm(fd - stiffness @ v) / np.linalg.norm(fd))
-    # central differences: the error falls as h^2 (a wrong tangent would stall at O(1))
-    assert errors[1] < 1e-6
-    assert errors[1] < 0.05 * errors[0]
+    assert_tangent_is_the_derivative(solver, material.radius, plastic, seeds=(3, 4))
 
 
 def _plastic_system(material, mesh):
