@@ -75,7 +75,10 @@ def test_law_command_bad_approach_file(tmp_path, capsys, content, message):
         (lambda d: d["material"].update(youngs_modulus=-1.0), "youngs_modulus"),
         (lambda d: d["material"].update(friction_angle_deg=75.0), "friction_angle_deg"),
         (lambda d: d["residual_approach"].update(limit=1.2), "residual_approach.limit"),
-        (lambda d: d["unloading"].update(exponent_power=float("nan")), "unloading.exponent_power"),
+        # NaN is no JSON: refused before any field is read, at its place in the file, with the
+        # message of the C++ reader (issue 39)
+        (lambda d: d["unloading"].update(exponent_power=float("nan")), "params: malformed JSON"),
+        (lambda d: d["unloading"].update(exponent_power=float("nan")), "NaN at line 1 column"),
         (lambda d: d["loading"].update(colour=1), "loading.colour: unknown key"),
         (lambda d: d["yield"].update(force_N=1.0), "yield.force_N"),
         (lambda d: d.pop("reloading"), "reloading: missing"),
