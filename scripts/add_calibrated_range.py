@@ -56,12 +56,17 @@ def from_record(params: LawParams, cache: str | Path | None = None) -> LawParams
 
 
 def rewrite(path: str | Path, cache: str | Path | None = None) -> LawParams:
-    """Add the calibrated range to the file at ``path`` (and relink its acceptance table, if
-    the two were written together: the table's ``params_sha256`` is the new file's)."""
+    """Add the calibrated range to the file at ``path`` (and relink its acceptance table)."""
+    return rewrite_linked(path, lambda params: from_record(params, cache))
+
+
+def rewrite_linked(path: str | Path, change) -> LawParams:
+    """Rewrite the law file at ``path`` as ``change(params)`` and relink its acceptance table,
+    if the two were written together (the table's ``params_sha256`` is the new file's)."""
     path = Path(path)
     table_path = path.with_suffix(".acceptance.json")
     linked = table_path.is_file() and not check_acceptance(path)
-    params = from_record(load_params(path), cache)
+    params = change(load_params(path))
     text = params.to_json()
     if linked:
         table = json.loads(table_path.read_text())

@@ -5,7 +5,8 @@ Generated from the schema (``data/law-schema.json``): for every field, each of i
 just crossed (open bounds at the bound itself), a value of the wrong type, and missing where it
 is required; for every closed object an unknown key; plus the rules between fields, written
 here by hand. Each bad document is the base document (a valid one with every optional field
-set, ``base.json``) with one change. The expected message is the Python loader's, checked here
+set, ``base.json``; the reference file's, with a ``contact_radius`` block added) with one
+change. The expected message is the Python loader's, checked here
 to name the field on one line. The fields of the tabulated residual form change a second
 base, ``base-table.json`` (the base with ``residual_approach`` a table of its own closed form at
 a few depths), those of the loading segments a third, ``base-segments.json`` (the base's virgin
@@ -41,6 +42,13 @@ _INFINITE = 1e400
 # the depths of the table base's knots (its ratios: the base's closed form there)
 TABLE_DEPTHS = (1.5, 4.0, 20.0, 200.0, 5000.0)
 TABLE_BASE = "base-table.json"
+# the optional contact-radius fit the reference file does not carry, set in the base so that its
+# fields are covered too: the weak grain's fit (examples/params-reference-weak.json) at four of
+# its knots, rounded
+RADIUS_BASE = {"depth": [3.5, 98.0, 3964.0, 160708.0],
+               "envelope_ratio": [1.02, 1.25, 1.81, 1.94],
+               "unloading_offset": [0.84, 0.60, 0.24, 0.11],
+               "unloading_power": [0.32, 0.24, 0.44, 0.51]}
 SEGMENTS_BASE = "base-segments.json"
 
 
@@ -246,6 +254,7 @@ def generate(base_path: str | Path = DEFAULT_BASE) -> dict[str, str]:
     base = json.loads(Path(base_path).read_text())
     base.pop("provenance", None)  # what made the base is not the point of the corpus
     base.pop("fit_errors", None)
+    base.setdefault("contact_radius", copy.deepcopy(RADIUS_BASE))
     LawParams.from_dict(base)  # the base itself is valid
     files = {"base.json": _text(base)}
     index = []

@@ -248,10 +248,12 @@ def test_schema_defaults_are_the_defaults_of_both_sides():
 def test_every_named_field_has_a_place_on_both_sides():
     """A field added to the schema without its dataclass field (Python) or its slot in
     params.hpp (C++, a std::logic_error there) fails here."""
+    from geocontact.law.contact_radius import RadiusTable
     from geocontact.law.residual_table import ResidualTable
 
     groups = {"": LawParams, "material": Material, "cyclic": CyclicLaw,
-              "residual_table": ResidualTable, "loading_segments": LoadingSegments}
+              "residual_table": ResidualTable, "loading_segments": LoadingSegments,
+              "radius_table": RadiusTable}
     for spec in schema.fields().values():
         name = spec.get("name")
         if name is None:

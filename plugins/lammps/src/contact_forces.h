@@ -106,8 +106,8 @@ inline RunUnits run_units(LAMMPS *lmp, const std::string &who)
 }
 
 // Stiffnesses of the contact for damping and friction, in the run's units: the unloading
-// stiffness S = 2 E* a of the law's current branch gives the contact radius a, and Mindlin's
-// k_t = 8 G* a.
+// stiffness S of the law's current branch, the contact radius a (S = 2 E* a, Sneddon, or the
+// law file's fit to the FE) and Mindlin's k_t = 8 G* a.
 struct ContactStiffness {
   double normal;      // S, force / length
   double tangential;  // k_t, force / length
@@ -160,11 +160,14 @@ inline ContactStiffness contact_stiffness(const geocontact::LawParams &law,
                                           const geocontact::Similarity &sim)
 {
   const double calibrated = geocontact::unloading_stiffness(law, state);
-  const double a = sim.scale * calibrated * constants.radius_per_stiffness;
+  // the calibrated spheres' a: S_R / 2 E* (Sneddon), or the law file's fit to the FE's
+  // (`contact_radius`, docs/law.md "The contact radius")
+  const double radius = law.radius_table.empty()
+                            ? calibrated * constants.radius_per_stiffness
+                            : geocontact::contact_radius(law, state) * constants.length_to_run;
   // k_t = 8 G* a for two grains, twice that on a wall: sim.stiffness / s times 8 G* a
-  const double kt = sim.stiffness * calibrated * constants.radius_per_stiffness *
-                    constants.mindlin_modulus;
-  return {sim.stiffness * calibrated * constants.stiffness_to_run, kt, a};
+  const double kt = sim.stiffness * radius * constants.mindlin_modulus;
+  return {sim.stiffness * calibrated * constants.stiffness_to_run, kt, sim.scale * radius};
 }
 
 inline double reduced_mass(double mi, double mj)

@@ -27,6 +27,7 @@ from ..grain.force_history import preset_history
 from ..grain.hertz import hertz_coefficient, incipient_yield
 from ..grain.material import Material
 from ..law.params import LawParams
+from .contact_radius import RadiusLevel, fit_contact_radius, level_from_curve
 from .fit import LOADING_FORMS, REGIMES, RESIDUAL_FORMS, SATURATING, LevelData, fit_law
 
 MIN_LEVELS = 3
@@ -118,6 +119,7 @@ class CalibrationRun:
     loading_force: np.ndarray
     plastic_dissipation: float  # FE plastic dissipation of the first cycle (pair, J)
     second_residual_approach: float | None  # residual approach after the reload cycle
+    radius: RadiusLevel | None = None  # the FE's contact radius (None: not recorded)
 
 
 def _rows(result: FemResult, steps: tuple[int, int]) -> slice:
@@ -159,7 +161,19 @@ def extract_run(job: FemJob, result: FemResult) -> CalibrationRun:
         loading_force=f[first.start:peak + 1].copy(),
         plastic_dissipation=float(cycles[0]["plastic_work_J"]),
         second_residual_approach=cycles[1]["residual_approach_m"],
+        radius=radius_level(result),
     )
+
+
+def radius_level(result: FemResult) -> RadiusLevel | None:
+    """The contact radius of a calibration run's first cycle and reload (``extract_run``'s
+    rows); None when the curve does not record it."""
+    c, cycles = result.curve, result.summary["cycles"]
+    if "contact_radius_m" not in c:
+        return None
+    return level_from_curve(c["approach_m"], c["force_N"], c["contact_radius_m"],
+                            _rows(result, tuple(cycles[0]["steps"])),
+                            _rows(result, tuple(cycles[1]["steps"])))
 
 
 def fe_yield(material: Material, runs: list[CalibrationRun]) -> dict[str, Any]:
@@ -370,8 +384,13 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
              (r.second_residual_approach - r.level.residual_approach)
              / r.level.residual_approach)}
         for r in runs]
+    radius_levels = [r.radius for r in runs if r.radius is not None]
+    radius_table, radius_errors = fit_contact_radius(radius_levels, params.yield_approach,
+                                                     material.effective_radius)
+    if radius_errors:
+        errors["contact_radius"] = radius_errors
     deepest = int(np.argmax([r.level.max_approach for r in runs]))
-    return replace(params, yield_extra=extra, fit_errors=errors,
+    return replace(params, yield_extra=extra, fit_errors=errors, radius_table=radius_table,
                    calibrated_range_extra=fe_calibrated_range(
                        runs[deepest].level.max_approach, runs[deepest].level.max_force,
                        len(runs), runs[deepest].result.summary, material.radius))

@@ -115,6 +115,7 @@ NB_MODULE(_core, m)
   using geocontact::CyclicLaw;
   using geocontact::LawParams;
   using geocontact::Material;
+  using geocontact::RadiusTable;
   using geocontact::ResidualTable;
   nb::class_<Material>(m, "Material")
       .def(nb::init<>())
@@ -138,6 +139,12 @@ NB_MODULE(_core, m)
       .def_rw("depth", &ResidualTable::depth)
       .def_rw("ratio", &ResidualTable::ratio)
       .def_ro("slope", &ResidualTable::slope, "dg/du at the knots (derived)");
+  nb::class_<RadiusTable>(m, "RadiusTable")
+      .def(nb::init<>())
+      .def_rw("depth", &RadiusTable::depth)
+      .def_rw("envelope_ratio", &RadiusTable::envelope_ratio)
+      .def_rw("unloading_offset", &RadiusTable::unloading_offset)
+      .def_rw("unloading_power", &RadiusTable::unloading_power);
   nb::class_<LawParams>(m, "LawParams")
       .def(nb::init<>())
       .def_rw("material", &LawParams::material)
@@ -185,6 +192,7 @@ NB_MODULE(_core, m)
                                                 p.segment_exponent + p.segments);
                    })
       .def_rw("residual_table", &LawParams::residual_table)
+      .def_rw("radius_table", &LawParams::radius_table)
       .def("residual_ratio", &LawParams::residual_ratio, "depth"_a,
            "delta_res / delta_max at the plastic depth x (closed form or table).")
       .def("derive", &LawParams::derive, "Set the derived constants from the fields.")
@@ -264,6 +272,26 @@ NB_MODULE(_core, m)
           "approach"_a,
           "Advance contact i to approach[i]; the results are in force and stiffness. Returns "
           "the largest delta_max of the contacts after the step (shifted coordinates, m).")
+      .def(
+          "contact_radius",
+          [](const Contacts &c, nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> out) {
+            if (c.hertz_only || out.shape(0) != c.state.size())
+              throw nb::value_error("contact_radius: a law's contacts and out of their number");
+            for (std::size_t k = 0; k < c.state.size(); ++k) {
+              const geocontact::ContactRecord &r = c.state[k];
+              geocontact::ContactState s;
+              s.approach = r.approach;
+              s.force = r.force;
+              s.max_approach = r.max_approach;
+              s.max_force = r.max_force;
+              s.residual_approach = r.residual_approach;
+              s.unloading_exponent = r.unloading_exponent;
+              s.ratchet_shift = r.ratchet_shift;
+              s.branch = r.branch;
+              out.data()[k] = geocontact::contact_radius(c.params, s);
+            }
+          },
+          "out"_a, "The contact radius of each contact (law.hpp contact_radius) into out (m).")
       .def("reset", &Contacts::reset, "Every contact back to untouched.")
       .def("refresh_envelopes", &Contacts::refresh_envelopes,
            "Bring the envelope (residual approach, n_u, n_r, cycles) of every contact on the "

@@ -81,6 +81,10 @@ def core_params(params: LawParams) -> _core.LawParams:
     table.depth = list(params.residual_table.depth)
     table.ratio = list(params.residual_table.ratio)
     p.residual_table = table
+    radius = _core.RadiusTable()
+    for name, values in params.radius_table.to_dict().items():
+        setattr(radius, name, values)
+    p.radius_table = radius
     p.derive()
     return p
 
@@ -206,6 +210,17 @@ class ContactArrays:
 
     def _energy(self, values: np.ndarray) -> np.ndarray:
         return values if self._scale is None else values * self._scale**3
+
+    def contact_radius(self) -> np.ndarray:
+        """The contact radius of each contact (m; ``law.contact_radius``: the file's fit to the
+        FE, else the unloading stiffness over 2 E*), computed by the compiled law."""
+        if self.params is None:
+            raise InputError("contact_radius: Hertz contacts have no law state; use "
+                             "grain.hertz.contact_radius")
+        out = np.empty(self.n)
+        self._core.refresh_envelopes()
+        self._core.contact_radius(out)
+        return self._length(out)
 
     def reset(self) -> None:
         """Every contact back to untouched (as constructed)."""

@@ -37,6 +37,7 @@ from ..grain.hertz import hertz_coefficient
 from ..grain.material import Material
 from ..schema import finite_number
 from . import _core
+from .contact_radius import RadiusTable
 from .residual_table import ResidualTable
 
 SCHEMA = schema.law_schema()["schema"]
@@ -267,6 +268,9 @@ class LawParams:
     cyclic: CyclicLaw = field(default_factory=CyclicLaw)
     # the tabulated residual form instead of the closed one (empty: the closed form)
     residual_table: ResidualTable = field(default_factory=ResidualTable)
+    # the contact radius fitted to the FE (``contact_radius``; empty: a from the unloading
+    # stiffness, Sneddon; law/contact_radius.py)
+    radius_table: RadiusTable = field(default_factory=RadiusTable)
     yield_extra: dict[str, Any] = field(default_factory=dict)
     # how deep the law was calibrated (``calibrated_range``, docs/law.md): the largest
     # delta_max/delta_y of its data, beyond which the fitted forms extrapolate (inf: not
@@ -304,6 +308,14 @@ class LawParams:
             for key in ("limit", "power", "transition_depth", "log_power"):
                 spec = schema.field(f"residual_approach.{key}")
                 object.__setattr__(self, spec["name"], schema.default(spec))
+        if self.radius_table:  # a table built in code is held to the file's rules
+            knots = {"contact_radius.depth": schema.check_array(
+                "contact_radius.depth", self.radius_table.depth,
+                schema.field("contact_radius.depth"))}
+            for name in ("envelope_ratio", "unloading_offset", "unloading_power"):
+                path = f"contact_radius.{name}"
+                schema.check_array(path, getattr(self.radius_table, name), schema.field(path),
+                                   knots)
         self._check_energy()
 
     @property
@@ -537,7 +549,8 @@ class LawParams:
                                              self.plastic_work_transition,
                                              self.plastic_work_log_power),
             "cyclic": {**self.cyclic.to_dict(), "critical_cycle": self.cyclic.critical_cycle()},
-            # optional block, written when recorded (files without it read as before)
+            # optional blocks, written when recorded (files without them read as before)
+            **({"contact_radius": self.radius_table.to_dict()} if self.radius_table else {}),
             **({"calibrated_range": self.calibrated_range} if self.calibrated_range else {}),
             "provenance": {"geocontact_version": __version__, **self.provenance},
             "fit_errors": self.fit_errors,
@@ -558,7 +571,7 @@ class LawParams:
         between fields. ``source`` is kept for callers; messages name the fields."""
         values = schema.validate(data)
         groups: dict[str, dict[str, Any]] = {"material": {}, "cyclic": {}, "residual_table": {},
-                                             "loading_segments": {}}
+                                             "loading_segments": {}, "radius_table": {}}
         top: dict[str, Any] = {}
         for name, value in schema.named_values(values).items():
             group, _, attribute = name.rpartition(".")
@@ -578,6 +591,7 @@ class LawParams:
         cyclic.check_second_cycle()
         params = cls(material=Material(**groups["material"]), cyclic=cyclic,
                      residual_table=ResidualTable(**groups["residual_table"]),
+                     radius_table=RadiusTable(**groups["radius_table"]),
                      loading_segments=segments,
                      yield_extra=values["yield.*"],
                      calibrated_range_extra=values.get("calibrated_range.*", {}), **top)

@@ -180,6 +180,41 @@ struct ResidualTable {
   }
 };
 
+// The contact radius fitted to the FE (`contact_radius`; docs/law.md, "The contact radius";
+// law/contact_radius.py is the same, in Python). At the plastic depth x = delta_max / delta_y the
+// envelope's radius is a_max = r(x) sqrt(R* delta_max), and below the envelope
+// a = a_max (f / (f + c(x) (1 - f)))^q(x), f = F / F_max: Hertz's unloading (a ~ F^1/3) at small
+// f, a dent that stays in contact (a ~ a_max) near F_max. Knots x_k > 1, strictly increasing;
+// at x = 1 the elastic contact's (r, c, q) = (1, 1, 1/3), which is Hertz exactly; linear in ln x
+// between the knots, the last knot's values beyond it (the calibrated range says so).
+struct RadiusTable {
+  std::vector<double> depth, envelope_ratio, unloading_offset, unloading_power;
+
+  struct Shape {
+    double ratio, offset, power;
+  };
+
+  bool empty() const { return depth.empty(); }
+
+  Shape at(double x) const
+  {
+    if (!(x > 1.0)) return {1.0, 1.0, 1.0 / 3.0};
+    const size_t last = depth.size() - 1;
+    if (x >= depth[last])
+      return {envelope_ratio[last], unloading_offset[last], unloading_power[last]};
+    const size_t k = static_cast<size_t>(std::upper_bound(depth.begin(), depth.end(), x) -
+                                         depth.begin());
+    const Shape low = k == 0 ? Shape{1.0, 1.0, 1.0 / 3.0}
+                             : Shape{envelope_ratio[k - 1], unloading_offset[k - 1],
+                                     unloading_power[k - 1]};
+    const double x0 = k == 0 ? 1.0 : depth[k - 1];
+    const double t = std::log(x / x0) / std::log(depth[k] / x0);
+    return {low.ratio + t * (envelope_ratio[k] - low.ratio),
+            low.offset + t * (unloading_offset[k] - low.offset),
+            low.power + t * (unloading_power[k] - low.power)};
+  }
+};
+
 // Every parameter of the law (`geocontact.law/1`), plus the derived constants the step uses.
 // Build it with load_params()/parse_params() (params.hpp), or fill the fields and call derive().
 struct LawParams {
@@ -210,6 +245,7 @@ struct LawParams {
   double segment_exponent[kMaxSegments] = {};
   CyclicLaw cyclic;
   ResidualTable residual_table;  // non-empty: the residual ratio is this table (limit etc unused)
+  RadiusTable radius_table;      // non-empty: the contact radius is this fit (else a = S / 2E*)
   std::string label;
   // `calibrated_range.max_depth`: the largest delta_max/delta_y of the data the law was fitted
   // to; beyond it the forms extrapolate (infinite: not recorded). Not used by the step: for
@@ -874,9 +910,18 @@ inline double unloading_stiffness(const LawParams &p, const ContactState &s)
   return gap > 0.0 ? s.unloading_exponent * s.force / gap : 0.0;
 }
 
+// The contact radius: the law file's fit to the FE (RadiusTable) when it has one, else the
+// unloading stiffness over 2 E* (Sneddon), which is the FE's within 0.75-1.18 on the weak grain.
 inline double contact_radius(const LawParams &p, const ContactState &s)
 {
-  return unloading_stiffness(p, s) / (2.0 * p.material.effective_modulus());
+  if (p.radius_table.empty())
+    return unloading_stiffness(p, s) / (2.0 * p.material.effective_modulus());
+  if (s.force <= 0.0 || s.max_force <= 0.0) return 0.0;
+  const RadiusTable::Shape shape = p.radius_table.at(s.max_approach / p.yield_approach);
+  const double f = std::min(s.force / s.max_force, 1.0);
+  const double envelope =
+      shape.ratio * std::sqrt(p.material.effective_radius() * s.max_approach);
+  return envelope * std::pow(f / (f + shape.offset * (1.0 - f)), shape.power);
 }
 
 }  // namespace geocontact

@@ -334,9 +334,14 @@ inline void fill(LawParams &p, const Values &values)
       std::copy(entries.begin(), entries.end(), slot);
       p.loading_segments = static_cast<int>(entries.size());
     } else if (kind == "array") {
-      std::vector<double> *slot = name == "residual_table.depth"   ? &p.residual_table.depth
-                                  : name == "residual_table.ratio" ? &p.residual_table.ratio
-                                                                   : nullptr;
+      const std::map<std::string, std::vector<double> *> arrays = {
+          {"residual_table.depth", &p.residual_table.depth},
+          {"residual_table.ratio", &p.residual_table.ratio},
+          {"radius_table.depth", &p.radius_table.depth},
+          {"radius_table.envelope_ratio", &p.radius_table.envelope_ratio},
+          {"radius_table.unloading_offset", &p.radius_table.unloading_offset},
+          {"radius_table.unloading_power", &p.radius_table.unloading_power}};
+      std::vector<double> *slot = arrays.count(name) ? arrays.at(name) : nullptr;
       if (!slot)
         throw std::logic_error("law-schema.json: " + path + " (" + name +
                                ") has no member in params.hpp fill");
