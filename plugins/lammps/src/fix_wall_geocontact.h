@@ -92,8 +92,9 @@ class FixWallGeocontact : public Fix {
   int maxsize_restart() override;
   double memory_usage() override;
 
- private:
-  enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3 };
+ protected:
+  // REGION: fix wall/geocontact/region (its walls are a LAMMPS region's, read by the derived fix)
+  enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3, REGION = 4 };
   enum Motion { STATIC, WIGGLE, VELOCITY, POSITION, SHEAR };
   enum Side { LO, HI, CYLINDER };
   // the sums over ranks come first (compute_vector)
@@ -110,6 +111,22 @@ class FixWallGeocontact : public Fix {
     double twist;                  // twist angle (rad)
     double contact_radius;         // a of the last step (run lengths); < 0: not known
   };
+
+  // One grain on one wall at this step, whatever the wall's shape: the planes and the cylinder
+  // here, the region walls of fix wall/geocontact/region (the same per-contact code path).
+  struct WallContact {
+    double interference;      // w = r - (distance from the wall's surface to the centre)
+    double n[3];              // unit normal from the wall to the grain
+    double velocity[3];       // the wall's velocity at the contact point
+    double rolling_radius;    // R* of the rolling resistance: the effective radius
+    geocontact::Similarity sim;  // geocontact::wall_similarity of the effective radius
+  };
+  void touch_wall(int i, WallRecord &stored, const WallContact &contact, bool commit,
+                  double *out);
+  void forget_contact(WallRecord &stored, const geocontact::Similarity &sim);
+  void begin_tally();
+  void register_storage();
+  bool storage_registered_ = false;
 
   void parse_wall(int &iarg, int narg, char **arg);
   void parse_motion(int &iarg, int narg, char **arg);
@@ -131,6 +148,7 @@ class FixWallGeocontact : public Fix {
   int wiggle_axis_;
   double amplitude_, angular_frequency_, velocity_;
   int shear_axis_;
+  int wall_arg_ = 0;      // the first argument after the contact keywords (REGION: its ID)
   std::string variable_;  // of position, or of the shear velocity (empty: a constant shear)
   int ivariable_;
   bigint time_origin_;
