@@ -388,3 +388,39 @@ def test_a_region_deleted_before_the_run_is_a_lammps_error():
     with pytest.raises(Exception, match="region 'drum' does not exist"):
         lmp.command("run 0")
     lmp.close()
+
+
+def test_a_planar_contact_forgotten_beyond_the_skin_leaves_the_other_walls_record():
+    """fix wall/geocontact (the per-contact code the region fix shares): a grain squeezed between
+    the floor and the roof of one fix, then shrunk onto the floor, beyond the roof's skin: the
+    roof's record is forgotten (its dissipation kept in the tally), the floor's record and
+    output stay, and the floor contact unloads from the dent it had (below the virgin force)."""
+    radius, small = 0.05, 0.03
+    w = 20 * BASE.for_radius(radius).yield_approach
+    lmp = grains([radius], [(0.0, 0.0, radius - w)],
+                 "fix wall all wall/geocontact {P} {K} zplane 0.0 " + f"{2 * radius - 2 * w!r}")
+    lmp.command("run 0")
+    step(lmp, False)
+    both = per_atom(lmp)[0]
+    dissipated_both = global_vector(lmp)[3]
+    assert both[1] > 0 and both[6 + 1] > 0  # on the floor and the roof
+    w_small = 0.7 * w * small / radius  # inside the floor's dent, in the small grain's law
+    lmp.command(f"set atom 1 diameter {2 * small!r}")
+    lmp.command(f"set atom 1 z {small - w_small!r}")  # the roof 0.04 away: beyond the skin
+    step(lmp, False)
+    after = per_atom(lmp)[0]
+    assert not after[6:].any()  # the roof forgotten
+    assert after[1] > 0 and after[3] > 0  # the floor's contact and its dent kept
+    # the roof's dissipation kept, the floor's as it was: both in the energy unit of the grain's
+    # present size (energies scale with s^3, law.hpp Similarity)
+    assert global_vector(lmp)[3] == pytest.approx(dissipated_both * (small / radius) ** 3,
+                                                  rel=1e-12)
+    # the floor's law state, in the calibrated grain's units (d = 2 w / s), unloaded at the new s
+    s_before, s_after = radius / BASE.material.radius, small / BASE.material.radius
+    floor = Contact(BASE)
+    floor.update(2 * w / s_before)
+    seen = small - lmp.numpy.extract_atom("x")[0][2]
+    expected = s_after**2 * floor.update(2 * seen / s_after)[0]
+    assert lmp.numpy.extract_atom("f")[0][2] == pytest.approx(expected, rel=1e-9)
+    assert expected < 0.6 * Contact(BASE.for_radius(small)).update(2 * seen)[0]  # the dent
+    lmp.close()
