@@ -424,3 +424,56 @@ def test_a_planar_contact_forgotten_beyond_the_skin_leaves_the_other_walls_recor
     assert lmp.numpy.extract_atom("f")[0][2] == pytest.approx(expected, rel=1e-9)
     assert expected < 0.6 * Contact(BASE.for_radius(small)).update(2 * seen)[0]  # the dent
     lmp.close()
+
+
+# --- units ----------------------------------------------------------------------------------------
+
+def cavity_contact(style: str) -> np.ndarray:
+    """A grain of radius 1 cm pressed 20 um into the wall of a spherical cavity of radius 5 cm,
+    sliding and spinning, with damping: after one step its force (N), torque (N m) and the wall's
+    dissipated and stored energies (J), in SI whatever the unit style."""
+    from test_lammps_units import UNITS
+
+    length, mass, time, force, energy = UNITS[style]
+    radius, cavity, w = 0.01 / length, 0.05 / length, 20e-6 / length
+    lmp = open_lammps()
+    for line in (f"units {style}", "atom_style sphere", "atom_modify map array",
+                 "boundary f f f", "comm_modify vel yes",
+                 f"region box block -{0.1 / length!r} {0.1 / length!r} -{0.1 / length!r} "
+                 f"{0.1 / length!r} -{0.1 / length!r} {0.1 / length!r}", "create_box 1 box",
+                 f"create_atoms 1 single {cavity - radius + w!r} 0 0 units box",
+                 f"set atom 1 diameter {2 * radius!r}",
+                 f"set atom 1 density {DENSITY * length**3 / mass!r}",
+                 f"set atom 1 vy {0.01 * time / length!r}",
+                 f"set atom 1 omega 0 0 {3.0 * time!r}",
+                 f"region cavity sphere 0 0 0 {cavity!r} side in units box",
+                 f"fix wall all wall/geocontact/region {PARAMS} friction 0.4 damping 0.3 cavity",
+                 f"timestep {1e-6 / time!r}", "run 1"):
+        lmp.command(line)
+    vector = global_vector(lmp)
+    out = np.array([*np.array(lmp.numpy.extract_atom("f")[0]) * force,
+                    *np.array(lmp.numpy.extract_atom("torque")[0]) * energy,
+                    vector[3] * energy, vector[4] * energy])
+    lmp.close()
+    return out
+
+
+@pytest.mark.parametrize("style", ["cgs", "micro", "metal"])
+def test_a_region_wall_gives_the_same_contact_in_si_whatever_the_unit_style(style):
+    reference, got = cavity_contact("si"), cavity_contact(style)
+    assert reference[0] < 0 and reference[1] != 0 and reference[6] > 0  # pushed in, sliding
+    assert np.abs(got - reference).max() <= 1e-6 * np.abs(reference).max()
+    # the law of the effective radius r R / (R - r) at d = 2 w, in newtons
+    r_eff = 0.01 * 0.05 / (0.05 - 0.01)
+    assert -reference[0] == pytest.approx(Contact(BASE.for_radius(r_eff)).update(40e-6)[0],
+                                          rel=1e-6)
+
+
+def test_lj_units_are_refused_by_the_region_wall():
+    lmp = open_lammps()
+    for line in ("units lj", "atom_style sphere", "region box block -1 1 -1 1 -1 1",
+                 "create_box 1 box", "region cavity sphere 0 0 0 0.5 side in"):
+        lmp.command(line)
+    with pytest.raises(Exception, match="units lj have no physical size"):
+        lmp.command(f"fix wall all wall/geocontact/region {PARAMS} cavity")
+    lmp.close()
