@@ -477,3 +477,30 @@ def test_lj_units_are_refused_by_the_region_wall():
     with pytest.raises(Exception, match="units lj have no physical size"):
         lmp.command(f"fix wall all wall/geocontact/region {PARAMS} cavity")
     lmp.close()
+
+
+# --- MPI: 1 and 2 ranks, migration, restart across rank counts -----------------------------
+
+def test_region_wall_contacts_cross_ranks_and_restart_on_another_rank_count(tmp_path):
+    """The `region_wall` scenario (lammps_scenarios.py): plastic contacts with the side and the
+    bottom cap of a turning drum, carried around the drum across the rank boundary and back,
+    give on 2 ranks the forces and torques of 1 rank; a restart written on 2 ranks mid-history,
+    continued on 1, gives the uninterrupted run."""
+    restart = tmp_path / "drum.restart"
+    serial = scenarios.run_scenario(1, "region_wall")
+    parallel = scenarios.run_scenario(2, "region_wall", "--restart-out", str(restart))
+    resumed = scenarios.run_scenario(1, "region_wall", "--resume", str(restart))
+    assert (serial["ranks"], parallel["ranks"]) == (1, 2)
+    x = np.array([s["x"] for s in serial["steps"]])
+    assert np.all(x.min(axis=0) < -0.2) and np.all(x.max(axis=0) > 0.1)  # crossed x = 0
+    after = scenarios.WALL_RESTART_AFTER
+    for key in ("forces", "torques", "wall"):
+        one = np.array([s[key] for s in serial["steps"]])
+        two = np.array([s[key] for s in parallel["steps"]])
+        back = np.array([s[key] for s in resumed["steps"]])
+        scale = np.abs(one).max()
+        assert scale > 0
+        assert np.abs(two - one).max() <= 1e-12 * scale, key
+        assert np.abs(back - one[after:]).max() <= 1e-12 * scale, key
+    contacts = np.array([s["wall"][5] for s in serial["steps"]])
+    assert contacts.max() == 4  # the side, the cap, and the corner grain's two
