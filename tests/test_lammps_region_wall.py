@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from pathlib import Path
 
 import lammps_scenarios as scenarios
@@ -504,3 +505,48 @@ def test_region_wall_contacts_cross_ranks_and_restart_on_another_rank_count(tmp_
         assert np.abs(back - one[after:]).max() <= 1e-12 * scale, key
     contacts = np.array([s["wall"][5] for s in serial["steps"]])
     assert contacts.max() == 4  # the side, the cap, and the corner grain's two
+
+
+# the per-atom layout tag as the fix writes it (fix_wall_geocontact_region.h): "GCRA" in the high,
+# the region layout version in the low 32 bits of a 64-bit word, once per atom
+REGION_ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCRA", "little") << 32) | 1)
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (None, None),
+    (REGION_ATOM_TAG[:4].replace(b"\x01", b"\x02") + REGION_ATOM_TAG[4:],
+     "region contacts have region layout version 2; this fix reads region layout version 1"),
+    (struct.pack("<d", 1.0), "region contacts have no wall/geocontact/region layout tag"),
+], ids=["intact", "other-version", "foreign"])
+def test_a_restart_of_another_region_layout_is_refused(tmp_path, edit, message):
+    radius = 0.05
+    w = 20 * BASE.for_radius(radius).yield_approach
+    cavity = ["region cavity sphere 0 0 0 0.6 side in",
+              "fix wall all wall/geocontact/region {P} {K} cavity"]
+    lmp = grains([radius], [(0.6 - radius + w, 0.0, 0.0)], *cavity)
+    lmp.command("run 1")
+    restart = tmp_path / "cavity.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.close()
+    if edit is not None:
+        data = restart.read_bytes()
+        assert data.count(REGION_ATOM_TAG) == 1
+        restart.write_bytes(data.replace(REGION_ATOM_TAG, edit))
+    lmp = open_lammps()
+    lmp.command(f"read_restart {restart}")
+    for line in cavity:
+        lmp.command(line.format(P=PARAMS, K="friction 0.0 damping 0.0"))
+    if message is None:  # the dent came back: unloading to half the interference
+        lmp.command(f"set atom 1 x {0.6 - radius + 0.5 * w!r}")
+        lmp.command("run 1")
+        law = BASE.for_radius(radius * 0.6 / (0.6 - radius))  # R_eff of the cavity
+        reference = Contact(law)
+        reference.update(2 * w)
+        seen = radius - (0.6 - lmp.numpy.extract_atom("x")[0][0])
+        unloading = reference.update(2 * seen)[0]
+        assert unloading < 0.5 * Contact(law).update(2 * seen)[0]
+        assert -lmp.numpy.extract_atom("f")[0][0] == pytest.approx(unloading, rel=1e-9)
+    else:
+        with pytest.raises(Exception, match=message):
+            lmp.command("run 0")
+    lmp.close()

@@ -584,6 +584,12 @@ int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layou
   return m;
 }
 
+// Doubles per wall record in a restart file of the given layout version (unpack_record).
+int FixWallGeocontact::record_size(int layout_version)
+{
+  return layout_version == 1 ? kRecordSizeV1 : layout_version == 2 ? kRecordSizeV2 : kRecordSize;
+}
+
 int FixWallGeocontact::pack_exchange(int i, double *buf)
 {
   const size_t nwalls = sides_.size();
@@ -630,7 +636,7 @@ void FixWallGeocontact::unpack_restart(int nlocal, int nth)
   const bool known = version >= 1 && version <= kRestartLayoutVersion;
   const int walls = known ? static_cast<int>(record[2]) : -1;
   const int length = static_cast<int>(record[0]);
-  const int size = version == 1 ? kRecordSizeV1 : version == 2 ? kRecordSizeV2 : kRecordSize;
+  const int size = record_size(version);
   const int expected = kAtomHeader + static_cast<int>(sides_.size()) * size;
   if (walls != static_cast<int>(sides_.size()) || length != expected) {
     if (!unreadable_restart_) {
@@ -660,22 +666,37 @@ int FixWallGeocontact::maxsize_restart()
 // the energy dissipated by contacts already forgotten (summed over ranks).
 void FixWallGeocontact::write_restart(FILE *fp)
 {
-  double forgotten = 0.0;
-  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
+  double data[kGlobalSize];
+  pack_global(data);
   if (comm->me != 0) return;
-  const double data[kGlobalSize] = {ubuf(kGlobalTag).d,
-                                    static_cast<double>(time_origin_),
-                                    last_position_,
-                                    position_velocity_,
-                                    static_cast<double>(last_position_step_),
-                                    forgotten,
-                                    static_cast<double>(sides_.size())};
   const int size = kGlobalSize * sizeof(double);
   fwrite(&size, sizeof(int), 1, fp);
   fwrite(data, sizeof(double), kGlobalSize, fp);
 }
 
+// The global restart block (kGlobalSize doubles; collective, complete on rank 0), shared with
+// fix wall/geocontact/region, which writes its region's record after it.
+void FixWallGeocontact::pack_global(double *data)
+{
+  double forgotten = 0.0;
+  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
+  const double values[kGlobalSize] = {ubuf(kGlobalTag).d,
+                                      static_cast<double>(time_origin_),
+                                      last_position_,
+                                      position_velocity_,
+                                      static_cast<double>(last_position_step_),
+                                      forgotten,
+                                      static_cast<double>(sides_.size())};
+  std::copy_n(values, kGlobalSize, data);
+}
+
 void FixWallGeocontact::restart(char *buf)
+{
+  unpack_global(buf);
+}
+
+// Reads the global block at buf; returns its length in bytes (the region's record follows it).
+int FixWallGeocontact::unpack_global(const char *buf)
 {
   double data[kGlobalSize];
   memcpy(data, buf, sizeof(data));
@@ -693,6 +714,7 @@ void FixWallGeocontact::restart(char *buf)
   position_velocity_ = data[3];
   last_position_step_ = static_cast<bigint>(data[4]);
   forgotten_dissipated_ = comm->me == 0 ? data[5] : 0.0;
+  return static_cast<int>(sizeof(data));
 }
 
 double FixWallGeocontact::memory_usage()

@@ -126,6 +126,8 @@ class FixWallGeocontact : public Fix {
   void forget_contact(WallRecord &stored, const geocontact::Similarity &sim);
   void begin_tally();
   void register_storage();
+  void pack_global(double *data);
+  int unpack_global(const char *buf);
   bool storage_registered_ = false;
 
   void parse_wall(int &iarg, int narg, char **arg);
@@ -133,6 +135,7 @@ class FixWallGeocontact : public Fix {
   double wall_displacement(double &velocity);
   void check_atoms();
   static int pack_record(const WallRecord &r, double *buf);
+  static int record_size(int layout_version);
   static int unpack_record(WallRecord &r, const double *buf,
                            int layout_version = kRestartLayoutVersion);
 

@@ -282,11 +282,6 @@ int FixWallGeocontactRegion::unpack_slots(int i, const double *buf, int record_v
   return m;
 }
 
-int FixWallGeocontactRegion::record_size(int record_version) const
-{
-  return record_version == 1 ? kRecordSizeV1 : record_version == 2 ? kRecordSizeV2 : kRecordSize;
-}
-
 int FixWallGeocontactRegion::pack_exchange(int i, double *buf)
 {
   return pack_slots(i, buf);
@@ -349,36 +344,37 @@ int FixWallGeocontactRegion::maxsize_restart()
   return kRegionAtomHeader + slots_ * (kSlotHeader + kRecordSize);
 }
 
-// Global: the energy dissipated by contacts already forgotten (summed over ranks), then the
-// region's record of its last position and angle, so a moving region's velocity continues
+// Global: [tag "GCRG" + version, the wall fix's global block (FixWallGeocontact::pack_global:
+// the energy dissipated by contacts already forgotten, summed over ranks), then the region's
+// record of its last position and angle, so a moving region's velocity continues
 // (Region::write_restart, as fix wall/gran/region).
 void FixWallGeocontactRegion::write_restart(FILE *fp)
 {
-  double forgotten = 0.0;
-  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
+  double data[1 + kGlobalSize];
+  data[0] = ubuf(kRegionGlobalTag).d;
+  pack_global(data + 1);
   if (comm->me != 0) return;
   int region_length = 0;
   region_->length_restart_string(region_length);
-  const int size = kRegionGlobalSize * static_cast<int>(sizeof(double)) + region_length;
-  const double data[kRegionGlobalSize] = {ubuf(kRegionGlobalTag).d, forgotten};
+  const int size = static_cast<int>(sizeof(data)) + region_length;
   fwrite(&size, sizeof(int), 1, fp);
-  fwrite(data, sizeof(double), kRegionGlobalSize, fp);
+  fwrite(data, sizeof(double), 1 + kGlobalSize, fp);
   region_->write_restart(fp);
 }
 
 void FixWallGeocontactRegion::restart(char *buf)
 {
-  double data[kRegionGlobalSize];
-  memcpy(data, buf, sizeof(data));
-  const int64_t tag = ubuf(data[0]).i;
+  double head;
+  memcpy(&head, buf, sizeof(head));
+  const int64_t tag = ubuf(head).i;
   if (tag != kRegionGlobalTag)
     error->all(FLERR, "{}: the restart file's global region wall data has {} (tag 0x{:016x}); "
                       "this fix reads region layout version {} only", kWho,
                (tag & ~int64_t(0xffffffff)) == kRegionGlobalTagBase
                    ? "another layout version" : "no wall/geocontact/region layout tag",
                static_cast<uint64_t>(tag), kRegionLayoutVersion);
-  forgotten_dissipated_ = comm->me == 0 ? data[1] : 0.0;
-  int offset = static_cast<int>(sizeof(data));
+  int offset = static_cast<int>(sizeof(head));
+  offset += unpack_global(buf + offset);
   if (!region_->restart(buf, offset)) motion_reset_ = true;
 }
 

@@ -44,15 +44,15 @@ class FixWallGeocontactRegion : public FixWallGeocontact {
   // Restart layout of the region's records, bumped whenever it changes. Per atom [length, tag
   // "GCRA" + version, the wall record layout version (FixWallGeocontact::kRestartLayoutVersion),
   // count, count x (wall id, effective radius, wall record)]; global [tag "GCRG" + version,
-  // dissipated energy of forgotten contacts, then the region's own motion record
-  // (Region::write_restart, as fix wall/gran/region)].
+  // the wall fix's global block (FixWallGeocontact::pack_global, its own tag and version
+  // inside), then the region's own motion record (Region::write_restart, as fix
+  // wall/gran/region)].
   static constexpr int kRegionLayoutVersion = 1;
   static constexpr int64_t kRegionAtomTagBase = static_cast<int64_t>(0x41524347) << 32;
   static constexpr int64_t kRegionAtomTag = kRegionAtomTagBase | kRegionLayoutVersion;
   static constexpr int64_t kRegionGlobalTagBase = static_cast<int64_t>(0x47524347) << 32;
   static constexpr int64_t kRegionGlobalTag = kRegionGlobalTagBase | kRegionLayoutVersion;
   static constexpr int kRegionAtomHeader = 4;
-  static constexpr int kRegionGlobalSize = 2;
 
   FixWallGeocontactRegion(class LAMMPS *, int, char **);
   void init() override;
@@ -87,7 +87,6 @@ class FixWallGeocontactRegion : public FixWallGeocontact {
   void match_records(int i, int ncontacts, bool commit);
   int pack_slots(int i, double *buf) const;
   int unpack_slots(int i, const double *buf, int record_version);
-  int record_size(int record_version) const;
   // a per-atom restart record this fix could not read: reported in init() on every rank
   bool unreadable_region_ = false;
   int64_t unreadable_region_tag_ = 0;
