@@ -386,8 +386,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
     for (int w = 0; w < nwalls; ++w, out += kOutputColumns) {
       // distance from the wall to the centre, and the unit normal from the wall to the grain
       double distance;
-      WallContact contact{0.0, {0.0, 0.0, 0.0}, {vwall[0], vwall[1], vwall[2]}, radius[i],
-                          geocontact::wall_similarity(radius[i], constants_.calibrated_radius)};
+      WallContact contact{0.0, {0.0, 0.0, 0.0}, {vwall[0], vwall[1], vwall[2]}, radius[i]};
       double *n = contact.n;
       if (sides_[w] == LO) {
         distance = x[i][normal_axis] - lo;
@@ -442,7 +441,8 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   if (!stored.active && interference <= 0.0) return;  // apart, never touched
   const StiffnessConstants &c = constants_;
   // the FE half model: F(w) = F_pair(2 w), energies half the pair's (law.hpp)
-  const geocontact::Similarity &sim = contact.sim;
+  const geocontact::Similarity sim =
+      geocontact::wall_similarity(contact.effective_radius, c.calibrated_radius);
   const double energy_scale = sim.energy * c.energy_to_run;
   if (stored.active && interference < -neighbor->skin) {
     if (commit) forget_contact(stored, sim);
@@ -465,7 +465,7 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   // the contact is on the wall's surface, r - w from the centre (contact_frame)
   const double arm = radius[i] - interference;
   const ContactGeometry geometry{interference, sim, n, atom->v[i], contact.velocity,
-                                 atom->omega[i], no_spin, arm, 0.0, contact.rolling_radius,
+                                 atom->omega[i], no_spin, arm, 0.0, contact.effective_radius,
                                  atom->rmass[i]};
   const ContactCoeffs cc{friction_, damping_, &resistance_};
   const ContactResult res = contact_step(law_, c, cc, rec, geometry, update->dt, commit);

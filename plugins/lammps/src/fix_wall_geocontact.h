@@ -1,5 +1,6 @@
 // fix wall/geocontact: rigid walls for grains with the geocontact law, in the manner of LAMMPS's
-// fix wall/gran (examples/lammps/README.md "Walls").
+// fix wall/gran (examples/lammps/README.md "Walls"); fix wall/geocontact/region derives from it
+// (fix_wall_geocontact_region.h) and shares its per-contact step, touch_wall.
 //
 //   fix ID group wall/geocontact P.json [friction mu] [damping beta]
 //       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] wallstyle args [motion]
@@ -118,8 +119,9 @@ class FixWallGeocontact : public Fix {
     double interference;      // w = r - (distance from the wall's surface to the centre)
     double n[3];              // unit normal from the wall to the grain
     double velocity[3];       // the wall's velocity at the contact point
-    double rolling_radius;    // R* of the rolling resistance: the effective radius
-    geocontact::Similarity sim;  // geocontact::wall_similarity of the effective radius
+    // the grain's radius, or on a curved wall the effective one (geocontact::
+    // wall_effective_radius): its wall_similarity gives the law, and it is the rolling radius R*
+    double effective_radius;
   };
   void touch_wall(int i, WallRecord &stored, const WallContact &contact, bool commit,
                   double *out);

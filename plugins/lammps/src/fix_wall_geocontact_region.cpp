@@ -197,8 +197,7 @@ void FixWallGeocontactRegion::post_force(int /*vflag*/)
       WallContact contact{radius[i] - rc.r,
                           {rc.delx / rc.r, rc.dely / rc.r, rc.delz / rc.r},
                           {0.0, 0.0, 0.0},
-                          effective,
-                          geocontact::wall_similarity(effective, constants_.calibrated_radius)};
+                          effective};
       if (moving) region_->velocity_contact(contact.velocity, x[i], ic);
       effective_[base + slot] = effective;
       double *slot_out = out + slot * kSlotColumns;
