@@ -550,3 +550,38 @@ def test_a_restart_of_another_region_layout_is_refused(tmp_path, edit, message):
         with pytest.raises(Exception, match=message):
             lmp.command("run 0")
     lmp.close()
+
+
+def test_a_grain_in_a_turning_drum_is_dragged_as_by_fix_wall_gran_region():
+    """LAMMPS's own fix wall/gran/region on the same rotating cylinder region, side by side: a
+    held grain pressed (elastically) into the drum's wall, the drum turning. LAMMPS's contact of
+    `granular hertz/material 2E 0 nu` (its wall a body of the grain's material: 2E makes it the
+    rigid wall's E/(1 - nu^2)) uses its own effective radius r rho / (r + rho) of the region's
+    curvature, and `tangential linear_history k_t` the Mindlin stiffness of our static contact:
+    the forces on the grain agree at every step, sticking and sliding (to 1e-9; measured
+    2.7e-11 of the peak)."""
+    radius, r_c, omega, friction = 0.05, 0.3, 0.01, 0.4
+    r_eff = radius * 2 * r_c / (2 * r_c - radius)
+    law = BASE.for_radius(r_eff)
+    w = 0.4 * law.yield_approach
+    e, nu = BASE.material.youngs_modulus, BASE.material.poissons_ratio
+    k_t = 8.0 * BASE.material.shear_modulus / (2.0 - nu) * math.sqrt(r_eff * w)
+    drum = [f"variable theta equal {omega!r}*step*dt",
+            f"region drum cylinder z 0 0 {r_c!r} -1 1 side in rotate v_theta 0 0 0 0 0 1"]
+    ours = drum + ["fix wall all wall/geocontact/region {P} {K} drum"]
+    theirs = drum + [f"fix wall all wall/gran/region granular hertz/material {2 * e!r} 0 "
+                     f"{nu!r} tangential linear_history {k_t!r} 0 {friction!r} region drum"]
+    rows = []
+    for lines in (ours, theirs):
+        lmp = grains([radius], [(r_c - radius + w, 0.0, 0.0)], *lines, friction=friction)
+        lmp.command("run 0")
+        forces = []
+        for _ in range(60):
+            step(lmp, False)
+            forces.append(np.array(lmp.numpy.extract_atom("f")[0]))
+        rows.append(np.array(forces))
+        lmp.close()
+    ours_f, theirs_f = rows
+    assert theirs_f[-1, 1] == pytest.approx(friction * -theirs_f[-1, 0], rel=1e-9)  # sliding
+    assert theirs_f[0, 1] < 0.5 * theirs_f[-1, 1]  # sticking first
+    assert np.abs(ours_f - theirs_f).max() <= 1e-9 * np.abs(theirs_f).max()
