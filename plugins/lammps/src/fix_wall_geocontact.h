@@ -1,5 +1,6 @@
 // fix wall/geocontact: rigid walls for grains with the geocontact law, in the manner of LAMMPS's
-// fix wall/gran (examples/lammps/README.md "Walls").
+// fix wall/gran (examples/lammps/README.md "Walls"); fix wall/geocontact/region derives from it
+// (fix_wall_geocontact_region.h) and shares its per-contact step, touch_wall.
 //
 //   fix ID group wall/geocontact P.json [friction mu] [damping beta]
 //       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] wallstyle args [motion]
@@ -92,8 +93,9 @@ class FixWallGeocontact : public Fix {
   int maxsize_restart() override;
   double memory_usage() override;
 
- private:
-  enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3 };
+ protected:
+  // REGION: fix wall/geocontact/region (its walls are a LAMMPS region's, read by the derived fix)
+  enum WallStyle { XPLANE = 0, YPLANE = 1, ZPLANE = 2, ZCYLINDER = 3, REGION = 4 };
   enum Motion { STATIC, WIGGLE, VELOCITY, POSITION, SHEAR };
   enum Side { LO, HI, CYLINDER };
   // the sums over ranks come first (compute_vector)
@@ -111,11 +113,31 @@ class FixWallGeocontact : public Fix {
     double contact_radius;         // a of the last step (run lengths); < 0: not known
   };
 
+  // One grain on one wall at this step, whatever the wall's shape: the planes and the cylinder
+  // here, the region walls of fix wall/geocontact/region (the same per-contact code path).
+  struct WallContact {
+    double interference;      // w = r - (distance from the wall's surface to the centre)
+    double n[3];              // unit normal from the wall to the grain
+    double velocity[3];       // the wall's velocity at the contact point
+    // the grain's radius, or on a curved wall the effective one (geocontact::
+    // wall_effective_radius): its wall_similarity gives the law, and it is the rolling radius R*
+    double effective_radius;
+  };
+  void touch_wall(int i, WallRecord &stored, const WallContact &contact, bool commit,
+                  double *out);
+  void forget_contact(WallRecord &stored, const geocontact::Similarity &sim);
+  void begin_tally();
+  void register_storage();
+  void pack_global(double *data);
+  int unpack_global(const char *buf);
+  bool storage_registered_ = false;
+
   void parse_wall(int &iarg, int narg, char **arg);
   void parse_motion(int &iarg, int narg, char **arg);
   double wall_displacement(double &velocity);
   void check_atoms();
   static int pack_record(const WallRecord &r, double *buf);
+  static int record_size(int layout_version);
   static int unpack_record(WallRecord &r, const double *buf,
                            int layout_version = kRestartLayoutVersion);
 
@@ -131,6 +153,7 @@ class FixWallGeocontact : public Fix {
   int wiggle_axis_;
   double amplitude_, angular_frequency_, velocity_;
   int shear_axis_;
+  int wall_arg_ = 0;      // the first argument after the contact keywords (REGION: its ID)
   std::string variable_;  // of position, or of the shear velocity (empty: a constant shear)
   int ivariable_;
   bigint time_origin_;

@@ -1,9 +1,10 @@
-// Plugin entry point: registers pair_style geocontact, its history fix and fix wall/geocontact
-// with LAMMPS (`plugin load geocontactplugin.so`; no rebuild of LAMMPS).
+// Plugin entry point: registers pair_style geocontact, its history fix, fix wall/geocontact and
+// fix wall/geocontact/region with LAMMPS (`plugin load geocontactplugin.so`; no rebuild of LAMMPS).
 #include "lammpsplugin_abi.h"
 
 #include "fix_geocontact_history.h"
 #include "fix_wall_geocontact.h"
+#include "fix_wall_geocontact_region.h"
 #include "pair_geocontact.h"
 
 #include "lammps.h"
@@ -23,6 +24,11 @@ static Fix *fix_geocontact_history_creator(LAMMPS *lmp, int argc, char **argv)
 static Fix *fix_wall_geocontact_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixWallGeocontact(lmp, argc, argv);
+}
+
+static Fix *fix_wall_geocontact_region_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixWallGeocontactRegion(lmp, argc, argv);
 }
 
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
@@ -50,5 +56,11 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "wall/geocontact";
   plugin.info = "geocontact walls: the ball-wall law of the FE half model";
   plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&fix_wall_geocontact_creator);
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "wall/geocontact/region";
+  plugin.info = "geocontact walls of any LAMMPS region, moving or rotating";
+  plugin.creator.v2 =
+      reinterpret_cast<lammpsplugin_factory2 *>(&fix_wall_geocontact_region_creator);
   (*register_plugin)(&plugin, lmp);
 }

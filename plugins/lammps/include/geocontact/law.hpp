@@ -882,6 +882,21 @@ inline Similarity wall_similarity(double r, double calibrated_radius)
   return {s, 2.0 / s, s * s, 2.0 * s, 0.5 * s * s * s};
 }
 
+// A curved rigid wall (docs/dem.md "Region walls"): a grain of radius r on a wall of signed
+// radius of curvature rho (> 0 convex, < 0 concave, 0 flat; LAMMPS's Region::Contact::radius)
+// has the gap h(x) = x^2 / (2 R_eff) of a grain of radius R_eff = r rho / (r + rho) on a flat
+// (concave: r |rho| / (|rho| - r)), so while the contact and its plastic zone are small against
+// r and |rho| it is the flat wall's contact of a grain of radius R_eff: wall_similarity(R_eff).
+// Exact for Hertz; the law itself is calibrated on sphere-sphere contacts. Returns 0 when the
+// grain is not smaller than a concave wall (|rho| <= r: a conforming contact, outside the rule).
+inline double wall_effective_radius(double r, double wall_curvature_radius)
+{
+  if (wall_curvature_radius == 0.0) return r;
+  const double sum = r + wall_curvature_radius;
+  if (wall_curvature_radius < 0.0 && !(sum < 0.0)) return 0.0;
+  return r * wall_curvature_radius / sum;
+}
+
 // --- diagnostics of a contact state ---------------------------------------------------------
 
 // Energy unloading from here would give back: E = F (d' - d_res) / (n_u + 1) (docs/law.md).
