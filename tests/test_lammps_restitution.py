@@ -13,10 +13,10 @@ import pytest
 pytest.importorskip("lammps")
 
 from scipy.integrate import solve_ivp  # noqa: E402
+from test_lammps_plugin import PARAMS_FILE, RADIUS, two_spheres, yield_velocity  # noqa: E402
 
 from geocontact.analyses.lammps_plugin import open_lammps  # noqa: E402
 from geocontact.law import load_params  # noqa: E402
-from test_lammps_plugin import PARAMS_FILE, RADIUS, two_spheres, yield_velocity  # noqa: E402
 
 PARAMS = load_params(PARAMS_FILE)
 DENSITY = 2650.0
