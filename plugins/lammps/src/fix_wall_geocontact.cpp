@@ -2,6 +2,7 @@
 #include "fix_wall_geocontact.h"
 
 #include "contact_forces.h"
+#include "restitution.h"
 
 #include "atom.h"
 #include "comm.h"
@@ -31,7 +32,7 @@ constexpr double kDefaultFriction = 0.5;
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
 constexpr const char *kUsage =
-    "fix ID group wall/geocontact P.json [friction mu] [damping beta] "
+    "fix ID group wall/geocontact P.json [friction mu] [damping beta | restitution e] "
     "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] "
     "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
     "position v_name | shear dim V|v_name]";
@@ -58,15 +59,17 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
   constants_ = stiffness_constants(law_, run_units(lmp, "Fix wall/geocontact"));
 
   int iarg = 4;
+  char damping_given = 0;
   while (iarg < narg) {
     if (parse_resistance(lmp, iarg, narg, arg, resistance_, "Fix wall/geocontact")) continue;
-    if (strcmp(arg[iarg], "friction") != 0 && strcmp(arg[iarg], "damping") != 0) break;
+    if (parse_damping(lmp, iarg, narg, arg, damping_, damping_given, "Fix wall/geocontact"))
+      continue;
+    if (strcmp(arg[iarg], "friction") != 0) break;
     if (iarg + 1 >= narg)
       error->all(FLERR, "Fix wall/geocontact: keyword '{}' needs a value", arg[iarg]);
-    const double value = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-    if (value < 0.0)
-      error->all(FLERR, "Fix wall/geocontact: {} must be >= 0, got {}", arg[iarg], value);
-    (strcmp(arg[iarg], "friction") == 0 ? friction_ : damping_) = value;
+    friction_ = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    if (friction_ < 0.0)
+      error->all(FLERR, "Fix wall/geocontact: friction must be >= 0, got {}", friction_);
     iarg += 2;
   }
   wall_arg_ = iarg;
@@ -159,7 +162,7 @@ void FixWallGeocontact::parse_wall(int &iarg, int narg, char **arg)
     iarg += 2;
   } else {
     error->all(FLERR, "Fix wall/geocontact: unknown keyword '{}' (allowed: friction, damping, "
-                      "rolling, twisting, xplane, yplane, zplane, zcylinder)", style);
+                      "restitution, rolling, twisting, xplane, yplane, zplane, zcylinder)", style);
   }
 }
 

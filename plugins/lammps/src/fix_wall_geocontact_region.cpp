@@ -24,7 +24,7 @@ namespace {
 
 constexpr const char *kWho = "Fix wall/geocontact/region";
 constexpr const char *kUsage =
-    "fix ID group wall/geocontact/region P.json [friction mu] [damping beta] "
+    "fix ID group wall/geocontact/region P.json [friction mu] [damping beta | restitution e] "
     "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] region-ID";
 constexpr int kSlotHeader = 2;  // per record in a buffer: wall id, effective radius
 
@@ -40,14 +40,15 @@ FixWallGeocontactRegion::FixWallGeocontactRegion(LAMMPS *lmp, int narg, char **a
   region_ = domain->get_region_by_id(region_id_);
   if (!region_) {
     if (iarg + 1 < narg)
-      error->all(FLERR, "{}: unknown keyword '{}' (allowed: friction, damping, rolling, "
-                        "twisting, then a region ID)", kWho, region_id_);
+      error->all(FLERR, "{}: unknown keyword '{}' (allowed: friction, damping, restitution, "
+                        "rolling, twisting, then a region ID)", kWho, region_id_);
     error->all(FLERR, "{}: region '{}' does not exist (define it with the region command "
                       "first)", kWho, region_id_);
   }
   if (iarg + 1 < narg)
     error->all(FLERR, "{}: unknown keyword '{}' after the region ID {} (friction, damping, "
-                      "rolling and twisting come before it)", kWho, arg[iarg + 1], region_id_);
+                      "restitution, rolling and twisting come before it)", kWho, arg[iarg + 1],
+               region_id_);
   region_style_ = region_->style;
   nregion_ = region_->nregion;
   slots_ = region_->tmax;

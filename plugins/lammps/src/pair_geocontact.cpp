@@ -3,6 +3,7 @@
 
 #include "contact_forces.h"
 #include "fix_geocontact_history.h"
+#include "restitution.h"
 #include "geocontact/params.hpp"
 
 #include "atom.h"
@@ -122,7 +123,8 @@ void PairGeocontact::coeff(int narg, char **arg)
 {
   if (narg < 3)
     error->all(FLERR, "Incorrect args for pair coefficients: pair_coeff I J P.json "
-                      "[friction mu] [damping beta] [rolling sds k_roll gamma_roll mu_roll] "
+                      "[friction mu] [damping beta | restitution e] "
+                      "[rolling sds k_roll gamma_roll mu_roll] "
                       "[twisting marshall]");
   require_sphere(atom, error);
   if (!allocated) allocate();
@@ -136,22 +138,21 @@ void PairGeocontact::coeff(int narg, char **arg)
   const int law = add_law(text, path);
 
   double friction = kDefaultFriction, damping = 0.0;
+  char damping_given = 0;
   RollingCoeffs resistance{};
   for (int iarg = 3; iarg < narg;) {
     if (parse_resistance(lmp, iarg, narg, arg, resistance, "pair_coeff geocontact")) continue;
+    if (parse_damping(lmp, iarg, narg, arg, damping, damping_given, "pair_coeff geocontact"))
+      continue;
     if (iarg + 1 >= narg)
       error->all(FLERR, "pair_coeff geocontact: keyword '{}' needs a value", arg[iarg]);
     if (strcmp(arg[iarg], "friction") == 0) {
       friction = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (friction < 0.0)
         error->all(FLERR, "pair_coeff geocontact: friction must be >= 0, got {}", friction);
-    } else if (strcmp(arg[iarg], "damping") == 0) {
-      damping = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      if (damping < 0.0)
-        error->all(FLERR, "pair_coeff geocontact: damping must be >= 0, got {}", damping);
     } else {
       error->all(FLERR, "pair_coeff geocontact: unknown keyword '{}' (allowed: friction, "
-                        "damping, rolling, twisting)", arg[iarg]);
+                        "damping, restitution, rolling, twisting)", arg[iarg]);
     }
     iarg += 2;
   }
