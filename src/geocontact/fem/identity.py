@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..grain.force_history import validate_forces
+from ..grain.hertz import incipient_yield
 from ..grain.material import Material
 from .compiled import KERNELS
 from .mesh import MESH_RULES, mesh_preset
@@ -47,6 +48,10 @@ from .result import (
 from .solver import CONTACTS
 
 SCHEMA = "geocontact.fe-identity/1"
+# A grain whose analytic first yield is at the contact edge (grain.hertz: friction angle above the
+# critical one) has its FE first yield located by elastic solves (fem.run._Run._locate_first_yield),
+# no longer extrapolated from the last elastic step: recorded, so its earlier runs are not reused.
+EDGE_FIRST_YIELD = "located by elastic solves"
 # The distributions whose versions decide an FE result (importlib.metadata names).
 LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
@@ -78,6 +83,11 @@ _CODE_ONLY = ("the FE hash reads the sources' code (their syntax trees without d
 _COMPILED_KERNELS = ("the opt-in compiled finite-strain kernels added (kernels='compiled', "
                      "fem/compiled.py; recorded in the identity as kernels): fem.run._solver "
                      "builds the numpy path's solvers as before")
+_EDGE_YIELD = ("the FE first yield of a grain whose analytic first yield is at the contact edge "
+               "(friction angle above the critical one; recorded in the identity as first_yield) "
+               "located by elastic solves between the last elastic and the first plastic step "
+               "(fem.run._Run._locate_first_yield): the runs of every other grain are computed "
+               "and summarised as before")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
     "07275231518417f5": {
         "f7594263f80ad0d4": _COMPILED_KERNELS,
@@ -145,6 +155,13 @@ REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
                             "load step that failed after MAX_CUTBACKS halvings is solved "
                             "differently",
     },
+}
+
+
+REPRODUCED_FE_CODE["ce4ea917d58ececb"] = {
+    "07275231518417f5": _EDGE_YIELD,
+    **{older: _EDGE_YIELD + "; " + why
+       for older, why in REPRODUCED_FE_CODE["07275231518417f5"].items()},
 }
 
 
@@ -289,6 +306,8 @@ class FeRunIdentity:
             extra["contact"] = self.contact
         if self.kernels != "numpy":
             extra["kernels"] = self.kernels
+        if incipient_yield(self.material).at_surface:
+            extra["first_yield"] = EDGE_FIRST_YIELD
         return extra
 
     def to_dict(self) -> dict[str, Any]:

@@ -85,6 +85,10 @@ FULLY_PLASTIC_CORE = 0.7
 # The "contact" mesh rule refines the surface from the contact radius at this multiple of the
 # first-yield force on (contact_band_radius).
 CONTACT_BAND_FORCE_RATIO = 10.0
+# First yield at the contact edge (_Run._locate_first_yield): elastic solves between the last
+# elastic and the first plastic step until the bracket is this narrow (relative), at most this many
+FIRST_YIELD_FORCE_RTOL = 1e-3
+FIRST_YIELD_SOLVES = 12
 
 
 # --- sizing ------------------------------------------------------------------------------------
@@ -341,6 +345,9 @@ class _Run:
         self.first_yield: dict[str, Any] | None = None
         self.fully_plastic: dict[str, float] | None = None
         self.last_elastic: tuple[float, float, float, tuple[float, float]] | None = None
+        # where the analytic first yield is on the surface at the contact edge (beta above the
+        # critical angle, grain.hertz) the F^(1/3) scaling of _interpolate_first_yield fails
+        self.at_edge = bool(incipient_yield(material).at_surface)
 
     def record(self, step: int, state: State) -> None:
         s = self.solver
@@ -366,6 +373,8 @@ class _Run:
                     self.last_elastic = (state.force, PAIR * state.top_displacement,
                                          float(ratio[k]),
                                          (float(s.radius_qp[k]), float(s.z_qp[k])))
+            elif self.at_edge:
+                self.first_yield = self._locate_first_yield(state)
             else:
                 self.first_yield = self._interpolate_first_yield(state)
 
@@ -391,6 +400,58 @@ class _Run:
         return {"force_N": fy, "approach_m": approach * (fy / force) ** (2.0 / 3.0),
                 "location_m": {"r": where[0], "z": where[1]},
                 "bracket_N": [force, state.force]}
+
+    def _locate_first_yield(self, state: State) -> dict[str, Any]:
+        """First yield at the contact edge: the force between the last elastic step and this
+        one at which the largest Drucker-Prager ratio of the elastic solution reaches 1.
+
+        At the edge the ratio at the yielding point grows faster than the F^(1/3) of Hertz
+        scaling (the edge moves onto the point; docs/verification/edge_first_yield.md), so it is
+        not extrapolated: the crossing is found by elastic solves (elastic below the crossing,
+        so each solve from the unloaded state is the run's own solution up to the Newton
+        tolerance) at forces chosen by the Illinois variant of regula falsi on ratio - 1, to
+        ``FIRST_YIELD_FORCE_RTOL`` of the force; the value is interpolated linearly in the
+        ratio between the two closest solves. ``solves`` counts them.
+        """
+        low = (0.0, 0.0, 0.0) if self.last_elastic is None else self.last_elastic[:3]
+        high_state = self._elastic_solve(state.force)
+        high = (state.force, PAIR * high_state.top_displacement,
+                float(np.max(self.solver.yield_ratio(high_state))))
+        solves, replaced = 1, 0
+        g_low, g_high = low[2] - 1.0, high[2] - 1.0  # Illinois: an end kept twice is halved
+        while (high[2] > 1.0 and solves < FIRST_YIELD_SOLVES
+               and high[0] - low[0] > FIRST_YIELD_FORCE_RTOL * high[0]):
+            force = high[0] - g_high * (high[0] - low[0]) / (g_high - g_low)
+            trial = self._elastic_solve(force)
+            solves += 1
+            point = (force, PAIR * trial.top_displacement,
+                     float(np.max(self.solver.yield_ratio(trial))))
+            if point[2] >= 1.0:
+                high, high_state, g_high = point, trial, point[2] - 1.0
+                g_low = g_low / 2.0 if replaced == 1 else g_low
+                replaced = 1
+            else:
+                low, g_low = point, point[2] - 1.0
+                g_high = g_high / 2.0 if replaced == -1 else g_high
+                replaced = -1
+        t = 1.0 if high[2] <= low[2] else min(max((1.0 - low[2]) / (high[2] - low[2]), 0.0), 1.0)
+        ratio = self.solver.yield_ratio(high_state)
+        k = np.unravel_index(np.argmax(ratio), ratio.shape)
+        bracket_low = self.last_elastic[0] if self.last_elastic is not None else 0.0
+        return {"force_N": low[0] + t * (high[0] - low[0]),
+                "approach_m": low[1] + t * (high[1] - low[1]),
+                "location_m": {"r": float(self.solver.radius_qp[k]),
+                               "z": float(self.solver.z_qp[k])},
+                "bracket_N": [bracket_low, state.force], "solves": solves}
+
+    def _elastic_solve(self, force: float) -> State:
+        solver = self.solver
+        solver.plastic = False
+        try:
+            return solver.solve_step(solver.initial_state(), force,
+                                     label="first-yield search: ")
+        finally:
+            solver.plastic = True
 
     def curve(self) -> dict[str, np.ndarray]:
         data = np.array(self.rows, dtype=float).reshape(-1, len(CURVE_COLUMNS))
@@ -641,6 +702,9 @@ def run_history(
         "steps": int(len(targets)),
         "step_control": sub_step_record(targets, yield_force, identity.max_step_ratio),
         **({"rescued_steps": solver.rescued_steps} if solver.rescued_steps else {}),
+        **({"first_yield_search": {"elastic_solves": first["solves"],
+                                   "force_rtol": FIRST_YIELD_FORCE_RTOL}}
+           if "solves" in first else {}),
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
         "version": __version__,
