@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+import geocontact.fem.run as fem_run
 from geocontact.fem.run import FULLY_PLASTIC_FRACTION, fully_plastic_onset, run_history
 from geocontact.grain import hertz
 from geocontact.grain.material import Material, preset
@@ -30,9 +31,10 @@ def test_first_yield_force_and_location_match_analytic(beta_deg):
 
     At the contact edge the coarse mesh does not resolve Fy: the FE value is decided by where
     the edge falls between the nodes, and over tip sizes 0.3-0.7 x the yield contact radius it
-    scatters from 0.81 to 1.91 x the analytic force (default mesh 1.05-1.33, fine 0.97-1.05;
-    docs/verification.md, item 4). The 5 % seen before on the one mesh sized from 0.7 a_y was
-    that mesh's draw; here only the location and a bound [0.8, 2] x Fy are checked.
+    scattered from 0.81 to 1.91 x the analytic force (default mesh 1.05-1.33, fine 0.97-1.05;
+    docs/verification/edge_first_yield.md); located by elastic solves it is 1.22 (55 deg) and
+    1.15 (60 deg) here. Only the location and a bound [0.8, 2] x Fy are checked on this mesh;
+    the 5 % of the default mesh is test_edge_first_yield_within_5_percent_on_the_default_mesh.
     """
     material = _drucker_prager(beta_deg)
     assert math.tan(math.radians(beta_deg)) < 3.0
@@ -52,6 +54,57 @@ def test_first_yield_force_and_location_match_analytic(beta_deg):
         assert s["first_yield_force_N"] == pytest.approx(analytic.force, rel=0.05)
         assert lo < analytic.force * 1.05 and hi > analytic.force * 0.95
         assert r < 0.15 and abs(z - analytic.z_over_a) < 0.15  # the axis, below the surface
+
+
+@pytest.mark.parametrize("beta_deg", [45.0, 60.0])
+def test_edge_first_yield_within_5_percent_on_the_default_mesh(beta_deg):
+    """Issue 36: the FE first yield within 5 % of the analytic one on the default mesh at
+    beta = 45 deg (on the axis, F phi^-3 from the last elastic step) and 60 deg (at the contact
+    edge, located by elastic solves between the last elastic and the first plastic step: the
+    yield ratio there grows faster than Hertz's F^(1/3), and F phi^-3 overshot to the plastic
+    step). The bracket is that pair of steps and holds the value. At 60 deg this guards the value
+    of record of the default mesh, not a converged one: that mesh does not resolve the field at
+    the contact edge (docs/verification.md, item 4: the field check, and 1.083 at 50 deg)."""
+    material = _drucker_prager(beta_deg)
+    analytic = hertz.incipient_yield(material)
+    result = run_history(material, [0.0, 3.0 * analytic.force], mesh="default",
+                         write_fields=False, steps_per_segment=12)
+    s = result.summary
+    lo, hi = s["first_yield_bracket_N"]
+    assert lo < s["first_yield_force_N"] <= hi
+    assert s["first_yield_force_N"] == pytest.approx(analytic.force, rel=0.05)
+    assert ("first_yield_search" in s) == analytic.at_surface == (beta_deg > 50.0)
+
+
+def test_edge_first_yield_is_where_the_elastic_solution_reaches_yield():
+    """The located first yield (coarse mesh, beta = 60 deg) against elastic solves of the same
+    model made here: below it by twice the search's tolerance the largest yield ratio is under 1,
+    above it by as much it is over 1; the bracket's ends are the recorded steps (the last one
+    elastic, the next one plastic), and the F phi^-3 extrapolation from the last elastic step,
+    the value reported before, is past the located value."""
+    material = _drucker_prager(60.0)
+    analytic = hertz.incipient_yield(material)
+    result = run_history(material, [0.0, 3.0 * analytic.force], mesh="coarse",
+                         write_fields=False, steps_per_segment=12)
+    s, c, solver = result.summary, result.curve, result.solver
+    fy, (lo, hi) = s["first_yield_force_N"], s["first_yield_bracket_N"]
+    search = s["first_yield_search"]
+    assert 1 <= search["elastic_solves"] <= fem_run.FIRST_YIELD_SOLVES
+
+    def largest_ratio(force):
+        solver.plastic = False
+        try:
+            state = solver.solve_step(solver.initial_state(), force)
+        finally:
+            solver.plastic = True
+        return float(np.max(solver.yield_ratio(state)))
+
+    margin = 2.0 * search["force_rtol"]
+    assert largest_ratio(fy * (1.0 - margin)) < 1.0 < largest_ratio(fy * (1.0 + margin))
+    k = int(np.nonzero(c["force_N"] == hi)[0][0])
+    assert c["force_N"][k - 1] == lo and c["plastic_points"][k - 1] == 0
+    assert c["plastic_points"][k] > 0
+    assert lo / largest_ratio(lo) ** 3 > fy
 
 
 def test_analytic_first_yield_moves_to_the_contact_edge_above_the_critical_angle():

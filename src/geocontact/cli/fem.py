@@ -57,7 +57,10 @@ def run(args) -> int:
         fp = s["fully_plastic_force_N"]
         print(f"wrote {args.out}: {s['steps']} steps, {s['mesh']['elements']} elements, "
               f"{s['wall_time_s']:.1f} s")
-        print(f"first yield: {'not reached' if fy is None else f'{fy:.6g} N'}; "
+        bracket = s.get("first_yield_bracket_N")
+        between = (f" (between the steps at {bracket[0]:.6g} and {bracket[1]:.6g} N)"
+                   if fy is not None and bracket else "")
+        print(f"first yield: {'not reached' if fy is None else f'{fy:.6g} N'}{between}; "
               f"fully plastic: {'not reached' if fp is None else f'{fp:.6g} N'}")
         resolutions = fe_summary_resolutions(s)
         approach, energy = resolutions["approach"], resolutions["energy"]

@@ -38,6 +38,7 @@ from .identity import (
 )
 from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC_DEFAULT, FemResult
 from .run import load_schedule, run_history, sub_step_record, write_result
+from .settings import FeSettings
 
 DEFAULT_CACHE = Path("out/cache/fem")
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
@@ -91,13 +92,13 @@ class FemJob:
                   contact=inputs.get("contact", "node"))
         return replace(job, **changes) if changes else job
 
+    def settings(self) -> FeSettings:
+        """The job's FE settings (``fem.settings.FeSettings``)."""
+        return FeSettings(**{name: getattr(self, name) for name in FeSettings.names()
+                             if hasattr(self, name)})
+
     def identity(self) -> FeRunIdentity:
-        return FeRunIdentity.of(self.material, self.forces, self.mesh,
-                                steps_per_segment=self.steps_per_segment,
-                                tolerance=self.tolerance, volumetric=self.volumetric,
-                                mesh_force=self.mesh_force, kinematics=self.kinematics,
-                                mesh_rule=self.mesh_rule, step_rule=self.step_rule,
-                                max_step_ratio=self.max_step_ratio, contact=self.contact)
+        return FeRunIdentity.of_settings(self.material, self.forces, self.settings())
 
     def inputs(self) -> dict:
         """The identity record: inputs, FE code hash, library versions, key."""
@@ -131,13 +132,8 @@ def check_scheduler_address(address: str) -> str:
 def _run_job(job: FemJob, directory: str) -> FemResult:
     """On a worker: run (resuming from a checkpoint if one is there), without fields."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    result = run_history(job.material, list(job.forces), mesh=job.mesh, out=directory,
-                         steps_per_segment=job.steps_per_segment, resume=True,
-                         write_fields=False, mesh_force=job.mesh_force,
-                         tolerance=job.tolerance, volumetric=job.volumetric,
-                         kinematics=job.kinematics, mesh_rule=job.mesh_rule,
-                         step_rule=job.step_rule, max_step_ratio=job.max_step_ratio,
-                         contact=job.contact,
+    result = run_history(job.material, list(job.forces), out=directory,
+                         settings=job.settings(), resume=True, write_fields=False,
                          overwrite=True)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 

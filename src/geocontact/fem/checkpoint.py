@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -121,22 +122,29 @@ def save_checkpoint(path: Path, identity_record: str, rows: list[list[float]], s
                  **{f"state_{name}": value for name, value in state.arrays().items()})
 
 
-def read_checkpoint(path: Path, identity, columns: int) -> Checkpoint | None:
+def read_checkpoint(path: Path, identity, columns: int,
+                    notify: Callable[[str], None] | None = None) -> Checkpoint | None:
     """The checkpoint at ``path`` if it is a readable one of the run ``identity``
-    (``fem.reuse.FeRunIdentity``) with ``columns`` curve columns; else None after one line on
-    stderr saying why."""
+    (``fem.reuse.FeRunIdentity``) with ``columns`` curve columns; else None after one line
+    saying why (``warn_checkpoint``)."""
     try:
         checkpoint, reason = _parse(path, identity, columns)
     except Exception as exc:  # any defect of the file is the same: unusable
         detail = " ".join(str(exc).split())[:160]
         checkpoint, reason = None, f"unreadable ({type(exc).__name__}: {detail})"
     if reason is not None:
-        warn_checkpoint(path, reason)
+        warn_checkpoint(path, reason, notify)
     return checkpoint
 
 
-def warn_checkpoint(path: Path, reason: str) -> None:
-    print(f"warning: checkpoint {path} not used: {reason}; starting afresh", file=sys.stderr)
+def warn_checkpoint(path: Path, reason: str,
+                    notify: Callable[[str], None] | None = None) -> None:
+    """One line on an unusable checkpoint, to ``notify`` (default: printed to stderr)."""
+    message = f"warning: checkpoint {path} not used: {reason}; starting afresh"
+    if notify is None:
+        print(message, file=sys.stderr)
+    else:
+        notify(message)
 
 
 def _parse(path: Path, identity, columns: int) -> tuple[Checkpoint | None, str | None]:

@@ -31,22 +31,20 @@ import numpy as np
 
 from ..errors import InputError
 from ..grain.force_history import validate_forces
+from ..grain.hertz import incipient_yield
 from ..grain.material import Material
-from .compiled import KERNELS
-from .mesh import MESH_RULES, mesh_preset
 from .result import (
     CURVE_COLUMNS,
-    KINEMATICS,
-    STEP_RULES,
-    STEPS_PER_SEGMENT,
-    TOLERANCE,
-    VOLUMETRIC,
-    VOLUMETRIC_DEFAULT,
     FemResult,
 )
-from .solver import CONTACTS
+from .settings import FeSettings
 
 SCHEMA = "geocontact.fe-identity/1"
+_SETTINGS = frozenset(FeSettings.names())
+# A grain whose analytic first yield is at the contact edge (grain.hertz: friction angle above the
+# critical one) has its FE first yield located by elastic solves (fem.run._Run._locate_first_yield),
+# no longer extrapolated from the last elastic step: recorded, so its earlier runs are not reused.
+EDGE_FIRST_YIELD = "located by elastic solves"
 # The distributions whose versions decide an FE result (importlib.metadata names).
 LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
@@ -55,7 +53,8 @@ LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # what is hashed is their code (``code_fingerprint``), not where they live nor their comments.
 FE_SOURCES = ("fem.checkpoint", "fem.facet_contact", "fem.finite_strain", "fem.mesh",
               "fem.plasticity", "fem.result", "fem.run", "fem.solver",
-              "grain.force_history", "grain.hertz", "grain.material", "fem.roundoff")
+              "grain.force_history", "grain.hertz", "grain.material", "fem.roundoff",
+              "fem.settings")
 
 # Older FE sources whose finished runs the current sources reproduce bit for bit, by the hash of
 # the current sources: {current: {older: why}}. An entry is made only for a change that cannot
@@ -78,6 +77,11 @@ _CODE_ONLY = ("the FE hash reads the sources' code (their syntax trees without d
 _COMPILED_KERNELS = ("the opt-in compiled finite-strain kernels added (kernels='compiled', "
                      "fem/compiled.py; recorded in the identity as kernels): fem.run._solver "
                      "builds the numpy path's solvers as before")
+_EDGE_YIELD = ("the FE first yield of a grain whose analytic first yield is at the contact edge "
+               "(friction angle above the critical one; recorded in the identity as first_yield) "
+               "located by elastic solves between the last elastic and the first plastic step "
+               "(fem.run._Run._locate_first_yield): the runs of every other grain are computed "
+               "and summarised as before")
 REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
     "07275231518417f5": {
         "f7594263f80ad0d4": _COMPILED_KERNELS,
@@ -148,6 +152,24 @@ REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
 }
 
 
+REPRODUCED_FE_CODE["ce4ea917d58ececb"] = {
+    "07275231518417f5": _EDGE_YIELD,
+    **{older: _EDGE_YIELD + "; " + why
+       for older, why in REPRODUCED_FE_CODE["07275231518417f5"].items()},
+}
+
+_SETTINGS_OBJECT = ("the FE settings in one object (fem.settings.FeSettings, added to the sources: "
+                    "defaults, validation and identity record as before, the recorded inputs "
+                    "equal for every setting); run_history split into prepare_run, step_loop "
+                    "and run_summary with the same arithmetic in the same order, its messages "
+                    "through notify")
+REPRODUCED_FE_CODE["163d9399ec173f3c"] = {
+    "ce4ea917d58ececb": _SETTINGS_OBJECT,
+    **{older: _SETTINGS_OBJECT + "; " + why
+       for older, why in REPRODUCED_FE_CODE["ce4ea917d58ececb"].items()},
+}
+
+
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
     sources (``REPRODUCED_FE_CODE``), or None."""
@@ -202,94 +224,40 @@ def library_versions() -> dict[str, str]:
 
 @dataclass(frozen=True)
 class FeRunIdentity:
-    """Everything that decides an FE run's result, with the defaults resolved (an omitted
+    """Everything that decides an FE run's result: the material, the force history and the
+    settings (``fem.settings.FeSettings``) with their defaults resolved (an omitted
     ``steps_per_segment`` is the mesh preset's, an omitted ``mesh_force`` the largest force),
-    so two spellings of the same run have the same key."""
+    so two spellings of the same run have the same key. The settings read through it
+    (``identity.kinematics``)."""
 
     material: Material
     forces: tuple[float, ...]
-    mesh: str
-    steps_per_segment: int
-    tolerance: float
-    volumetric: str
-    mesh_force: float
-    mesh_rule: str = "yield"
-    kinematics: str = "small"
-    step_rule: str = "segment"
-    max_step_ratio: float | None = None
-    contact: str = "node"
-    kernels: str = "numpy"
+    settings: FeSettings
 
     @classmethod
-    def of(cls, material: Material, forces, mesh: str = "coarse", *,
-           steps_per_segment: int | None = None, tolerance: float = TOLERANCE,
-           volumetric: str = VOLUMETRIC_DEFAULT, mesh_force: float | None = None,
-           mesh_rule: str = "yield", kinematics: str = "small",
-           step_rule: str = "segment",
-           max_step_ratio: float | None = None, contact: str = "node",
-           kernels: str = "numpy") -> FeRunIdentity:
-        """The identity of ``run_history(material, forces, mesh, ...)``; one-line InputError on
-        an input the FE would refuse."""
+    def of(cls, material: Material, forces, mesh: str = "coarse",
+           **settings: Any) -> FeRunIdentity:
+        """The identity of ``run_history(material, forces, mesh, **settings)`` (FeSettings
+        keywords); one-line InputError on an input the FE would refuse."""
+        return cls.of_settings(material, forces, FeSettings(mesh, **settings))
+
+    @classmethod
+    def of_settings(cls, material: Material, forces, settings: FeSettings) -> FeRunIdentity:
         forces = tuple(validate_forces(list(forces)))
-        mesh_preset(mesh)
-        steps = STEPS_PER_SEGMENT[mesh] if steps_per_segment is None else steps_per_segment
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-            raise InputError(f"steps_per_segment: must be an integer >= 1, got {steps!r}")
-        if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
-                math.isfinite(tolerance) and tolerance > 0):
-            raise InputError(f"tolerance: must be a positive number, got {tolerance!r}")
-        for name, value, allowed in (("volumetric", volumetric, VOLUMETRIC),
-                                     ("mesh_rule", mesh_rule, MESH_RULES),
-                                     ("kinematics", kinematics, KINEMATICS),
-                                     ("step_rule", step_rule, STEP_RULES),
-                                     ("contact", contact, CONTACTS),
-                                     ("kernels", kernels, KERNELS)):
-            if value not in allowed:
-                raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
-        if kernels == "compiled" and (kinematics != "finite" or contact != "node"):
-            raise InputError("kernels: 'compiled' is the finite-strain engine with the node "
-                             f"contact (got kinematics {kinematics!r}, contact {contact!r})")
-        if max_step_ratio is not None and (
-                isinstance(max_step_ratio, bool)
-                or not isinstance(max_step_ratio, (int, float))
-                or not (math.isfinite(max_step_ratio) and 1.0 < max_step_ratio <= 2.0)):
-            raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
-                             f"got {max_step_ratio!r}")
-        fmax = max(forces)
-        if mesh_force is None:
-            mesh_force = fmax
-        elif isinstance(mesh_force, bool) or not isinstance(mesh_force, (int, float)) or not (
-                math.isfinite(mesh_force) and mesh_force >= fmax):
-            raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, "
-                             f"got {mesh_force!r}")
-        return cls(material, forces, mesh, int(steps), float(tolerance), volumetric,
-                   float(mesh_force), mesh_rule, kinematics, step_rule,
-                   None if max_step_ratio is None else float(max_step_ratio), contact, kernels)
+        return cls(material, forces, settings.resolved(forces))
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _SETTINGS:
+            return getattr(self.settings, name)
+        raise AttributeError(name)
 
     def inputs(self) -> dict[str, Any]:
         """The inputs as ``summary.json`` records them (``inputs``)."""
-        return {"material": self.material.to_dict(), "forces_N": list(self.forces),
-                "mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
-                "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
-                "volumetric": self.volumetric, **self._new_inputs()}
-
-    def _new_inputs(self) -> dict[str, Any]:
-        """The inputs added after the first identity record: recorded only when not at their
-        default, so the keys (cache entries, checkpoints) of earlier runs stay valid."""
-        extra = {}
-        if self.mesh_rule != "yield":
-            extra["mesh_rule"] = self.mesh_rule
-        if self.kinematics != "small":
-            extra["kinematics"] = self.kinematics
-        if self.step_rule != "segment":
-            extra["step_rule"] = self.step_rule
-        if self.max_step_ratio is not None:
-            extra["max_step_ratio"] = self.max_step_ratio
-        if self.contact != "node":
-            extra["contact"] = self.contact
-        if self.kernels != "numpy":
-            extra["kernels"] = self.kernels
-        return extra
+        record = {"material": self.material.to_dict(), "forces_N": list(self.forces),
+                  **self.settings.record()}
+        if incipient_yield(self.material).at_surface:
+            record["first_yield"] = EDGE_FIRST_YIELD
+        return record
 
     def to_dict(self) -> dict[str, Any]:
         """Inputs, FE source hash and library versions, and the key of them all."""
@@ -305,25 +273,7 @@ class FeRunIdentity:
         """The inputs in a few words, for messages."""
         m = self.material
         settings = [f"forces {', '.join(f'{f:g}' for f in self.forces)} N",
-                    f"{self.mesh} mesh", f"{self.steps_per_segment} steps/segment"]
-        if self.mesh_force != max(self.forces):
-            settings.append(f"mesh sized for {self.mesh_force:g} N")
-        if self.tolerance != TOLERANCE:
-            settings.append(f"tolerance {self.tolerance:g}")
-        if self.volumetric != VOLUMETRIC_DEFAULT:
-            settings.append(f"volumetric {self.volumetric}")
-        if self.mesh_rule != "yield":
-            settings.append(f"mesh rule {self.mesh_rule}")
-        if self.kinematics != "small":
-            settings.append(f"{self.kinematics} strain")
-        if self.step_rule != "segment":
-            settings.append(f"step rule {self.step_rule}")
-        if self.max_step_ratio is not None:
-            settings.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
-        if self.contact != "node":
-            settings.append(f"{self.contact} contact")
-        if self.kernels != "numpy":
-            settings.append(f"{self.kernels} kernels")
+                    *self.settings.describe(max(self.forces))]
         settings.append(f"E = {m.youngs_modulus:.3g} Pa, nu = {m.poissons_ratio:g}, "
                         f"sigma_c = {m.compressive_yield_stress:.3g} Pa, "
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "

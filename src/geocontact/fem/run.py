@@ -19,6 +19,7 @@ import math
 import shutil
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -60,11 +61,10 @@ from .result import (
     CURVE_COLUMNS,
     STEP_RULES,
     STEPS_PER_SEGMENT,
-    TOLERANCE,
     VOLUMETRIC,
-    VOLUMETRIC_DEFAULT,
     FemResult,
 )
+from .settings import FeSettings
 from .solver import ContactSolver, State
 
 MAX_CUTBACKS = 8
@@ -85,6 +85,10 @@ FULLY_PLASTIC_CORE = 0.7
 # The "contact" mesh rule refines the surface from the contact radius at this multiple of the
 # first-yield force on (contact_band_radius).
 CONTACT_BAND_FORCE_RATIO = 10.0
+# First yield at the contact edge (_Run._locate_first_yield): elastic solves between the last
+# elastic and the first plastic step until the bracket is this narrow (relative), at most this many
+FIRST_YIELD_FORCE_RTOL = 1e-3
+FIRST_YIELD_SOLVES = 12
 
 
 # --- sizing ------------------------------------------------------------------------------------
@@ -341,6 +345,9 @@ class _Run:
         self.first_yield: dict[str, Any] | None = None
         self.fully_plastic: dict[str, float] | None = None
         self.last_elastic: tuple[float, float, float, tuple[float, float]] | None = None
+        # where the analytic first yield is on the surface at the contact edge (beta above the
+        # critical angle, grain.hertz) the F^(1/3) scaling of _interpolate_first_yield fails
+        self.at_edge = bool(incipient_yield(material).at_surface)
 
     def record(self, step: int, state: State) -> None:
         s = self.solver
@@ -366,6 +373,8 @@ class _Run:
                     self.last_elastic = (state.force, PAIR * state.top_displacement,
                                          float(ratio[k]),
                                          (float(s.radius_qp[k]), float(s.z_qp[k])))
+            elif self.at_edge:
+                self.first_yield = self._locate_first_yield(state)
             else:
                 self.first_yield = self._interpolate_first_yield(state)
 
@@ -391,6 +400,58 @@ class _Run:
         return {"force_N": fy, "approach_m": approach * (fy / force) ** (2.0 / 3.0),
                 "location_m": {"r": where[0], "z": where[1]},
                 "bracket_N": [force, state.force]}
+
+    def _locate_first_yield(self, state: State) -> dict[str, Any]:
+        """First yield at the contact edge: the force between the last elastic step and this
+        one at which the largest Drucker-Prager ratio of the elastic solution reaches 1.
+
+        At the edge the ratio at the yielding point grows faster than the F^(1/3) of Hertz
+        scaling (the edge moves onto the point; docs/verification/edge_first_yield.md), so it is
+        not extrapolated: the crossing is found by elastic solves (elastic below the crossing,
+        so each solve from the unloaded state is the run's own solution up to the Newton
+        tolerance) at forces chosen by the Illinois variant of regula falsi on ratio - 1, to
+        ``FIRST_YIELD_FORCE_RTOL`` of the force; the value is interpolated linearly in the
+        ratio between the two closest solves. ``solves`` counts them.
+        """
+        low = (0.0, 0.0, 0.0) if self.last_elastic is None else self.last_elastic[:3]
+        high_state = self._elastic_solve(state.force)
+        high = (state.force, PAIR * high_state.top_displacement,
+                float(np.max(self.solver.yield_ratio(high_state))))
+        solves, replaced = 1, 0
+        g_low, g_high = low[2] - 1.0, high[2] - 1.0  # Illinois: an end kept twice is halved
+        while (high[2] > 1.0 and solves < FIRST_YIELD_SOLVES
+               and high[0] - low[0] > FIRST_YIELD_FORCE_RTOL * high[0]):
+            force = high[0] - g_high * (high[0] - low[0]) / (g_high - g_low)
+            trial = self._elastic_solve(force)
+            solves += 1
+            point = (force, PAIR * trial.top_displacement,
+                     float(np.max(self.solver.yield_ratio(trial))))
+            if point[2] >= 1.0:
+                high, high_state, g_high = point, trial, point[2] - 1.0
+                g_low = g_low / 2.0 if replaced == 1 else g_low
+                replaced = 1
+            else:
+                low, g_low = point, point[2] - 1.0
+                g_high = g_high / 2.0 if replaced == -1 else g_high
+                replaced = -1
+        t = 1.0 if high[2] <= low[2] else min(max((1.0 - low[2]) / (high[2] - low[2]), 0.0), 1.0)
+        ratio = self.solver.yield_ratio(high_state)
+        k = np.unravel_index(np.argmax(ratio), ratio.shape)
+        bracket_low = self.last_elastic[0] if self.last_elastic is not None else 0.0
+        return {"force_N": low[0] + t * (high[0] - low[0]),
+                "approach_m": low[1] + t * (high[1] - low[1]),
+                "location_m": {"r": float(self.solver.radius_qp[k]),
+                               "z": float(self.solver.z_qp[k])},
+                "bracket_N": [bracket_low, state.force], "solves": solves}
+
+    def _elastic_solve(self, force: float) -> State:
+        solver = self.solver
+        solver.plastic = False
+        try:
+            return solver.solve_step(solver.initial_state(), force,
+                                     label="first-yield search: ")
+        finally:
+            solver.plastic = True
 
     def curve(self) -> dict[str, np.ndarray]:
         data = np.array(self.rows, dtype=float).reshape(-1, len(CURVE_COLUMNS))
@@ -444,89 +505,135 @@ def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> Contac
 def run_history(
     material: Material,
     forces,
-    mesh: str = "coarse",
+    mesh: str | None = None,
     out: str | Path | None = None,
     *,
-    steps_per_segment: int | None = None,
+    settings: FeSettings | None = None,
     resume: bool = False,
     progress: bool = False,
     write_fields: bool = True,
     keep_states: bool = False,
-    tolerance: float = TOLERANCE,
-    volumetric: str = VOLUMETRIC_DEFAULT,
-    mesh_force: float | None = None,
     overwrite: bool = False,
     checkpoint: str | Path | None = None,
     linear_solver: str = "fast",
-    mesh_rule: str = "yield",
-    kinematics: str = "small",
-    step_rule: str = "segment",
-    max_step_ratio: float | None = None,
-    contact: str = "node",
-    kernels: str = "numpy",
+    notify: Callable[[str], None] | None = None,
+    **model: Any,
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
 
-    ``mesh``: "coarse" | "default" | "fine". ``mesh_force``: size the mesh for this force
-    instead of the history's largest (>= it), so runs of different peaks can share one mesh
-    (e.g. single loads compared with a longer history). ``out``: result directory (curve.csv,
-    summary.json, fields/*.vtu), written atomically; an existing ``out`` is replaced only if it
-    is an FE result of ours (``io.check_replaceable``, checked before any work; ``overwrite``
-    lifts it). A checkpoint ``<out>.checkpoint.npz`` (or ``checkpoint``) is written after every
-    converged step (the ParaView files of the waypoints passed wait beside it in
-    ``<out>.checkpoint.fields/``); the default one is removed when the result has landed, an
-    explicit ``checkpoint`` is left to the caller (who lands the result later:
-    ``checkpoint.remove_checkpoint``). ``resume=True``: reuse a finished run in ``out`` of the
-    same identity (``fem.reuse``: inputs, FE code, library versions), else go on from the
-    checkpoint if it is one of this identity; an unusable checkpoint is reported in one line
-    and the run starts over. ``write_fields`` and ``progress`` do not change the result.
-    Raises ConvergenceError (one line, naming the step and load) if a step fails after
-    ``MAX_CUTBACKS`` halvings; the checkpoint then holds the last converged state.
-    ``linear_solver``: "fast" (default) or "reference", the earlier linear-algebra path kept for
-    side-by-side comparison (``ContactSolver``); both give the same result within the Newton
-    tolerance, so it is not part of the run's identity.
-    ``mesh_rule``: "yield" (default, the verified meshes), "contact" (a surface band of small
-    elements over the plastic range of contact radii, ``mesh.MESH_RULES``: no staircase in the
-    loading curve of a weak grain) or "contact-dense" (that band twice as fine).
-    ``kinematics``: "small" (default) or "finite" (finite-strain elastoplasticity,
-    ``fem.finite_strain``). ``step_rule``: "segment" (default) or "decade"
-    (``load_schedule``). ``max_step_ratio``: None (default) or a cap > 1 on the force ratio of
-    one solve on loading above the first-yield force (``sub_steps``: the requested steps are
-    solved through geometric sub-steps and recorded as before; summary.json ``step_control``).
-    ``contact``: "node" (default, the exact node-to-flat constraint) or "facet" (a penalty
-    contact integrated over the surface facets with the contact edge inside an element,
-    ``fem.facet_contact``; small or finite strain). ``kernels``: "numpy" (default) or
-    "compiled" (finite strain, node contact: the compiled element kernels and the measured
-    factoriser of ``fem.compiled``, equal to the numpy path within the Newton tolerance). All
-    six are part of the run's identity.
+    ``settings``: how (``fem.settings.FeSettings``: mesh preset, load steps, tolerance,
+    volumetric treatment, mesh force, mesh rule, kinematics, step rule and cap, contact,
+    kernels; all part of the run's identity), or else ``mesh`` and ``model`` its keywords
+    (``run_history(material, forces, "default", kinematics="finite")``; the defaults are the
+    settings'). ``out``: result directory (curve.csv, summary.json, fields/*.vtu), written
+    atomically; an existing ``out`` is replaced only if it is an FE result of ours
+    (``io.check_replaceable``, checked before any work; ``overwrite`` lifts it). A checkpoint
+    ``<out>.checkpoint.npz`` (or ``checkpoint``) is written after every converged step (the
+    ParaView files of the waypoints passed wait beside it in ``<out>.checkpoint.fields/``); the
+    default one is removed when the result has landed, an explicit ``checkpoint`` is left to
+    the caller (who lands the result later: ``checkpoint.remove_checkpoint``). ``resume=True``:
+    reuse a finished run in ``out`` of the same identity (``fem.reuse``: inputs, FE code,
+    library versions), else go on from the checkpoint if it is one of this identity; an
+    unusable checkpoint is reported in one line and the run starts over. ``write_fields`` and
+    ``progress`` do not change the result. Raises ConvergenceError (one line, naming the step
+    and load) if a step fails after ``MAX_CUTBACKS`` halvings; the checkpoint then holds the
+    last converged state. ``linear_solver``: "fast" (default) or "reference", the earlier
+    linear-algebra path kept for side-by-side comparison (``ContactSolver``); both give the
+    same result within the Newton tolerance, so it is not part of the run's identity.
+    ``notify``: what is done with the run's messages (a reused or not reused result, an
+    unusable checkpoint, an under-resolved contact: one line each); default: printed to
+    stderr.
+
+    The run is three parts: ``prepare_run`` (the identity, a finished run to reuse, the mesh
+    and solver or the checkpoint to go on from), ``step_loop`` (the load steps) and
+    ``run_summary`` (summary.json).
     """
-    from .identity import FeRunIdentity, finished_run
+    from .identity import FeRunIdentity
 
     started = time.perf_counter()
-    identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
-                                tolerance=tolerance, volumetric=volumetric,
-                                mesh_force=mesh_force, mesh_rule=mesh_rule,
-                                kinematics=kinematics, step_rule=step_rule,
-                                max_step_ratio=max_step_ratio, contact=contact,
-                                kernels=kernels)
-    forces, steps = list(identity.forces), identity.steps_per_segment
+    if settings is None:
+        settings = FeSettings("coarse" if mesh is None else mesh, **model)
+    elif mesh is not None or model:
+        raise TypeError("run_history: the settings as settings= or as keywords, not both")
+    notify = _to_stderr if notify is None else notify
+    identity = FeRunIdentity.of_settings(material, forces, settings)
     if resume and out is not None and not keep_states:
-        why: list[str] = []
-        finished = finished_run(out, identity, fields=write_fields, why=why)
+        finished = _finished(out, identity, write_fields, progress, notify)
         if finished is not None:
-            if progress:
-                print(f"fem: reusing the finished run in {out} (same inputs, FE code and "
-                      "libraries)", file=sys.stderr)
             return finished
-        if why:
-            print(f"fem: not reusing the run in {out}: {why[0]}; running it again",
-                  file=sys.stderr)
     if out is not None:
         check_replaceable(out, "fem", overwrite=overwrite)  # before any work
+    prepared = prepare_run(material, identity, out, resume=resume, checkpoint=checkpoint,
+                           write_fields=write_fields, linear_solver=linear_solver,
+                           shared_mesh=settings.mesh_force is not None, notify=notify)
+    states = step_loop(prepared, started, keep_states=keep_states, progress=progress)
+    curve = prepared.run.curve()
+    wall = prepared.elapsed_before + time.perf_counter() - started
+    summary = run_summary(prepared, curve, wall, notify)
+    result = FemResult(curve=curve, summary=summary, states=states, solver=prepared.solver)
+    if out is not None:
+        write_result(result, Path(out), prepared.solver, {},
+                     field_files=[prepared.pending / field_name(s)
+                                  for s in prepared.field_steps],
+                     overwrite=overwrite)
+        if checkpoint is None:
+            remove_checkpoint(prepared.ckpt)
+    return result
+
+
+def _to_stderr(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+def _finished(out, identity, write_fields: bool, progress: bool,
+              notify: Callable[[str], None]) -> FemResult | None:
+    """The finished run in ``out`` of ``identity`` (``fem.identity.finished_run``), or None."""
+    from .identity import finished_run
+
+    why: list[str] = []
+    finished = finished_run(out, identity, fields=write_fields, why=why)
+    if finished is not None:
+        if progress:
+            notify(f"fem: reusing the finished run in {out} (same inputs, FE code and "
+                   "libraries)")
+        return finished
+    if why:
+        notify(f"fem: not reusing the run in {out}: {why[0]}; running it again")
+    return None
+
+
+@dataclasses.dataclass
+class PreparedRun:
+    """A run ready for its load steps (``prepare_run``): new, or going on from a checkpoint."""
+
+    identity: Any  # fem.identity.FeRunIdentity
+    material: Material
+    solver: ContactSolver
+    run: _Run
+    state: State
+    done: int  # load steps already made
+    yield_force: float  # the elastic probe's first-yield force (the load schedule's)
+    targets: list[float]
+    marks: list[int]
+    field_steps: list[int]  # steps whose ParaView files are written
+    ckpt: Path | None
+    pending: Path | None
+    write_fields: bool
+    elapsed_before: float  # wall time of the checkpointed part
+
+
+def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
+                write_fields: bool, linear_solver: str, shared_mesh: bool,
+                notify: Callable[[str], None]) -> PreparedRun:
+    """The mesh, solver and state of a run of ``identity``: from its checkpoint where
+    ``resume`` and the checkpoint is usable, else new (the mesh of ``history_mesh`` and the
+    elastic probe of the first-yield force). ``shared_mesh``: the mesh force was given (the
+    mesh is sized from the ramp to it, the same for every run sharing it)."""
+    forces, steps = list(identity.forces), identity.steps_per_segment
     ckpt = Path(checkpoint) if checkpoint is not None else (
         checkpoint_path(out) if out is not None else None)
     pending = fields_beside(ckpt) if ckpt is not None else None
-    saved = (read_checkpoint(ckpt, identity, len(CURVE_COLUMNS))
+    saved = (read_checkpoint(ckpt, identity, len(CURVE_COLUMNS), notify=notify)
              if resume and ckpt is not None and ckpt.exists() else None)
     if saved is not None:
         solver = _solver(material, saved.mesh, identity, linear_solver)
@@ -534,22 +641,20 @@ def run_history(
         problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
                                 write_fields)
         if problem is not None:
-            warn_checkpoint(ckpt, problem)
+            warn_checkpoint(ckpt, problem, notify)
             saved = None
     if saved is None:
         # a shared mesh (mesh_force) is sized from the ramp 0 -> mesh_force, the same for every
         # run sharing it; a history starting lower is then checked (contact_resolution)
-        sized_history = forces if mesh_force is None else [0.0, identity.mesh_force]
-        fe_mesh = history_mesh(material, identity.mesh_force, mesh,
+        sized_history = [0.0, identity.mesh_force] if shared_mesh else forces
+        fe_mesh = history_mesh(material, identity.mesh_force, identity.mesh,
                                min_force=smallest_resolved_force(material, sized_history, steps,
                                                                  identity.step_rule),
                                rule=identity.mesh_rule)
         solver = _solver(material, fe_mesh, identity, linear_solver)
         if pending is not None:
             remove_pending_fields(pending)  # files of an earlier, other run
-    fe_mesh = solver.mesh
     run = _Run(solver, material)
-
     if saved is not None:
         yield_force = saved.yield_force
         state = saved.state
@@ -569,33 +674,42 @@ def run_history(
     targets, marks = load_schedule(forces, steps, yield_force, identity.step_rule)
     # ParaView files of the waypoints, written to the pending folder as the run passes them
     field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
-    record = json.dumps(identity.to_dict())
+    return PreparedRun(identity, material, solver, run, state, done, yield_force, targets,
+                       marks, field_steps, ckpt, pending, write_fields, elapsed_before)
 
+
+def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
+              progress: bool = False) -> list[State]:
+    """The load steps of the prepared run ``p`` from where it stands, a checkpoint after each
+    (``started``: the wall clock of this session, for the checkpoint's time). Returns the
+    states when ``keep_states`` (the initial one first)."""
+    solver, run, state = p.solver, p.run, p.state
+    record = json.dumps(p.identity.to_dict())
     states = [state] if keep_states else []
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(targets), initial=done, desc="fem", unit="step", file=sys.stderr,
-                   leave=False)
+        bar = tqdm(total=len(p.targets), initial=p.done, desc="fem", unit="step",
+                   file=sys.stderr, leave=False)
     try:
-        for k in range(done, len(targets)):
+        for k in range(p.done, len(p.targets)):
             step = k + 1
-            if identity.max_step_ratio is None:
-                state = _advance(solver, state, targets[k], step)
+            if p.identity.max_step_ratio is None:
+                state = _advance(solver, state, p.targets[k], step)
             else:
-                state = _advance(solver, state, targets[k], step,
-                                 sub_steps(state.force, targets[k], yield_force,
-                                           identity.max_step_ratio))
+                state = _advance(solver, state, p.targets[k], step,
+                                 sub_steps(state.force, p.targets[k], p.yield_force,
+                                           p.identity.max_step_ratio))
             run.record(step, state)
             if keep_states:
                 states.append(state)
-            if step in field_steps:
-                _save_fields(solver, state, pending / field_name(step))
-            if ckpt is not None:
-                save_checkpoint(ckpt, record, run.rows, state, fe_mesh, yield_force=yield_force,
-                                fields=write_fields,
-                                wall_time_s=elapsed_before + time.perf_counter() - started,
+            if step in p.field_steps:
+                _save_fields(solver, state, p.pending / field_name(step))
+            if p.ckpt is not None:
+                save_checkpoint(p.ckpt, record, run.rows, state, solver.mesh,
+                                yield_force=p.yield_force, fields=p.write_fields,
+                                wall_time_s=p.elapsed_before + time.perf_counter() - started,
                                 first_yield=run.first_yield, fully_plastic=run.fully_plastic,
                                 last_elastic=run.last_elastic,
                                 **({"rescued_steps": solver.rescued_steps}
@@ -605,14 +719,20 @@ def run_history(
     finally:
         if bar is not None:
             bar.close()
+    p.state = state
+    return states
 
-    curve = run.curve()
-    wall = elapsed_before + time.perf_counter() - started
 
+def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], wall: float,
+                notify: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """summary.json of the finished run ``p`` with its ``curve`` (``notify``: each warning,
+    which the summary also lists)."""
+    identity, run, solver, material = p.identity, p.run, p.solver, p.material
+    forces, fe_mesh = list(identity.forces), solver.mesh
     first = run.first_yield or {}
     contact, warnings = contact_resolution(material, fe_mesh, curve, run.first_yield)
     for message in warnings:
-        print(f"warning: {message}", file=sys.stderr)
+        (notify or _to_stderr)(f"warning: {message}")
     # per-cycle values below the run's resolution are round-off: 0 here, raw in curve.csv
     resolutions = resolution.fe_resolutions(float(np.max(curve["force_N"])),
                                             float(np.max(curve["approach_m"])))
@@ -621,7 +741,7 @@ def run_history(
         "first_yield_approach_m": first.get("approach_m"),
         "first_yield_location_m": first.get("location_m"),
         "first_yield_bracket_N": first.get("bracket_N"),
-        "first_yield_force_predicted_N": yield_force,
+        "first_yield_force_predicted_N": p.yield_force,
         "fully_plastic_force_N": run.fully_plastic["force_N"] if run.fully_plastic else None,
         "fully_plastic_approach_m": (run.fully_plastic["approach_m"] if run.fully_plastic
                                      else None),
@@ -629,18 +749,21 @@ def run_history(
                                     else None),
         "fully_plastic_criterion": {"yielded_core_fraction": FULLY_PLASTIC_FRACTION,
                                     "core_radius_over_contact_radius": FULLY_PLASTIC_CORE},
-        "cycles": resolution.clean_fe_cycles(_cycles(curve, forces, marks), resolutions),
+        "cycles": resolution.clean_fe_cycles(_cycles(curve, forces, p.marks), resolutions),
         "resolution": resolution.fe_summary_record(resolutions),
         "mesh": {"elements": int(fe_mesh.t.shape[1]), "nodes": int(fe_mesh.doflocs.shape[1]),
-                 "preset": mesh, "rule": identity.mesh_rule,
-                 "element": f"P2 triangle (6-node, isoparametric), {volumetric}"
+                 "preset": identity.mesh, "rule": identity.mesh_rule,
+                 "element": f"P2 triangle (6-node, isoparametric), {identity.volumetric}"
                             + (" (F-bar)" if identity.kinematics == "finite" else "")},
         "kinematics": identity.kinematics,
         "contact_resolution": contact,
         "warnings": warnings,
-        "steps": int(len(targets)),
-        "step_control": sub_step_record(targets, yield_force, identity.max_step_ratio),
+        "steps": int(len(p.targets)),
+        "step_control": sub_step_record(p.targets, p.yield_force, identity.max_step_ratio),
         **({"rescued_steps": solver.rescued_steps} if solver.rescued_steps else {}),
+        **({"first_yield_search": {"elastic_solves": first["solves"],
+                                   "force_rtol": FIRST_YIELD_FORCE_RTOL}}
+           if "solves" in first else {}),
         "newton_iterations": int(np.sum(curve["iterations"])),
         "wall_time_s": wall,
         "version": __version__,
@@ -649,15 +772,8 @@ def run_history(
     }
     # what made this result (FemJob.key, checkpoints and --resume compare it: fem.reuse)
     summary["identity"] = identity.to_dict()
-    summary["fields"] = [f"fields/{field_name(s)}" for s in field_steps]
-    result = FemResult(curve=curve, summary=summary, states=states, solver=solver)
-    if out is not None:
-        write_result(result, Path(out), solver, {},
-                     field_files=[pending / field_name(s) for s in field_steps],
-                     overwrite=overwrite)
-        if checkpoint is None:
-            remove_checkpoint(ckpt)
-    return result
+    summary["fields"] = [f"fields/{field_name(s)}" for s in p.field_steps]
+    return summary
 
 
 def _save_fields(solver: ContactSolver, state: State, path: Path) -> None:

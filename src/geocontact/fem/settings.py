@@ -1,0 +1,214 @@
+"""The settings of an FE run, in one frozen object: their defaults, their validation, what of them
+goes into the run's identity and the command-line flags that set them (docs/fem.md).
+
+    settings = FeSettings(mesh="default", kinematics="finite", max_step_ratio=1.01)
+    result = run_history(material, forces, settings=settings)
+
+``run_history``, ``FeRunIdentity`` and ``FemJob`` read their settings from here; the CLI adds
+the FE model flags with ``FeSettings.add_model_flags`` and reads them with
+``FeSettings.model_of``. A setting the FE would refuse is a one-line InputError naming it and
+what is allowed, raised when the object is made, before any work.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any
+
+from ..errors import InputError
+from .mesh import MESH_RULES, mesh_preset
+from .result import (
+    KINEMATICS,
+    STEP_RULES,
+    STEPS_PER_SEGMENT,
+    TOLERANCE,
+    VOLUMETRIC,
+    VOLUMETRIC_DEFAULT,
+)
+
+# The settings the FE model flags set (``add_model_flags``; FemJob / run_history keywords).
+MODEL_FLAGS = ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")
+# The settings added after the first identity record: recorded only when not at their default,
+# so the keys (cache entries, checkpoints) of earlier runs stay valid.
+RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "contact",
+                     "kernels")
+
+
+@dataclass(frozen=True)
+class FeSettings:
+    """How an FE run is made (everything but the material and the force history).
+
+    ``mesh``: "coarse" | "default" | "fine" (fem.mesh.PRESETS). ``steps_per_segment``: load
+    steps per monotonic segment (None: the preset's, STEPS_PER_SEGMENT). ``tolerance``: Newton
+    tolerance relative to the force scale. ``volumetric``: "bbar-p1" | "bbar-p0" | "full".
+    ``mesh_force``: size the mesh for this force, >= the history's largest (None: the largest).
+    ``mesh_rule``: "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES). ``kinematics``:
+    "small" | "finite". ``step_rule``: "segment" | "decade" (fem.run.load_schedule).
+    ``max_step_ratio``: None or a cap in (1, 2] on the loading force ratio of one solve above
+    the first-yield force (fem.run.sub_steps). ``contact``: "node" | "facet". ``kernels``:
+    "numpy" | "compiled" (finite strain, node contact; fem.compiled).
+    """
+
+    mesh: str = "coarse"
+    steps_per_segment: int | None = None
+    tolerance: float = TOLERANCE
+    volumetric: str = VOLUMETRIC_DEFAULT
+    mesh_force: float | None = None
+    mesh_rule: str = "yield"
+    kinematics: str = "small"
+    step_rule: str = "segment"
+    max_step_ratio: float | None = None
+    contact: str = "node"
+    kernels: str = "numpy"
+
+    def __post_init__(self) -> None:
+        from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
+        from .solver import CONTACTS
+
+        mesh_preset(self.mesh)
+        steps = self.steps_per_segment
+        if steps is not None and (isinstance(steps, bool) or not _is_integer(steps)
+                                  or steps < 1):
+            raise InputError(f"steps_per_segment: must be an integer >= 1, got {steps!r}")
+        if not _is_number(self.tolerance) or not self.tolerance > 0:
+            raise InputError(f"tolerance: must be a positive number, got {self.tolerance!r}")
+        for name, allowed in (("volumetric", VOLUMETRIC), ("mesh_rule", MESH_RULES),
+                              ("kinematics", KINEMATICS), ("step_rule", STEP_RULES),
+                              ("contact", CONTACTS), ("kernels", KERNELS)):
+            value = getattr(self, name)
+            if value not in allowed:
+                raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
+        if self.kernels == "compiled" and (self.kinematics != "finite" or self.contact != "node"):
+            raise InputError("kernels: 'compiled' is the finite-strain engine with the node "
+                             f"contact (got kinematics {self.kinematics!r}, contact "
+                             f"{self.contact!r})")
+        ratio = self.max_step_ratio
+        if ratio is not None and not (_is_number(ratio) and 1.0 < ratio <= 2.0):
+            raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
+                             f"got {ratio!r}")
+        if self.mesh_force is not None and not (_is_number(self.mesh_force)
+                                                and self.mesh_force > 0):
+            raise InputError(f"mesh_force: must be a positive number, got {self.mesh_force!r}")
+
+    def resolved(self, forces) -> FeSettings:
+        """The settings of a run of the force history ``forces`` with the defaults resolved
+        (steps_per_segment the preset's, mesh_force the largest force), numbers as floats and
+        ints, so two spellings of the same run are equal."""
+        fmax = max(forces)
+        mesh_force = fmax if self.mesh_force is None else self.mesh_force
+        if mesh_force < fmax:
+            raise InputError(f"mesh_force: must be >= the largest force {fmax:g} N, "
+                             f"got {self.mesh_force!r}")
+        steps = (STEPS_PER_SEGMENT[self.mesh] if self.steps_per_segment is None
+                 else self.steps_per_segment)
+        return replace(self, steps_per_segment=int(steps), tolerance=float(self.tolerance),
+                       mesh_force=float(mesh_force),
+                       max_step_ratio=(None if self.max_step_ratio is None
+                                       else float(self.max_step_ratio)))
+
+    def record(self) -> dict[str, Any]:
+        """What of the (resolved) settings the run's identity records (``summary.json``
+        ``inputs``, after the material and the forces)."""
+        record = {"mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
+                  "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
+                  "volumetric": self.volumetric}
+        defaults = FeSettings()
+        record.update({name: getattr(self, name) for name in RECORDED_WHEN_SET
+                       if getattr(self, name) != getattr(defaults, name)})
+        return record
+
+    @classmethod
+    def of_record(cls, inputs: dict[str, Any]) -> FeSettings:
+        """The settings of a recorded identity's ``inputs`` (``record`` and the material and
+        forces beside it)."""
+        return cls(mesh=inputs["mesh"], steps_per_segment=inputs.get("steps_per_segment"),
+                   tolerance=inputs["tolerance"], volumetric=inputs["volumetric"],
+                   mesh_force=inputs.get("mesh_force_N"),
+                   **{name: inputs[name] for name in RECORDED_WHEN_SET if name in inputs})
+
+    def describe(self, largest_force: float) -> list[str]:
+        """The (resolved) settings in a few words each, those at their default left out."""
+        words = [f"{self.mesh} mesh", f"{self.steps_per_segment} steps/segment"]
+        if self.mesh_force != largest_force:
+            words.append(f"mesh sized for {self.mesh_force:g} N")
+        if self.tolerance != TOLERANCE:
+            words.append(f"tolerance {self.tolerance:g}")
+        if self.volumetric != VOLUMETRIC_DEFAULT:
+            words.append(f"volumetric {self.volumetric}")
+        if self.mesh_rule != "yield":
+            words.append(f"mesh rule {self.mesh_rule}")
+        if self.kinematics != "small":
+            words.append(f"{self.kinematics} strain")
+        if self.step_rule != "segment":
+            words.append(f"step rule {self.step_rule}")
+        if self.max_step_ratio is not None:
+            words.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
+        if self.contact != "node":
+            words.append(f"{self.contact} contact")
+        if self.kernels != "numpy":
+            words.append(f"{self.kernels} kernels")
+        return words
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @staticmethod
+    def names() -> tuple[str, ...]:
+        return tuple(f.name for f in fields(FeSettings))
+
+    # --- the command line ----------------------------------------------------------------
+    @staticmethod
+    def add_model_flags(p) -> None:
+        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --contact of the FE
+        engine (docs/fem.md); their defaults are the settings'."""
+        default = FeSettings.__dataclass_fields__
+        p.add_argument("--kinematics", default=default["kinematics"].default,
+                       choices=list(KINEMATICS),
+                       help="FE kinematics: small strain (default) or finite strain "
+                            "(logarithmic elastic strain, exponential map, F-bar)")
+        p.add_argument("--mesh-rule", default=default["mesh_rule"].default,
+                       choices=list(MESH_RULES),
+                       help="FE mesh rule: 'yield' (default, the verified meshes), 'contact' "
+                            "(small surface elements over the plastic range of contact radii: "
+                            "the contact edge of a weak grain moves in steps of ~1 %% of the "
+                            "radius) or 'contact-dense' (twice as many surface elements there)")
+        p.add_argument("--step-rule", default=default["step_rule"].default,
+                       choices=list(STEP_RULES),
+                       help="FE load steps: 'segment' (default, --steps per monotonic segment) "
+                            "or 'decade' (also at least --steps/2 geometric loading steps per "
+                            "decade of force: for histories spanning many decades of F/Fy)")
+        p.add_argument("--max-step-ratio", type=float,
+                       default=default["max_step_ratio"].default, metavar="R",
+                       help="FE load-step control: solve each loading step above the "
+                            "first-yield force through geometric sub-steps of at most R in "
+                            "force (e.g. 1.01; the requested steps are still the recorded "
+                            "ones): a weak grain's perfectly plastic flattening is step "
+                            "dependent (docs/fem.md)")
+        p.add_argument("--contact", default=default["contact"].default,
+                       choices=["node", "facet"],
+                       help="FE contact with the flat: 'node' (default, exact node-to-flat "
+                            "constraint) or 'facet' (penalty integrated over the surface "
+                            "facets, the contact edge moving inside an element: no kink in the "
+                            "loading curve as a node engages)")
+
+    @staticmethod
+    def model_of(args) -> dict[str, Any]:
+        """The FE model the flags of ``add_model_flags`` chose, as settings keywords
+        (``contact`` only when not the default, so the records of default runs are
+        unchanged)."""
+        model = {key: getattr(args, key) for key in MODEL_FLAGS}
+        if args.contact != FeSettings.__dataclass_fields__["contact"].default:
+            model["contact"] = args.contact
+        return model
+
+
+def _is_number(value: Any) -> bool:
+    return (not isinstance(value, bool) and isinstance(value, (int, float))
+            and math.isfinite(value))
+
+
+def _is_integer(value: Any) -> bool:
+    import numpy as np
+
+    return isinstance(value, (int, np.integer))
