@@ -27,8 +27,8 @@ SMALL = {"grains": 300, "inertia": 1e-2, "targets": (1.5, 0.5)}
 @pytest.fixture(scope="module")
 def both(tmp_path_factory) -> tuple[Path, dict]:
     out = tmp_path_factory.mktemp("dem") / "oedometer"
-    return out, run_dem("oedometer", LAW, Settings(**SMALL), contacts=("geocontact", "granular"),
-                        ranks=1, out=out)
+    return out, run_dem("oedometer", LAW, Settings(**SMALL),
+                        contacts=("geocontact", "elastic", "granular"), ranks=1, out=out)
 
 
 def test_stress_reached_and_outputs_parsed(both):
@@ -83,6 +83,30 @@ def test_geocontact_dents_granular_does_not(both):
     assert h["cycles"][0]["law_dissipated_J"] == 0
     assert "residual_approach" not in h
     assert not (out / "granular" / "residual_approach.csv").exists()
+
+
+def test_the_elastic_baseline_runs_the_same_pair_style_without_a_dent(both):
+    """contact elastic: the grain's elastic law file (law.elastic, written beside the runs)
+    through pair geocontact and the geocontact walls: no contact dents, the law dissipates
+    nothing, and the same restitution as the others (that of damping 0.5: 0.273)."""
+    out, doc = both
+    e = doc["runs"]["elastic"]
+    elastic_file = json.loads((out / "law-elastic.json").read_text())
+    assert elastic_file["yield"]["approach_m"] == 0.5 * elastic_file["material"]["radius"]
+    assert e["residual_approach"]["plastic"] == 0 < e["residual_approach"]["in_contact"]
+    # the law's tally is round-off (work - stored energy of exact Hertz): 1e-12 of the wall work
+    assert abs(e["cycles"][0]["law_dissipated_J"]) < 1e-12 * e["cycles"][0]["wall_work_J"]
+    assert e["cycles"][0]["wall_work_J"] > 0  # sliding and damping still dissipate
+    assert doc["restitution"] == pytest.approx(0.2732, abs=1e-4)
+    assert "restitution 0.273" in (out / "elastic" / "run.txt").read_text()
+
+
+def test_coordination_counts_contacts_that_carry_force(both):
+    """geocontact's contacts per grain are the pairs whose force is positive (compute pair
+    geocontact [3]): the plastic law's force-free overlaps below delta_res are not counted."""
+    out, doc = both
+    for contact in ("geocontact", "elastic", "granular"):
+        assert 1.5 < doc["runs"][contact]["contacts_per_grain_at_stress"] < 8.0
 
 
 def test_report_section(both, tmp_path):

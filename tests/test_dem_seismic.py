@@ -70,8 +70,10 @@ def test_settlement_and_dissipation(both):
     for run in (g, h):
         # the servo holds the vertical stress, loosely here: 300 grains shaken far above their
         # resonance compact faster than the speed-limited servo follows (docs/dem.md gives the
-        # quasi-static run); a servo of the wrong sign or gain runs away to 0 or to MPa
-        assert 0.4 * 5e3 < run["stress_mean_Pa"] < 1.2 * 5e3
+        # quasi-static run); a servo of the wrong sign or gain runs away to 0 or to MPa. The
+        # granular run, damped to the plugin's restitution of beta = 0.5 (0.273; it had 0.163
+        # before the two were made alike), falls to about 0.35 of the target here
+        assert 0.25 * 5e3 < run["stress_mean_Pa"] < 1.2 * 5e3
         # a sample sheared back and forth at constant stress compacts: it settles, the walls
         # do positive work, and the settlement grows (never undone by more than the noise)
         assert run["settlement_m"] > 0

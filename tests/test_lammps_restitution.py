@@ -1,8 +1,9 @@
 """Damping given as a coefficient of restitution (docs/dem.md, "Damping as a coefficient of
 restitution"): the plugin's viscous damping at a fraction beta of critical gives an elastic Hertz
 impact a restitution that depends on beta alone; `restitution e` is that beta. Checked against an
-independent integration of the dimensionless impact (scipy) and by measuring the rebound in
-LAMMPS, for a pair and for a wall."""
+independent integration of the dimensionless impact (scipy, geocontact.analyses.restitution, which
+the DEM drivers use for the granular peer) and by measuring the rebound in LAMMPS, for a pair and
+for a wall."""
 
 from __future__ import annotations
 
@@ -12,35 +13,16 @@ import pytest
 
 pytest.importorskip("lammps")
 
-from scipy.integrate import solve_ivp  # noqa: E402
 from test_lammps_plugin import PARAMS_FILE, RADIUS, two_spheres, yield_velocity  # noqa: E402
 
 from geocontact.analyses.lammps_plugin import open_lammps  # noqa: E402
+from geocontact.analyses.restitution import (  # noqa: E402
+    restitution_of_damping as restitution_reference,
+)
 from geocontact.law import load_params  # noqa: E402
 
 PARAMS = load_params(PARAMS_FILE)
 DENSITY = 2650.0
-
-
-def restitution_reference(beta: float) -> float:
-    """e of x'' = -x^1.5 - 2 beta sqrt(1.5) x^0.25 x', x(0) = 0, x'(0) = 1, at the parting
-    (normal force back to zero on the way out), by scipy's adaptive Runge-Kutta."""
-    c = 2.0 * beta * math.sqrt(1.5)
-
-    def force(x, v):
-        xp = max(x, 0.0)
-        return xp**1.5 + c * xp**0.25 * v
-
-    def rhs(_, y):
-        return [y[1], -force(y[0], y[1])]
-
-    def parted(_, y):
-        return force(y[0], y[1]) if y[1] < 0.0 else 1.0
-
-    parted.terminal, parted.direction = True, -1
-    sol = solve_ivp(rhs, (0.0, 200.0), [0.0, 1.0], events=parted, rtol=1e-11, atol=1e-13,
-                    max_step=1e-2)
-    return -float(sol.y_events[0][0][1])
 
 
 def contact_time(speed: float, mass: float) -> float:

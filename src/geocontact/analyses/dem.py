@@ -24,11 +24,17 @@ import numpy as np
 
 from ..errors import GeocontactError, InputError
 from ..files import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
+from ..law.elastic import elastic_law
 from .lammps_plugin import mpi_library_dir, plugin_path
+from .restitution import restitution_of_damping
 
 SCHEMA = "geocontact.dem/1"
 TESTS = ("oedometer",)
-CONTACTS = ("geocontact", "granular")
+# geocontact: the law file; elastic: its grain's elastic law through the same pair style and
+# walls (``law.elastic``, the like-for-like baseline); granular: LAMMPS's pair granular
+# hertz/material + Mindlin + Tsuji (a cross-check with LAMMPS's own styles)
+CONTACTS = ("geocontact", "elastic", "granular")
+LIKE_FOR_LIKE = ("geocontact", "elastic")  # --contact both
 MIN_GRAINS = 50  # fewer: a cluster of grains between the walls, not a sample
 MAX_GRAINS = 200_000  # beyond: hours per cycle on a workstation; a cluster job, not this driver
 MAX_RANKS = 64
@@ -51,7 +57,10 @@ class Settings:
     targets: tuple[float, ...] = DEFAULT_TARGETS
     inertia: float = 1e-3  # inertia number of the cycles
     friction: float = 0.5
-    damping: float = 0.5
+    damping: float = 0.5  # geocontact: fraction of critical
+    # the normal damping as a restitution e of an elastic impact (None: that of ``damping``,
+    # ``analyses.restitution``); both models get it (geocontact `restitution e`, granular Tsuji)
+    restitution: float | None = None
     seed: int = 4821
     walls: str | None = None  # the walls' law (geocontact or granular); None: the contact's
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
@@ -69,7 +78,7 @@ class Settings:
                 raise InputError(f"targets: each cycle's peak ratio must exceed its valley, "
                                  f"got {a:g} then {b:g}")
         if self.walls is not None and self.walls not in CONTACTS:
-            raise InputError(f"walls: must be geocontact or granular, got {self.walls!r}")
+            raise InputError(f"walls: must be one of {', '.join(CONTACTS)}, got {self.walls!r}")
 
 
 def check_sample(settings, per: str, more: tuple = ()) -> None:
@@ -83,7 +92,9 @@ def check_sample(settings, per: str, more: tuple = ()) -> None:
                                    ("stress", settings.stress, 1.0, 1e9),
                                    ("inertia", settings.inertia, 1e-6, 0.1),
                                    ("friction", settings.friction, 0.0, 10.0),
-                                   ("damping", settings.damping, 0.0, 0.99), *more):
+                                   ("damping", settings.damping, 0.0, 0.99),
+                                   *((("restitution", settings.restitution, 0.01, 1.0),)
+                                     if settings.restitution is not None else ()), *more):
         if not (math.isfinite(value) and low <= value <= high):
             raise InputError(f"{name}: must be in [{low:g}, {high:g}], got {value:g}")
     if not 0 < settings.seed < 2**31 - 1:
@@ -115,15 +126,39 @@ def lammps_command(ranks: int) -> list[str]:
     return [str(mpiexec), "-n", str(ranks), str(lmp)]
 
 
+def restitution(settings) -> float:
+    """The restitution both contact models are damped to (``Settings.restitution``)."""
+    if settings.restitution is not None:
+        return settings.restitution
+    return restitution_of_damping(settings.damping)
+
+
+def script_contact(contact: str) -> str:
+    """The LAMMPS script's model of a contact choice (the elastic law runs through geocontact)."""
+    return "geocontact" if contact == "elastic" else contact
+
+
+def contact_law(contact: str, law: Path, params, folder: Path) -> Path:
+    """The law file a contact choice runs with: the elastic law of the grain, written into
+    ``folder`` as ``law-elastic.json``, for ``elastic``; else ``law``."""
+    if contact != "elastic":
+        return law
+    path = folder / "law-elastic.json"
+    elastic_law(params).save(path)
+    return path
+
+
 def script_variables(settings: Settings, law: Path, contact: str, out: Path,
                      ranks: int) -> list[str]:
+    contact = script_contact(contact)
     values = {"N": settings.grains, "rmed": repr(settings.radius),
               "spread": repr(settings.spread), "stress": repr(settings.stress),
               "smax": repr(max(settings.targets + (1.0,))), "inertia": repr(settings.inertia),
               "friction": repr(settings.friction), "damping": repr(settings.damping),
+              "restitution": repr(restitution(settings)),
               "seed": settings.seed, "params": str(law), "contact": contact,
               "plugin": str(plugin_path()), "out": str(out),
-              "walls": settings.walls or contact, **settings.extra}
+              "walls": script_contact(settings.walls or contact), **settings.extra}
     args: list[str] = []
     for name, value in values.items():
         args += ["-var", name, str(value)]
@@ -354,7 +389,8 @@ def check_run(settings, law: str | Path, contacts: tuple[str, ...], ranks: int):
 
     for c in contacts:
         if c not in CONTACTS:
-            raise InputError(f"contact: must be geocontact, granular or both, got {c!r}")
+            raise InputError(f"contact: must be one of {', '.join(CONTACTS)}, both or all, "
+                             f"got {c!r}")
     if not 1 <= ranks <= MAX_RANKS:
         raise InputError(f"ranks: must be in [1, {MAX_RANKS}], got {ranks}")
     settings.check()
@@ -381,14 +417,15 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
     inputs = {"test": test, "law": str(law), "contacts": list(contacts), "ranks": ranks,
               **{k: v for k, v in asdict(settings).items()}}
     document = {"schema": SCHEMA, "test": test, "ranks": ranks, "law": str(law),
-                "law_label": params.label, "runs": {},
+                "law_label": params.label, "restitution": restitution(settings), "runs": {},
                 "provenance": provenance("dem", inputs)}
     with atomic_directory(out, "dem", overwrite=overwrite, inputs=inputs) as tmp:
         for contact in contacts:
             folder = tmp / contact
             if progress:
                 progress(f"{contact}: {settings.grains} grains, {ranks} rank(s)")
-            wall = run_lammps(test, script_variables(settings, law, contact, folder, ranks),
+            law_file = contact_law(contact, law, params, tmp)
+            wall = run_lammps(test, script_variables(settings, law_file, contact, folder, ranks),
                               contact, ranks, folder, progress)
             parsed = parse_run(folder, settings)
             parsed["summary"]["runtime_s"] = wall

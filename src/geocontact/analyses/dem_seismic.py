@@ -47,10 +47,13 @@ from .dem import (
     SCHEMA,
     check_run,
     check_sample,
+    contact_law,
     critical_timestep,
     read_run,
     read_table,
+    restitution,
     run_lammps,
+    script_contact,
 )
 from .lammps_plugin import plugin_path
 
@@ -69,7 +72,8 @@ class SeismicSettings:
     strain: float = 2e-3  # peak base displacement / sample height
     inertia: float = 1e-3  # largest inertia number of the shaking: sets the time compression
     friction: float = 0.5
-    damping: float = 0.5
+    damping: float = 0.5  # geocontact: fraction of critical
+    restitution: float | None = None  # as Settings.restitution (analyses/dem.py)
     seed: int = 4821
     baseline: str = "linear"
     decimate: int = 1  # every k-th record sample (a coarser record: fewer, longer segments)
@@ -142,7 +146,8 @@ def script_variables(settings: SeismicSettings, law: Path, contact: str, out: Pa
               "spread": repr(settings.spread), "stress": repr(settings.stress),
               "strain": repr(settings.strain), "density": repr(settings.density),
               "friction": repr(settings.friction), "damping": repr(settings.damping),
-              "seed": settings.seed, "params": str(law), "contact": contact,
+              "restitution": repr(restitution(settings)),
+              "seed": settings.seed, "params": str(law), "contact": script_contact(contact),
               "record": str(record_file), "dtrec": repr(motion.dt),
               "timescale": repr(motion.timescale(settings)),
               "plugin": str(plugin_path()), "out": str(out), **settings.extra}
@@ -326,7 +331,8 @@ def run_seismic(record: str, law: str | Path, settings: SeismicSettings, *,
     inputs = {"test": TEST, "record": record, "law": str(law), "contacts": list(contacts),
               "ranks": ranks, **{k: v for k, v in asdict(settings).items()}}
     document = {"schema": SCHEMA, "test": TEST, "ranks": ranks, "law": str(law),
-                "law_label": params.label, "record": record_summary,
+                "law_label": params.label, "restitution": restitution(settings),
+                "record": record_summary,
                 "timescale_target": timescale, "runs": {},
                 "provenance": provenance("dem", inputs)}
     total = motion.displacement.size - 1
@@ -342,8 +348,10 @@ def run_seismic(record: str, law: str | Path, settings: SeismicSettings, *,
             if progress:
                 progress(f"{contact}: {settings.grains} grains, {ranks} rank(s), {total} record "
                          f"samples, time compressed {timescale:.4g}x")
+            law_file = contact_law(contact, law, params, tmp)
             wall = run_lammps(
-                "seismic", script_variables(settings, law, contact, folder, record_file, motion),
+                "seismic",
+                script_variables(settings, law_file, contact, folder, record_file, motion),
                 contact, ranks, folder, progress,
                 reporter=lambda f, n, c, p: _report_samples(f, n, c, p, total))
             parsed = parse_run(folder, settings, motion)

@@ -36,12 +36,18 @@ def register(sub) -> None:
     p.add_argument("--grains", type=int, default=None,
                    help="number of grains (default 2000; seismic 1000)")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks (default 1)")
-    p.add_argument("--contact", default="geocontact", choices=[*CONTACTS, "both"],
-                   help="contact model: geocontact, granular (pair granular hertz/material + "
-                        "fix wall/gran) or both (default geocontact)")
+    p.add_argument("--contact", default="geocontact", choices=[*CONTACTS, "both", "all"],
+                   help="contact model: geocontact (the law file), elastic (its grain's elastic "
+                        "law through the same pair style and walls), granular (pair granular "
+                        "hertz/material + fix wall/gran, a cross-check), both (geocontact and "
+                        "elastic: like for like) or all (default geocontact)")
     p.add_argument("--walls", default=None, choices=CONTACTS,
                    help="the walls' law alone: geocontact (fix wall/geocontact) or granular "
                         "(fix wall/gran); default: that of --contact")
+    p.add_argument("--restitution", type=float, default=None,
+                   help="the normal damping as the coefficient of restitution of an elastic "
+                        "impact, in [0.01, 1], for every contact model (default: that of "
+                        "damping 0.5 of critical, 0.273)")
     p.add_argument("--stress", type=float, default=None,
                    help="vertical stress before the cycles, Pa (default 5000)")
     p.add_argument("--radius", type=float, default=None,
@@ -72,7 +78,7 @@ def _progress(message: str) -> None:
 
 
 def run(args) -> int:
-    from ..analyses.dem import CONTACTS, Settings, run_dem
+    from ..analyses.dem import Settings, run_dem
 
     if args.law is None:
         raise InputError("--law: missing (law parameters, geocontact.law/1 JSON)")
@@ -86,12 +92,12 @@ def run(args) -> int:
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: only for the seismic test")
     settings = Settings(grains=2000 if args.grains is None else args.grains)
-    for name in ("stress", "radius", "spread", "inertia", "seed", "walls"):
+    for name in ("stress", "radius", "spread", "inertia", "seed", "walls", "restitution"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
     if args.targets is not None:
         settings.targets = tuple(args.targets)
-    contacts = CONTACTS if args.contact == "both" else (args.contact,)
+    contacts = contact_choice(args.contact)
     with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
         document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
                            out=args.out, overwrite=args.force, progress=_progress)
@@ -113,8 +119,14 @@ def run(args) -> int:
     return 0
 
 
+def contact_choice(choice: str) -> tuple[str, ...]:
+    """The contact models of ``--contact``: one, ``both`` (like for like) or ``all``."""
+    from ..analyses.dem import CONTACTS, LIKE_FOR_LIKE
+
+    return {"both": LIKE_FOR_LIKE, "all": CONTACTS}.get(choice, (choice,))
+
+
 def run_seismic(args) -> int:
-    from ..analyses.dem import CONTACTS
     from ..analyses.dem_seismic import SeismicSettings
     from ..analyses.dem_seismic import run_seismic as run
 
@@ -126,10 +138,10 @@ def run_seismic(args) -> int:
             raise InputError(f"--{name}: not for the seismic test")
     settings = SeismicSettings()
     for name in ("grains", "stress", "radius", "spread", "inertia", "seed", "strain",
-                 "decimate", "baseline"):
+                 "decimate", "baseline", "restitution"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
-    contacts = CONTACTS if args.contact == "both" else (args.contact,)
+    contacts = contact_choice(args.contact)
     with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
         document = run(args.record, args.law, settings, contacts=contacts, ranks=args.ranks,
                        out=args.out, overwrite=args.force, progress=_progress)

@@ -15,7 +15,7 @@ from .common import read_summary, relative_dir, save_to_figures
 from .html import Report, table
 
 SCHEMA = "geocontact.dem/1"
-COLOURS = {"geocontact": "C0", "granular": "C1"}
+COLOURS = {"geocontact": "C0", "granular": "C1", "elastic": "C2"}
 
 
 def is_dem(directory: Path) -> bool:

@@ -14,7 +14,7 @@ from ..files import read_csv_column
 from .common import read_summary, relative_dir, save_to_figures
 from .html import Report, table
 
-COLOURS = {"geocontact": "C0", "granular": "C1"}
+COLOURS = {"geocontact": "C0", "granular": "C1", "elastic": "C2"}
 
 
 def _columns(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
