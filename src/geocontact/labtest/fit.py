@@ -172,7 +172,8 @@ def departure(vd, vf, kh: float, noise: float) -> dict:
     last = int(ok[-1])
     if last == len(centres) - 1:
         raise InputError("curve: the virgin loading follows Hertz to its end: the test never "
-                         "yields, so there is no plastic law to fit")
+                         f"yields (peak {vf.max():.3g} N), so there is no plastic law to fit: "
+                         f"load past first yield, >= {MIN_LEVELS} cycles beyond it")
     dd = centres[last + 1]
     return {"approach_m": dd, "force_N": float(kh * dd**HERTZ_EXPONENT),
             "method": f"first log bin of the virgin loading whose median F/(K d^1.5) stays "
@@ -325,21 +326,36 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
     closed = [c for c in test.cycles if c.closed]
     if len(closed) < MIN_LEVELS:
         raise InputError(f"curve: {len(closed)} closed load-unload cycle(s) (unloading below "
-                         f"10 % of the peak); fit needs >= {MIN_LEVELS} to peaks past yield")
+                         f"10 % of the peak); fit needs >= {MIN_LEVELS} to peaks past yield: "
+                         "unload each cycle to near zero force")
     scale = 1.0 if setup != "flat" else 2.0 ** -HERTZ_EXPONENT  # K of u -> K of delta
     vd, vf = _virgin(test)
     kh = test.contact["stiffness"] * scale
     leave = departure(vd, vf, kh, test.noise)
-    if leave["force_N"] < test.contact["upto_N"] - test.contact["offset_N"]:
-        # the contact fit reached past the departure: refit it on the Hertz part alone
-        below = condition(record, setup, radius, machine_stiffness, force=force,
-                          hertz_upto=test.contact["offset_N"] + leave["force_N"])
-        if below.contact["points_in_contact"] >= 20:
-            test = below
-            vd, vf = _virgin(test)
-            kh = test.contact["stiffness"] * scale
-            leave = departure(vd, vf, kh, test.noise)
+    hertz = hertz_part(vd, vf, leave["approach_m"], test.noise)
+    if hertz is not None:
+        # K of the Hertz part alone (the envelope's onset carries the bend's form error)
+        test.contact["hertz_part"] = hertz
+        kh = hertz["coefficient"]
+        leave = departure(vd, vf, kh, test.noise)
     return Prepared(test, vd, vf, kh, leave, nu, beta, m)
+
+
+HERTZ_PART_POINTS = 20  # virgin points above the noise below the departure to refit K
+
+
+def hertz_part(vd, vf, upto: float, noise: float) -> dict | None:
+    """K of F = K d^1.5 by linear least squares over the virgin points above 5 sigma below the
+    departure approach ``upto`` (the contact point fixed); None with fewer than
+    HERTZ_PART_POINTS such points."""
+    use = (vd > 0) & (vd < upto) & (vf > 5.0 * noise)
+    if use.sum() < HERTZ_PART_POINTS:
+        return None
+    x = vd[use] ** HERTZ_EXPONENT
+    k = float(np.dot(x, vf[use]) / np.dot(x, x))
+    rms = float(np.sqrt(np.mean((k * x - vf[use]) ** 2)))
+    return {"coefficient": k, "points": int(use.sum()), "upto_approach_m": float(upto),
+            "rms_N": rms}
 
 
 def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=None,
@@ -399,7 +415,9 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     deep = [lv for lv in levels if lv.max_approach > 1.05 * dy]
     if len(deep) < MIN_LEVELS:
         raise InputError(f"curve: {len(deep)} cycle(s) peak past the yield approach "
-                         f"({dy:.3g} m); fit needs >= {MIN_LEVELS}")
+                         f"({dy:.3g} m; the record's peak is {test.peak_force / fy:.3g} x the "
+                         f"first-yield force {fy:.3g} N); fit needs >= {MIN_LEVELS}: load to "
+                         "higher peaks")
     provenance = {"source": "laboratory test (geocontact fit)", "test": test.inputs()}
     with np.errstate(divide="ignore"):  # a level with no residual: its relative error is inf
         params = fit_law(material, dy, vd, vf, deep, provenance=provenance)
