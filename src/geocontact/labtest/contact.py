@@ -281,3 +281,42 @@ def _result(fit, model: _Model, parts: Branches, u_ref, span, f_ref, fp, scale, 
                   "reloading power laws from each peak to a residual r_k >= u0 "
                   "(labtest.contact); u after machine compliance",
     }
+
+
+MIN_ONSET_POINTS = 20  # points of the Hertz onset above the noise floor to refine on it
+
+
+def fit_onset(approach, force, sigma: float, upto: float, first_peak: int) -> dict | None:
+    """The contact refined on the Hertz onset alone: F = g + K (d - e)_+^1.5 by least squares
+    over the first loading's points (pre-contact included) below ``upto`` (the force where the
+    record leaves Hertz), in the approach d of the whole-record contact: e and g are the
+    corrections of the contact point and the offset. None with fewer than MIN_ONSET_POINTS
+    points above the noise floor there (the whole-record contact stands)."""
+    d = np.asarray(approach, dtype=float)[: first_peak + 1]
+    f = np.asarray(force, dtype=float)[: first_peak + 1]
+    use = f < upto
+    d, f = d[use], f[use]
+    if int(np.sum(f > NOISE_SIGMAS * sigma)) < MIN_ONSET_POINTS:
+        return None
+    top = float(d.max())
+    k0 = max(float(f.max()), sigma) / top**HERTZ_EXPONENT
+    scale = max(sigma, RESOLUTION_FLOOR * float(f.max()))
+
+    def residual(theta):
+        g, log_k, e = theta
+        return (g + math.exp(log_k) * np.maximum(d - e * top, 0.0) ** HERTZ_EXPONENT - f) / scale
+
+    with _one_blas_thread():
+        fit = least_squares(residual, [0.0, math.log(k0), 0.0], method="trf",
+                            bounds=([-np.inf, -np.inf, -0.5], [np.inf, np.inf, 0.5]),
+                            x_scale=[scale, 1.0, 0.01])
+    jac = fit.jac
+    s2 = 2.0 * fit.cost / max(fit.fun.size - 3, 1)
+    try:
+        se = np.sqrt(np.clip(np.diag(np.linalg.pinv(jac.T @ jac)) * s2, 0.0, None))
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    g, log_k, e = fit.x
+    return {"approach_shift_m": float(e * top), "approach_shift_se_m": float(se[2] * top),
+            "offset_shift_N": float(g), "coefficient": math.exp(log_k),
+            "points": int(d.size), "upto_N": float(upto)}

@@ -289,9 +289,11 @@ class LabTest:
 
 def condition(record: Record, setup: str, radius: float,
               machine_stiffness: float | None = None, *,
-              force: np.ndarray | None = None) -> LabTest:
+              force: np.ndarray | None = None, contact: dict | None = None) -> LabTest:
     """Compliance, contact point, offset, set-up mapping and cycles of a read test.
-    ``force``: a replacement force series (the bootstrap's)."""
+    ``force``: a replacement force series (the bootstrap's); ``contact``: a contact point
+    (``contact_displacement_m``, ``offset_N``) already found (``labtest.fit.prepare``'s
+    refinement on the Hertz onset), instead of the whole-record fit."""
     check_setup(setup)
     radius = finite_number("radius", radius)
     if not radius > 0:
@@ -313,13 +315,13 @@ def condition(record: Record, setup: str, radius: float,
     if not peaks or len(turns) < 2:
         raise InputError("curve: no unloading found (the displacement never reverses by "
                          f"{100 * TURN_SHARE:g} % of its range); fit needs load-unload cycles")
-    first_peak_force = float(f[: peaks[0] + 1].max())
     base = float(np.median(f[: max(5, f.size // 50)]))
-    if first_peak_force - base < 10.0 * max(sigma, 1e-300):
-        raise InputError(f"curve: the force never rises above the load-cell noise (first peak "
-                         f"{first_peak_force - base:.3g} N, noise {sigma:.3g} N): the "
+    if float(f.max()) - base < 10.0 * max(sigma, 1e-300):
+        raise InputError(f"curve: the force never rises above the load-cell noise (peak "
+                         f"{float(f.max()) - base:.3g} N, noise {sigma:.3g} N): the "
                          "displacement never closes the gap to the grain")
-    contact = fit_contact(u, f, sigma, turns, SMOOTH_WINDOW)
+    if contact is None:
+        contact = fit_contact(u, f, sigma, turns, SMOOTH_WINDOW)
     f = f - contact["offset_N"]
     tension = np.flatnonzero(f < -max(TENSION_SIGMAS * sigma, 1e-3 * float(f.max())))
     if tension.size:

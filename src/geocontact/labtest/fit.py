@@ -43,6 +43,7 @@ from ..errors import InputError
 from ..grain.hertz import hertz_coefficient, incipient_yield
 from ..grain.material import Material
 from ..law.params import HERTZ_EXPONENT, LawParams
+from .contact import fit_onset
 from .curve import SMOOTH_WINDOW, LabTest, Record, condition
 
 DEFAULT_POISSONS_RATIO = 0.25
@@ -332,6 +333,12 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
     vd, vf = _virgin(test)
     kh = test.contact["stiffness"] * scale
     leave = departure(vd, vf, kh, test.noise)
+    refined = _refine_on_onset(record, test, leave, machine_stiffness, force)
+    if refined is not None:
+        test = refined
+        vd, vf = _virgin(test)
+        kh = test.contact["stiffness"] * scale
+        leave = departure(vd, vf, kh, test.noise)
     hertz = hertz_part(vd, vf, leave["approach_m"], test.noise)
     if hertz is not None:
         # K of the Hertz part alone (the envelope's onset carries the bend's form error)
@@ -342,6 +349,35 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
 
 
 HERTZ_PART_POINTS = 20  # virgin points above the noise below the departure to refit K
+
+
+def _refine_on_onset(record: Record, test: LabTest, leave: dict, machine_stiffness,
+                     force) -> LabTest | None:
+    """The record conditioned again at the contact refined on the Hertz onset
+    (``contact.fit_onset``) when the onset is resolved (enough points above the noise below the
+    departure) and places the contact more precisely than the whole record did: the envelope's
+    bend past yield carries a form error the Hertz part has not. None otherwise."""
+    first_peak = test.cycles[0].peak if test.cycles else test.force.size - 1
+    onset = fit_onset(test.approach, test.force, test.noise, leave["force_N"], first_peak)
+    whole = dict(test.contact)
+    pair = 2.0 if test.setup == "flat" else 1.0  # approach per machine displacement
+    if onset is None or not (onset["approach_shift_se_m"]
+                             < pair * whole["contact_displacement_se_m"]):
+        test.contact["onset_refinement"] = onset or "too few points above the noise"
+        return None
+    contact = {**whole,
+               "contact_displacement_m": whole["contact_displacement_m"]
+               + onset["approach_shift_m"] / pair,
+               "contact_displacement_se_m": onset["approach_shift_se_m"] / pair,
+               "offset_N": whole["offset_N"] + onset["offset_shift_N"],
+               "stiffness": onset["coefficient"] * pair**HERTZ_EXPONENT,
+               "whole_record": {k: whole[k] for k in (
+                   "contact_displacement_m", "contact_displacement_se_m", "offset_N",
+                   "stiffness")},
+               "onset_refinement": onset}
+    contact.pop("noise_N", None)
+    return condition(record, test.setup, test.radius, machine_stiffness, force=force,
+                     contact=contact)
 
 
 def hertz_part(vd, vf, upto: float, noise: float) -> dict | None:
