@@ -293,6 +293,26 @@ def write_masters(names, cache: Path, tests: Path, masters: Path) -> None:
         write_json_atomic(masters / f"{name}.master.json", master)
 
 
+CHECK_CURVE = MASTERS / "quartzite-check.json"
+
+
+def write_check_curve(cache: Path, path: Path = CHECK_CURVE) -> None:
+    """The FE run of the quartzite grain's check history (what the law fitted to each record
+    of SHAPES must predict, docs/fit.md acceptance), for the fast tests of
+    tests/test_labtest_shapes.py: its approach path, forces, steps and cycles."""
+    job = check_job(QUARTZITE)
+    result = run_campaign([job], cache, workers=1, progress=True)[0]
+    keep = ("residual_approach_m", "max_force_N", "steps")
+    write_json_atomic(path, {
+        "note": "FE run of the quartzite grain's check history "
+                "(scripts/make_synthetic_lab_tests.py write_check_curve)",
+        "forces_N": list(job.forces), "cache_key": job.key(),
+        "curve": {k: [float(v) for v in result.curve[k]] for k in ("approach_m", "force_N")}
+        | {"step": [int(v) for v in result.curve["step"]]},
+        "summary": {"cycles": [{k: cy[k] for k in keep} for cy in result.summary["cycles"]],
+                    "identity": {"key": job.key()}}})
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
@@ -304,6 +324,8 @@ def main(argv=None) -> int:
     def run():
         made = make(args.only, args.mesh, Path(args.cache), Path(args.out))
         write_masters(args.only, Path(args.cache), Path(args.out), MASTERS)
+        if set(args.only) & set(SHAPES):
+            write_check_curve(Path(args.cache))
         print(json.dumps({n: t["fe_cycles"] for n, t in made.items()}, indent=1))
 
     return run_reporting_errors(run)

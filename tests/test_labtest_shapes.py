@@ -7,8 +7,9 @@ record, on the synthetic records of examples/tests/ made from one FE run of the 
 * sparse: the first loading in about 12 points, uneven sampling.
 
 Each is fitted (with the FE master curve the quartzite test's identification ended on,
-tests/data/labtest) and meets docs/fit.md's acceptance on the record; its contact point is
-within the stated tolerance of the true one (truth.json). Records that cannot be fitted are
+tests/data/labtest) and meets docs/fit.md's acceptance along the grain's check history (its FE
+run in tests/data/labtest); its contact point is within the stated tolerance of the true one
+(truth.json). Records that cannot be fitted are
 refused with one line that says what they lack."""
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ SHAPES = ("ramp-quartzite", "approach-quartzite", "sparse-quartzite")
 # is 0.1-0.2 of it (contact["contact_displacement_se_m"])
 CONTACT_TOLERANCE_OF_YIELD = 0.5
 FORCE_RMS_GOAL = 5.0  # docs/fit.md acceptance: force RMS, % of the peak
-RESIDUAL_GOAL = 0.10  # docs/fit.md acceptance: residual approach (cycles past the first)
+RESIDUAL_GOAL = 0.10  # docs/fit.md acceptance: residual approach at each return to zero
 
 
 def _master():
@@ -56,30 +57,55 @@ def _fit(name: str):
     return truth, fit
 
 
+def _check_history():
+    """The FE run of the quartzite grain's check history (tests/data/labtest, written by
+    scripts/make_synthetic_lab_tests.py write_check_curve) as calibrate.acceptance.compare
+    reads a run and its job."""
+    from types import SimpleNamespace
+
+    data = json.loads((ROOT / "tests" / "data" / "labtest" / "quartzite-check.json").read_text())
+    return (SimpleNamespace(forces=tuple(data["forces_N"])),
+            SimpleNamespace(curve=data["curve"], summary=data["summary"]))
+
+
 @pytest.mark.parametrize("name", SHAPES)
 def test_each_shape_is_fitted_with_its_contact_point(name):
+    from geocontact.calibrate.acceptance import compare
+
     truth, fit = _fit(name)
-    m, test = truth["material"], fit.test
+    test = fit.test
     # the contact point against the generator's (the approach is the pair's: x2 on a flat)
-    u0 = test.contact["contact_displacement_m"]
-    error = float(np.asarray(2.0 if truth["setup"] == "flat" else 1.0)) * abs(
-        u0 - truth["contact_displacement_m"])
+    pair = 2.0 if truth["setup"] == "flat" else 1.0
+    error = pair * abs(test.contact["contact_displacement_m"] - truth["contact_displacement_m"])
     assert error <= CONTACT_TOLERANCE_OF_YIELD * truth["fe_first_yield_approach_m"]
     # every cycle found, the first (6 % of the peak) included
     assert len(fit.levels) == len(truth["peaks_over_yield"])
-    # docs/fit.md acceptance: the law along the record within the force-RMS goal ...
+    # the law along the record itself
     smooth, law = law_along(fit.params, test.approach)
     assert path_rms_percent(smooth, law - test.force, test.peak_force) <= FORCE_RMS_GOAL
-    # ... the residual approach of the cycles past the first within 10 % of the FE's (the
-    # first, 8 Fy, keeps 2 nm, near the noise of the displacement)
-    for lv, fe in list(zip(fit.levels, truth["fe_cycles"], strict=True))[1:]:
-        assert lv["residual_approach_m"] == pytest.approx(fe["residual_approach_m"],
-                                                          rel=RESIDUAL_GOAL)
-    # and the material: E within 5 %, sigma_c within 15 % (the noisy tolerances of
-    # test_labtest.test_fit_recovers_the_material)
-    p = fit.params.material
-    assert p.youngs_modulus == pytest.approx(m["youngs_modulus"], rel=0.05)
-    assert p.compressive_yield_stress == pytest.approx(m["compressive_yield_stress"], rel=0.15)
+    # docs/fit.md acceptance: along a different FE history of the grain (three cycles to 30 Fy,
+    # a partial unload, a new peak of 100 Fy) force RMS <= 5 % and residual approach <= 10 %
+    job, run = _check_history()
+    c = compare(fit.params, job, run, name=name, kind="held-out")
+    assert c.force_rms_percent <= FORCE_RMS_GOAL
+    assert c.residual_error_percent <= 100.0 * RESIDUAL_GOAL
+
+
+def test_noise_free_long_approach_identifies_sigma_c():
+    """docs/fit.md's noise-free goal (sigma_c within 5 %) on the long-approach record (+3.6 %
+    measured); on the ramp and sparse records it is not met (docs/fit.md: their Hertz part is
+    short or unsampled and E* and sigma_c trade), which this test does not hide: it checks that
+    the contact point of those is still found (within the tolerance above)."""
+    truth, fit = _fit("approach-quartzite.clean")
+    m = truth["material"]
+    assert fit.params.material.compressive_yield_stress == pytest.approx(
+        m["compressive_yield_stress"], rel=0.05)
+    for name in ("ramp-quartzite.clean", "sparse-quartzite.clean"):
+        truth, fit = _fit(name)
+        pair = 2.0 if truth["setup"] == "flat" else 1.0
+        error = pair * abs(fit.test.contact["contact_displacement_m"]
+                           - truth["clean_contact_displacement_m"])
+        assert error <= CONTACT_TOLERANCE_OF_YIELD * truth["fe_first_yield_approach_m"]
 
 
 def test_the_issue_record_is_fitted_from_the_command_line(tmp_path, capsys):
@@ -118,11 +144,21 @@ def _hertz_record(peaks, *, noise, gap=0.2e-6, n=600, seed=0):
 
 
 def test_a_record_at_the_noise_is_refused_saying_so():
-    """Cycles whose force stays within a few sigma of the load cell: too few points of the
-    whole record above the noise floor to place the contact."""
-    rec = _hertz_record([0.2e-6, 0.3e-6, 0.4e-6], noise=0.012)  # peak 0.089 N = 7.5 sigma
-    with pytest.raises(InputError, match=r"points of the whole record rise above the noise "
-                                         r"floor .* need >= 20 .* load further") as info:
+    """Three cycles (peak 0.24 N) sampled sparsely through a load cell of sigma 0.022 N: 14
+    points of the whole record above the noise floor are too few to place the contact."""
+    rec = _hertz_record([0.1e-6, 0.2e-6, 0.4e-6], noise=0.022, n=60)
+    with pytest.raises(InputError, match=r"only 14 points of the whole record rise above the "
+                                         r"noise floor .* need >= 20 .* load further") as info:
+        condition(rec, "pair", R)
+    assert "\n" not in str(info.value)
+
+
+def test_a_contact_the_record_does_not_fix_is_refused_saying_so():
+    """The same cycles with more points but the force within a few sigma over most of them:
+    the fit's standard error of the contact exceeds half the first peak's depth."""
+    rec = _hertz_record([0.1e-6, 0.2e-6, 0.4e-6], noise=0.02, n=120)
+    with pytest.raises(InputError, match=r"contact point is not determined by the record .* "
+                                         r"needs a loading that rises from zero force") as info:
         condition(rec, "pair", R)
     assert "\n" not in str(info.value)
 
