@@ -337,14 +337,16 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
                          "unload each cycle to near zero force")
     scale = 1.0 if setup != "flat" else 2.0 ** -HERTZ_EXPONENT  # K of u -> K of delta
     vd, vf = _virgin(test)
-    kh = test.contact["stiffness"] * scale
+    kh = _first_coefficient(test, vd, vf, scale)
     leave = departure(vd, vf, kh, test.noise)
     refined = _refine_on_onset(record, test, leave, machine_stiffness, force)
     if refined is not None:
         test = refined
         vd, vf = _virgin(test)
+        # K of the onset fit (contact free, pre-contact points in): the Hertz part's own
         kh = test.contact["stiffness"] * scale
         leave = departure(vd, vf, kh, test.noise)
+        return Prepared(test, vd, vf, kh, leave, nu, beta, m)
     hertz = hertz_part(vd, vf, leave["approach_m"], test.noise)
     if hertz is not None:
         # K of the Hertz part alone (the envelope's onset carries the bend's form error)
@@ -355,6 +357,9 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
 
 
 HERTZ_PART_POINTS = 20  # virgin points above the noise below the departure to refit K
+ONSET_SHARE = 0.5  # the onset refinement: below this share of the departure force (the
+                   # points between it and the departure are up to 3 % below Hertz)
+HERTZ_SHARE = 0.25  # the first look for the departure: K below this share of the first peak
 
 
 def _refine_on_onset(record: Record, test: LabTest, leave: dict, machine_stiffness,
@@ -364,7 +369,8 @@ def _refine_on_onset(record: Record, test: LabTest, leave: dict, machine_stiffne
     departure) and places the contact more precisely than the whole record did: the envelope's
     bend past yield carries a form error the Hertz part has not. None otherwise."""
     first_peak = test.cycles[0].peak if test.cycles else test.force.size - 1
-    onset = fit_onset(test.approach, test.force, test.noise, leave["force_N"], first_peak)
+    onset = fit_onset(test.approach, test.force, test.noise, ONSET_SHARE * leave["force_N"],
+                      first_peak)
     whole = dict(test.contact)
     pair = 2.0 if test.setup == "flat" else 1.0  # approach per machine displacement
     if onset is None or not (onset["approach_shift_se_m"]
@@ -386,11 +392,22 @@ def _refine_on_onset(record: Record, test: LabTest, leave: dict, machine_stiffne
                      contact=contact)
 
 
-def hertz_part(vd, vf, upto: float, noise: float) -> dict | None:
+def _first_coefficient(test: LabTest, vd, vf, scale: float) -> float:
+    """K (pair) to look for the departure from Hertz with: F = K d^1.5 over the virgin points
+    below HERTZ_SHARE of the first cycle's peak force (the Hertz part on any test whose first
+    peak is past yield), else the whole-record envelope's onset K (a smooth bend's onset can
+    overshoot Hertz, and a K too high finds no Hertz part at all)."""
+    first_peak = float(test.force[test.cycles[0].peak]) if test.cycles else float(vf.max())
+    quarter = hertz_part(vd, vf, math.inf, test.noise, upto_force=HERTZ_SHARE * first_peak)
+    return quarter["coefficient"] if quarter else test.contact["stiffness"] * scale
+
+
+def hertz_part(vd, vf, upto: float, noise: float, *, upto_force: float = math.inf
+               ) -> dict | None:
     """K of F = K d^1.5 by linear least squares over the virgin points above 5 sigma below the
-    departure approach ``upto`` (the contact point fixed); None with fewer than
-    HERTZ_PART_POINTS such points."""
-    use = (vd > 0) & (vd < upto) & (vf > 5.0 * noise)
+    departure approach ``upto`` (and ``upto_force``; the contact point fixed); None with fewer
+    than HERTZ_PART_POINTS such points."""
+    use = (vd > 0) & (vd < upto) & (vf > 5.0 * noise) & (vf < upto_force)
     if use.sum() < HERTZ_PART_POINTS:
         return None
     x = vd[use] ** HERTZ_EXPONENT
