@@ -112,7 +112,10 @@ def _fit(args, record, started: float) -> int:
     m = result.params.material
     print(f"wrote {args.out} and {Path(args.out).with_suffix('.fit')} "
           f"({time.perf_counter() - started:.1f} s)")
-    print(f"contact point at displacement {result.contact['contact_displacement_m']:.4g} m, "
+    where = ("refined on the Hertz onset" if "whole_record" in result.contact
+             else "from the whole record")
+    print(f"contact point at displacement {result.contact['contact_displacement_m']:.4g} ± "
+          f"{result.contact['contact_displacement_se_m']:.2g} m ({where}), "
           f"load-cell offset {result.contact['offset_N']:.3g} N, noise "
           f"{result.contact['noise_N']:.2g} N; {len(result.levels)} cycles")
     k = result.test.machine_stiffness

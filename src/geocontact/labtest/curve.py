@@ -19,13 +19,12 @@ w = delta / 2):
 The machine's own compliance (platens, load cell, frame: ``machine_stiffness`` in N/m, measured
 by the lab with the platens in contact) is subtracted first: u = displacement - F / k.
 
-Contact point: the machine zero is never the contact. The first loading (until the force has
-reached ``HERTZ_SHARE`` of the first peak) is fitted by least squares with
-F = f0 + K (u - u0)_+^1.5 (Hertz with an unknown load-cell offset f0 and contact point u0), the
-pre-contact points included, so u0 is where the fitted Hertz curve leaves the offset; the
-force noise (sigma, from the residual of a Savitzky-Golay smoothing, median absolute deviation)
-bounds what counts as contact. ``geocontact.labtest.fit`` re-fits it below the force where the
-record leaves Hertz when that is lower.
+Contact point: the machine zero is never the contact. The contact point u0 and the load-cell
+offset f0 are parameters of one least-squares fit of every branch of the record (loading,
+unloading, reloading; ``labtest.contact``): the virgin envelope with its Hertz onset
+F = f0 + K (u - u0)_+^1.5, and the unloadings and reloadings of every cycle from their peaks on
+that envelope to residual approaches at or after u0. The force noise (sigma, from the residual
+of a Savitzky-Golay smoothing, median absolute deviation) sets the robust loss's scale.
 
 Segmentation: the press drives the displacement, so the turning points are found on it (a
 zig-zag with a hysteresis of ``TURN_SHARE`` of the displacement range on the smoothed signal,
@@ -46,13 +45,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from ..errors import InputError
 from ..grain.force_history import cycle_peak, cycle_windows
-from ..law.params import HERTZ_EXPONENT
 from ..schema import finite_number
+from .contact import fit_contact
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9}
 FORCE_UNITS = {"N": 1.0, "kN": 1e3, "mN": 1e-3}
@@ -64,10 +62,7 @@ MIN_POINTS = 50           # fewer points cannot resolve a contact point and thre
 SMOOTH_WINDOW = 11        # Savitzky-Golay window (points) for the noise estimate and turns
 TURN_SHARE = 0.02         # hysteresis of a turning point, share of the displacement range
 CLOSED_SHARE = 0.10       # a cycle is closed when the force falls below this share of its peak
-HERTZ_SHARE = 0.25        # first contact fit: loading up to this share of the first peak
-NOISE_SIGMAS = 5.0        # force above NOISE_SIGMAS x sigma is contact, below is noise
 TENSION_SIGMAS = 8.0      # a force below -TENSION_SIGMAS x sigma (after the offset) is tension
-MIN_HERTZ_POINTS = 8      # points of the Hertz fit above the noise floor
 
 
 @dataclass
@@ -249,51 +244,6 @@ def turning_points(u) -> list[int]:
     return turns
 
 
-def _hertz_residual(theta, u, f, scale):
-    f0, log_k, u0 = theta
-    return (f0 + math.exp(log_k) * np.maximum(u - u0, 0.0) ** HERTZ_EXPONENT - f) / scale
-
-
-def fit_contact(u, f, sigma: float, upto: float) -> dict:
-    """Hertz with an offset and a contact point, F = f0 + K (u - u0)_+^1.5, by least squares
-    over the first loading points with F <= ``upto`` (pre-contact points included)."""
-    u = np.asarray(u, dtype=float)
-    f = np.asarray(f, dtype=float)
-    stop = int(np.argmax(f > upto)) if np.any(f > upto) else f.size
-    uu, ff = u[:stop], f[:stop]
-    floor = NOISE_SIGMAS * sigma
-    # a first guess: offset = median of the points before the force leaves the noise for good
-    above = ff > (np.median(ff[: max(5, stop // 20)]) + floor)
-    first = int(np.argmax(above)) if np.any(above) else 0
-    f0 = float(np.median(ff[: max(first, 3)]))
-    contact = ff - f0 > floor
-    if contact.sum() < MIN_HERTZ_POINTS:
-        raise InputError(f"curve: only {int(contact.sum())} points of the first loading rise "
-                         f"above the noise floor ({floor:.3g} N) before {upto:.3g} N; need "
-                         f">= {MIN_HERTZ_POINTS} to find the contact point (sample the "
-                         "first loading more densely)")
-    top = float(uu[-1])
-    u_guess = float(uu[first]) if first else float(uu[0])
-    k_guess = float(ff[-1] - f0) / max(top - u_guess, 1e-30) ** HERTZ_EXPONENT
-    scale = max(sigma, 1e-12 * max(abs(float(ff.max())), 1.0))
-    span = float(u.max() - u.min())
-    fit = least_squares(_hertz_residual, [f0, math.log(max(k_guess, 1e-30)), u_guess],
-                        args=(uu, ff, scale),
-                        x_scale=[max(sigma, 1e-9), 1.0, 0.01 * span], method="trf")
-    f0, log_k, u0 = (float(v) for v in fit.x)
-    jac = fit.jac
-    try:
-        cov = np.linalg.inv(jac.T @ jac) * (2.0 * fit.cost / max(uu.size - 3, 1))
-        se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * np.array([scale, 1.0, 1.0])
-    except np.linalg.LinAlgError:
-        se = np.full(3, np.nan)
-    return {"offset_N": f0 * 1.0, "stiffness": math.exp(log_k), "contact_displacement_m": u0,
-            "points": int(uu.size), "points_in_contact": int(np.sum(uu > u0)),
-            "upto_N": float(upto), "rms_N": float(np.sqrt(2.0 * fit.cost / uu.size) * scale),
-            "offset_se_N": float(se[0] * 1.0), "stiffness_se_relative": float(se[1]),
-            "contact_displacement_se_m": float(se[2])}
-
-
 @dataclass
 class Cycle:
     """One load-unload cycle of the conditioned test (indices into ``LabTest`` arrays)."""
@@ -338,11 +288,12 @@ class LabTest:
 
 
 def condition(record: Record, setup: str, radius: float,
-              machine_stiffness: float | None = None, *, hertz_upto: float | None = None,
-              force: np.ndarray | None = None) -> LabTest:
+              machine_stiffness: float | None = None, *,
+              force: np.ndarray | None = None, contact: dict | None = None) -> LabTest:
     """Compliance, contact point, offset, set-up mapping and cycles of a read test.
-    ``hertz_upto``: fit the contact point below this force (default HERTZ_SHARE of the first
-    peak); ``force``: a replacement force series (the bootstrap's)."""
+    ``force``: a replacement force series (the bootstrap's); ``contact``: a contact point
+    (``contact_displacement_m``, ``offset_N``) already found (``labtest.fit.prepare``'s
+    refinement on the Hertz onset), instead of the whole-record fit."""
     check_setup(setup)
     radius = finite_number("radius", radius)
     if not radius > 0:
@@ -364,15 +315,13 @@ def condition(record: Record, setup: str, radius: float,
     if not peaks or len(turns) < 2:
         raise InputError("curve: no unloading found (the displacement never reverses by "
                          f"{100 * TURN_SHARE:g} % of its range); fit needs load-unload cycles")
-    first_peak_force = float(f[: peaks[0] + 1].max())
     base = float(np.median(f[: max(5, f.size // 50)]))
-    if first_peak_force - base < 10.0 * max(sigma, 1e-300):
-        raise InputError(f"curve: the force never rises above the load-cell noise (first peak "
-                         f"{first_peak_force - base:.3g} N, noise {sigma:.3g} N): the "
+    if float(f.max()) - base < 10.0 * max(sigma, 1e-300):
+        raise InputError(f"curve: the force never rises above the load-cell noise (peak "
+                         f"{float(f.max()) - base:.3g} N, noise {sigma:.3g} N): the "
                          "displacement never closes the gap to the grain")
-    upto = hertz_upto if hertz_upto is not None else base + HERTZ_SHARE * (first_peak_force
-                                                                            - base)
-    contact = fit_contact(u[: peaks[0] + 1], f[: peaks[0] + 1], sigma, upto)
+    if contact is None:
+        contact = fit_contact(u, f, sigma, turns, SMOOTH_WINDOW)
     f = f - contact["offset_N"]
     tension = np.flatnonzero(f < -max(TENSION_SIGMAS * sigma, 1e-3 * float(f.max())))
     if tension.size:
@@ -381,9 +330,7 @@ def condition(record: Record, setup: str, radius: float,
                          f"noise ({sigma:.3g} N); a grain test is compressive: check the sign "
                          "and the zero of the force column")
     delta = approach_of(u - contact["contact_displacement_m"], setup)
-    contact = {**contact, "noise_N": sigma,
-               "method": "least squares F = f0 + K (u - u0)_+^1.5 over the first loading up "
-                         "to upto_N (pre-contact points included); u after machine compliance"}
+    contact = {**contact, "noise_N": sigma}
     first = int(np.argmax(delta > 0.0))
     test = LabTest(record=record, setup=setup, radius=radius,
                    machine_stiffness=machine_stiffness, approach=delta, force=f, noise=sigma,
@@ -403,7 +350,9 @@ def _cycles(test: LabTest, turns: list[int]) -> list[Cycle]:
             waypoints.append(float(f[i]))
         else:
             prior_peak = waypoints[-1]
-            low = float(f[i])
+            # the valley's force over a few points: one noisy reading must not keep a small
+            # cycle open (0.4 % noise against a first peak at 6 % of the largest, issue 37)
+            low = float(np.median(f[max(0, i - SMOOTH_WINDOW // 2):i + SMOOTH_WINDOW // 2 + 1]))
             waypoints.append(0.0 if low < CLOSED_SHARE * prior_peak else low)
     if marks[-1] < f.size - 1 and len(turns) % 2 == 1:  # loading to the end: open
         marks.append(f.size - 1)

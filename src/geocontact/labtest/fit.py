@@ -43,6 +43,7 @@ from ..errors import InputError
 from ..grain.hertz import hertz_coefficient, incipient_yield
 from ..grain.material import Material
 from ..law.params import HERTZ_EXPONENT, LawParams
+from .contact import fit_onset
 from .curve import SMOOTH_WINDOW, LabTest, Record, condition
 
 DEFAULT_POISSONS_RATIO = 0.25
@@ -50,6 +51,7 @@ DEFAULT_FRICTION_ANGLE = 30.0
 DEFAULT_HARDENING_RATIO = 0.0
 MIN_LEVELS = 3
 UNLOAD_KEEP = (0.05, 0.98)  # share of the peak force over which the unloading law is fitted
+UNLOAD_NOISE_SIGMAS = 3.0   # and at least this many load-cell sigmas above zero
 BETA_PROFILE = (0.0, 15.0, 30.0, 45.0, 60.0)
 
 
@@ -105,12 +107,17 @@ def _peak(test: LabTest, cycle) -> Peak:
     return Peak(dmax, max(fmax, float(np.median(f[lo:hi + 1]))))
 
 
-def unloading_law(approach, force, peak: Peak) -> tuple[float, float, float]:
+def unloading_law(approach, force, peak: Peak, noise: float = 0.0
+                  ) -> tuple[float, float, float]:
     """d_res and n of F = F_max ((d - d_res)/(d_max - d_res))^n over the unloading between
-    UNLOAD_KEEP of the peak force (d_res free); returns (d_res, n, rms of peak)."""
+    UNLOAD_KEEP of the peak force and at least UNLOAD_NOISE_SIGMAS x ``noise`` (d_res free);
+    returns (d_res, n, rms of peak). Points within a few sigma of zero force are kept out: the
+    ones there that pass a force threshold are those the noise lifted, which bends the law's
+    foot up and moves d_res towards the peak's side (-18 % on a cycle at 4 % of the load
+    cell's range with 0.4 % noise, issue 37)."""
     d, f = np.asarray(approach), np.asarray(force)
-    use = (f > UNLOAD_KEEP[0] * peak.force) & (f < UNLOAD_KEEP[1] * peak.force) & (
-        d < peak.approach)
+    low = max(UNLOAD_KEEP[0] * peak.force, UNLOAD_NOISE_SIGMAS * noise)
+    use = (f > low) & (f < UNLOAD_KEEP[1] * peak.force) & (d < peak.approach)
     if use.sum() < 5:
         raise InputError("curve: an unloading has fewer than 5 points between 5 % and 98 % of "
                          "its peak force; sample the unloading more densely")
@@ -172,7 +179,8 @@ def departure(vd, vf, kh: float, noise: float) -> dict:
     last = int(ok[-1])
     if last == len(centres) - 1:
         raise InputError("curve: the virgin loading follows Hertz to its end: the test never "
-                         "yields, so there is no plastic law to fit")
+                         f"yields (peak {vf.max():.3g} N), so there is no plastic law to fit: "
+                         f"load past first yield, >= {MIN_LEVELS} cycles beyond it")
     dd = centres[last + 1]
     return {"approach_m": dd, "force_N": float(kh * dd**HERTZ_EXPONENT),
             "method": f"first log bin of the virgin loading whose median F/(K d^1.5) stays "
@@ -192,7 +200,7 @@ def levels_of(test: LabTest, virgin_d, virgin_f) -> tuple[list[LevelData], list[
     for i, c in enumerate(closed):
         peak = _peak(test, c)
         un = c.unloading()
-        dres, n, rms = unloading_law(d[un], f[un], peak)
+        dres, n, rms = unloading_law(d[un], f[un], peak, test.noise)
         dres = max(dres, 0.0)
         below = vd <= peak.approach
         total = float(np.trapezoid(np.append(vf[below], peak.force),
@@ -325,21 +333,88 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
     closed = [c for c in test.cycles if c.closed]
     if len(closed) < MIN_LEVELS:
         raise InputError(f"curve: {len(closed)} closed load-unload cycle(s) (unloading below "
-                         f"10 % of the peak); fit needs >= {MIN_LEVELS} to peaks past yield")
+                         f"10 % of the peak); fit needs >= {MIN_LEVELS} to peaks past yield: "
+                         "unload each cycle to near zero force")
     scale = 1.0 if setup != "flat" else 2.0 ** -HERTZ_EXPONENT  # K of u -> K of delta
     vd, vf = _virgin(test)
-    kh = test.contact["stiffness"] * scale
+    kh = _first_coefficient(test, vd, vf, scale)
     leave = departure(vd, vf, kh, test.noise)
-    if leave["force_N"] < test.contact["upto_N"] - test.contact["offset_N"]:
-        # the contact fit reached past the departure: refit it on the Hertz part alone
-        below = condition(record, setup, radius, machine_stiffness, force=force,
-                          hertz_upto=test.contact["offset_N"] + leave["force_N"])
-        if below.contact["points_in_contact"] >= 20:
-            test = below
-            vd, vf = _virgin(test)
-            kh = test.contact["stiffness"] * scale
-            leave = departure(vd, vf, kh, test.noise)
+    refined = _refine_on_onset(record, test, leave, machine_stiffness, force)
+    if refined is not None:
+        test = refined
+        vd, vf = _virgin(test)
+        # K of the onset fit (contact free, pre-contact points in): the Hertz part's own
+        kh = test.contact["stiffness"] * scale
+        leave = departure(vd, vf, kh, test.noise)
+        return Prepared(test, vd, vf, kh, leave, nu, beta, m)
+    hertz = hertz_part(vd, vf, leave["approach_m"], test.noise)
+    if hertz is not None:
+        # K of the Hertz part alone (the envelope's onset carries the bend's form error)
+        test.contact["hertz_part"] = hertz
+        kh = hertz["coefficient"]
+        leave = departure(vd, vf, kh, test.noise)
     return Prepared(test, vd, vf, kh, leave, nu, beta, m)
+
+
+HERTZ_PART_POINTS = 20  # virgin points above the noise below the departure to refit K
+ONSET_SHARE = 0.5  # the onset refinement: below this share of the departure force (the
+                   # points between it and the departure are up to 3 % below Hertz)
+HERTZ_SHARE = 0.25  # the first look for the departure: K below this share of the first peak
+
+
+def _refine_on_onset(record: Record, test: LabTest, leave: dict, machine_stiffness,
+                     force) -> LabTest | None:
+    """The record conditioned again at the contact refined on the Hertz onset
+    (``contact.fit_onset``) when the onset is resolved (enough points above the noise below the
+    departure) and places the contact more precisely than the whole record did: the envelope's
+    bend past yield carries a form error the Hertz part has not. None otherwise."""
+    first_peak = test.cycles[0].peak if test.cycles else test.force.size - 1
+    onset = fit_onset(test.approach, test.force, test.noise, ONSET_SHARE * leave["force_N"],
+                      first_peak)
+    whole = dict(test.contact)
+    pair = 2.0 if test.setup == "flat" else 1.0  # approach per machine displacement
+    if onset is None or not (onset["approach_shift_se_m"]
+                             < pair * whole["contact_displacement_se_m"]):
+        test.contact["onset_refinement"] = onset or "too few points above the noise"
+        return None
+    contact = {**whole,
+               "contact_displacement_m": whole["contact_displacement_m"]
+               + onset["approach_shift_m"] / pair,
+               "contact_displacement_se_m": onset["approach_shift_se_m"] / pair,
+               "offset_N": whole["offset_N"] + onset["offset_shift_N"],
+               "stiffness": onset["coefficient"] * pair**HERTZ_EXPONENT,
+               "whole_record": {k: whole[k] for k in (
+                   "contact_displacement_m", "contact_displacement_se_m", "offset_N",
+                   "stiffness")},
+               "onset_refinement": onset}
+    contact.pop("noise_N", None)
+    return condition(record, test.setup, test.radius, machine_stiffness, force=force,
+                     contact=contact)
+
+
+def _first_coefficient(test: LabTest, vd, vf, scale: float) -> float:
+    """K (pair) to look for the departure from Hertz with: F = K d^1.5 over the virgin points
+    below HERTZ_SHARE of the first cycle's peak force (the Hertz part on any test whose first
+    peak is past yield), else the whole-record envelope's onset K (a smooth bend's onset can
+    overshoot Hertz, and a K too high finds no Hertz part at all)."""
+    first_peak = float(test.force[test.cycles[0].peak]) if test.cycles else float(vf.max())
+    quarter = hertz_part(vd, vf, math.inf, test.noise, upto_force=HERTZ_SHARE * first_peak)
+    return quarter["coefficient"] if quarter else test.contact["stiffness"] * scale
+
+
+def hertz_part(vd, vf, upto: float, noise: float, *, upto_force: float = math.inf
+               ) -> dict | None:
+    """K of F = K d^1.5 by linear least squares over the virgin points above 5 sigma below the
+    departure approach ``upto`` (and ``upto_force``; the contact point fixed); None with fewer
+    than HERTZ_PART_POINTS such points."""
+    use = (vd > 0) & (vd < upto) & (vf > 5.0 * noise) & (vf < upto_force)
+    if use.sum() < HERTZ_PART_POINTS:
+        return None
+    x = vd[use] ** HERTZ_EXPONENT
+    k = float(np.dot(x, vf[use]) / np.dot(x, x))
+    rms = float(np.sqrt(np.mean((k * x - vf[use]) ** 2)))
+    return {"coefficient": k, "points": int(use.sum()), "upto_approach_m": float(upto),
+            "rms_N": rms}
 
 
 def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=None,
@@ -399,7 +474,9 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     deep = [lv for lv in levels if lv.max_approach > 1.05 * dy]
     if len(deep) < MIN_LEVELS:
         raise InputError(f"curve: {len(deep)} cycle(s) peak past the yield approach "
-                         f"({dy:.3g} m); fit needs >= {MIN_LEVELS}")
+                         f"({dy:.3g} m; the record's peak is {test.peak_force / fy:.3g} x the "
+                         f"first-yield force {fy:.3g} N); fit needs >= {MIN_LEVELS}: load to "
+                         "higher peaks")
     provenance = {"source": "laboratory test (geocontact fit)", "test": test.inputs()}
     with np.errstate(divide="ignore"):  # a level with no residual: its relative error is inf
         params = fit_law(material, dy, vd, vf, deep, provenance=provenance)
