@@ -43,8 +43,10 @@ SCHEMA = "geocontact.fe-identity/1"
 _SETTINGS = frozenset(FeSettings.names())
 # A grain whose analytic first yield is at the contact edge (grain.hertz: friction angle above the
 # critical one) has its FE first yield located by elastic solves (fem.run._Run._locate_first_yield),
-# no longer extrapolated from the last elastic step: recorded, so its earlier runs are not reused.
-EDGE_FIRST_YIELD = "located by elastic solves"
+# no longer extrapolated from the last elastic step, and with the yield ratio on the surface at the
+# contact edge recovered from outside the contact (fem.solver.ContactSolver.edge_surface_ratio):
+# recorded, so its earlier runs are not reused.
+EDGE_FIRST_YIELD = "located by elastic solves, with the surface at the contact edge"
 # The distributions whose versions decide an FE result (importlib.metadata names).
 LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
