@@ -172,6 +172,16 @@ REPRODUCED_FE_CODE["163d9399ec173f3c"] = {
 }
 
 
+_EDGE_SURFACE = ("the first-yield search of a grain whose analytic first yield is at the contact "
+                 "edge also evaluates the yield ratio on the surface at the edge "
+                 "(ContactSolver.edge_surface_ratio; the identity's first_yield entry renamed): "
+                 "the runs of every other grain are computed and summarised as before")
+REPRODUCED_FE_CODE["3399407d181157cd"] = {
+    "163d9399ec173f3c": _EDGE_SURFACE,
+    **{older: _EDGE_SURFACE + "; " + why
+       for older, why in REPRODUCED_FE_CODE["163d9399ec173f3c"].items()},
+}
+
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
     sources (``REPRODUCED_FE_CODE``), or None."""
