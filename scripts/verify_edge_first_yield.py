@@ -4,8 +4,10 @@ contact edge (large friction angle) its sensitivity to the mesh.
 Above the critical friction angle (49.06 deg for nu = 0.25) the analytic first yield is on the
 surface at the contact edge r = a (geocontact.grain.hertz). There the run's
 ``first_yield_force_N`` is the force at which the largest yield ratio of the elastic solution
-reaches 1, located by elastic solves between the last elastic and the first plastic step
-(fem.run._Run._locate_first_yield; ``first_yield_bracket_N`` is that pair of steps); below it,
+(over the quadrature points and on the surface at the contact edge, recovered from outside the
+contact: ContactSolver.edge_surface_ratio) reaches 1, located by elastic solves between the last
+step below it and the first step at it or plastic (fem.run._Run._locate_first_yield;
+``first_yield_bracket_N`` is that pair of steps); below it,
 F phi^-3 from the last elastic step. The case is the one of
 ``tests/test_fem_verification.py::test_first_yield_force_and_location_match_analytic`` (the
 reference grain, 0 -> 3 Fy, 12 steps per segment), on the meshes ``run_history`` builds, or
@@ -16,7 +18,9 @@ contact radii 0.8-1.3 a_y (growing by 0.3 per unit depth and distance outside it
 Field check: one elastic solve at the analytic Fy on the run's mesh; its largest yield ratio
 (the analytic one is 1 at the contact edge) and, at the quadrature point where it sits, the
 analytic ratio of the Hertz field (grain.hertz.stress_field): whether the FE field is right at
-its points and how far below the peak those points sample it.
+its points and how far below the peak those points sample it; and the ratio on the surface at
+the contact edge recovered from outside the contact (ContactSolver.edge_surface_ratio; the
+analytic one is 1 above the critical angle).
 
     PYTHONPATH=src .venv/bin/python scripts/verify_edge_first_yield.py   # default mesh; ~2 min
     ... verify_edge_first_yield.py --meshes coarse --betas 55 --edge-grading 40 80 160 --tag _band
@@ -110,8 +114,10 @@ def field_check(material, analytic, solver) -> dict:
         return float(hertz.drucker_prager_measure(field, tan_beta)[0])
 
     peak = measure(analytic.r_over_a, analytic.z_over_a)
+    edge, _ = solver.edge_surface_ratio(state)
     return {"fe_ratio_at_fy": float(ratio[k]), "analytic_ratio_there": measure(r / a, depth / a)
-            / peak, "check_r_over_a_y": r / a, "check_depth_over_a_y": depth / a}
+            / peak, "check_r_over_a_y": r / a, "check_depth_over_a_y": depth / a,
+            "fe_surface_edge_ratio_at_fy": edge}
 
 
 def main() -> None:
@@ -147,15 +153,19 @@ def table(rows: list[dict]) -> list[str]:
              "R = 0.1 m), 0 -> 3 Fy, 12 steps per segment (`scripts/verify_edge_first_yield.py`). "
              "Analytic: where grain.hertz puts the first yield (the contact edge above 49.06 deg). "
              "FE: `first_yield_force_N`, at the contact edge located by elastic solves inside the "
-             "bracket (the last elastic and the first plastic step), else F phi^-3 from the last "
-             "elastic step. f = a_min / a_y: the tip size set by hand; G: the surface band d / G "
-             "over 0.8-1.3 a_y (- : the mesh run_history builds). Field check: an elastic solve "
-             "at the analytic Fy, its largest yield ratio (analytic: 1) and the analytic ratio "
-             "at that quadrature point (r, depth under the surface).", "",
+             "bracket (the last step whose largest yield ratio, over the quadrature points and on "
+             "the surface at the edge, is below 1 and the next step), else F phi^-3 from the "
+             "last elastic step. f = a_min / a_y: the tip size set by hand; G: the surface band "
+             "d / G over 0.8-1.3 a_y (- : the mesh run_history builds). Field check: an elastic "
+             "solve at the analytic Fy, its largest yield ratio over the quadrature points "
+             "(analytic: 1) and the analytic ratio at that point (r, depth under the surface), "
+             "and its ratio on the surface at the contact edge "
+             "(ContactSolver.edge_surface_ratio; analytic: 1 above the critical angle).", "",
              "| beta | analytic at | mesh | f | G | elements | FE / analytic Fy | bracket / Fy "
              "| elastic solves | location r / a_y, z / a_y | FE ratio at Fy | analytic there "
-             "| at r / a_y, depth / a_y |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| at r / a_y, depth / a_y | FE surface ratio at the edge |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
+             "| --- |"]
     for r in rows:
         lo, hi = r["bracket_over_analytic"]
         f = "-" if r["a_min_over_a_y"] is None else f"{r['a_min_over_a_y']:g}"
@@ -165,7 +175,8 @@ def table(rows: list[dict]) -> list[str]:
                      f"{r['elements']} | {r['fe_over_analytic']:.3f} | {lo:.3f}–{hi:.3f} | "
                      f"{solves} | {r['r_over_a_y']:.2f}, {r['z_over_a_y']:.3f} | "
                      f"{r['fe_ratio_at_fy']:.3f} | {r['analytic_ratio_there']:.3f} | "
-                     f"{r['check_r_over_a_y']:.3f}, {r['check_depth_over_a_y']:.4f} |")
+                     f"{r['check_r_over_a_y']:.3f}, {r['check_depth_over_a_y']:.4f} | "
+                     f"{r['fe_surface_edge_ratio_at_fy']:.3f} |")
     return lines
 
 

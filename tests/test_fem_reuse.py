@@ -111,8 +111,9 @@ def test_key_changes_with_every_input_and_library(material, monkeypatch):
 
 def test_a_grain_yielding_at_the_contact_edge_records_how_its_first_yield_is_found(material):
     """Above the critical friction angle (49.06 deg at nu = 0.25, grain.hertz) the first yield is
-    located by elastic solves (issue 36): the identity says so, so runs of the earlier detector
-    are not reused; below it the inputs and the key are those of before (no such entry)."""
+    located by elastic solves, with the yield ratio on the surface at the contact edge (issue 36):
+    the identity says so, so runs of the earlier detectors are not reused; below it the inputs
+    and the key are those of before (no such entry)."""
     edge = replace(material, friction_angle_deg=55.0)
     below = replace(material, friction_angle_deg=45.0)
     assert FeRunIdentity.of(edge, FORCES, "coarse").inputs()["first_yield"] == (

@@ -43,8 +43,10 @@ SCHEMA = "geocontact.fe-identity/1"
 _SETTINGS = frozenset(FeSettings.names())
 # A grain whose analytic first yield is at the contact edge (grain.hertz: friction angle above the
 # critical one) has its FE first yield located by elastic solves (fem.run._Run._locate_first_yield),
-# no longer extrapolated from the last elastic step: recorded, so its earlier runs are not reused.
-EDGE_FIRST_YIELD = "located by elastic solves"
+# no longer extrapolated from the last elastic step, and with the yield ratio on the surface at the
+# contact edge recovered from outside the contact (fem.solver.ContactSolver.edge_surface_ratio):
+# recorded, so its earlier runs are not reused.
+EDGE_FIRST_YIELD = "located by elastic solves, with the surface at the contact edge"
 # The distributions whose versions decide an FE result (importlib.metadata names).
 LIBRARIES = ("gmsh", "scikit-fem", "scipy", "numpy")
 # The sources that decide an FE result besides its inputs: a change to any of them (a new Fp
@@ -169,6 +171,16 @@ REPRODUCED_FE_CODE["163d9399ec173f3c"] = {
        for older, why in REPRODUCED_FE_CODE["ce4ea917d58ececb"].items()},
 }
 
+
+_EDGE_SURFACE = ("the first-yield search of a grain whose analytic first yield is at the contact "
+                 "edge also evaluates the yield ratio on the surface at the edge "
+                 "(ContactSolver.edge_surface_ratio; the identity's first_yield entry renamed): "
+                 "the runs of every other grain are computed and summarised as before")
+REPRODUCED_FE_CODE["3399407d181157cd"] = {
+    "163d9399ec173f3c": _EDGE_SURFACE,
+    **{older: _EDGE_SURFACE + "; " + why
+       for older, why in REPRODUCED_FE_CODE["163d9399ec173f3c"].items()},
+}
 
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current

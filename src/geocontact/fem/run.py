@@ -366,17 +366,45 @@ class _Run:
     def _detect_yield(self, state: State, plastic_points: int) -> None:
         s = self.solver
         if self.first_yield is None:
-            if plastic_points == 0:
+            if self.at_edge:
+                self._detect_edge_yield(state, plastic_points)
+            elif plastic_points == 0:
                 ratio = s.yield_ratio(state)
                 k = np.unravel_index(np.argmax(ratio), ratio.shape)
                 if state.force > 0:
                     self.last_elastic = (state.force, PAIR * state.top_displacement,
                                          float(ratio[k]),
                                          (float(s.radius_qp[k]), float(s.z_qp[k])))
-            elif self.at_edge:
-                self.first_yield = self._locate_first_yield(state)
             else:
                 self.first_yield = self._interpolate_first_yield(state)
+
+    def _detect_edge_yield(self, state: State, plastic_points: int) -> None:
+        """At the contact edge the first yield is where the elastic solution's yield measure
+        (``_edge_measure``: the quadrature points and the surface at the edge) reaches 1,
+        which can be before the first plastic quadrature point: located between the last step
+        below it and the first step at it or plastic."""
+        measure, where = self._edge_measure(state)
+        if plastic_points == 0 and measure < 1.0:
+            if state.force > 0:
+                self.last_elastic = (state.force, PAIR * state.top_displacement, measure, where)
+        else:
+            self.first_yield = self._locate_first_yield(state)
+
+    def _edge_measure(self, state: State) -> tuple[float, tuple[float, float]]:
+        """The largest yield ratio of an elastic state and where: over the quadrature points
+        and on the surface at the contact edge (``ContactSolver.edge_surface_ratio``)."""
+        s = self.solver
+        ratio = s.yield_ratio(state)
+        k = np.unravel_index(np.argmax(ratio), ratio.shape)
+        edge, a = s.edge_surface_ratio(state)
+        if edge > ratio[k]:
+            return edge, (a, self._surface_height(a))
+        return float(ratio[k]), (float(s.radius_qp[k]), float(s.z_qp[k]))
+
+    def _surface_height(self, r: float) -> float:
+        """Height of the undeformed spherical surface (centre at z = R) at radius r."""
+        radius = self.material.radius
+        return radius - math.sqrt(max(radius**2 - r**2, 0.0))
 
     def _detect_fully_plastic(self) -> None:
         if self.fully_plastic is not None or len(self.rows) < 2:
@@ -402,21 +430,22 @@ class _Run:
                 "bracket_N": [force, state.force]}
 
     def _locate_first_yield(self, state: State) -> dict[str, Any]:
-        """First yield at the contact edge: the force between the last elastic step and this
-        one at which the largest Drucker-Prager ratio of the elastic solution reaches 1.
+        """First yield at the contact edge: the force between the last step below yield and
+        this one at which the yield measure of the elastic solution (``_edge_measure``: the
+        largest ratio over the quadrature points and on the surface at the edge) reaches 1.
 
         At the edge the ratio at the yielding point grows faster than the F^(1/3) of Hertz
         scaling (the edge moves onto the point; docs/verification/edge_first_yield.md), so it is
         not extrapolated: the crossing is found by elastic solves (elastic below the crossing,
         so each solve from the unloaded state is the run's own solution up to the Newton
-        tolerance) at forces chosen by the Illinois variant of regula falsi on ratio - 1, to
+        tolerance) at forces chosen by the Illinois variant of regula falsi on measure - 1, to
         ``FIRST_YIELD_FORCE_RTOL`` of the force; the value is interpolated linearly in the
-        ratio between the two closest solves. ``solves`` counts them.
+        measure between the two closest solves. ``solves`` counts them.
         """
         low = (0.0, 0.0, 0.0) if self.last_elastic is None else self.last_elastic[:3]
         high_state = self._elastic_solve(state.force)
-        high = (state.force, PAIR * high_state.top_displacement,
-                float(np.max(self.solver.yield_ratio(high_state))))
+        measure, where = self._edge_measure(high_state)
+        high = (state.force, PAIR * high_state.top_displacement, measure)
         solves, replaced = 1, 0
         g_low, g_high = low[2] - 1.0, high[2] - 1.0  # Illinois: an end kept twice is halved
         while (high[2] > 1.0 and solves < FIRST_YIELD_SOLVES
@@ -424,10 +453,10 @@ class _Run:
             force = high[0] - g_high * (high[0] - low[0]) / (g_high - g_low)
             trial = self._elastic_solve(force)
             solves += 1
-            point = (force, PAIR * trial.top_displacement,
-                     float(np.max(self.solver.yield_ratio(trial))))
+            trial_measure, trial_where = self._edge_measure(trial)
+            point = (force, PAIR * trial.top_displacement, trial_measure)
             if point[2] >= 1.0:
-                high, high_state, g_high = point, trial, point[2] - 1.0
+                high, where, g_high = point, trial_where, point[2] - 1.0
                 g_low = g_low / 2.0 if replaced == 1 else g_low
                 replaced = 1
             else:
@@ -435,13 +464,10 @@ class _Run:
                 g_high = g_high / 2.0 if replaced == -1 else g_high
                 replaced = -1
         t = 1.0 if high[2] <= low[2] else min(max((1.0 - low[2]) / (high[2] - low[2]), 0.0), 1.0)
-        ratio = self.solver.yield_ratio(high_state)
-        k = np.unravel_index(np.argmax(ratio), ratio.shape)
         bracket_low = self.last_elastic[0] if self.last_elastic is not None else 0.0
         return {"force_N": low[0] + t * (high[0] - low[0]),
                 "approach_m": low[1] + t * (high[1] - low[1]),
-                "location_m": {"r": float(self.solver.radius_qp[k]),
-                               "z": float(self.solver.z_qp[k])},
+                "location_m": {"r": float(where[0]), "z": float(where[1])},
                 "bracket_N": [bracket_low, state.force], "solves": solves}
 
     def _elastic_solve(self, force: float) -> State:
