@@ -227,9 +227,13 @@ inline RadiusChange radius_change(double a_prev, double a)
 //
 // The energy terms of the step (ledger, run energy units): the spring energy fs^2 / (2 k_t)
 // released by the change of stiffness (k_t_prev the last step's; the micro-slip of the annulus
-// leaving or entering contact, Mindlin & Deresiewicz 1953), the spring energy removed at the
-// Coulomb cap (the work of the slip: from the trial spring to the capped one) and the dashpot's
-// work -(ft - fs) . v_t dt (gamma_t |v_t|^2 dt).
+// leaving or entering contact, Mindlin & Deresiewicz 1953), the dashpot's work
+// -(ft - fs) . v_t dt (gamma_t |v_t|^2 dt), and at the Coulomb cap the slip's: the work the
+// spring's force takes from the step's displacement, -fs . v_t dt, less what the spring gained,
+// so that the three with the spring's energy are the work of the force on the grains over the
+// step (slip_work). When the dashpot's force alone exceeds the cap the reset stores the spring
+// along v_t, and the slip's term is negative: the model's spring gains energy there (LAMMPS's
+// reset does the same); the ledger shows it rather than hiding it.
 struct TangentialEnergy {
   double radius_change = 0.0;
   double sliding = 0.0;
@@ -254,19 +258,19 @@ inline TangentialEnergy tangential_force(double *fs, double *ft, const ContactFr
   const double held = dot3(fs, fs);
   if (rescale != 1.0)
     for (int k = 0; k < 3; ++k) fs[k] *= rescale;
-  if (kt_prev > 0.0 && kt > 0.0) e.radius_change = 0.5 * (held / kt_prev - dot3(fs, fs) / kt);
+  const double rescaled = dot3(fs, fs);
+  if (kt_prev > 0.0 && kt > 0.0) e.radius_change = 0.5 * (held / kt_prev - rescaled / kt);
   for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
   for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];
   const double limit = friction * fn;
   const double mag = std::sqrt(dot3(ft, ft));
   if (mag > limit) {
-    const double trial = dot3(fs, fs);
     const double scale = mag > 0.0 ? limit / mag : 0.0;
     for (int k = 0; k < 3; ++k) {
       ft[k] *= scale;
       fs[k] = ft[k] + damping * c.vt[k];
     }
-    if (kt > 0.0) e.sliding = 0.5 * (trial - dot3(fs, fs)) / kt;
+    if (kt > 0.0) e.sliding = -dot3(fs, c.vt) * dt - 0.5 * (dot3(fs, fs) - rescaled) / kt;
   }
   double dashpot = 0.0;
   for (int k = 0; k < 3; ++k) dashpot -= (ft[k] - fs[k]) * c.vt[k];
@@ -344,8 +348,10 @@ inline bool parse_resistance(LAMMPS *lmp, int &iarg, int narg, char **arg, Rolli
 // force -k xi - gamma v_roll is capped by mu_roll fn, where sliding makes xi the spring length
 // of the capped force. The torque on i is R* n x F_roll. `advance` false (setup): xi neither
 // rotated nor advanced nor stored, as LAMMPS's history_update. Returns the energy dissipated
-// in the step (run energy units; 0 unless advanced): the spring energy k |xi|^2 / 2 removed at
-// the cap plus the dashpot's work; the torque's power on the grains is F_roll . v_roll.
+// in the step (run energy units; 0 unless advanced): the dashpot's work, and at the cap the
+// slip's, the work the spring's force takes from the step's rolling, k xi . v_roll dt, less
+// what the spring (energy k |xi|^2 / 2) gained (as tangential_force); the torque's power on the
+// grains is F_roll . v_roll.
 inline double rolling_torque(double *xi, double *torque, const RollingCoeffs &c, const double *n,
                            const double *wi, const double *wj, double reff, double fn,
                            double dt, bool advance)
@@ -366,13 +372,15 @@ inline double rolling_torque(double *xi, double *torque, const RollingCoeffs &c,
       const double scale = after > 0.0 ? before / after : 0.0;
       for (int k = 0; k < 3; ++k) h[k] *= scale;
     }
-    for (int k = 0; k < 3; ++k) h[k] += vroll[k] * dt;
   }
+  const double held = dot3(h, h);  // after the rotation, which keeps the spring's energy
+  if (advance)
+    for (int k = 0; k < 3; ++k) h[k] += vroll[k] * dt;
   double fr[3];
   for (int k = 0; k < 3; ++k) fr[k] = -c.stiffness * h[k] - c.damping * vroll[k];
-  const double trial = dot3(h, h);
   const double mag = std::sqrt(dot3(fr, fr));
-  if (mag > limit) {
+  const bool capped = mag > limit;
+  if (capped) {
     if (dot3(h, h) > 0.0) {
       const double scale = limit / mag;
       for (int k = 0; k < 3; ++k) {
@@ -390,7 +398,9 @@ inline double rolling_torque(double *xi, double *torque, const RollingCoeffs &c,
   if (!advance) return 0.0;
   double dashpot = 0.0;  // the part of F_roll that is not the spring's, against v_roll
   for (int k = 0; k < 3; ++k) dashpot -= (fr[k] + c.stiffness * h[k]) * vroll[k];
-  return 0.5 * c.stiffness * (trial - dot3(h, h)) + dashpot * dt;
+  const double slip =
+      capped ? c.stiffness * (dot3(h, vroll) * dt - 0.5 * (dot3(h, h) - held)) : 0.0;
+  return slip + dashpot * dt;
 }
 
 // Twisting resistance (LAMMPS's `twisting marshall`, Marshall 2009): the twist angle phi
@@ -400,8 +410,8 @@ inline double rolling_torque(double *xi, double *torque, const RollingCoeffs &c,
 // the Mindlin stiffness 8 G* a; LAMMPS's mindlin passes 8 G* instead). `rescale` scales the
 // stored angle first (radius_change). Returns the energy dissipated in the step (run energy
 // units; 0 unless advanced): the spring energy k_tw phi^2 / 2 released by the change of k_tw
-// (k_prev the last step's; its part `radius_change` also reported alone), the spring energy
-// removed at the cap and the dashpot's work.
+// (k_prev the last step's; its part `radius_change` also reported alone), the dashpot's work,
+// and at the cap the slip's (as tangential_force).
 inline double twisting_torque(double &phi, double *torque, const double *n, const double *wi,
                               const double *wj, double kt, double damping_t, double friction,
                               double a, double fn, double dt, bool advance, double rescale,
@@ -417,10 +427,11 @@ inline double twisting_torque(double &phi, double *torque, const double *n, cons
   }
   const double g = 0.5 * damping_t * a * a;
   const double limit = (2.0 / 3.0) * friction * a * fn;
+  const double held = phi;
   double angle = advance ? phi + rate * dt : phi;
-  const double phi_trial = angle;
   double mt = -k * angle - g * rate;
-  if (std::fabs(mt) > limit) {
+  const bool capped = std::fabs(mt) > limit;
+  if (capped) {
     const double sign = (rate > 0.0) - (rate < 0.0);
     mt = -limit * sign;
     angle = k > 0.0 ? (limit * sign - g * rate) / k : 0.0;
@@ -428,8 +439,8 @@ inline double twisting_torque(double &phi, double *torque, const double *n, cons
   if (advance) phi = angle;
   for (int k3 = 0; k3 < 3; ++k3) torque[k3] = mt * n[k3];
   if (!advance) return 0.0;
-  const double trial = phi_trial * phi_trial;
-  return radius_change + 0.5 * k * (trial - angle * angle) - (mt + k * angle) * rate * dt;
+  const double slip = capped ? k * (angle * rate * dt - 0.5 * (angle * angle - held * held)) : 0.0;
+  return radius_change + slip - (mt + k * angle) * rate * dt;
 }
 
 // --- one contact step, shared by the pair and the walls ---------------------------------------

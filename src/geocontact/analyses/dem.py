@@ -360,7 +360,10 @@ def parse_run(folder: Path, settings: Settings) -> dict:
     if ledger_file.is_file():  # geocontact pair and walls: the energy ledger of every leg
         rows = read_ledger_table(ledger_file)
         last = str(len(legs) - 1)
-        summary["energy"] = ledger_change(rows["start"], rows[last])
+        # the cycles (from the reference state, as the cycles' numbers), and the whole run
+        # from the first step of the law (its fast first loading included)
+        summary["energy"] = ledger_change(rows["1"], rows[last])
+        summary["energy_whole_run"] = ledger_change(rows["start"], rows[last])
         for k, cycle in enumerate(cycles):
             cycle["energy"] = ledger_change(rows[str(1 + 2 * k)], rows[str(3 + 2 * k)])
     arrays = {"series": {"time_s": series["time_s"], "step": step, "height_m": height,

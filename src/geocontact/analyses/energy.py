@@ -118,6 +118,11 @@ def ledger_change(start: dict, end: dict) -> dict:
         # contact radius (contact_forces.h LedgerChannel)
         "of_which_contact_radius_change_J":
             end["of_which_contact_radius"] - start["of_which_contact_radius"],
+        # the tangential contact's whole dissipation: where the dashpot's force alone exceeds
+        # the Coulomb limit, the slip reset stores the spring along the sliding velocity (as
+        # LAMMPS's granular models do) and the split between the two is the model's, with
+        # sliding negative (docs/dem.md "Energy ledger"); their sum is the energy lost
+        "tangential_total_J": dissipated["sliding"] + dissipated["tangential_damping"],
         "closure_residual_J": residual,
         "closure_residual_fraction": residual / abs(work + gravity) if work + gravity else None,
     })
