@@ -273,11 +273,11 @@ def test_pair_restart_files_of_older_layouts_are_still_read(name):
     rolling, version 2, before the cumulative dissipation tally, version 3, before the contact
     radius in the record, and version 4, before the energy ledger: the pair's contacts carry on
     as the same run with this plugin (zero rolling and twist history; the energy scale set and
-    the contact radius taken from the law state at the next step; the ledger from zero). The normal history is the run's to round-off. The tangential
-    force these plugins stored was not rescaled as the contact radius fell (issue 34), so the
-    file's differs from this plugin's run: it is rescaled at the first step (and never above
-    the Coulomb limit), and from the second step on, with the grain sliding again, it is the
-    run's."""
+    the contact radius taken from the law state at the next step; the ledger from zero). The
+    normal history is the run's to round-off. The tangential force these plugins stored was
+    not rescaled as the contact radius fell (issue 34), so the file's differs from this
+    plugin's run: it is rescaled at the first step (and never above the Coulomb limit), and
+    from the second step on, with the grain sliding again, it is the run's."""
     import test_lammps_plugin as pair_tests
 
     path = pair_tests.approach_path(pair_tests.PARAMS.yield_approach)[:50]
