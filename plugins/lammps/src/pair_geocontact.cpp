@@ -384,6 +384,11 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   pvector[GV_ELASTIC] += w * stored;
   if (state.force > 0.0) pvector[GV_CONTACTS] += w;
   if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
+  const double depth = state.max_approach / law.yield_approach;
+  if (depth > law.calibrated_depth) {  // calibrated_range.max_depth (infinite: not recorded)
+    beyond_range_ += w;
+    deepest_beyond_ = std::max(deepest_beyond_, depth);
+  }
   if (!springs_from) return;
   for (int c = 0; c < kLedgerSlots; ++c)
     pvector[GV_SLIDING + c] += w * springs_from->dissipated[c];
@@ -410,10 +415,25 @@ void PairGeocontact::finish_stiffness_outputs()
   double lightest = INFINITY;
   const double *rmass = atom->rmass;
   for (int i = 0; i < atom->nlocal; ++i) lightest = std::min(lightest, rmass[i]);
-  double local[2] = {max_stiffness_, -lightest}, all[2] = {0.0, 0.0};
-  MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_MAX, world);
-  max_stiffness_ = 0.0;
+  double local[3] = {max_stiffness_, -lightest, deepest_beyond_}, all[3] = {0.0, 0.0, 0.0};
+  MPI_Allreduce(local, all, 3, MPI_DOUBLE, MPI_MAX, world);
+  double beyond = 0.0;
+  MPI_Allreduce(&beyond_range_, &beyond, 1, MPI_DOUBLE, MPI_SUM, world);
+  max_stiffness_ = beyond_range_ = deepest_beyond_ = 0.0;
+  // issue 37: no silent extrapolation; told once per run (every rank knows the sum: the flag
+  // stays the same on all), the count kept in [16]
+  if (beyond > 0.0 && !range_warned_) {
+    range_warned_ = true;
+    if (comm->me == 0)
+      error->warning(FLERR, "Pair geocontact: {:.0f} contact(s) loaded beyond the calibrated range "
+                            "of their law file (largest delta_max/delta_y {:.4g}; "
+                            "calibrated_range.max_depth): the law extrapolates there (compute "
+                            "pair geocontact [16] counts them, [17] the deepest; said once)",
+                     beyond, all[2]);
+  }
   if (comm->me != 0) return;
+  pvector[GV_BEYOND_RANGE] = beyond;
+  pvector[GV_DEEPEST_BEYOND] = all[2];
   const double k = all[0], m = -all[1];
   pvector[GV_MAX_STIFFNESS] = k;
   pvector[GV_CRITICAL_DT] =

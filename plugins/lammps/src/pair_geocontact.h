@@ -63,11 +63,14 @@ class PairGeocontact : public Pair {
   // damping, tangential damping, rolling, twisting, and of which the change of the contact
   // radius), [13-15] the energy stored in the tangential, rolling and twisting springs; energies
   // in the run's units, dissipations including the contacts already dropped (docs/dem.md).
+  // [16] the contacts loaded beyond their law file's calibrated range (delta_max / delta_y >
+  // calibrated_range.max_depth: the law extrapolates there) and [17] the largest
+  // delta_max / delta_y among them (0: none; finish_stiffness_outputs, which warns once).
   enum GlobalValue {
     GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_MAX_STIFFNESS,
     GV_CRITICAL_DT, GV_SLIDING, GV_NORMAL_DAMPING, GV_TANGENTIAL_DAMPING, GV_ROLLING,
     GV_TWISTING, GV_RADIUS_CHANGE, GV_STORED_TANGENTIAL, GV_STORED_ROLLING, GV_STORED_TWISTING,
-    GV_COUNT
+    GV_BEYOND_RANGE, GV_DEEPEST_BEYOND, GV_COUNT
   };
   static_assert(GV_RADIUS_CHANGE - GV_SLIDING + 1 == geocontact_forces::kLedgerSlots,
                 "the compute's ledger indices follow LedgerChannel");
@@ -117,6 +120,11 @@ class PairGeocontact : public Pair {
   // the same for the ledger's other channels (geocontact_forces::LedgerChannel)
   double departed_ledger_[geocontact_forces::kLedgerSlots] = {};
   double max_stiffness_ = 0.0;  // this rank's stiffest contact since the last energy step
+  // this rank's contacts beyond their law's calibrated range at this energy step (weighted as
+  // the other tallies) and the deepest of them (delta_max / delta_y), and whether the run was
+  // told (once: the first energy step that finds one)
+  double beyond_range_ = 0.0, deepest_beyond_ = 0.0;
+  bool range_warned_ = false;
 };
 
 }  // namespace LAMMPS_NS
