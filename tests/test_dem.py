@@ -120,6 +120,31 @@ def test_report_section(both, tmp_path):
         assert (out / "figures" / f"{name}.png").stat().st_size > 1000
 
 
+def ledger_closes(run, share=0.01, plastic=True):
+    """The energy ledger of a run of the plugin's pair and walls: the walls' work equals the
+    change of kinetic and stored energy plus what was dissipated, within `share` of the work,
+    over the cycles and over each cycle; the dashpots at work, and the law too if `plastic`
+    (the elastic law dissipates nothing)."""
+    for energy in (run["energy"], *(c["energy"] for c in run["cycles"])):
+        assert energy["boundary_work_J"] > 0
+        assert abs(energy["closure_residual_J"]) < share * energy["boundary_work_J"]
+    d = run["energy"]["dissipated_J"]
+    assert d["normal_damping"] > 0 and d["tangential_damping"] > 0
+    if plastic:
+        assert d["law"] > 0
+    else:
+        assert abs(d["law"]) < 1e-12 * run["energy"]["boundary_work_J"]
+    assert run["energy"]["tangential_total_J"] > 0
+
+
+def test_energy_ledger_closes_within_one_percent_of_the_wall_work(both):
+    """The plastic law and its like-for-like elastic baseline (the same pair, walls and ledger)."""
+    _, doc = both
+    ledger_closes(doc["runs"]["geocontact"])
+    ledger_closes(doc["runs"]["elastic"], plastic=False)
+    assert "energy" not in doc["runs"]["granular"]  # LAMMPS's pair: no ledger
+
+
 def test_one_and_two_ranks_agree_statistically(tmp_path):
     """The geocontact law on 1 and 2 ranks, walls fix wall/geocontact. Same seed,
     same positions, but LAMMPS's per-rank random streams give the grains other radii on 2 ranks
@@ -140,6 +165,7 @@ def test_one_and_two_ranks_agree_statistically(tmp_path):
     for run in (one, two):  # most loaded contacts dented, on either rank count
         ra = run["residual_approach"]
         assert ra["plastic"] > 0.5 * ra["in_contact"] > 0
+        ledger_closes(run)
 
 
 def test_bad_arguments_one_line(tmp_path, capsys):

@@ -92,6 +92,27 @@ def test_settlement_and_dissipation(both):
     assert law[0] == 0 and np.all(np.diff(law) >= -1e-12 * law[-1])
 
 
+def ledger_closes(run):
+    """The energy ledger of the geocontact run (pair and walls): over the shaking and over the
+    whole run, the walls' own work equals the change of kinetic and stored energy plus what was
+    dissipated, within 1 % of the work; the law and the dashpots at work."""
+    for energy in (run["energy"], run["energy_whole_run"]):
+        assert energy["boundary_work_J"] > 0
+        assert abs(energy["closure_residual_J"]) < 0.01 * energy["boundary_work_J"]
+    d = run["energy"]["dissipated_J"]
+    assert d["law"] > 0 and d["normal_damping"] > 0 and run["energy"]["tangential_total_J"] > 0
+    # the walls' own work (every step) and the driver's from the wall forces sampled by fix
+    # ave/time agree
+    assert run["energy"]["boundary_work_J"] == pytest.approx(
+        run["wall_work_from_wall_forces_J"], rel=0.05)
+
+
+def test_energy_ledger_closes_within_one_percent_of_the_wall_work(both):
+    _, doc = both
+    ledger_closes(doc["runs"]["geocontact"])
+    assert "energy" not in doc["runs"]["granular"]
+
+
 def test_report_section(both):
     out, _ = both
     from geocontact.report import build_report
@@ -113,6 +134,7 @@ def test_two_ranks(tmp_path):
     assert 0.4 * 5e3 < run["stress_mean_Pa"] < 1.2 * 5e3
     assert run["settlement_m"] > 0
     assert 0 < run["law_dissipated_J"] < run["wall_work_from_wall_forces_J"]
+    ledger_closes(run)
 
 
 def test_base_motion_of_a_sine_is_its_closed_form(tmp_path):

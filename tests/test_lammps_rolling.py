@@ -266,17 +266,18 @@ def test_restart_with_rolling_and_twist_history_continues_as_the_uninterrupted_r
     assert np.abs(before[-1, 3 * n:]).max() > 0.1 * np.abs(torques).max()
 
 
-@pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart", "pair-v3.restart"])
+@pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart", "pair-v3.restart",
+                                  "pair-v4.restart"])
 def test_pair_restart_files_of_older_layouts_are_still_read(name):
     """Files written by older plugins (tests/data/make_layout_restarts.py): version 1, before
-    rolling, version 2, before the cumulative dissipation tally, and version 3, before the
-    contact radius in the record: the pair's contacts carry on as the same run with this plugin
-    (zero rolling and twist history; the energy scale set and the contact radius taken from the
-    law state at the next step). The normal history is the run's to round-off. The tangential
-    force these plugins stored was not rescaled as the contact radius fell (issue 34), so the
-    file's differs from this plugin's run: it is rescaled at the first step (and never above
-    the Coulomb limit), and from the second step on, with the grain sliding again, it is the
-    run's."""
+    rolling, version 2, before the cumulative dissipation tally, version 3, before the contact
+    radius in the record, and version 4, before the energy ledger: the pair's contacts carry on
+    as the same run with this plugin (zero rolling and twist history; the energy scale set and
+    the contact radius taken from the law state at the next step; the ledger from zero). The
+    normal history is the run's to round-off. The tangential force these plugins stored was
+    not rescaled as the contact radius fell (issue 34), so the file's differs from this
+    plugin's run: it is rescaled at the first step (and never above the Coulomb limit), and
+    from the second step on, with the grain sliding again, it is the run's."""
     import test_lammps_plugin as pair_tests
 
     path = pair_tests.approach_path(pair_tests.PARAMS.yield_approach)[:50]
@@ -299,11 +300,11 @@ def test_pair_restart_files_of_older_layouts_are_still_read(name):
     assert after[0, 4] <= 0.5 * after[0, 3] * (1 + 1e-12)  # the slipping pair's friction 0.5
 
 
-@pytest.mark.parametrize("name", ["wall-v1.restart", "wall-v2.restart"])
+@pytest.mark.parametrize("name", ["wall-v1.restart", "wall-v2.restart", "wall-v3.restart"])
 def test_wall_restart_files_of_older_layouts_are_still_read(name):
-    """The wall's files written by the plugin before rolling (version 1) and before the contact
-    radius (version 2; tests/data/make_layout_restarts.py) carry on as the same contact with
-    this plugin."""
+    """The wall's files written by the plugin before rolling (version 1), before the contact
+    radius (version 2) and before the energy ledger (version 3; tests/data/make_layout_restarts.py)
+    carry on as the same contact with this plugin."""
     import test_lammps_wall as wall_tests
 
     radius = 0.1

@@ -29,7 +29,7 @@ import test_lammps_wall as wall_tests  # noqa: E402
 PAIR_STEPS = 33
 WALL_RADIUS = 0.1
 # the wall's layout version at the commit of each pair (history) layout version that wrote one
-WALL_LAYOUT = {1: 1, 3: 2}
+WALL_LAYOUT = {1: 1, 3: 2, 4: 3}
 
 
 def wall_interference() -> float:

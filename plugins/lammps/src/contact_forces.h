@@ -224,10 +224,27 @@ inline RadiusChange radius_change(double a_prev, double a)
 // (radius_change), then incremented by -k_t v_t dt; the force on the grain adds the tangential
 // damping and is capped by mu fn, where sliding sets the spring to the capped force less the
 // damping part (as LAMMPS's granular models: the dashpot's force is not stored in the spring).
-inline void tangential_force(double *fs, double *ft, const ContactFrame &c, double kt,
-                             double damping, double friction, double fn, double dt,
-                             double rescale)
+//
+// The energy terms of the step (ledger, run energy units): the spring energy fs^2 / (2 k_t)
+// released by the change of stiffness (k_t_prev the last step's; the micro-slip of the annulus
+// leaving or entering contact, Mindlin & Deresiewicz 1953), the dashpot's work
+// -(ft - fs) . v_t dt (gamma_t |v_t|^2 dt), and at the Coulomb cap the slip's: the work the
+// spring's force takes from the step's displacement, -fs . v_t dt, less what the spring gained,
+// so that the three with the spring's energy are the work of the force on the grains over the
+// step (slip_work). When the dashpot's force alone exceeds the cap the reset stores the spring
+// along v_t, and the slip's term is negative: the model's spring gains energy there (LAMMPS's
+// reset does the same); the ledger shows it rather than hiding it.
+struct TangentialEnergy {
+  double radius_change = 0.0;
+  double sliding = 0.0;
+  double damping = 0.0;
+};
+
+inline TangentialEnergy tangential_force(double *fs, double *ft, const ContactFrame &c,
+                                         double kt, double kt_prev, double damping,
+                                         double friction, double fn, double dt, double rescale)
 {
+  TangentialEnergy e;
   const double fsn = dot3(fs, c.n);
   if (fsn != 0.0) {  // already in the plane (a flat wall's contact): the rotation is exactly 1
     const double before = std::sqrt(dot3(fs, fs));
@@ -238,8 +255,11 @@ inline void tangential_force(double *fs, double *ft, const ContactFrame &c, doub
       for (int k = 0; k < 3; ++k) fs[k] *= scale;
     }
   }
+  const double held = dot3(fs, fs);
   if (rescale != 1.0)
     for (int k = 0; k < 3; ++k) fs[k] *= rescale;
+  const double rescaled = dot3(fs, fs);
+  if (kt_prev > 0.0 && kt > 0.0) e.radius_change = 0.5 * (held / kt_prev - rescaled / kt);
   for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
   for (int k = 0; k < 3; ++k) ft[k] = fs[k] - damping * c.vt[k];
   const double limit = friction * fn;
@@ -250,7 +270,12 @@ inline void tangential_force(double *fs, double *ft, const ContactFrame &c, doub
       ft[k] *= scale;
       fs[k] = ft[k] + damping * c.vt[k];
     }
+    if (kt > 0.0) e.sliding = -dot3(fs, c.vt) * dt - 0.5 * (dot3(fs, fs) - rescaled) / kt;
   }
+  double dashpot = 0.0;
+  for (int k = 0; k < 3; ++k) dashpot -= (ft[k] - fs[k]) * c.vt[k];
+  e.damping = dashpot * dt;
+  return e;
 }
 
 // --- rolling and twisting resistance --------------------------------------------------------
@@ -322,8 +347,12 @@ inline bool parse_resistance(LAMMPS *lmp, int &iarg, int narg, char **arg, Rolli
 // advanced by v_roll dt, v_roll = R* (w_i - w_j) x n (Wang et al. 2015, eq. 31); the rolling
 // force -k xi - gamma v_roll is capped by mu_roll fn, where sliding makes xi the spring length
 // of the capped force. The torque on i is R* n x F_roll. `advance` false (setup): xi neither
-// rotated nor advanced nor stored, as LAMMPS's history_update.
-inline void rolling_torque(double *xi, double *torque, const RollingCoeffs &c, const double *n,
+// rotated nor advanced nor stored, as LAMMPS's history_update. Returns the energy dissipated
+// in the step (run energy units; 0 unless advanced): the dashpot's work, and at the cap the
+// slip's, the work the spring's force takes from the step's rolling, k xi . v_roll dt, less
+// what the spring (energy k |xi|^2 / 2) gained (as tangential_force); the torque's power on the
+// grains is F_roll . v_roll.
+inline double rolling_torque(double *xi, double *torque, const RollingCoeffs &c, const double *n,
                            const double *wi, const double *wj, double reff, double fn,
                            double dt, bool advance)
 {
@@ -343,12 +372,15 @@ inline void rolling_torque(double *xi, double *torque, const RollingCoeffs &c, c
       const double scale = after > 0.0 ? before / after : 0.0;
       for (int k = 0; k < 3; ++k) h[k] *= scale;
     }
-    for (int k = 0; k < 3; ++k) h[k] += vroll[k] * dt;
   }
+  const double held = dot3(h, h);  // after the rotation, which keeps the spring's energy
+  if (advance)
+    for (int k = 0; k < 3; ++k) h[k] += vroll[k] * dt;
   double fr[3];
   for (int k = 0; k < 3; ++k) fr[k] = -c.stiffness * h[k] - c.damping * vroll[k];
   const double mag = std::sqrt(dot3(fr, fr));
-  if (mag > limit) {
+  const bool capped = mag > limit;
+  if (capped) {
     if (dot3(h, h) > 0.0) {
       const double scale = limit / mag;
       for (int k = 0; k < 3; ++k) {
@@ -363,6 +395,12 @@ inline void rolling_torque(double *xi, double *torque, const RollingCoeffs &c, c
     for (int k = 0; k < 3; ++k) xi[k] = h[k];
   cross3(n, fr, torque);
   for (int k = 0; k < 3; ++k) torque[k] *= reff;
+  if (!advance) return 0.0;
+  double dashpot = 0.0;  // the part of F_roll that is not the spring's, against v_roll
+  for (int k = 0; k < 3; ++k) dashpot -= (fr[k] + c.stiffness * h[k]) * vroll[k];
+  const double slip =
+      capped ? c.stiffness * (dot3(h, vroll) * dt - 0.5 * (dot3(h, h) - held)) : 0.0;
+  return slip + dashpot * dt;
 }
 
 // Twisting resistance (LAMMPS's `twisting marshall`, Marshall 2009): the twist angle phi
@@ -370,25 +408,39 @@ inline void rolling_torque(double *xi, double *torque, const RollingCoeffs &c, c
 // n, capped by mu_tw fn, with the coefficients of the tangential model spread over the contact
 // disc of radius a: k_tw = k_t a^2 / 2, g_tw = g_t a^2 / 2 and mu_tw = 2/3 mu a (here k_t is
 // the Mindlin stiffness 8 G* a; LAMMPS's mindlin passes 8 G* instead). `rescale` scales the
-// stored angle first (radius_change).
-inline void twisting_torque(double &phi, double *torque, const double *n, const double *wi,
-                            const double *wj, double kt, double damping_t, double friction,
-                            double a, double fn, double dt, bool advance, double rescale)
+// stored angle first (radius_change). Returns the energy dissipated in the step (run energy
+// units; 0 unless advanced): the spring energy k_tw phi^2 / 2 released by the change of k_tw
+// (k_prev the last step's; its part `radius_change` also reported alone), the dashpot's work,
+// and at the cap the slip's (as tangential_force).
+inline double twisting_torque(double &phi, double *torque, const double *n, const double *wi,
+                              const double *wj, double kt, double damping_t, double friction,
+                              double a, double fn, double dt, bool advance, double rescale,
+                              double k_prev, double &radius_change)
 {
   const double rate = (wi[0] - wj[0]) * n[0] + (wi[1] - wj[1]) * n[1] + (wi[2] - wj[2]) * n[2];
-  if (advance) phi *= rescale;  // radius_change: the spring's stiffness follows a^3
   const double k = 0.5 * kt * a * a;
+  radius_change = 0.0;
+  if (advance) {
+    const double held = phi * phi;
+    phi *= rescale;  // radius_change: the spring's stiffness follows a^3
+    if (k_prev > 0.0) radius_change = 0.5 * (k_prev * held - k * phi * phi);
+  }
   const double g = 0.5 * damping_t * a * a;
   const double limit = (2.0 / 3.0) * friction * a * fn;
+  const double held = phi;
   double angle = advance ? phi + rate * dt : phi;
   double mt = -k * angle - g * rate;
-  if (std::fabs(mt) > limit) {
+  const bool capped = std::fabs(mt) > limit;
+  if (capped) {
     const double sign = (rate > 0.0) - (rate < 0.0);
     mt = -limit * sign;
     angle = k > 0.0 ? (limit * sign - g * rate) / k : 0.0;
   }
   if (advance) phi = angle;
   for (int k3 = 0; k3 < 3; ++k3) torque[k3] = mt * n[k3];
+  if (!advance) return 0.0;
+  const double slip = capped ? k * (angle * rate * dt - 0.5 * (angle * angle - held * held)) : 0.0;
+  return radius_change + slip - (mt + k * angle) * rate * dt;
 }
 
 // --- one contact step, shared by the pair and the walls ---------------------------------------
@@ -426,9 +478,65 @@ struct ContactResult {
   ContactFrame frame;
 };
 
+// --- the energy ledger -----------------------------------------------------------------------
+//
+// Each contact keeps, besides the law's own work (its state), the energy its other parts have
+// dissipated since it formed (run energy units), in `Record::dissipated`. Over a step the work
+// the bodies do on the contact is the change of the energy its springs store plus what it
+// dissipates: the law (state.work less the law's elastic energy), the normal dashpot
+// -(fn - F_law) vn dt, the tangential spring's energy removed at the Coulomb cap (sliding) and
+// its dashpot, the rolling and twisting springs' energy removed at their caps and their
+// dashpots. A spring whose stiffness follows the contact radius a (tangential k_t = 8 G* a,
+// twisting k_tw = k_t a^2 / 2) loses stored energy without work when a changes (radius_change:
+// the force or angle is rescaled so that none is created): that energy is the micro-slip of the
+// ring of the contact area that leaves (or enters) stick (Mindlin & Deresiewicz 1953), counted
+// as friction, in sliding (tangential) and twisting; LEDGER_RADIUS_CHANGE reports that part
+// again on its own (it is included in the two, not added to them). A contact that separates
+// releases what its springs still hold (little: the springs are capped by mu fn, which falls to
+// 0) into the same channels.
+enum LedgerChannel {
+  LEDGER_SLIDING,
+  LEDGER_NORMAL_DAMPING,
+  LEDGER_TANGENTIAL_DAMPING,
+  LEDGER_ROLLING,
+  LEDGER_TWISTING,
+  LEDGER_RADIUS_CHANGE,  // of which (in sliding and twisting): the change of the contact radius
+  kLedgerSlots
+};
+
+// The energy stored in the springs besides the law's (run energy units).
+struct SpringEnergy {
+  double tangential = 0.0;
+  double rolling = 0.0;
+  double twisting = 0.0;
+};
+
+// Mindlin's k_t = 8 G* a of the contact (twice on a wall), for a contact radius a.
+inline double mindlin_stiffness(const StiffnessConstants &c, const geocontact::Similarity &sim,
+                                double a)
+{
+  return sim.stiffness / sim.scale * c.mindlin_modulus * a;
+}
+
+// What the record's springs hold at the end of its last step: fs^2 / (2 k_t), k_roll xi^2 / 2
+// and k_tw phi^2 / 2, the stiffnesses of its contact radius.
+template <class Record>
+inline SpringEnergy spring_energy(const Record &rec, const StiffnessConstants &c,
+                                  const geocontact::Similarity &sim, const RollingCoeffs &rc)
+{
+  SpringEnergy e;
+  const double a = rec.contact_radius;
+  if (!(a > 0.0)) return e;
+  const double kt = mindlin_stiffness(c, sim, a);
+  e.tangential = 0.5 * dot3(rec.tangential, rec.tangential) / kt;
+  if (rc.rolling) e.rolling = 0.5 * rc.stiffness * dot3(rec.rolling, rec.rolling);
+  if (rc.twisting) e.twisting = 0.25 * kt * a * a * rec.twist * rec.twist;
+  return e;
+}
+
 // No tangential, rolling or twist spring, and no contact radius (a contact not touching). `Record`:
-// the law state `law` and the springs `tangential`, `rolling`, `twist` and `contact_radius` (pair
-// and wall records alike).
+// the law state `law`, the springs `tangential`, `rolling`, `twist` and `contact_radius`, and
+// the ledger `dissipated` (pair and wall records alike).
 template <class Record> inline void clear_springs(Record &rec)
 {
   rec.tangential[0] = rec.tangential[1] = rec.tangential[2] = 0.0;
@@ -437,38 +545,74 @@ template <class Record> inline void clear_springs(Record &rec)
   rec.contact_radius = 0.0;
 }
 
+// A new contact: nothing dissipated yet.
+template <class Record> inline void clear_ledger(Record &rec)
+{
+  for (int k = 0; k < kLedgerSlots; ++k) rec.dissipated[k] = 0.0;
+}
+
+// The contact separates: what its springs hold is released (dissipated) into their channels.
+template <class Record>
+inline void release_springs(Record &rec, const StiffnessConstants &c,
+                            const geocontact::Similarity &sim, const RollingCoeffs &rc)
+{
+  const SpringEnergy e = spring_energy(rec, c, sim, rc);
+  rec.dissipated[LEDGER_SLIDING] += e.tangential;
+  rec.dissipated[LEDGER_ROLLING] += e.rolling;
+  rec.dissipated[LEDGER_TWISTING] += e.twisting;
+  clear_springs(rec);
+}
+
 // One step of a contact (`Record` as for clear_springs). `commit` false (setup): the springs are
-// not advanced (LAMMPS's history update off), so the force is the one the last step ended with.
+// not advanced (LAMMPS's history update off), so the force is the one the last step ended with,
+// and the ledger is not touched.
 template <class Record>
 inline ContactResult contact_step(const geocontact::LawParams &law, const StiffnessConstants &c,
                                   const ContactCoeffs &coeffs, Record &rec,
                                   const ContactGeometry &g, double dt, bool commit)
 {
   ContactResult out{};
+  const RollingCoeffs &rc = *coeffs.resistance;
   const geocontact::StepResult res =
       geocontact::step(law, rec.law, g.overlap * (g.sim.approach * c.approach_to_law));
   out.law_force = g.sim.force * res.force * c.force_to_run;
   if (!(out.law_force > 0.0)) {
+    if (commit) release_springs(rec, c, g.sim, rc);
     clear_springs(rec);
     return out;
   }
   out.frame = contact_frame(g.n, g.vi, g.vj, g.wi, g.wj, g.armi, g.armj);
   const ContactStiffness k = contact_stiffness(law, c, rec.law, g.sim);
   out.stiffness = k.normal;
-  const RadiusChange change = radius_change(rec.contact_radius, k.radius);
+  const double a_prev = rec.contact_radius;
+  const double kt_prev = a_prev > 0.0 ? mindlin_stiffness(c, g.sim, a_prev) : 0.0;
+  const RadiusChange change = radius_change(a_prev, k.radius);
   rec.contact_radius = k.radius;
   const Damping damping = damping_coefficients(coeffs.damping, c.damping_mass * g.meff, k);
   out.fn = damped_normal_force(out.law_force, damping.normal, out.frame.vn);
-  if (coeffs.friction > 0.0)
-    tangential_force(rec.tangential, out.ft, out.frame, k.tangential, damping.tangential,
-                     coeffs.friction, out.fn, commit ? dt : 0.0, change.tangential);
-  const RollingCoeffs &rc = *coeffs.resistance;
+  const double step = commit ? dt : 0.0;
+  double *ledger = rec.dissipated;
+  if (commit) ledger[LEDGER_NORMAL_DAMPING] -= (out.fn - out.law_force) * out.frame.vn * dt;
+  if (coeffs.friction > 0.0) {
+    const TangentialEnergy e =
+        tangential_force(rec.tangential, out.ft, out.frame, k.tangential, kt_prev,
+                         damping.tangential, coeffs.friction, out.fn, step, change.tangential);
+    if (commit) {
+      ledger[LEDGER_SLIDING] += e.sliding + e.radius_change;
+      ledger[LEDGER_TANGENTIAL_DAMPING] += e.damping;
+      ledger[LEDGER_RADIUS_CHANGE] += e.radius_change;
+    }
+  }
   if (rc.rolling)
-    rolling_torque(rec.rolling, out.torque, rc, g.n, g.wi, g.wj, g.reff, out.fn, dt, commit);
+    ledger[LEDGER_ROLLING] +=
+        rolling_torque(rec.rolling, out.torque, rc, g.n, g.wi, g.wj, g.reff, out.fn, dt, commit);
   if (rc.twisting) {
-    double twist[3];
-    twisting_torque(rec.twist, twist, g.n, g.wi, g.wj, k.tangential, damping.tangential,
-                    coeffs.friction, k.radius, out.fn, dt, commit, change.twist);
+    double twist[3], radius_part = 0.0;
+    const double k_prev = 0.5 * kt_prev * a_prev * a_prev;
+    ledger[LEDGER_TWISTING] += twisting_torque(
+        rec.twist, twist, g.n, g.wi, g.wj, k.tangential, damping.tangential, coeffs.friction,
+        k.radius, out.fn, dt, commit, change.twist, k_prev, radius_part);
+    ledger[LEDGER_RADIUS_CHANGE] += radius_part;
     for (int m = 0; m < 3; ++m) out.torque[m] += twist[m];
   }
   return out;

@@ -82,7 +82,7 @@ void FixGeocontactHistory::set_arrays(int i)
 }
 
 // Layout: [count, (partner, 13 law slots, 3 tangential, 3 rolling, twist, energy scale, law
-// index, contact radius) x count]
+// index, contact radius, ledger channels) x count]
 int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, double *buf)
 {
   int m = 0;
@@ -98,6 +98,7 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = r.energy_scale;
     buf[m++] = static_cast<double>(r.law_index);
     buf[m++] = r.contact_radius;
+    for (double d : r.dissipated) buf[m++] = d;
   }
   return m;
 }
@@ -106,7 +107,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
                                        int layout_version)
 {
   const bool with_rolling = layout_version >= 2, with_scale = layout_version >= 3;
-  const bool with_radius = layout_version >= 4;
+  const bool with_radius = layout_version >= 4, with_ledger = layout_version >= 5;
   int m = 0;
   const int n = static_cast<int>(buf[m++]);
   table.resize(n);
@@ -121,6 +122,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     r.energy_scale = with_scale ? buf[m++] : 0.0;
     r.law_index = with_scale ? static_cast<int>(buf[m++]) : 0;
     r.contact_radius = with_radius ? buf[m++] : -1.0;
+    for (double &d : r.dissipated) d = with_ledger ? buf[m++] : 0.0;
   }
   return m;
 }
@@ -152,7 +154,8 @@ int FixGeocontactHistory::pack_restart(int i, double *buf)
 // never unpacked: the atom is left without history, and init() refuses the run on every rank.
 // Layout version 1 (no rolling and twist slots) is read with both at zero, version 2 (no
 // energy scale) with the scale unknown until the record's next step, version 3 (no contact
-// radius) with the radius taken from the law state at the record's next step.
+// radius) with the radius taken from the law state at the record's next step, version 4 (no
+// ledger) with the ledger at zero.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -167,6 +170,7 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
   const int size = version == 1   ? kRecordSizeV1
                    : version == 2 ? kRecordSizeV2
                    : version == 3 ? kRecordSizeV3
+                   : version == 4 ? kRecordSizeV4
                                   : kRecordSize;
   const int count =
       version >= 1 && version <= kRestartLayoutVersion ? static_cast<int>(record[2]) : -1;

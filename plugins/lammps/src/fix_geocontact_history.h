@@ -21,6 +21,7 @@ FixStyle(geocontact/history,FixGeocontactHistory);
 #ifndef LMP_FIX_GEOCONTACT_HISTORY_H
 #define LMP_FIX_GEOCONTACT_HISTORY_H
 
+#include "contact_forces.h"
 #include "fix.h"
 #include "geocontact/law.hpp"
 
@@ -45,22 +46,29 @@ struct ContactRecord {
   // when it changes (contact_forces.h radius_change); < 0 = not known (an older restart's
   // record: taken from its law state at its next step)
   double contact_radius = -1.0;
+  // the energy ledger of the contact (contact_forces.h LedgerChannel, run energy units): what
+  // its dashpots, sliding, rolling and twisting dissipated since it formed; the same on both
+  // atoms
+  double dissipated[geocontact_forces::kLedgerSlots] = {};
 };
 
 class FixGeocontactHistory : public Fix {
  public:
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
-  // rolling components, the twist angle, the energy scale, the law index and the contact radius
-  static constexpr int kRecordSize = 24;
+  // rolling components, the twist angle, the energy scale, the law index, the contact radius
+  // and the ledger's channels
+  static constexpr int kRecordSize = 24 + geocontact_forces::kLedgerSlots;
   // Per-atom restart layout: bumped whenever the packed record changes. Versions 1 (records
   // without rolling and twist, kRecordSizeV1 doubles), 2 (without the energy scale and law
-  // index, kRecordSizeV2) and 3 (without the contact radius, kRecordSizeV3) are still read:
-  // contacts that have not rolled or twisted yet, whose energy scale the next step sets, and
-  // whose contact radius is taken from their law state.
-  static constexpr int kRestartLayoutVersion = 4;
+  // index, kRecordSizeV2), 3 (without the contact radius, kRecordSizeV3) and 4 (without the
+  // energy ledger, kRecordSizeV4) are still read: contacts that have not rolled or twisted yet,
+  // whose energy scale the next step sets, whose contact radius is taken from their law state,
+  // and whose ledger starts at zero (what they dissipated before is not known).
+  static constexpr int kRestartLayoutVersion = 5;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
   static constexpr int kRecordSizeV3 = 23;
+  static constexpr int kRecordSizeV4 = 24;
   // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
   // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
   // it travels as the bit pattern of a (normal, finite) double.

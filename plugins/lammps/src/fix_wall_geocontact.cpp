@@ -236,7 +236,7 @@ void FixWallGeocontact::parse_motion(int &iarg, int narg, char **arg)
 
 int FixWallGeocontact::setmask()
 {
-  return POST_FORCE;
+  return POST_FORCE | POST_RUN;
 }
 
 void FixWallGeocontact::init()
@@ -417,8 +417,10 @@ void FixWallGeocontact::begin_tally()
 {
   for (int k = 0; k < G_COUNT; ++k) tally_[k] = 0.0;
   tally_[G_DISSIPATED] = forgotten_dissipated_;
+  for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] = forgotten_ledger_[k];
   totals_current_ = false;
   max_stiffness_ = 0.0;
+  deepest_beyond_ = 0.0;
 }
 
 // A contact left beyond the skin is forgotten, as a pair leaving the neighbor list; the energy
@@ -429,8 +431,13 @@ void FixWallGeocontact::forget_contact(WallRecord &stored, const geocontact::Sim
                             geocontact::dissipated_energy(law_, stored.law);
   forgotten_dissipated_ += dissipated;
   tally_[G_DISSIPATED] += dissipated;
+  for (int k = 0; k < kLedgerSlots; ++k) {
+    forgotten_ledger_[k] += stored.dissipated[k];
+    tally_[G_SLIDING + k] += stored.dissipated[k];
+  }
   stored.law = geocontact::ContactState();
   clear_springs(stored);
+  clear_ledger(stored);
   stored.active = 0;
 }
 
@@ -461,6 +468,7 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   if (!rec.active) {
     rec.law = geocontact::ContactState();
     clear_springs(rec);
+    clear_ledger(rec);
     rec.active = 1;
   } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
     rec.contact_radius = contact_stiffness(law_, c, rec.law, sim).radius;
@@ -488,11 +496,28 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
     f[k] += fc[k];
     tally_[GF_X + k] -= fc[k];  // the grain pushes the wall the other way
   }
+  // the wall's work on the grain: the contact force times the wall's velocity at the contact
+  // (the rest of the contact force's work on the grain is the contact's, in its ledger)
+  if (commit) boundary_work_ += dot3(fc, contact.velocity) * update->dt;
   const geocontact::ContactState &st = rec.law;
   const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
   tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
   tally_[G_ELASTIC] += stored_energy;
   if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
+  // setup: the springs the next step starts from are the stored record's, not the scratch
+  // copy's (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
+  if (commit || stored.active) {
+    for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] += stored.dissipated[k];
+    const SpringEnergy springs = spring_energy(stored, c, sim, resistance_);
+    tally_[G_STORED_TANGENTIAL] += springs.tangential;
+    tally_[G_STORED_ROLLING] += springs.rolling;
+    tally_[G_STORED_TWISTING] += springs.twisting;
+  }
+  const double depth = st.max_approach / law_.yield_approach;
+  if (depth > law_.calibrated_depth) {  // calibrated_range.max_depth (infinite: none)
+    tally_[G_BEYOND_RANGE] += 1.0;
+    deepest_beyond_ = std::max(deepest_beyond_, depth);
+  }
   // the state's approaches are the pair's in the calibrated units: w = d / approach
   const double half_scale = c.length_to_run / sim.approach;
   out[0] = interference;
@@ -511,12 +536,16 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
 double FixWallGeocontact::compute_vector(int n)
 {
   if (!totals_current_) {
+    tally_[G_BOUNDARY_WORK] = boundary_work_;
     MPI_Allreduce(tally_, totals_, G_MAX_STIFFNESS, MPI_DOUBLE, MPI_SUM, world);
+    MPI_Allreduce(tally_ + G_SLIDING, totals_ + G_SLIDING, G_BEYOND_RANGE + 1 - G_SLIDING,
+                  MPI_DOUBLE, MPI_SUM, world);
     double lightest = INFINITY;
     for (int i = 0; i < atom->nlocal; ++i)
       if (atom->mask[i] & groupbit) lightest = std::min(lightest, atom->rmass[i]);
-    double local[2] = {max_stiffness_, -lightest}, all[2] = {0.0, 0.0};
-    MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_MAX, world);
+    double local[3] = {max_stiffness_, -lightest, deepest_beyond_}, all[3] = {0.0, 0.0, 0.0};
+    MPI_Allreduce(local, all, 3, MPI_DOUBLE, MPI_MAX, world);
+    totals_[G_DEEPEST_BEYOND] = all[2];
     const double k = all[0], m = -all[1];
     totals_[G_MAX_STIFFNESS] = k;
     totals_[G_CRITICAL_DT] =
@@ -524,6 +553,24 @@ double FixWallGeocontact::compute_vector(int n)
     totals_current_ = true;
   }
   return totals_[n];
+}
+
+// Issue 37, no silent extrapolation: at the end of a run (collective), one warning the first
+// time wall contacts are beyond the law's calibrated range; [19-20] count them at any step.
+void FixWallGeocontact::post_run()
+{
+  if (range_warned_) return;
+  double all[2] = {0.0, 0.0};
+  MPI_Allreduce(&tally_[G_BEYOND_RANGE], &all[0], 1, MPI_DOUBLE, MPI_SUM, world);
+  MPI_Allreduce(&deepest_beyond_, &all[1], 1, MPI_DOUBLE, MPI_MAX, world);
+  if (!(all[0] > 0.0)) return;
+  range_warned_ = true;
+  if (comm->me == 0)
+    error->warning(FLERR, "Fix {} {}: {:.0f} wall contact(s) loaded beyond the calibrated range "
+                          "of the law file (largest delta_max/delta_y {:.4g}; "
+                          "calibrated_range.max_depth): the law extrapolates there (f_{}[19] "
+                          "counts them, [20] the deepest; said once)",
+                   style, id, all[0], all[1], id);
 }
 
 // --- per-atom storage: exchange, sorting, restart ---------------------------------------------
@@ -555,6 +602,7 @@ void FixWallGeocontact::set_arrays(int i)
     WallRecord &r = records_[i * nwalls + w];
     r.law = geocontact::ContactState();
     clear_springs(r);
+    clear_ledger(r);
     r.active = 0;
   }
   for (int c = 0; c < size_peratom_cols; ++c) array_atom[i][c] = 0.0;
@@ -570,12 +618,14 @@ int FixWallGeocontact::pack_record(const WallRecord &r, double *buf)
   for (int k = 0; k < 3; ++k) buf[m++] = r.rolling[k];
   buf[m++] = r.twist;
   buf[m++] = r.contact_radius;
+  for (double d : r.dissipated) buf[m++] = d;
   return m;
 }
 
 int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layout_version)
 {
   const bool with_rolling = layout_version >= 2, with_radius = layout_version >= 3;
+  const bool with_ledger = layout_version >= 4;
   int m = unpack_state(r.law, buf);
   r.tangential[0] = buf[m++];
   r.tangential[1] = buf[m++];
@@ -584,13 +634,17 @@ int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layou
   for (int k = 0; k < 3; ++k) r.rolling[k] = with_rolling ? buf[m++] : 0.0;
   r.twist = with_rolling ? buf[m++] : 0.0;
   r.contact_radius = with_radius ? buf[m++] : -1.0;
+  for (double &d : r.dissipated) d = with_ledger ? buf[m++] : 0.0;
   return m;
 }
 
 // Doubles per wall record in a restart file of the given layout version (unpack_record).
 int FixWallGeocontact::record_size(int layout_version)
 {
-  return layout_version == 1 ? kRecordSizeV1 : layout_version == 2 ? kRecordSizeV2 : kRecordSize;
+  return layout_version == 1   ? kRecordSizeV1
+         : layout_version == 2 ? kRecordSizeV2
+         : layout_version == 3 ? kRecordSizeV3
+                               : kRecordSize;
 }
 
 int FixWallGeocontact::pack_exchange(int i, double *buf)
@@ -624,7 +678,7 @@ int FixWallGeocontact::pack_restart(int i, double *buf)
 // A record of another layout or wall count is never unpacked: the atom is left without wall
 // contacts and init() refuses the run on every rank. Layout version 1 (no rolling and twist)
 // is read with both at zero, versions 1-2 (no contact radius) with the radius taken from the
-// law state at the record's next step.
+// law state at the record's next step, versions 1-3 (no ledger) with the ledger at zero.
 void FixWallGeocontact::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -665,8 +719,8 @@ int FixWallGeocontact::maxsize_restart()
   return size_restart(0);
 }
 
-// Global: the wall's clock and position variable, so a moving wall continues where it was, and
-// the energy dissipated by contacts already forgotten (summed over ranks).
+// Global: the wall's clock and position variable, so a moving wall continues where it was, the
+// energy dissipated by contacts already forgotten and the wall's work (summed over ranks).
 void FixWallGeocontact::write_restart(FILE *fp)
 {
   double data[kGlobalSize];
@@ -681,15 +735,19 @@ void FixWallGeocontact::write_restart(FILE *fp)
 // fix wall/geocontact/region, which writes its region's record after it.
 void FixWallGeocontact::pack_global(double *data)
 {
-  double forgotten = 0.0;
-  MPI_Allreduce(&forgotten_dissipated_, &forgotten, 1, MPI_DOUBLE, MPI_SUM, world);
-  const double values[kGlobalSize] = {ubuf(kGlobalTag).d,
-                                      static_cast<double>(time_origin_),
-                                      last_position_,
-                                      position_velocity_,
-                                      static_cast<double>(last_position_step_),
-                                      forgotten,
-                                      static_cast<double>(sides_.size())};
+  double mine[2 + kLedgerSlots] = {forgotten_dissipated_, boundary_work_};
+  for (int k = 0; k < kLedgerSlots; ++k) mine[2 + k] = forgotten_ledger_[k];
+  double all[2 + kLedgerSlots] = {};
+  MPI_Allreduce(mine, all, 2 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  double values[kGlobalSize] = {ubuf(kGlobalTag).d,
+                                static_cast<double>(time_origin_),
+                                last_position_,
+                                position_velocity_,
+                                static_cast<double>(last_position_step_),
+                                all[0],
+                                static_cast<double>(sides_.size())};
+  for (int k = 0; k < kLedgerSlots; ++k) values[kGlobalSizeV3 + k] = all[2 + k];
+  values[kGlobalSizeV3 + kLedgerSlots] = all[1];
   std::copy_n(values, kGlobalSize, data);
 }
 
@@ -701,8 +759,8 @@ void FixWallGeocontact::restart(char *buf)
 // Reads the global block at buf; returns its length in bytes (the region's record follows it).
 int FixWallGeocontact::unpack_global(const char *buf)
 {
-  double data[kGlobalSize];
-  memcpy(data, buf, sizeof(data));
+  double data[kGlobalSize] = {};
+  memcpy(data, buf, sizeof(double));
   const int64_t tag = ubuf(data[0]).i;
   const int64_t version = tag & 0xffffffff;  // the global layout is the same in versions 1-3
   if ((tag & ~int64_t(0xffffffff)) != kGlobalTagBase || version < 1 ||
@@ -712,12 +770,18 @@ int FixWallGeocontact::unpack_global(const char *buf)
                (tag & ~int64_t(0xffffffff)) == (kGlobalTag & ~int64_t(0xffffffff))
                    ? "another layout version" : "no wall/geocontact layout tag",
                static_cast<uint64_t>(tag), kRestartLayoutVersion);
+  const int size = version >= 4 ? kGlobalSize : kGlobalSizeV3;
+  memcpy(data, buf, size * sizeof(double));
   time_origin_ = static_cast<bigint>(data[1]);
   last_position_ = data[2];
   position_velocity_ = data[3];
   last_position_step_ = static_cast<bigint>(data[4]);
   forgotten_dissipated_ = comm->me == 0 ? data[5] : 0.0;
-  return static_cast<int>(sizeof(data));
+  // version 4: the ledger of forgotten contacts and the wall's work (before: not recorded)
+  for (int k = 0; k < kLedgerSlots; ++k)
+    forgotten_ledger_[k] = comm->me == 0 ? data[kGlobalSizeV3 + k] : 0.0;
+  boundary_work_ = comm->me == 0 ? data[kGlobalSizeV3 + kLedgerSlots] : 0.0;
+  return size * static_cast<int>(sizeof(double));
 }
 
 double FixWallGeocontact::memory_usage()

@@ -25,7 +25,15 @@
 // global vector [1-3] force of the grains on the wall, [4] energy the law dissipated at the
 // wall (contacts since the fix was defined), [5] stored elastic energy, [6] number of wall
 // contacts, [7] the largest normal stiffness of a wall contact and [8] the critical time step it
-// implies for the lightest grain of the group (0 while none touches); per-atom array,
+// implies for the lightest grain of the group (0 while none touches); the energy ledger of the
+// wall contacts (contact_forces.h LedgerChannel; since the fix was defined, forgotten contacts
+// included): [9] sliding, [10] normal damping, [11] tangential damping, [12] rolling, [13]
+// twisting, [14] of which the change of the contact radius, [15-17] the energy stored in the
+// tangential, rolling and twisting springs, [18] the work the wall did on the grains, the sum
+// over steps of F . v_wall dt (F the contact force on the grain); [19] the wall contacts loaded
+// beyond the law file's calibrated range (delta_max / delta_y > calibrated_range.max_depth,
+// where the law extrapolates; warned once, at the end of the first run that has any) and [20]
+// the largest delta_max / delta_y among them (0: none); per-atom array,
 // kOutputColumns per wall (lo wall first): interference w, normal force, |tangential force|,
 // max interference, residual interference, branch of the law.
 #ifdef FIX_CLASS
@@ -50,27 +58,30 @@ namespace LAMMPS_NS {
 class FixWallGeocontact : public Fix {
  public:
   // doubles per wall record: 13 law slots, 3 tangential components, the active flag, 3 rolling
-  // components, the twist angle, the contact radius (layout version 1: the first 17 of them,
-  // version 2: the first 21)
-  static constexpr int kRecordSize = 22;
+  // components, the twist angle, the contact radius, the ledger's channels (layout version 1:
+  // the first 17 of them, version 2: the first 21, version 3: the first 22)
+  static constexpr int kRecordSize = 22 + geocontact_forces::kLedgerSlots;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
+  static constexpr int kRecordSizeV3 = 22;
   static constexpr int kOutputColumns = 6;
   // Restart layouts, bumped whenever a packed record changes: per atom [length, tag, walls,
   // records], the tag "GCWA" in the high and the version in the low 32 bits; global [tag
   // "GCWG" + version, time origin, wall position and velocity of the position variable and its
-  // step, dissipated energy of forgotten contacts, walls]. Version 2 adds rolling and twist to
-  // the per-atom records, version 3 the contact radius (the global layout is unchanged);
-  // versions 1 and 2 are still read, with what they lack at zero (the contact radius: from the
-  // law state).
-  static constexpr int kRestartLayoutVersion = 3;
+  // step, dissipated energy of forgotten contacts, walls, (version 4) the ledger's channels of
+  // forgotten contacts and the wall's work]. Version 2 adds rolling and twist to the per-atom
+  // records, version 3 the contact radius (the global layout is unchanged), version 4 the
+  // ledger (per atom and global); versions 1 to 3 are still read, with what they lack at zero
+  // (the contact radius: from the law state).
+  static constexpr int kRestartLayoutVersion = 4;
   static constexpr int64_t kAtomTagBase = static_cast<int64_t>(0x41574347) << 32;
   static constexpr int64_t kAtomTag = kAtomTagBase | kRestartLayoutVersion;
   static constexpr int64_t kAtomTagV1 = kAtomTagBase | 1;
   static constexpr int64_t kGlobalTagBase = static_cast<int64_t>(0x47574347) << 32;
   static constexpr int64_t kGlobalTag = kGlobalTagBase | kRestartLayoutVersion;
   static constexpr int kAtomHeader = 3;
-  static constexpr int kGlobalSize = 7;
+  static constexpr int kGlobalSizeV3 = 7;
+  static constexpr int kGlobalSize = kGlobalSizeV3 + geocontact_forces::kLedgerSlots + 1;
 
   FixWallGeocontact(class LAMMPS *, int, char **);
   ~FixWallGeocontact() override;
@@ -78,6 +89,7 @@ class FixWallGeocontact : public Fix {
   void init() override;
   void setup(int) override;
   void post_force(int) override;
+  void post_run() override;
   double compute_vector(int) override;
 
   void write_restart(FILE *) override;
@@ -101,8 +113,12 @@ class FixWallGeocontact : public Fix {
   // the sums over ranks come first (compute_vector)
   enum Global {
     GF_X, GF_Y, GF_Z, G_DISSIPATED, G_ELASTIC, G_CONTACTS, G_MAX_STIFFNESS, G_CRITICAL_DT,
-    G_COUNT
+    G_SLIDING, G_NORMAL_DAMPING, G_TANGENTIAL_DAMPING, G_ROLLING, G_TWISTING, G_RADIUS_CHANGE,
+    G_STORED_TANGENTIAL, G_STORED_ROLLING, G_STORED_TWISTING, G_BOUNDARY_WORK, G_BEYOND_RANGE,
+    G_DEEPEST_BEYOND, G_COUNT
   };
+  static_assert(G_RADIUS_CHANGE - G_SLIDING + 1 == geocontact_forces::kLedgerSlots,
+                "the vector's ledger indices follow LedgerChannel");
 
   struct WallRecord {
     geocontact::ContactState law;  // in the calibrated spheres' units, at d = 2 w / s
@@ -111,6 +127,7 @@ class FixWallGeocontact : public Fix {
     double rolling[3];             // rolling displacement (m)
     double twist;                  // twist angle (rad)
     double contact_radius;         // a of the last step (run lengths); < 0: not known
+    double dissipated[geocontact_forces::kLedgerSlots];  // the contact's ledger (run energy)
   };
 
   // One grain on one wall at this step, whatever the wall's shape: the planes and the cylinder
@@ -164,6 +181,10 @@ class FixWallGeocontact : public Fix {
   std::vector<WallRecord> records_;  // sides_.size() per atom, local index major
   int capacity_ = 0;                  // atoms array_atom and records_ are sized for
   double forgotten_dissipated_;      // this rank's share: contacts dropped beyond the skin
+  double forgotten_ledger_[geocontact_forces::kLedgerSlots] = {};  // the same, other channels
+  double boundary_work_ = 0.0;       // this rank's share of the wall's work on the grains
+  double deepest_beyond_ = 0.0;      // this rank's deepest contact beyond the calibrated range
+  bool range_warned_ = false;        // the run was told of contacts beyond it
   double tally_[G_COUNT];            // this rank's sums at the last post_force
   double totals_[G_COUNT];
   bool totals_current_;

@@ -247,6 +247,7 @@ void FixWallGeocontactRegion::set_arrays(int i)
     WallRecord &r = records_[base + s];
     r.law = geocontact::ContactState();
     clear_springs(r);
+    clear_ledger(r);
     r.active = 0;
     walls_[base + s] = -1;
     effective_[base + s] = 0.0;

@@ -33,9 +33,10 @@ constexpr double kDefaultFriction = 0.5;
 // version come first, so a file of another layout is refused instead of misread. Bump the
 // version whenever write_restart changes.
 constexpr int kRestartTag = 0x53504347;
-// Version 2 adds the rolling and twisting coefficients of each type pair; version 1 is read
-// without them.
-constexpr int kRestartLayoutVersion = 3;
+// Version 2 adds the rolling and twisting coefficients of each type pair, version 3 the law's
+// dissipation of the dropped contacts, version 4 their other ledger channels; older versions
+// are read without them (at zero).
+constexpr int kRestartLayoutVersion = 4;
 
 }  // namespace
 
@@ -288,25 +289,28 @@ void PairGeocontact::index_contacts()
   }
   // A dropped record takes its pair's dissipation with it: each pair has one record per grain
   // (newton off: a pair across ranks keeps one on each), so each dropped record carries half.
-  double departed = 0.0;
+  double departed[1 + kLedgerSlots] = {};  // the law's, then the ledger's channels
   for (int i = 0; i < nlocal; ++i) {
     auto &table = tables[i];
     size_t kept = 0;
     for (size_t k = 0; k < table.size(); ++k) {
       if (keep[first_record[i] + k]) {
         table[kept++] = table[k];
-      } else if (table[k].energy_scale > 0.0) {
+      } else {
         const ContactRecord &gone = table[k];
-        departed += 0.5 * gone.energy_scale *
-                    stiffness_constants_[gone.law_index].energy_to_run *
-                    geocontact::dissipated_energy(laws_[gone.law_index], gone.law);
+        if (gone.energy_scale > 0.0)
+          departed[0] += 0.5 * gone.energy_scale *
+                         stiffness_constants_[gone.law_index].energy_to_run *
+                         geocontact::dissipated_energy(laws_[gone.law_index], gone.law);
+        for (int c = 0; c < kLedgerSlots; ++c) departed[1 + c] += 0.5 * gone.dissipated[c];
       }
     }
     table.resize(kept);
   }
-  double departed_all = 0.0;
-  MPI_Allreduce(&departed, &departed_all, 1, MPI_DOUBLE, MPI_SUM, world);
-  departed_dissipation_ += departed_all;
+  double departed_all[1 + kLedgerSlots] = {};
+  MPI_Allreduce(departed, departed_all, 1 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  departed_dissipation_ += departed_all[0];
+  for (int c = 0; c < kLedgerSlots; ++c) departed_ledger_[c] += departed_all[1 + c];
   for (int ii = 0; ii < inum; ++ii) {
     const int i = ilist[ii];
     const int *jlist = firstneigh[i];
@@ -364,12 +368,15 @@ void PairGeocontact::sync_mirrors()
 // damping, tangential force (contact_forces.h), energy tallies, forces on the grains ---------
 
 // The contact's share of the global energy tallies (compute pair geocontact): each contact
-// once, whole if both grains are owned here, half if shared with another rank.
+// once, whole if both grains are owned here, half if shared with another rank (both ranks then
+// hold the same record).
 void PairGeocontact::tally_contact(const geocontact::LawParams &law,
-                                   const StiffnessConstants &constants,
-                                   const geocontact::ContactState &state,
-                                   const geocontact::Similarity &sim, bool owned_pair)
+                                   const StiffnessConstants &constants, const ContactRecord &rec,
+                                   const ContactRecord *springs_from,
+                                   const geocontact::Similarity &sim,
+                                   const RollingCoeffs &resistance, bool owned_pair)
 {
+  const geocontact::ContactState &state = rec.law;
   const double w = owned_pair ? 1.0 : 0.5;
   const double energy_scale = sim.energy * constants.energy_to_run;
   const double stored = energy_scale * geocontact::elastic_energy(law, state);
@@ -377,6 +384,18 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   pvector[GV_ELASTIC] += w * stored;
   if (state.force > 0.0) pvector[GV_CONTACTS] += w;
   if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
+  const double depth = state.max_approach / law.yield_approach;
+  if (depth > law.calibrated_depth) {  // calibrated_range.max_depth (infinite: not recorded)
+    beyond_range_ += w;
+    deepest_beyond_ = std::max(deepest_beyond_, depth);
+  }
+  if (!springs_from) return;
+  for (int c = 0; c < kLedgerSlots; ++c)
+    pvector[GV_SLIDING + c] += w * springs_from->dissipated[c];
+  const SpringEnergy springs = spring_energy(*springs_from, constants, sim, resistance);
+  pvector[GV_STORED_TANGENTIAL] += w * springs.tangential;
+  pvector[GV_STORED_ROLLING] += w * springs.rolling;
+  pvector[GV_STORED_TWISTING] += w * springs.twisting;
 }
 
 // The stiffest contact of this step (energy steps only, as the other global outputs).
@@ -396,10 +415,25 @@ void PairGeocontact::finish_stiffness_outputs()
   double lightest = INFINITY;
   const double *rmass = atom->rmass;
   for (int i = 0; i < atom->nlocal; ++i) lightest = std::min(lightest, rmass[i]);
-  double local[2] = {max_stiffness_, -lightest}, all[2] = {0.0, 0.0};
-  MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_MAX, world);
-  max_stiffness_ = 0.0;
+  double local[3] = {max_stiffness_, -lightest, deepest_beyond_}, all[3] = {0.0, 0.0, 0.0};
+  MPI_Allreduce(local, all, 3, MPI_DOUBLE, MPI_MAX, world);
+  double beyond = 0.0;
+  MPI_Allreduce(&beyond_range_, &beyond, 1, MPI_DOUBLE, MPI_SUM, world);
+  max_stiffness_ = beyond_range_ = deepest_beyond_ = 0.0;
+  // issue 37: no silent extrapolation; told once per run (every rank knows the sum: the flag
+  // stays the same on all), the count kept in [16]
+  if (beyond > 0.0 && !range_warned_) {
+    range_warned_ = true;
+    if (comm->me == 0)
+      error->warning(FLERR, "Pair geocontact: {:.0f} contact(s) loaded beyond the calibrated range "
+                            "of their law file (largest delta_max/delta_y {:.4g}; "
+                            "calibrated_range.max_depth): the law extrapolates there (compute "
+                            "pair geocontact [16] counts them, [17] the deepest; said once)",
+                     beyond, all[2]);
+  }
   if (comm->me != 0) return;
+  pvector[GV_BEYOND_RANGE] = beyond;
+  pvector[GV_DEEPEST_BEYOND] = all[2];
   const double k = all[0], m = -all[1];
   pvector[GV_MAX_STIFFNESS] = k;
   pvector[GV_CRITICAL_DT] =
@@ -447,7 +481,10 @@ void PairGeocontact::compute(int eflag, int vflag)
   const double dt = update->dt;
   if (eflag_global) {
     for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
-    if (comm->me == 0) pvector[GV_DISSIPATED] = departed_dissipation_;  // summed over ranks
+    if (comm->me == 0) {  // summed over ranks
+      pvector[GV_DISSIPATED] = departed_dissipation_;
+      for (int c = 0; c < kLedgerSlots; ++c) pvector[GV_SLIDING + c] = departed_ledger_[c];
+    }
   }
 
   double **x = atom->x;
@@ -495,6 +532,7 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
         clear_springs(rec);
+        clear_ledger(rec);
       } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
         rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
       }
@@ -519,7 +557,11 @@ void PairGeocontact::compute(int eflag, int vflag)
         has_record_[k] = 1;
         history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       }
-      if (eflag_global) tally_contact(law, constants, rec.law, sim, j < nlocal);
+      // setup: the springs the next step starts from are the record's, not the scratch copy's
+      // (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
+      if (eflag_global)
+        tally_contact(law, constants, rec, commit || known ? &pair_records_[k] : nullptr, sim,
+                      tp.resistance, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
       const double energy =
           eflag ? sim.energy * constants.energy_to_run * geocontact::elastic_energy(law, rec.law)
@@ -567,8 +609,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so
 // a restart is self-contained, then per type pair the law index, friction and damping, and
-// (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, and (version
-// 3) the dissipation of the contacts already dropped.
+// (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, (version 3)
+// the law's dissipation of the contacts already dropped and (version 4) their ledger channels.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -595,6 +637,7 @@ void PairGeocontact::write_restart(FILE *fp)
       }
     }
   fwrite(&departed_dissipation_, sizeof(double), 1, fp);  // version 3
+  fwrite(departed_ledger_, sizeof(double), kLedgerSlots, fp);  // version 4
 }
 
 void PairGeocontact::read_restart(FILE *fp)
@@ -656,6 +699,10 @@ void PairGeocontact::read_restart(FILE *fp)
   if (layout[1] >= 3 && me == 0)
     utils::sfread(FLERR, &departed_dissipation_, sizeof(double), 1, fp, nullptr, error);
   MPI_Bcast(&departed_dissipation_, 1, MPI_DOUBLE, 0, world);
+  for (double &d : departed_ledger_) d = 0.0;  // versions 1-3: not recorded
+  if (layout[1] >= 4 && me == 0)
+    utils::sfread(FLERR, departed_ledger_, sizeof(double), kLedgerSlots, fp, nullptr, error);
+  MPI_Bcast(departed_ledger_, kLedgerSlots, MPI_DOUBLE, 0, world);
 }
 
 double PairGeocontact::memory_usage()

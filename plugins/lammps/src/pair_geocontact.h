@@ -56,13 +56,24 @@ class PairGeocontact : public Pair {
     SV_APPROACH, SV_NORMAL_FORCE, SV_TANGENTIAL_FORCE, SV_MAX_APPROACH, SV_RESIDUAL_APPROACH,
     SV_BRANCH, SV_CYCLES, SV_WORK, SV_DISSIPATED, SV_CONTACT_RADIUS, SV_COUNT
   };
-  // global values (compute pair geocontact, summed over ranks)
+  // global values (compute pair geocontact, summed over ranks; 1-based in LAMMPS's c_ID[k])
   // [5] the largest normal contact stiffness (force/length) and [6] the critical time step it
-  // implies for the lightest grain (time; finish_stiffness_outputs)
+  // implies for the lightest grain (time; finish_stiffness_outputs). [7-12] the energy ledger's
+  // dissipated channels in the order of geocontact_forces::LedgerChannel (sliding, normal
+  // damping, tangential damping, rolling, twisting, and of which the change of the contact
+  // radius), [13-15] the energy stored in the tangential, rolling and twisting springs; energies
+  // in the run's units, dissipations including the contacts already dropped (docs/dem.md).
+  // [16] the contacts loaded beyond their law file's calibrated range (delta_max / delta_y >
+  // calibrated_range.max_depth: the law extrapolates there) and [17] the largest
+  // delta_max / delta_y among them (0: none; finish_stiffness_outputs, which warns once).
   enum GlobalValue {
     GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_MAX_STIFFNESS,
-    GV_CRITICAL_DT, GV_COUNT
+    GV_CRITICAL_DT, GV_SLIDING, GV_NORMAL_DAMPING, GV_TANGENTIAL_DAMPING, GV_ROLLING,
+    GV_TWISTING, GV_RADIUS_CHANGE, GV_STORED_TANGENTIAL, GV_STORED_ROLLING, GV_STORED_TWISTING,
+    GV_BEYOND_RANGE, GV_DEEPEST_BEYOND, GV_COUNT
   };
+  static_assert(GV_RADIUS_CHANGE - GV_SLIDING + 1 == geocontact_forces::kLedgerSlots,
+                "the compute's ledger indices follow LedgerChannel");
 
  protected:
   struct TypePairLaw {
@@ -79,7 +90,8 @@ class PairGeocontact : public Pair {
   int add_law(const std::string &text, const std::string &source);
   void tally_contact(const geocontact::LawParams &law,
                      const geocontact_forces::StiffnessConstants &constants,
-                     const geocontact::ContactState &state, const geocontact::Similarity &sim,
+                     const ContactRecord &rec, const ContactRecord *springs_from,
+                     const geocontact::Similarity &sim, const RollingCoeffs &resistance,
                      bool owned_pair);
   void note_stiffness(double normal_stiffness);
   void finish_stiffness_outputs();
@@ -105,7 +117,14 @@ class PairGeocontact : public Pair {
   // separated beyond the neighbor skin), summed over all ranks: compute pair geocontact's [1]
   // adds it, so the total never falls when a contact leaves the neighbor list.
   double departed_dissipation_ = 0.0;
+  // the same for the ledger's other channels (geocontact_forces::LedgerChannel)
+  double departed_ledger_[geocontact_forces::kLedgerSlots] = {};
   double max_stiffness_ = 0.0;  // this rank's stiffest contact since the last energy step
+  // this rank's contacts beyond their law's calibrated range at this energy step (weighted as
+  // the other tallies) and the deepest of them (delta_max / delta_y), and whether the run was
+  // told (once: the first energy step that finds one)
+  double beyond_range_ = 0.0, deepest_beyond_ = 0.0;
+  bool range_warned_ = false;
 };
 
 }  // namespace LAMMPS_NS

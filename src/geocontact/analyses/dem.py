@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import GeocontactError, InputError
 from ..files import atomic_directory, check_replaceable, provenance, write_csv, write_json_atomic
 from ..law.elastic import elastic_law
+from .energy import ledger_change, read_ledger_table
 from .lammps_plugin import mpi_library_dir, plugin_path
 from .restitution import restitution_of_damping
 
@@ -355,6 +356,16 @@ def parse_run(folder: Path, settings: Settings) -> dict:
         "cycles": cycles,
         "total_residual_strain": cycles[-1]["end_strain"],
     }
+    ledger_file = folder / "ledger.txt"
+    if ledger_file.is_file():  # geocontact pair and walls: the energy ledger of every leg
+        rows = read_ledger_table(ledger_file)
+        last = str(len(legs) - 1)
+        # the cycles (from the reference state, as the cycles' numbers), and the whole run
+        # from the first step of the law (its fast first loading included)
+        summary["energy"] = ledger_change(rows["1"], rows[last])
+        summary["energy_whole_run"] = ledger_change(rows["start"], rows[last])
+        for k, cycle in enumerate(cycles):
+            cycle["energy"] = ledger_change(rows[str(1 + 2 * k)], rows[str(3 + 2 * k)])
     arrays = {"series": {"time_s": series["time_s"], "step": step, "height_m": height,
                          "strain": strain, "stress_Pa": stress,
                          "top_wall_force_N": series["top_wall_force_N"],
@@ -433,7 +444,8 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
             write_csv(folder / "series.csv", parsed["arrays"]["series"])
             cycles = parsed["summary"]["cycles"]
             write_csv(folder / "cycles.csv", {k: np.array([c[k] for c in cycles])
-                                              for k in cycles[0] if k != "history"})
+                                              for k in cycles[0]
+                                              if k not in ("history", "energy")})
             if "contacts" in parsed["arrays"]:
                 write_csv(folder / "residual_approach.csv", parsed["arrays"]["contacts"])
             parsed["summary"]["cycle_start_step"] = parsed["arrays"]["cycle_start_step"]

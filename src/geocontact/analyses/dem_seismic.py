@@ -55,6 +55,7 @@ from .dem import (
     run_lammps,
     script_contact,
 )
+from .energy import ledger_change, read_ledger_table
 from .lammps_plugin import plugin_path
 
 TEST = "seismic"
@@ -288,6 +289,11 @@ def parse_run(folder: Path, settings: SeismicSettings, motion: BaseMotion) -> di
         "wall_work_90_fraction_of_record": w90 / duration if w90 is not None else None,
         "paper_rule": peak_time_rule(fraction),
     }
+    ledger_file = folder / "ledger.txt"
+    if ledger_file.is_file():  # geocontact pair and walls: the energy ledger of the shaking
+        rows = read_ledger_table(ledger_file)
+        summary["energy"] = ledger_change(rows["shaking_start"], rows["end"])
+        summary["energy_whole_run"] = ledger_change(rows["start"], rows["end"])
     arrays = {"record_time_s": record_time, "time_s": series["time_s"][keep], "step": step,
               "height_m": height, "settlement_m": settlement,
               "vertical_strain": settlement / h0, "stress_Pa": stress,

@@ -29,6 +29,49 @@ def _series(directory: Path, contact: str) -> dict[str, np.ndarray]:
                                                   "contacts_per_grain")}
 
 
+LEDGER_CHANNELS = (("Δ kinetic", ("change_kinetic_J",)),
+                   *((f"Δ stored {k}", ("change_stored_J", k))
+                     for k in ("normal", "tangential", "rolling", "twisting")),
+                   *((k.replace("_", " "), ("dissipated_J", k))
+                     for k in ("law", "sliding", "normal_damping", "tangential_damping",
+                               "rolling", "twisting")),
+                   ("closure residual", ("closure_residual_J",)))
+
+
+def _channel(energy: dict, path: tuple[str, ...]) -> float:
+    for key in path:
+        energy = energy[key]
+    return float(energy)
+
+
+def ledger_figure(ledgers: dict[str, dict], figures: Path, name: str, caption: str):
+    """The energy ledger (docs/dem.md "Energy ledger") of each interval in ``ledgers`` (label:
+    the ``energy`` object of summary.json): every channel as a share of the interval's boundary
+    work, side by side (sliding may be negative: the model's spring gains energy at the slip
+    reset where the dashpot's force alone exceeds the Coulomb limit)."""
+    labels = list(ledgers)
+    fig, ax = plt.subplots(figsize=(max(6.5, 1.2 * len(labels) + 4), 4))
+    width = 0.8 / len(LEDGER_CHANNELS)
+    data: dict[str, np.ndarray] = {"boundary_work_J": np.array(
+        [ledgers[k]["boundary_work_J"] for k in labels])}
+    x = np.arange(len(labels))
+    for c, (channel, path) in enumerate(LEDGER_CHANNELS):
+        values = np.array([_channel(ledgers[k], path) for k in labels])
+        share = values / data["boundary_work_J"]
+        ax.bar(x + (c - len(LEDGER_CHANNELS) / 2 + 0.5) * width, share * 100, width,
+               label=channel, color=f"C{c % 10}", hatch="//" if c >= 10 else None)
+        data[f"{'_'.join(path)}"] = values
+    ax.axhline(0, color="0.5", lw=0.6)
+    ax.set_xticks(x, labels)
+    ax.set_ylabel("% of the boundary work")
+    ax.legend(fontsize=7, ncol=2)
+    caption += (" Sliding is negative where the tangential dashpot's force alone exceeds the "
+                "Coulomb limit (the slip reset then stores the spring along the sliding velocity, "
+                "as in LAMMPS's granular models): sliding + tangential damping is the tangential "
+                "contact's loss (docs/dem.md, \"Energy ledger\").")
+    return save_to_figures(fig, figures, Figure(name, "Energy ledger", caption, data))
+
+
 def dem_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
     s = read_summary(directory)
     if s.get("test") == "seismic":
@@ -104,6 +147,16 @@ def dem_section(report: Report, directory: Path, root: Path, figures: Path) -> N
         "amplitude (default targets).", data)))
 
     g = runs.get("geocontact")
+    if g and "energy" in g:
+        ledgers = {f"cycle {c['cycle']}": c["energy"] for c in g["cycles"]}
+        ledgers["all cycles"] = g["energy"]
+        items.append(ledger_figure(
+            ledgers, figures, f"{tag}_energy_ledger",
+            "geocontact (pair and walls): where the walls' work went, per cycle and over the "
+            "cycles — the change of kinetic and stored energy and the energy each channel "
+            "dissipated, as a share of the walls' own work (Σ F·v_wall dt); the closure "
+            f"residual over the cycles is {100 * g['energy']['closure_residual_fraction']:.2f} % "
+            "of the work."))
     contacts_csv = directory / "geocontact" / "residual_approach.csv"
     if g and contacts_csv.is_file():
         res = read_csv_column(contacts_csv, "residual_approach_m")

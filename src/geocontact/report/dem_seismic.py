@@ -106,4 +106,16 @@ def seismic_section(report: Report, directory: Path, root: Path, figures: Path) 
         "virial stresses (both laws) and, dotted, from the wall fixes' own forces (geocontact); "
         "law dissipation: the geocontact normal law's own. Grey dashed: the time of the PGA.",
         data)))
+    g = runs.get("geocontact")
+    if g and "energy" in g:
+        from .dem import ledger_figure
+
+        items.append(ledger_figure(
+            {"shaking": g["energy"], "whole run": g["energy_whole_run"]}, figures,
+            f"{tag}_energy_ledger",
+            "geocontact (pair and walls): where the walls' work went during the shaking and over "
+            "the whole run (consolidation included) — the change of kinetic and stored energy "
+            "and the energy each channel dissipated, as a share of the walls' own work "
+            "(Σ F·v_wall dt); the closure residual of the shaking is "
+            f"{100 * g['energy']['closure_residual_fraction']:.2f} % of the work."))
     report.add(f"DEM seismic {rel or '.'}", *items)
