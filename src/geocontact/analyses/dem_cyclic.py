@@ -342,16 +342,8 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
             if progress:
                 progress(f"{what}: {settings.grains} grains, {len(settings.amplitudes)} "
                          f"amplitudes x {settings.cycles} cycles")
-            with atomic_directory(folder, RUN_COMMAND, overwrite=True, inputs=inputs_run) as tmp:
-                lammps = tmp / "lammps"
-                wall = run_lammps(TEST, script_variables(run, settings, law, lammps), run.law,
-                                  ranks, lammps, progress, reporter=_report_segments)
-                for suffix in (".log", ".stderr"):
-                    shutil.move(tmp / f"lammps{suffix}", lammps / f"lammps{suffix}")
-                parsed = parse_run(lammps, run, settings, material)
-                parsed["summary"]["runtime_s"] = wall
-                write_json_atomic(tmp / "run.json", {"summary": parsed["summary"],
-                                                     "curves": parsed["curves"]})
+            parsed = run_one(run, settings, law, material, folder, ranks, progress)
+            wall = parsed["summary"]["runtime_s"]
             write_manifest(out, COMMAND, inputs)
             if progress:
                 progress(f"{what}: done in {wall:.1f} s, Gmax "
@@ -368,6 +360,24 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
     write_json_atomic(out / "summary.json", document)
     write_manifest(out, COMMAND, inputs)
     return document
+
+
+def run_one(run: Run, settings: CyclicSettings, law: Path, material: str, folder: Path,
+            ranks: int = 1, progress: Callable[[str], None] | None = None) -> dict:
+    """One LAMMPS run committed to ``folder`` (a result of its own: ``lammps/`` with the
+    script's outputs, ``run.json``); its parsed loops and curves."""
+    with atomic_directory(folder, RUN_COMMAND, overwrite=True,
+                          inputs=run_inputs(run, settings, law)) as tmp:
+        lammps = tmp / "lammps"
+        wall = run_lammps(TEST, script_variables(run, settings, law, lammps), run.law,
+                          ranks, lammps, progress, reporter=_report_segments)
+        for suffix in (".log", ".stderr"):
+            shutil.move(tmp / f"lammps{suffix}", lammps / f"lammps{suffix}")
+        parsed = parse_run(lammps, run, settings, material)
+        parsed["summary"]["runtime_s"] = wall
+        write_json_atomic(tmp / "run.json", {"summary": parsed["summary"],
+                                             "curves": parsed["curves"]})
+    return parsed
 
 
 def _write_loops(out: Path, folder: Path, run: Run, settings: CyclicSettings,

@@ -1,0 +1,222 @@
+"""``geocontact dem cyclic-shear`` (examples/lammps/in.cyclicshear through the driver; plugin built
+by `make plugin`) on a tiny sample, and the engineers' curves it is drawn against (Darendeli 2001
+through pystrata, Hardin & Drnevich 1972)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geocontact.analyses.dem_cyclic import (
+    CURVE_COLUMNS,
+    CyclicSettings,
+    Run,
+    loop_measures,
+    run_cyclic_shear,
+    run_one,
+)
+from geocontact.analyses.empirical_curves import darendeli, hardin_drnevich
+from geocontact.cli import main
+from geocontact.errors import InputError
+from geocontact.files import verify_manifest
+
+LAW = Path("examples/params-reference.json")
+# the smallest sample that gives a modulus: 100 grains, three amplitudes, two cycles each
+TINY = {"grains": 100, "amplitudes": (1e-6, 1e-5, 1e-4), "cycles": 2, "seeds": 2}
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory) -> tuple[Path, dict, list[str]]:
+    out = tmp_path_factory.mktemp("cyclic") / "study"
+    lines: list[str] = []
+    doc = run_cyclic_shear(LAW, CyclicSettings(**TINY), out=out, progress=lines.append)
+    return out, doc, lines
+
+
+def test_files_and_columns(study):
+    out, doc, lines = study
+    assert verify_manifest(out) == []
+    assert json.loads((out / "summary.json").read_text())["schema"] == "geocontact.dem-cyclic/1"
+    names = [f"{law}-p100000-s{seed}" for law in ("geocontact", "granular")
+             for seed in (4821, 4822)]
+    assert [r["run"] for r in doc["runs"]] == names
+    assert sum("done in" in line for line in lines) == 4
+    assert sum("amplitude 3 done" in line for line in lines) == 4  # progress per amplitude
+    curves = _rows(out / "curves.csv")
+    assert list(curves[0]) == list(CURVE_COLUMNS)
+    assert len(curves) == 4 * 3
+    for name in names:
+        assert verify_manifest(out / "runs" / name) == []
+        loops = _rows(out / "loops" / f"{name}.csv")
+        for column in ("law", "seed", "consolidation_stress_Pa", "amplitude", "cycle",
+                       "shear_strain", "shear_stress_Pa", "mean_stress_Pa"):
+            assert column in loops[0]
+        # every cycle of every amplitude, its strain reaching the amplitude both ways
+        for a in TINY["amplitudes"]:
+            for c in (1, 2):
+                g = np.array([float(r["shear_strain"]) for r in loops
+                              if float(r["amplitude"]) == a and r["cycle"] == str(c)])
+                assert len(g) > 100
+                assert 0.97 * a < g.max() <= a and -a <= g.min() < -0.97 * a
+    for r in doc["runs"]:
+        # consolidated: the mean stress reached, a dense jammed packing
+        assert abs(r["consolidated_mean_stress_Pa"] / 1e5 - 1) < 0.01
+        assert 0.60 < r["packing_fraction"] < 0.70 and r["contacts_per_grain"] > 4
+    for c in doc["curves"]:
+        assert c["inertia_number"] < 1e-3 and c["period_over_wave_crossing"] >= 80
+
+
+def test_small_strain_modulus_does_not_depend_on_the_amplitude(study):
+    """G at the two smallest amplitudes agree within the scatter of Gmax between samples (and
+    within 3 % in each sample)."""
+    _, doc, _ = study
+    for law in ("geocontact", "granular"):
+        rows = [c for c in doc["curves"] if c["law"] == law]
+        g1 = np.array([c["G_Pa"] for c in rows if c["amplitude"] == 1e-6])
+        g2 = np.array([c["G_Pa"] for c in rows if c["amplitude"] == 1e-5])
+        assert np.all(np.abs(g2 / g1 - 1) < 0.03)
+        assert abs(g2.mean() - g1.mean()) <= g1.max() - g1.min()
+        # a modulus of a granular packing at 100 kPa: tens of MPa
+        assert np.all((1e7 < g1) & (g1 < 3e8))
+
+
+def test_the_laws_normal_dissipation_is_part_of_the_damping(study):
+    """The plastic law's own dissipation over the last cycle (compute pair geocontact [1]) as a
+    damping ratio: positive, at most the loop's (friction and viscous damping add to it)."""
+    _, doc, _ = study
+    for c in doc["curves"]:
+        if c["law"] == "geocontact" and c["amplitude"] == 1e-4:
+            assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio"] + 0.005
+        if c["law"] == "granular":
+            assert math.isnan(c["damping_ratio_normal_law"])
+
+
+def test_elastic_contacts_without_sliding_give_no_damping(tmp_path):
+    """Elastic Hertz-Mindlin contacts (pair granular hertz/material) that cannot slide (friction
+    10) with light viscous damping (0.05 of critical): at γa = 1e-6 the loop has no area but
+    round-off and the viscous part, D < 0.1 %. (Frictionless elastic grains are no test of
+    this: a frictionless packing is isostatic and rearranges under any shear, which dissipates
+    through the damping whatever the contact law; measured on 100 grains, D = 7 % at 1e-6.)"""
+    settings = CyclicSettings(grains=100, amplitudes=(1e-6, 1e-5), cycles=2, friction=10.0,
+                              damping=0.05, extra={"E": "1e10", "nu": "0.25"})
+    parsed = run_one(Run("granular", 1e5, 4821), settings, LAW.resolve(), "reference",
+                     tmp_path / "elastic")
+    first = parsed["curves"][0]
+    assert abs(first["damping_ratio"]) < 1e-3
+    assert abs(parsed["curves"][1]["G_over_Gmax"] - 1) < 0.01
+
+
+def test_rerun_reuses_finished_runs_and_checks_their_inputs(study):
+    out, _, _ = study
+    before = {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("run.json")}
+    lines: list[str] = []
+    run_cyclic_shear(LAW, CyclicSettings(**TINY), out=out, progress=lines.append)
+    assert sum("finished before, reused" in line for line in lines) == 4
+    assert not any("done in" in line for line in lines)
+    assert {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("run.json")} == before
+    assert verify_manifest(out) == []
+    with pytest.raises(InputError, match="made with other inputs"):
+        run_cyclic_shear(LAW, CyclicSettings(**{**TINY, "cycles": 3}), out=out)
+
+
+def test_report_section(study):
+    out, _, _ = study
+    from geocontact.report import build_report
+
+    text = build_report(out).read_text()
+    assert "DEM cyclic simple shear" in text and "Darendeli" in text
+    for name in ("cyclic_shear_curves", "cyclic_shear_loops"):
+        assert (out / "figures" / f"{name}.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--amplitudes", "1e-4", "1e-5"], "--amplitudes: must increase strictly"),
+    (["--amplitudes", "1e-6", "0.2"], "--amplitudes: each must be in [1e-08, 0.05]"),
+    (["--amplitudes", "1e-6"], "--amplitudes: 2 to 30"),
+    (["--cycles", "1"], "--cycles: must be in [2, 20]"),
+    (["--seeds", "0"], "--seeds: must be in [1, 50]"),
+    (["--stress", "1e5", "1e5"], "--stress: each mean stress once"),
+    (["--stress", "1e5", "0.5"], "--stress: must be in [1, 1e+09]"),
+    (["--baseline", "elastic"], "no elastic form"),
+    (["--baseline", "linear"], "--baseline: must be granular"),
+    (["--targets", "1.5", "0.5"], "--targets: not for the cyclic-shear test"),
+    (["--grains", "10"], "--grains: must be in [50, 200000]"),
+])
+def test_bad_inputs_one_line(tmp_path, capsys, args, message):
+    assert main(["dem", "cyclic-shear", "--law", str(LAW), *args,
+                 "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and message in err
+    assert not (tmp_path / "x").exists()
+
+
+def test_other_tests_refuse_cyclic_shear_flags(tmp_path, capsys):
+    for args, message in ((["oedometer", "--cycles", "3"], "--cycles: only for the cyclic-shear"),
+                          (["oedometer", "--stress", "1", "2"], "--stress: one stress")):
+        assert main(["dem", *args, "--law", str(LAW), "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and message in err
+
+
+# --- the loop measures and the engineers' curves -----------------------------------------------
+
+def test_loop_measures_of_a_viscoelastic_ellipse():
+    """Kelvin-Voigt at damping ratio D: τ = G γa (sin ωt + 2D cos ωt); the loop's area is
+    2π D G γa², its peak energy G γa²/2: the measure returns G and D."""
+    t = np.linspace(0, 2 * np.pi, 2001)[:-1]
+    gamma_a, modulus, damping = 1e-4, 5e7, 0.03
+    m = loop_measures(gamma_a * np.sin(t), modulus * gamma_a * (np.sin(t) + 2 * damping
+                                                                * np.cos(t)))
+    assert m["G_Pa"] == pytest.approx(modulus, rel=1e-5)
+    assert m["damping_ratio"] == pytest.approx(damping, rel=1e-4)
+    assert m["loop_work_J_m3"] == pytest.approx(2 * np.pi * damping * modulus * gamma_a**2,
+                                                rel=1e-4)
+
+
+def test_darendeli_from_pystrata_is_the_closed_form():
+    """Darendeli (2001) eqs. 9.1-9.4 and 9.5-9.6 written out: γr = (0.0352 + 0.0010 PI
+    OCR^0.3246) σ'm^0.3483 % (σ'm in atm), curvature 0.919, Masing damping of the hyperbola
+    corrected to the curvature, scaled by b (G/Gmax)^0.1 with b = 0.6329 − 0.0057 ln N, plus
+    Dmin = (0.8005 + 0.0129 PI OCR^-0.1069) σ'm^-0.2889 (1 + 0.2919 ln f) %."""
+    strains = np.logspace(-6, -2, 30)
+    for stress, pi, ocr in ((1e5, 0, 1), (4e5, 0, 1), (2.5e4, 15, 2)):
+        got = darendeli(strains, stress, plasticity_index=pi, ocr=ocr)
+        atm = stress / 101_325.0
+        ref = (0.0352 + 0.0010 * pi * ocr**0.3246) * atm**0.3483 / 100
+        a = 0.919
+        modulus = 1 / (1 + (strains / ref) ** a)
+        x = strains / ref
+        d1 = (100 / np.pi) * (4 * (x - np.log1p(x)) * (1 + x) / x**2 - 2)  # %, curvature 1
+        c1 = -1.1143 * a**2 + 1.8618 * a + 0.2523
+        c2 = 0.0805 * a**2 - 0.0710 * a - 0.0095
+        c3 = -0.0005 * a**2 + 0.0002 * a + 0.0003
+        masing = c1 * d1 + c2 * d1**2 + c3 * d1**3
+        dmin = (0.8005 + 0.0129 * pi * ocr**-0.1069) * atm**-0.2889
+        damping = ((0.6329 - 0.0057 * np.log(10)) * masing * modulus**0.1 + dmin) / 100
+        assert got["reference_strain"] == pytest.approx(ref, rel=1e-3)
+        np.testing.assert_allclose(got["G_over_Gmax"], modulus, rtol=2e-3)
+        np.testing.assert_allclose(got["damping_ratio"], damping, rtol=5e-3)
+
+
+def test_hardin_drnevich_hyperbola_and_its_masing_damping():
+    ref = 3e-4
+    hd = hardin_drnevich(np.array([1e-9, ref, 1e3 * ref]), ref)
+    np.testing.assert_allclose(hd["G_over_Gmax"], [1 / (1 + 1e-9 / ref), 0.5, 1 / 1001])
+    # Masing: D(γr) = (4/π)(2)(1 − ln 2) − 2/π; small strains 2x/(3π); large strains -> 2/π
+    assert hd["damping_ratio"][1] == pytest.approx(8 / np.pi * (1 - np.log(2)) - 2 / np.pi)
+    assert hd["damping_ratio"][0] == pytest.approx(2 / (3 * np.pi) * 1e-9 / ref, rel=1e-6)
+    assert 0.6 < hd["damping_ratio"][2] < 2 / np.pi
+    # the series and the closed form meet at the switch
+    lo, hi = hardin_drnevich(np.array([0.99999e-4 * ref, 1.00001e-4 * ref]), ref)[
+        "damping_ratio"]
+    assert lo == pytest.approx(hi, rel=1e-3)
