@@ -30,6 +30,18 @@ LAW = Path("examples/params-reference.json")
 TINY = {"grains": 100, "amplitudes": (1e-6, 1e-5, 1e-4), "cycles": 2, "seeds": 2}
 
 
+def without_ratchet(folder: Path) -> Path:
+    """The shipped FE calibration of the reference grain with its cyclic (ratchet) extension
+    off: in a sample the extension feeds energy into the grains' motion (see
+    test_the_ratchet_extension_feeds_the_grains_motion), which the tests of the measures must
+    not see."""
+    params = json.loads(LAW.read_text())
+    params["cyclic"]["enabled"] = False
+    path = folder / "params-reference-no-ratchet.json"
+    path.write_text(json.dumps(params, indent=1))
+    return path
+
+
 def _rows(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as handle:
         return list(csv.DictReader(handle))
@@ -37,9 +49,10 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, dict, list[str]]:
-    out = tmp_path_factory.mktemp("cyclic") / "study"
+    folder = tmp_path_factory.mktemp("cyclic")
+    out, law = folder / "study", without_ratchet(folder)
     lines: list[str] = []
-    doc = run_cyclic_shear(LAW, CyclicSettings(**TINY), out=out, progress=lines.append)
+    doc = run_cyclic_shear(law, CyclicSettings(**TINY), out=out, progress=lines.append)
     return out, doc, lines
 
 
@@ -90,15 +103,37 @@ def test_small_strain_modulus_does_not_depend_on_the_amplitude(study):
         assert np.all((1e7 < g1) & (g1 < 3e8))
 
 
-def test_the_laws_normal_dissipation_is_part_of_the_damping(study):
-    """The plastic law's own dissipation over the last cycle (compute pair geocontact [1]) as a
-    damping ratio: positive, at most the loop's (friction and viscous damping add to it)."""
+def test_the_ledger_closes_the_loops_energy(study):
+    """Over the last cycle the work of the loop is what the contacts dissipated plus the change
+    of their stored and of the kinetic energy (compute pair geocontact's ledger), all over
+    4π W_peak V: D(loop) = D(ledger) + ΔU + ΔK. At constant volume the sample relaxes (its mean
+    stress falls), so the stored energy it releases is dissipated beside the loop's work and
+    D(ledger) exceeds D(loop) by it; the balance closes to 1 % of its largest term."""
     _, doc, _ = study
+    rows = [c for c in doc["curves"] if c["law"] == "geocontact"]
+    assert len(rows) == 6
+    for c in rows:
+        terms = (c["damping_ratio_ledger"], c["stored_energy_change_ratio"],
+                 c["kinetic_energy_change_ratio"])
+        assert abs(c["damping_ratio"] - sum(terms)) < 0.01 * max(map(abs, terms)) + 2e-4
+        # the normal law's own share of the dissipation: positive, part of the whole
+        assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio_ledger"]
     for c in doc["curves"]:
-        if c["law"] == "geocontact" and c["amplitude"] == 1e-4:
-            assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio"] + 0.005
         if c["law"] == "granular":
-            assert math.isnan(c["damping_ratio_normal_law"])
+            assert math.isnan(c["damping_ratio_ledger"])
+
+
+@pytest.mark.xfail(strict=True, reason="the ratchet extension of the law feeds energy into the "
+                   "grains' motion in a sample at rest (plugin, issue 35 report)")
+def test_the_ratchet_extension_feeds_the_grains_motion(tmp_path):
+    """The shipped reference file (cyclic extension on) in the same test: the grains' kinetic
+    energy should stay at its level before the cycles (the same file without the extension keeps
+    it within 1 %); measured, it grew 1000-fold over six cycles of 1e-6 to 1e-4."""
+    settings = CyclicSettings(grains=100, amplitudes=(1e-6, 1e-5), cycles=2)
+    parsed = run_one(Run("geocontact", 1e5, 4821), settings, LAW.resolve(), "reference",
+                     tmp_path / "ratchet")
+    kinetic = np.array(parsed["loops"]["kinetic_J"])
+    assert kinetic.max() < 2 * kinetic[0]
 
 
 def test_elastic_contacts_without_sliding_give_no_damping(tmp_path):

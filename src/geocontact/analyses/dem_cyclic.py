@@ -233,6 +233,8 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
                              ("shear_strain", strain), ("shear_stress_Pa", tau),
                              ("mean_stress_Pa", mean), ("vertical_stress_Pa", series["pzz_Pa"]),
                              ("law_dissipated_J", series["law_dissipated_J"]),
+                             ("ledger_dissipated_J", series["ledger_dissipated_J"]),
+                             ("ledger_stored_J", series["ledger_stored_J"]),
                              ("kinetic_J", series["kinetic_J"]),
                              ("contacts_per_grain", series["contacts_per_grain"])):
             loops[name] += values[keep].tolist()
@@ -240,20 +242,26 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
         before = np.flatnonzero(cycle == settings.cycles - 1)[-1]
         m = loop_measures(strain[last], tau[last])
         p_start, p_end = mean[before], mean[last][-1]
-        law_work = series["law_dissipated_J"][last][-1] - series["law_dissipated_J"][before]
         mean_volume = float(np.mean(volume[last]))
+        # the ledger over the last cycle, per unit volume, as damping ratios (4π W_peak):
+        # W_loop = dissipated + change of stored + change of kinetic (the balance)
+        scale = 4 * math.pi * m["peak_energy_J_m3"] * mean_volume
+        change = {k: (series[k][last][-1] - series[k][before]) / scale
+                  for k in ("law_dissipated_J", "ledger_dissipated_J", "ledger_stored_J",
+                            "kinetic_J")}
+        ledger = run.law == "geocontact"
         curves.append({
             "law": run.law, "material": material, "seed": run.seed,
             "consolidation_stress_Pa": run.stress, "amplitude": amplitude, **m,
             # constant volume: the mean stress changes instead of the volume
             "mean_stress_change_per_cycle_Pa": float(p_end - p_start),
             "mean_stress_Pa": float(np.mean(mean[last])),
-            # the normal law's own dissipation over the cycle (compute pair geocontact [1]) as a
-            # damping ratio: its share of D (geocontact only; sliding and viscous damping are
-            # not in it)
-            "damping_ratio_normal_law": (law_work / mean_volume / (4 * math.pi
-                                                                    * m["peak_energy_J_m3"])
-                                         if run.law == "geocontact" else math.nan),
+            # geocontact only (pair granular has no ledger): every dissipated channel, the
+            # normal law's own share, and the stored and kinetic energies' changes
+            "damping_ratio_ledger": change["ledger_dissipated_J"] if ledger else math.nan,
+            "damping_ratio_normal_law": change["law_dissipated_J"] if ledger else math.nan,
+            "stored_energy_change_ratio": change["ledger_stored_J"] if ledger else math.nan,
+            "kinetic_energy_change_ratio": change["kinetic_J"],
             "strain_rate_1_s": rate, "steps_per_cycle": int(4 * nq),
             "period_over_wave_crossing": 4 * nq * float(info["timestep_s"]) / crossing,
             "inertia_number": rate * d * math.sqrt(density / run.stress),
@@ -284,13 +292,16 @@ def _finite(value: float) -> float | None:
 
 LOOP_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "cycle",
                 "step", "time_s", "shear_strain", "shear_stress_Pa", "mean_stress_Pa",
-                "vertical_stress_Pa", "law_dissipated_J", "kinetic_J",
+                "vertical_stress_Pa", "law_dissipated_J", "ledger_dissipated_J", "ledger_stored_J",
+                "kinetic_J",
                 "contacts_per_grain")
 CURVE_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "G_Pa",
-                 "G_over_Gmax", "damping_ratio", "mean_stress_change_per_cycle_Pa",
-                 "damping_ratio_normal_law", "strain_amplitude", "loop_work_J_m3",
-                 "peak_energy_J_m3", "mean_stress_Pa", "strain_rate_1_s", "inertia_number",
-                 "steps_per_cycle", "period_over_wave_crossing", "contacts_per_grain")
+                 "G_over_Gmax", "damping_ratio", "damping_ratio_ledger",
+                 "mean_stress_change_per_cycle_Pa", "damping_ratio_normal_law",
+                 "stored_energy_change_ratio", "kinetic_energy_change_ratio", "strain_amplitude",
+                 "loop_work_J_m3", "peak_energy_J_m3", "mean_stress_Pa", "strain_rate_1_s",
+                 "inertia_number", "steps_per_cycle", "period_over_wave_crossing",
+                 "contacts_per_grain")
 
 
 # --- the command -------------------------------------------------------------------------------
