@@ -151,17 +151,28 @@ def test_elastic_contacts_without_sliding_give_no_damping(tmp_path):
     assert abs(parsed["curves"][1]["G_over_Gmax"] - 1) < 0.01
 
 
-def test_rerun_reuses_finished_runs_and_checks_their_inputs(study):
+def test_rerun_reuses_finished_runs_and_checks_their_inputs(study, capsys):
     out, _, _ = study
     before = {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("run.json")}
+    law = out.parent / "params-reference-no-ratchet.json"
     lines: list[str] = []
-    run_cyclic_shear(LAW, CyclicSettings(**TINY), out=out, progress=lines.append)
+    run_cyclic_shear(law, CyclicSettings(**TINY), out=out, progress=lines.append)
     assert sum("finished before, reused" in line for line in lines) == 4
     assert not any("done in" in line for line in lines)
     assert {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("run.json")} == before
     assert verify_manifest(out) == []
+    # the command line on the same folder: every run reused, the tables written again
+    assert main(["dem", "cyclic-shear", "--law", str(law), "--grains", "100", "--amplitudes",
+                 "1e-6", "1e-5", "1e-4", "--cycles", "2", "--seeds", "2", "--out",
+                 str(out)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.count("finished before, reused") == 4
+    assert f"wrote {out}" in captured.out and "G/Gmax" in captured.out
+    assert verify_manifest(out) == []
     with pytest.raises(InputError, match="made with other inputs"):
-        run_cyclic_shear(LAW, CyclicSettings(**{**TINY, "cycles": 3}), out=out)
+        run_cyclic_shear(law, CyclicSettings(**{**TINY, "cycles": 3}), out=out)
+    with pytest.raises(InputError, match="made with other inputs"):  # another law file
+        run_cyclic_shear(LAW, CyclicSettings(**TINY), out=out)
 
 
 def test_report_section(study):

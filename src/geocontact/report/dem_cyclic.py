@@ -67,7 +67,7 @@ def _groups(c: dict[str, np.ndarray]):
                 return out
 
             yield law, stress, amps, grid("G_over_Gmax"), grid("damping_ratio"), \
-                grid("damping_ratio_normal_law"), grid("G_Pa")
+                grid("damping_ratio_ledger"), grid("G_Pa")
 
 
 def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
@@ -85,7 +85,7 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     data: dict[str, np.ndarray] = {}
     styles = ["-", "--", ":", "-."]
-    for law, stress, amps, mod, damp, _, _ in groups:
+    for law, stress, amps, mod, damp, ledger, _ in groups:
         style = styles[stresses.index(stress) % len(styles)]
         label = f"{law}, {stress / 1e3:.4g} kPa (n = {len(mod)})"
         for ax, values in ((axes[0], mod), (axes[1], damp)):
@@ -94,12 +94,17 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
             if len(values) > 1:
                 ax.fill_between(amps, np.nanmin(values, axis=0), np.nanmax(values, axis=0),
                                 color=COLOURS.get(law, "C2"), alpha=0.2, lw=0)
+        if np.isfinite(ledger).any():
+            axes[1].plot(amps, np.nanmean(ledger, axis=0), "s" + style, ms=4, mfc="none",
+                         color=COLOURS.get(law, "C2"), alpha=0.6,
+                         label=f"{law}, {stress / 1e3:.4g} kPa: ledger (dissipated)")
         key = f"{law}_{stress:g}Pa"
         data[f"{key}_amplitude"] = amps
         data[f"{key}_G_over_Gmax_mean"] = np.nanmean(mod, axis=0)
         data[f"{key}_damping_ratio_mean"] = np.nanmean(damp, axis=0)
         data[f"{key}_damping_ratio_min"] = np.nanmin(damp, axis=0)
         data[f"{key}_damping_ratio_max"] = np.nanmax(damp, axis=0)
+        data[f"{key}_damping_ratio_ledger_mean"] = np.nanmean(ledger, axis=0)
     strains = np.logspace(np.log10(min(c["amplitude"])), np.log10(max(c["amplitude"])), 60)
     for stress in stresses:
         style = styles[stresses.index(stress) % len(styles)]
@@ -122,10 +127,14 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
     axes[0].set_ylabel("G / Gmax")
     axes[1].set_ylabel("damping ratio D")
     axes[0].legend(fontsize=7)
+    axes[1].legend(fontsize=6)
+    axes[1].set_yscale("symlog", linthresh=1e-3)
     items.append(save_to_figures(fig, figures, Figure(
         f"{tag}_curves", "Modulus reduction and damping against the engineers' curves",
         f"{s['material']}: each amplitude's last cycle; G secant, D = W_loop / (4π W_peak); "
-        "markers the mean over the samples, band their range. Darendeli (2001) through "
+        "markers the mean over the samples, band their range; open squares: the energy the "
+        "contacts dissipated over the cycle (the ledger) over 4π W_peak V, which exceeds the "
+        "loop's D by the stored energy the sample releases as it relaxes. Darendeli (2001) through "
         "pystrata for PI = 0, OCR = 1, 1 Hz, 10 cycles; Hardin & Drnevich (1972) the "
         "hyperbola with Darendeli's reference strain and its Masing damping.", data)))
 
