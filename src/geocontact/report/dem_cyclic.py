@@ -94,17 +94,17 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
             if len(values) > 1:
                 ax.fill_between(amps, np.nanmin(values, axis=0), np.nanmax(values, axis=0),
                                 color=COLOURS.get(law, "C2"), alpha=0.2, lw=0)
-        if np.isfinite(ledger).any():
+        key = f"{law}_{stress:g}Pa"
+        if np.isfinite(ledger).any():  # pair granular has no ledger
             axes[1].plot(amps, np.nanmean(ledger, axis=0), "s" + style, ms=4, mfc="none",
                          color=COLOURS.get(law, "C2"), alpha=0.6,
                          label=f"{law}, {stress / 1e3:.4g} kPa: ledger (dissipated)")
-        key = f"{law}_{stress:g}Pa"
+            data[f"{key}_damping_ratio_ledger_mean"] = np.nanmean(ledger, axis=0)
         data[f"{key}_amplitude"] = amps
         data[f"{key}_G_over_Gmax_mean"] = np.nanmean(mod, axis=0)
         data[f"{key}_damping_ratio_mean"] = np.nanmean(damp, axis=0)
         data[f"{key}_damping_ratio_min"] = np.nanmin(damp, axis=0)
         data[f"{key}_damping_ratio_max"] = np.nanmax(damp, axis=0)
-        data[f"{key}_damping_ratio_ledger_mean"] = np.nanmean(ledger, axis=0)
     strains = np.logspace(np.log10(min(c["amplitude"])), np.log10(max(c["amplitude"])), 60)
     for stress in stresses:
         style = styles[stresses.index(stress) % len(styles)]
