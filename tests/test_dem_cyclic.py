@@ -206,6 +206,15 @@ def test_bad_inputs_one_line(tmp_path, capsys, args, message):
     assert not (tmp_path / "x").exists()
 
 
+def test_a_folder_of_the_users_is_not_written_into(tmp_path):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="not a geocontact result"):
+        run_cyclic_shear(LAW, CyclicSettings(**TINY), out=folder)
+    assert [p.name for p in folder.iterdir()] == ["notes.txt"]
+
+
 def test_other_tests_refuse_cyclic_shear_flags(tmp_path, capsys):
     for args, message in ((["oedometer", "--cycles", "3"], "--cycles: only for the cyclic-shear"),
                           (["oedometer", "--stress", "1", "2"], "--stress: one stress")):

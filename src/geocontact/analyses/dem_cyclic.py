@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import GeocontactError, InputError
 from ..files import (
     atomic_directory,
+    check_replaceable,
     provenance,
     read_manifest,
     verify_manifest,
@@ -335,6 +336,7 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
     settings.extra.setdefault("nu", repr(params.material.poissons_ratio))
     material = law.stem  # the law file names the material (its label says how it was made)
     out = Path(out)
+    check_replaceable(out, COMMAND, overwrite=overwrite)  # a partial study of ours resumes
     runs = plan(settings)
     inputs = {"law": str(law), "ranks": ranks, **asdict(settings)}
     stale = [r for r in runs
