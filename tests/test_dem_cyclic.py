@@ -87,6 +87,7 @@ def test_files_and_columns(study):
         assert 0.60 < r["packing_fraction"] < 0.70 and r["contacts_per_grain"] > 4
     for c in doc["curves"]:
         assert c["inertia_number"] < 1e-3 and c["period_over_wave_crossing"] >= 80
+        assert c["volumetric_strain_per_cycle"] == 0  # constant volume (not --drained)
 
 
 def test_small_strain_modulus_does_not_depend_on_the_amplitude(study):
@@ -149,6 +150,27 @@ def test_elastic_contacts_without_sliding_give_no_damping(tmp_path):
     first = parsed["curves"][0]
     assert abs(first["damping_ratio"]) < 1e-3
     assert abs(parsed["curves"][1]["G_over_Gmax"] - 1) < 0.01
+
+
+def test_drained_between_cycles_restores_the_vertical_stress(tmp_path):
+    """--drained: after each cycle the servo on the box height brings the vertical stress back
+    to its value after consolidation (within 2 %); the volume change of the cycle and its
+    drainage is the box's."""
+    settings = CyclicSettings(grains=100, amplitudes=(1e-5, 1e-3), cycles=2, drained=True,
+                              extra={"E": "1e10", "nu": "0.25"})
+    parsed = run_one(Run("granular", 1e5, 4821), settings, LAW.resolve(), "reference",
+                     tmp_path / "drained")
+    loops = parsed["loops"]
+    szz0 = parsed["summary"]["consolidated_vertical_stress_Pa"]
+    starts = [i for i in range(len(loops["cycle"]))
+              if i == 0 or loops["cycle"][i] != loops["cycle"][i - 1]]
+    for i in starts:
+        assert abs(loops["vertical_stress_Pa"][i] / szz0 - 1) < 0.02
+    large = parsed["curves"][1]
+    # the largest amplitude moves the sample: its stress falls within the cycle, and the
+    # drainage changes the volume to restore it
+    assert large["mean_stress_change_per_cycle_Pa"] < 0
+    assert abs(large["volumetric_strain_per_cycle"]) > 1e-8
 
 
 def test_rerun_reuses_finished_runs_and_checks_their_inputs(study, capsys):

@@ -69,6 +69,9 @@ class CyclicSettings:
     friction: float = 0.5
     damping: float = 0.5
     baseline: str = "granular"
+    # drained between cycles: after each cycle a servo on lz restores the vertical stress (the
+    # volumetric strain per cycle); False: every cycle and the time between at constant volume
+    drained: bool = False
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
 
     @property
@@ -144,6 +147,7 @@ def script_variables(run: Run, settings: CyclicSettings, law: Path, out: Path) -
               "cycles": settings.cycles, "inertia": repr(settings.inertia),
               "friction": repr(settings.friction), "damping": repr(settings.damping),
               "seed": run.seed, "params": str(law), "contact": run.law,
+              "drainfactor": 10 if settings.drained else 0,
               "plugin": str(plugin_path()), "out": str(out), **settings.extra}
     args: list[str] = []
     for name, value in values.items():
@@ -210,17 +214,18 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
                 for r in seg_rows]
     density = float(info["density_kg_m3"])
     crossing = float(info["wave_crossing_time_s"])
+    v_ref = float(info["consolidated_volume_m3"])
     d = 2 * settings.radius
     loops: dict[str, list] = {k: [] for k in LOOP_COLUMNS}
     curves = []
     for k, amplitude in enumerate(settings.amplitudes, start=1):
         series = read_amplitude(folder, k)
-        _, nq, _, rate = schedule[f"amplitude_{k}"]
+        _, nq, _, rate, _ = schedule[f"amplitude_{k}"]
         step = series["step"]
         strain = series["shear_strain"]
         tau = -series["pxz_Pa"]  # LAMMPS's pressure is compression positive
         mean = (series["pxx_Pa"] + series["pyy_Pa"] + series["pzz_Pa"]) / 3
-        volume = series["volume_m3"]  # constant: kept for the ledger's energy densities
+        volume = series["volume_m3"]
         cycle = np.zeros(len(step), dtype=int)
         for a, c, _, _, _, first, last in segments:
             if a == k:
@@ -233,6 +238,7 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
         for name, values in (("cycle", cycle), ("step", step), ("time_s", series["time_s"]),
                              ("shear_strain", strain), ("shear_stress_Pa", tau),
                              ("mean_stress_Pa", mean), ("vertical_stress_Pa", series["pzz_Pa"]),
+                             ("volumetric_strain", (v_ref - volume) / v_ref),
                              ("law_dissipated_J", series["law_dissipated_J"]),
                              ("ledger_dissipated_J", series["ledger_dissipated_J"]),
                              ("ledger_stored_J", series["ledger_stored_J"]),
@@ -240,9 +246,12 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
                              ("contacts_per_grain", series["contacts_per_grain"])):
             loops[name] += values[keep].tolist()
         last = cycle == settings.cycles
-        before = np.flatnonzero(cycle == settings.cycles - 1)[-1]
+        # the row before the measured cycle: the end of the previous cycle's drainage; the last
+        # row of the amplitude: the end of this cycle's drainage (the vertical stress restored)
+        before = int(np.flatnonzero(last)[0]) - 1
         m = loop_measures(strain[last], tau[last])
         p_start, p_end = mean[before], mean[last][-1]
+        v_start, v_end = volume[before], volume[-1]
         mean_volume = float(np.mean(volume[last]))
         # the ledger over the last cycle, per unit volume, as damping ratios (4π W_peak):
         # W_loop = dissipated + change of stored + change of kinetic (the balance)
@@ -254,7 +263,9 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
         curves.append({
             "law": run.law, "material": material, "seed": run.seed,
             "consolidation_stress_Pa": run.stress, "amplitude": amplitude, **m,
-            # constant volume: the mean stress changes instead of the volume
+            # compression positive, over the cycle and the drainage after it
+            "volumetric_strain_per_cycle": float((v_start - v_end) / v_start),
+            # within the cycle (constant volume), before the drainage restores it
             "mean_stress_change_per_cycle_Pa": float(p_end - p_start),
             "mean_stress_Pa": float(np.mean(mean[last])),
             # geocontact only (pair granular has no ledger): every dissipated channel, the
@@ -293,16 +304,15 @@ def _finite(value: float) -> float | None:
 
 LOOP_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "cycle",
                 "step", "time_s", "shear_strain", "shear_stress_Pa", "mean_stress_Pa",
-                "vertical_stress_Pa", "law_dissipated_J", "ledger_dissipated_J", "ledger_stored_J",
-                "kinetic_J",
-                "contacts_per_grain")
+                "vertical_stress_Pa", "volumetric_strain", "law_dissipated_J",
+                "ledger_dissipated_J", "ledger_stored_J", "kinetic_J", "contacts_per_grain")
 CURVE_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "G_Pa",
                  "G_over_Gmax", "damping_ratio", "damping_ratio_ledger",
-                 "mean_stress_change_per_cycle_Pa", "damping_ratio_normal_law",
-                 "stored_energy_change_ratio", "kinetic_energy_change_ratio", "strain_amplitude",
-                 "loop_work_J_m3", "peak_energy_J_m3", "mean_stress_Pa", "strain_rate_1_s",
-                 "inertia_number", "steps_per_cycle", "period_over_wave_crossing",
-                 "contacts_per_grain")
+                 "volumetric_strain_per_cycle", "mean_stress_change_per_cycle_Pa",
+                 "damping_ratio_normal_law", "stored_energy_change_ratio",
+                 "kinetic_energy_change_ratio", "strain_amplitude", "loop_work_J_m3",
+                 "peak_energy_J_m3", "mean_stress_Pa", "strain_rate_1_s", "inertia_number",
+                 "steps_per_cycle", "period_over_wave_crossing", "contacts_per_grain")
 
 
 # --- the command -------------------------------------------------------------------------------

@@ -80,6 +80,10 @@ def register(sub) -> None:
                         "(default 0.5)")
     p.add_argument("--damping", type=float, default=None,
                    help="cyclic-shear: contact damping, fraction of critical (default 0.5)")
+    p.add_argument("--drained", action="store_true",
+                   help="cyclic-shear: after each cycle a servo on the box height restores the "
+                        "vertical stress (volumetric strain per cycle); default: constant volume "
+                        "throughout")
     p.add_argument("--targets", type=float, nargs="+", default=None, metavar="RATIO",
                    help="peak and valley stresses of the cycles as multiples of --stress "
                         "(default: 3 repeated, 3 increasing, 3 decreasing cycles)")
@@ -108,6 +112,8 @@ def run(args) -> int:
     for name in ("amplitudes", "cycles", "seeds", "friction", "damping"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: only for the cyclic-shear test")
+    if args.drained:
+        raise InputError("--drained: only for the cyclic-shear test")
     args.stress = _one_stress(args.stress)
     if args.record is not None:
         raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
@@ -163,6 +169,8 @@ def run_seismic(args) -> int:
     for name in ("amplitudes", "cycles", "seeds", "friction", "damping"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: only for the cyclic-shear test")
+    if args.drained:
+        raise InputError("--drained: only for the cyclic-shear test")
     args.stress = _one_stress(args.stress)
     if args.baseline is not None and args.baseline not in ("none", "mean", "linear",
                                                            "quadratic"):
@@ -212,7 +220,7 @@ def run_cyclic(args) -> int:
     if args.contact != "geocontact":
         raise InputError("--contact: not for the cyclic-shear test (it runs the law and "
                          "--baseline)")
-    settings = CyclicSettings()
+    settings = CyclicSettings(drained=args.drained)
     for name in ("grains", "radius", "spread", "inertia", "seed", "cycles", "seeds",
                  "friction", "damping", "baseline"):
         if getattr(args, name) is not None:
