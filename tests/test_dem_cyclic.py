@@ -81,7 +81,14 @@ def test_files_and_columns(study):
                               if float(r["amplitude"]) == a and r["cycle"] == str(c)])
                 assert len(g) > 100
                 assert 0.97 * a < g.max() <= a and -a <= g.min() < -0.97 * a
+    assert doc["calibrated_max_depth"] == pytest.approx(249.08, rel=1e-3)
     for r in doc["runs"]:
+        # the law's range checked by the plugin (compute pair geocontact [16], [17])
+        if r["law"] == "geocontact":
+            assert r["beyond_range_contacts"] >= 0
+            assert (r["beyond_range_max_depth"] > 249.08) == (r["beyond_range_contacts"] > 0)
+        else:
+            assert r["beyond_range_contacts"] is None
         # consolidated: the mean stress reached, a dense jammed packing
         assert abs(r["consolidated_mean_stress_Pa"] / 1e5 - 1) < 0.01
         assert 0.60 < r["packing_fraction"] < 0.70 and r["contacts_per_grain"] > 4

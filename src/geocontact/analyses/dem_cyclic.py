@@ -294,7 +294,12 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
                                                                  "inf"))),
                "timestep_warning_step": (int(info["timestep_warning_step"])
                                          if "timestep_warning_step" in info else None),
-               "wave_crossing_time_s": crossing, "Gmax_Pa": gmax}
+               "wave_crossing_time_s": crossing, "Gmax_Pa": gmax,
+               # geocontact: contacts the law extrapolated for (beyond its calibrated range)
+               "beyond_range_contacts": (int(float(info["beyond_range_contacts"]))
+                                         if "beyond_range_contacts" in info else None),
+               "beyond_range_max_depth": (float(info["beyond_range_max_depth"])
+                                          if "beyond_range_max_depth" in info else None)}
     return {"summary": summary, "loops": loops, "curves": curves}
 
 
@@ -378,6 +383,7 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
     write_csv(out / "curves.csv", {k: np.array([c[k] for c in curves]) for k in CURVE_COLUMNS})
     document = {"schema": SCHEMA, "test": "cyclic-shear", "law": str(law),
                 "law_label": params.label, "material": material, "ranks": ranks,
+                "calibrated_max_depth": params.calibrated_depth,
                 "runs": [d["summary"] for d in documents], "curves": curves,
                 "provenance": provenance(COMMAND, inputs)}
     write_json_atomic(out / "summary.json", document)

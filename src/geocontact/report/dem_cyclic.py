@@ -76,10 +76,14 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
     tag = "_".join(filter(None, (rel.strip("/").replace("/", "_"), "cyclic_shear")))
     c = _curves(directory)
     rows = [[r["run"], r["grains"], r["packing_fraction"], r["contacts_per_grain"],
-             r["consolidated_mean_stress_Pa"], r["Gmax_Pa"], r["steps"], r.get("runtime_s")]
+             r["consolidated_mean_stress_Pa"], r["Gmax_Pa"], r["steps"], r.get("runtime_s"),
+             r.get("beyond_range_contacts"), r.get("beyond_range_max_depth")]
             for r in s["runs"]]
     items: list = [table(["run", "grains", "packing fraction", "contacts/grain",
-                          "mean stress (Pa)", "Gmax (Pa)", "steps", "runtime (s)"], rows)]
+                          "mean stress (Pa)", "Gmax (Pa)", "steps", "runtime (s)",
+                          "contacts beyond the law's calibrated range",
+                          f"their largest δmax/δy (calibrated to "
+                          f"{s.get('calibrated_max_depth') or 0:.4g})"], rows)]
     groups = list(_groups(c))
     stresses = sorted({g[1] for g in groups})
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
