@@ -184,8 +184,8 @@ $(STAIRCASE_RUNS): staircase-%: $(STAMP)
 # The sample study of issue 35 (docs/sample-study.md): cyclic simple shear, G/Gmax and D against
 # Darendeli and Hardin-Drnevich, for the reference grain (its FE calibration) and a hard
 # quartz-like grain (the universal law), each at a stress where few contacts yield and one where
-# most do, the law and pair granular, 3 samples of 1000 grains; then the reference at 100 kPa
-# with 2000 grains (the curves at twice the grains). Hours: `make -j2 sample-study` runs the two
+# most do, the law and its elastic law (same pair style), 3 samples of 1000 grains; then the
+# reference at 100 kPa with 2000 grains (the curves at twice the grains). Hours: `make -j2 sample-study` runs the two
 # materials at once; each finished run is kept, so an interrupted study resumes on the next call.
 SAMPLE_STUDY ?= out/sample-study
 SAMPLE_STUDY_GRAINS ?= 1000

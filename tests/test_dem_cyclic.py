@@ -60,7 +60,7 @@ def test_files_and_columns(study):
     out, doc, lines = study
     assert verify_manifest(out) == []
     assert json.loads((out / "summary.json").read_text())["schema"] == "geocontact.dem-cyclic/1"
-    names = [f"{law}-p100000-s{seed}" for law in ("geocontact", "granular")
+    names = [f"{law}-p100000-s{seed}" for law in ("geocontact", "elastic")
              for seed in (4821, 4822)]
     assert [r["run"] for r in doc["runs"]] == names
     assert sum("done in" in line for line in lines) == 4
@@ -87,8 +87,9 @@ def test_files_and_columns(study):
         if r["law"] == "geocontact":
             assert r["beyond_range_contacts"] >= 0
             assert (r["beyond_range_max_depth"] > 249.08) == (r["beyond_range_contacts"] > 0)
-        else:
-            assert r["beyond_range_contacts"] is None
+        else:  # the elastic law: Hertz up to R/2, where no contact goes
+            assert r["beyond_range_contacts"] == 0
+        assert (out / "runs" / r["run"] / "law-elastic.json").is_file() == (r["law"] == "elastic")
         # consolidated: the mean stress reached, a dense jammed packing
         assert abs(r["consolidated_mean_stress_Pa"] / 1e5 - 1) < 0.01
         assert 0.60 < r["packing_fraction"] < 0.70 and r["contacts_per_grain"] > 4
@@ -101,7 +102,7 @@ def test_small_strain_modulus_does_not_depend_on_the_amplitude(study):
     """G at the two smallest amplitudes agree within the scatter of Gmax between samples (and
     within 3 % in each sample)."""
     _, doc, _ = study
-    for law in ("geocontact", "granular"):
+    for law in ("geocontact", "elastic"):
         rows = [c for c in doc["curves"] if c["law"] == law]
         g1 = np.array([c["G_Pa"] for c in rows if c["amplitude"] == 1e-6])
         g2 = np.array([c["G_Pa"] for c in rows if c["amplitude"] == 1e-5])
@@ -118,17 +119,15 @@ def test_the_ledger_closes_the_loops_energy(study):
     stress falls), so the stored energy it releases is dissipated beside the loop's work and
     D(ledger) exceeds D(loop) by it; the balance closes to 1 % of its largest term."""
     _, doc, _ = study
-    rows = [c for c in doc["curves"] if c["law"] == "geocontact"]
-    assert len(rows) == 6
-    for c in rows:
+    assert len(doc["curves"]) == 12
+    for c in doc["curves"]:  # the elastic law runs through the same pair: its ledger too
         terms = (c["damping_ratio_ledger"], c["stored_energy_change_ratio"],
                  c["kinetic_energy_change_ratio"])
         assert abs(c["damping_ratio"] - sum(terms)) < 0.01 * max(map(abs, terms)) + 2e-4
-        # the normal law's own share of the dissipation: positive, part of the whole
-        assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio_ledger"]
-    for c in doc["curves"]:
-        if c["law"] == "granular":
-            assert math.isnan(c["damping_ratio_ledger"])
+        if c["law"] == "geocontact":  # the normal law's share: positive, part of the whole
+            assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio_ledger"]
+        else:  # the elastic law dissipates nothing itself: friction and damping do
+            assert abs(c["damping_ratio_normal_law"]) < 1e-9
 
 
 @pytest.mark.xfail(strict=True, reason="the ratchet extension of the law feeds energy into the "
@@ -156,6 +155,7 @@ def test_elastic_contacts_without_sliding_give_no_damping(tmp_path):
                      tmp_path / "elastic")
     first = parsed["curves"][0]
     assert abs(first["damping_ratio"]) < 1e-3
+    assert math.isnan(first["damping_ratio_ledger"])  # pair granular keeps no ledger
     assert abs(parsed["curves"][1]["G_over_Gmax"] - 1) < 0.01
 
 
@@ -222,8 +222,9 @@ def test_report_section(study):
     (["--seeds", "0"], "--seeds: must be in [1, 50]"),
     (["--stress", "1e5", "1e5"], "--stress: each mean stress once"),
     (["--stress", "1e5", "0.5"], "--stress: must be in [1, 1e+09]"),
-    (["--baseline", "elastic"], "no elastic form"),
-    (["--baseline", "linear"], "--baseline: must be granular"),
+    (["--baseline", "hertz"], "--baseline: must be elastic"),
+    (["--baseline", "linear"], "--baseline: must be elastic"),
+    (["--restitution", "0.5"], "--restitution: not for the cyclic-shear test"),
     (["--targets", "1.5", "0.5"], "--targets: not for the cyclic-shear test"),
     (["--grains", "10"], "--grains: must be in [50, 200000]"),
 ])

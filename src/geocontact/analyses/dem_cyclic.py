@@ -42,10 +42,10 @@ RUN_COMMAND = "dem-cyclic-shear-run"
 TEST = "cyclicshear"
 # 1e-6 ... 1e-2, two per decade: nine amplitudes, log-spaced
 DEFAULT_AMPLITUDES = tuple(float(f"{a:.3g}") for a in np.logspace(-6, -2, 9))
-# the baseline beside the law: LAMMPS's pair granular hertz/material + Mindlin + Tsuji (elastic
-# Hertz normal contact, same friction and damping); "none": the law alone. An elastic law file
-# through pair geocontact is not offered: the law file format has no elastic form (issue 34).
-BASELINES = ("granular", "none")
+# the baseline beside the law: "elastic", the grain's elastic law file through the same pair
+# style (law.elastic: like for like, the normal law alone differs); "granular", LAMMPS's pair
+# granular hertz/material + Mindlin + Tsuji (a cross-check); "none": the law alone
+BASELINES = ("elastic", "granular", "none")
 MIN_AMPLITUDE, MAX_AMPLITUDE = 1e-8, 0.05  # below: round-off of the tilt; above: not a cycle
 MAX_AMPLITUDES = 30
 MAX_CYCLES = 20
@@ -68,7 +68,7 @@ class CyclicSettings:
     inertia: float = 1e-3  # the largest inertia number of the cycles
     friction: float = 0.5
     damping: float = 0.5
-    baseline: str = "granular"
+    baseline: str = "elastic"
     # drained between cycles: after each cycle a servo on lz restores the vertical stress (the
     # volumetric strain per cycle); False: every cycle and the time between at constant volume
     drained: bool = False
@@ -106,16 +106,14 @@ class CyclicSettings:
         if self.seed + self.seeds > 2**31 - 2:
             raise InputError(f"seed: must be at most {2**31 - 2 - self.seeds}, got {self.seed}")
         if self.baseline not in BASELINES:
-            raise InputError(f"baseline: must be granular (pair granular hertz/material + "
-                             f"Mindlin) or none, got {self.baseline!r}"
-                             + ("; an elastic law file through pair geocontact does not exist "
-                                "yet (the law file format has no elastic form)"
-                                if self.baseline == "elastic" else ""))
+            raise InputError(f"baseline: must be elastic (the grain's elastic law through pair "
+                             f"geocontact), granular (pair granular hertz/material + Mindlin) "
+                             f"or none, got {self.baseline!r}")
 
 
 @dataclass(frozen=True)
 class Run:
-    law: str  # geocontact | granular
+    law: str  # geocontact | elastic | granular
     stress: float
     seed: int
 
@@ -140,13 +138,16 @@ def run_inputs(run: Run, settings: CyclicSettings, law: Path) -> dict:
 
 
 def script_variables(run: Run, settings: CyclicSettings, law: Path, out: Path) -> list[str]:
+    """The script's -var arguments; ``law`` the file the run's contact reads (for elastic, the
+    grain's elastic law file, run through pair geocontact)."""
     from .lammps_plugin import plugin_path
 
     values = {"N": settings.grains, "rmed": repr(settings.radius),
               "spread": repr(settings.spread), "stress": repr(run.stress),
               "cycles": settings.cycles, "inertia": repr(settings.inertia),
               "friction": repr(settings.friction), "damping": repr(settings.damping),
-              "seed": run.seed, "params": str(law), "contact": run.law,
+              "seed": run.seed, "params": str(law),
+              "contact": "granular" if run.law == "granular" else "geocontact",
               "drainfactor": 10 if settings.drained else 0,
               "plugin": str(plugin_path()), "out": str(out), **settings.extra}
     args: list[str] = []
@@ -259,7 +260,7 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
         change = {k: (series[k][last][-1] - series[k][before]) / scale
                   for k in ("law_dissipated_J", "ledger_dissipated_J", "ledger_stored_J",
                             "kinetic_J")}
-        ledger = run.law == "geocontact"
+        ledger = run.law != "granular"  # pair granular has no ledger
         curves.append({
             "law": run.law, "material": material, "seed": run.seed,
             "consolidation_stress_Pa": run.stress, "amplitude": amplitude, **m,
@@ -398,7 +399,14 @@ def run_one(run: Run, settings: CyclicSettings, law: Path, material: str, folder
     with atomic_directory(folder, RUN_COMMAND, overwrite=True,
                           inputs=run_inputs(run, settings, law)) as tmp:
         lammps = tmp / "lammps"
-        wall = run_lammps(TEST, script_variables(run, settings, law, lammps), run.law,
+        contact_law = law
+        if run.law == "elastic":  # the grain's elastic law, kept beside the run
+            from ..law import load_params
+            from ..law.elastic import elastic_law
+
+            contact_law = tmp / "law-elastic.json"
+            elastic_law(load_params(law)).save(contact_law)
+        wall = run_lammps(TEST, script_variables(run, settings, contact_law, lammps), run.law,
                           ranks, lammps, progress, reporter=_report_segments)
         for suffix in (".log", ".stderr"):
             shutil.move(tmp / f"lammps{suffix}", lammps / f"lammps{suffix}")

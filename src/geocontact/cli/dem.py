@@ -214,7 +214,7 @@ def run_cyclic(args) -> int:
 
     if args.record is not None:
         raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
-    for name in ("strain", "decimate", "targets", "walls"):
+    for name in ("strain", "decimate", "targets", "walls", "restitution"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: not for the cyclic-shear test")
     if args.contact != "geocontact":

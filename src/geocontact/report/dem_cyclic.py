@@ -18,7 +18,7 @@ from .common import read_summary, relative_dir, save_to_figures
 from .html import Report, table
 
 SCHEMA = "geocontact.dem-cyclic/1"
-COLOURS = {"geocontact": "C0", "granular": "C1"}
+COLOURS = {"geocontact": "C0", "elastic": "C1", "granular": "C2"}
 
 
 def is_dem_cyclic(directory: Path) -> bool:
