@@ -78,6 +78,10 @@ class CyclicSettings:
     def stress(self) -> float:  # check_sample's single stress
         return min(self.stresses)
 
+    @property
+    def restitution(self) -> None:  # check_sample's: damping here is `damping` (no restitution)
+        return None
+
     def check(self) -> None:
         check_sample(self, "amplitude")
         if not self.stresses or len(self.stresses) > 10:
