@@ -8,7 +8,8 @@ STAMP  := $(VENV)/.installed
 	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
 	test-plugin ccx chromium check-figures cholmod suitesparse calibrate-weak-finite \
-	calibrate-weak-finite-coarse paper-histories-finite
+	calibrate-weak-finite-coarse paper-histories-finite sample-study sample-study-reference \
+	sample-study-quartz-like
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -179,6 +180,28 @@ $(STAIRCASE_RUNS): staircase-%: $(STAMP)
 	$(PY) scripts/measure_staircase.py $(STAIRCASE_$(word 1,$(subst -, ,$*))) \
 	  --steps $(word 2,$(subst -, ,$*)) \
 	  --json staircase-finite-$(word 1,$(subst -, ,$*))-default-$(word 2,$(subst -, ,$*)).json
+
+# The sample study of issue 35 (docs/sample-study.md): cyclic simple shear, G/Gmax and D against
+# Darendeli and Hardin-Drnevich, for the reference grain (its FE calibration) and a hard
+# quartz-like grain (the universal law), each at a stress where few contacts yield and one where
+# most do, the law and its elastic law (same pair style), 3 samples of 1000 grains; then the
+# reference at 100 kPa with 2000 grains (the curves at twice the grains). Hours: `make -j2 sample-study` runs the two
+# materials at once; each finished run is kept, so an interrupted study resumes on the next call.
+SAMPLE_STUDY ?= out/sample-study
+SAMPLE_STUDY_GRAINS ?= 1000
+sample-study: sample-study-reference sample-study-quartz-like
+	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json --stress 1e5 \
+	  --grains $$((2 * $(SAMPLE_STUDY_GRAINS))) --out $(SAMPLE_STUDY)/reference-twice-the-grains
+	$(VENV)/bin/geocontact report $(SAMPLE_STUDY)
+sample-study-reference: $(STAMP) plugin
+	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json \
+	  --stress 1e2 1e5 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/reference
+$(SAMPLE_STUDY)/params-quartz-like.json: $(STAMP) examples/sample-study/quartz-like.toml
+	mkdir -p $(SAMPLE_STUDY)
+	$(VENV)/bin/geocontact params --material examples/sample-study/quartz-like.toml --out $@
+sample-study-quartz-like: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
+	$(VENV)/bin/geocontact dem cyclic-shear --law $(SAMPLE_STUDY)/params-quartz-like.json \
+	  --stress 1e5 1e7 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/quartz-like
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
 # from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a

@@ -62,7 +62,9 @@ CLI_FLAGS = {"max_force": "--max-force", "levels": "--levels", "peaks": "--peak-
              "damping_ratio": "--damping", "density": "--density", "peak_force": "--peak-force",
              "tolerance": "--tolerance", "poissons_ratio": "--poissons-ratio",
              "friction_angle_deg": "--friction-angle", "hardening_ratio": "--hardening-ratio",
-             "machine_stiffness": "--machine-stiffness"}
+             "machine_stiffness": "--machine-stiffness", "amplitudes": "--amplitudes",
+             "cycles": "--cycles", "seeds": "--seeds", "baseline": "--baseline",
+             "friction": "--friction", "damping": "--damping"}
 
 
 def for_the_command_line(message: str, flags: set[str] | None = None) -> str:

@@ -27,8 +27,8 @@ def register(sub) -> None:
             "vertical stress, settlement and dissipation against time (docs/dem.md)."
         ),
     )
-    p.add_argument("test", choices=[*TESTS, "seismic"], metavar="TEST",
-                   help="the test: oedometer or seismic")
+    p.add_argument("test", choices=[*TESTS, "seismic", "cyclic-shear"], metavar="TEST",
+                   help="the test: oedometer, seismic or cyclic-shear")
     p.add_argument("record", nargs="?", default=None,
                    help="seismic: the record, an AT2/CSV file, a FEMA P695 component "
                         "(KOBE/NIS000) or ELCENTRO1940/ELC180")
@@ -48,8 +48,9 @@ def register(sub) -> None:
                    help="the normal damping as the coefficient of restitution of an elastic "
                         "impact, in [0.01, 1], for every contact model (default: that of "
                         "damping 0.5 of critical, 0.273)")
-    p.add_argument("--stress", type=float, default=None,
-                   help="vertical stress before the cycles, Pa (default 5000)")
+    p.add_argument("--stress", type=float, nargs="+", default=None, metavar="PA",
+                   help="vertical stress before the cycles, Pa (default 5000); cyclic-shear: "
+                        "the mean stresses of consolidation, one study each (default 1e5)")
     p.add_argument("--radius", type=float, default=None,
                    help="median grain radius, m (default 1e-3)")
     p.add_argument("--spread", type=float, default=None,
@@ -61,8 +62,28 @@ def register(sub) -> None:
                    help="seismic: peak base displacement over the sample height (default 2e-3)")
     p.add_argument("--decimate", type=int, default=None,
                    help="seismic: use every k-th record sample (default 1)")
-    p.add_argument("--baseline", default=None, choices=["none", "mean", "linear", "quadratic"],
-                   help="seismic: baseline correction of the acceleration (default linear)")
+    p.add_argument("--baseline", default=None,
+                   help="seismic: baseline correction of the acceleration, none, mean, linear "
+                        "or quadratic (default linear); cyclic-shear: the contact beside the "
+                        "law, granular (pair granular hertz/material + Mindlin) or none "
+                        "(default granular)")
+    p.add_argument("--amplitudes", type=float, nargs="+", default=None, metavar="A",
+                   help="cyclic-shear: shear strain amplitudes, increasing (default 9 from "
+                        "1e-6 to 1e-2, log-spaced)")
+    p.add_argument("--cycles", type=int, default=None,
+                   help="cyclic-shear: cycles per amplitude, the last measured (default 3)")
+    p.add_argument("--seeds", type=int, default=None,
+                   help="cyclic-shear: samples per law and stress, seeds --seed, --seed + 1, "
+                        "... (default 3)")
+    p.add_argument("--friction", type=float, default=None,
+                   help="cyclic-shear: Coulomb friction coefficient of the contacts "
+                        "(default 0.5)")
+    p.add_argument("--damping", type=float, default=None,
+                   help="cyclic-shear: contact damping, fraction of critical (default 0.5)")
+    p.add_argument("--drained", action="store_true",
+                   help="cyclic-shear: after each cycle a servo on the box height restores the "
+                        "vertical stress (volumetric strain per cycle); default: constant volume "
+                        "throughout")
     p.add_argument("--targets", type=float, nargs="+", default=None, metavar="RATIO",
                    help="peak and valley stresses of the cycles as multiples of --stress "
                         "(default: 3 repeated, 3 increasing, 3 decreasing cycles)")
@@ -86,11 +107,20 @@ def run(args) -> int:
         raise InputError("--out: missing (output directory)")
     if args.test == "seismic":
         return run_seismic(args)
+    if args.test == "cyclic-shear":
+        return run_cyclic(args)
+    for name in ("amplitudes", "cycles", "seeds", "friction", "damping"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: only for the cyclic-shear test")
+    if args.drained:
+        raise InputError("--drained: only for the cyclic-shear test")
+    args.stress = _one_stress(args.stress)
     if args.record is not None:
         raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
     for name in ("strain", "decimate", "baseline"):
         if getattr(args, name) is not None:
-            raise InputError(f"--{name}: only for the seismic test")
+            raise InputError(f"--{name}: only for the seismic and cyclic-shear tests"
+                             if name == "baseline" else f"--{name}: only for the seismic test")
     settings = Settings(grains=2000 if args.grains is None else args.grains)
     for name in ("stress", "radius", "spread", "inertia", "seed", "walls", "restitution"):
         if getattr(args, name) is not None:
@@ -136,6 +166,16 @@ def run_seismic(args) -> int:
     for name in ("walls", "targets"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: not for the seismic test")
+    for name in ("amplitudes", "cycles", "seeds", "friction", "damping"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: only for the cyclic-shear test")
+    if args.drained:
+        raise InputError("--drained: only for the cyclic-shear test")
+    args.stress = _one_stress(args.stress)
+    if args.baseline is not None and args.baseline not in ("none", "mean", "linear",
+                                                           "quadratic"):
+        raise InputError(f"--baseline: seismic: must be none, mean, linear or quadratic, got "
+                         f"{args.baseline!r}")
     settings = SeismicSettings()
     for name in ("grains", "stress", "radius", "spread", "inertia", "seed", "strain",
                  "decimate", "baseline", "restitution"):
@@ -159,5 +199,51 @@ def run_seismic(args) -> int:
               f"settlement {s['settlement_m']:.4g} m (vertical strain "
               f"{s['vertical_strain']:.3e}), wall work {s['wall_work_J']:.4g} J, law "
               f"dissipation {s['law_dissipated_J']:.4g} J")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def _one_stress(stress: list[float] | None) -> float | None:
+    if stress is not None and len(stress) != 1:
+        raise InputError(f"--stress: one stress for this test, got {len(stress)}")
+    return None if stress is None else stress[0]
+
+
+def run_cyclic(args) -> int:
+    from ..analyses.dem_cyclic import COMMAND, CyclicSettings, run_cyclic_shear
+
+    if args.record is not None:
+        raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
+    for name in ("strain", "decimate", "targets", "walls", "restitution"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}: not for the cyclic-shear test")
+    if args.contact != "geocontact":
+        raise InputError("--contact: not for the cyclic-shear test (it runs the law and "
+                         "--baseline)")
+    settings = CyclicSettings(drained=args.drained)
+    for name in ("grains", "radius", "spread", "inertia", "seed", "cycles", "seeds",
+                 "friction", "damping", "baseline"):
+        if getattr(args, name) is not None:
+            setattr(settings, name, getattr(args, name))
+    if args.stress is not None:
+        settings.stresses = tuple(args.stress)
+    if args.amplitudes is not None:
+        settings.amplitudes = tuple(args.amplitudes)
+    with claim([Output(args.out, "folder", "--out")], COMMAND, overwrite=args.force):
+        document = run_cyclic_shear(args.law, settings, out=args.out, ranks=args.ranks,
+                                    overwrite=args.force, progress=_progress)
+    if args.json:
+        print_json(document)
+        return 0
+    for r in document["runs"]:
+        print(f"{r['run']}: {r['grains']} grains, packing fraction {r['packing_fraction']:.3f}, "
+              f"{r['contacts_per_grain']:.2f} contacts/grain at "
+              f"{r['consolidated_mean_stress_Pa']:.4g} Pa, Gmax {r['Gmax_Pa']:.4g} Pa")
+    for c in document["curves"]:
+        print(f"  {c['law']:10s} p {c['consolidation_stress_Pa']:.3g} Pa seed {c['seed']} "
+              f"gamma {c['amplitude']:.3g}: G/Gmax {c['G_over_Gmax']:.3f} D "
+              f"{c['damping_ratio']:.4f}, "
+              f"{c['mean_stress_change_per_cycle_Pa']:+.3g} Pa mean stress/cycle, I "
+              f"{c['inertia_number']:.2g}")
     print(f"wrote {args.out}")
     return 0

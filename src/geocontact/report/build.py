@@ -37,6 +37,7 @@ from .common import (
 )
 from .cycles import cycles_section, is_cycles
 from .dem import dem_section, is_dem
+from .dem_cyclic import dem_cyclic_section, is_dem_cyclic
 from .fe import fe_section, is_fe_run
 from .html import Report, is_our_report, render_html
 from .labfit import is_labfit, labfit_section
@@ -51,6 +52,7 @@ SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
     (is_seismic, seismic_section),
     (is_cycles, cycles_section),
     (is_dem, dem_section),
+    (is_dem_cyclic, dem_cyclic_section),
     (is_labfit, labfit_section),
     (is_fe_run, fe_section),
 ]
