@@ -149,9 +149,9 @@ def test_wall_work_closes_the_ledger_and_every_tally_survives_a_restart(tmp_path
     energy = ledger_change(start, end)
     work = energy["boundary_work_J"] + push_work
     assert energy["boundary_work_J"] > 0.1 * abs(work)
-    for channel in ("sliding", "tangential_damping"):
-        assert energy["dissipated_J"][channel] > 0.1 * work, channel
-    for channel in ("normal_damping", "rolling"):
+    assert energy["dissipated_J"]["sliding"] > 0.1 * work
+    # the tangential dashpot works only while the spring is below mu F_n (contact_forces.h)
+    for channel in ("tangential_damping", "normal_damping", "rolling"):
         assert energy["dissipated_J"][channel] > 0.0, channel
     residual = energy["closure_residual_J"] + push_work
     assert abs(residual) < 1e-3 * work

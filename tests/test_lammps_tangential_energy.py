@@ -226,20 +226,18 @@ def test_random_closed_paths_never_return_more_work_than_they_took(wall, rolling
     assert max(works) > 1e3 * tol  # the shear springs were loaded
 
 
-def test_sliding_keeps_in_the_spring_the_capped_force_less_the_damping_force():
-    """A grain held below yield on a wall that slides at V, then stops: while it slides, the
-    force is the Coulomb limit mu F_n, the sum of the spring force and the dashpot's -g v_t; the
-    spring keeps the limit less the dashpot's part (as LAMMPS's granular models), so the
-    moment the wall stops (v_t = 0) the force is mu F_n - g V, g = 2 beta sqrt(m k_t) with the
-    sphere-flat Mindlin stiffness k_t = 8 G a / (2 - nu), a = sqrt(r w). (Keeping the whole
-    capped force, the force would stay mu F_n.)"""
+def _sliding_on_a_wall(beta: float, dashpot_share: float, steps: int = 302):
+    """A grain held below yield on a wall that slides at V for 300 steps, then stops; V is such
+    that the dashpot's force g V is ``dashpot_share`` of the Coulomb limit, g = 2 beta sqrt(m k_t)
+    with the sphere-flat Mindlin stiffness k_t = 8 G a / (2 - nu), a = sqrt(r w). Returns the
+    forces per step, the wall's global vector per step, mu F_n, k_t and V."""
     m = PARAMS.material
-    beta, w = 0.4, 0.2 * YIELD  # d = 2 w: elastic
+    w = 0.2 * YIELD  # d = 2 w: elastic
     mass = 2650 * 4 / 3 * np.pi * RADIUS**3
     kt = 8 * m.shear_modulus / (2 - m.poissons_ratio) * np.sqrt(RADIUS * w)
     g = 2 * beta * np.sqrt(mass * kt)
     fn = 4 / 3 * m.youngs_modulus / (1 - m.poissons_ratio**2) * np.sqrt(RADIUS) * w**1.5
-    speed = float(0.3 * FRICTION * fn / g)  # the dashpot carries 0.3 of the limit while sliding
+    speed = float(dashpot_share * FRICTION * fn / g)
     lmp = open_lammps()
     for line in ("units si", "atom_style sphere", "atom_modify map array", "boundary f f f",
                  "comm_modify vel yes", "region box block -0.05 0.05 -0.05 0.05 -0.05 0.05",
@@ -249,15 +247,47 @@ def test_sliding_keeps_in_the_spring_the_capped_force_less_the_damping_force():
                  f"fix wall all wall/geocontact {PARAMS_FILE} friction {FRICTION} damping "
                  f"{beta} zplane 0.0 NULL shear x v_vb", "run 0"):
         lmp.command(line)
-    forces = []
-    for _ in range(302):
+    forces, tallies = [], []
+    for _ in range(steps):
         lmp.command("run 1 pre no post no")
         forces.append(np.array(lmp.numpy.extract_atom("f")[0]))
+        tallies.append([lmp.numpy.extract_fix("wall", 0, 1, k) for k in range(20)])
     lmp.close()
-    forces = np.array(forces)
-    assert forces[-1, 2] == pytest.approx(fn, rel=1e-6)  # Hertz sphere-flat
-    assert forces[298, 0] == pytest.approx(FRICTION * fn, rel=1e-9)  # sliding
-    assert forces[300, 0] == pytest.approx(0.7 * FRICTION * fn, rel=1e-6)
+    return np.array(forces), np.array(tallies), FRICTION * fn, kt, speed
+
+
+def test_sliding_spring_holds_the_coulomb_force_and_the_dashpot_gives_up_its_excess():
+    """While the wall slides the force on the grain is the Coulomb limit mu F_n; the spring (a
+    Coulomb slider in series) has loaded elastically up to mu F_n and holds it, the dashpot's
+    share of the capped total being nothing then; so the moment the wall stops the force is
+    still mu F_n (the spring's). LAMMPS's reset would leave mu F_n - g V in the spring: here
+    g V = 0.3 mu F_n. Every ledger channel of the step is >= 0."""
+    forces, tallies, limit, kt, _ = _sliding_on_a_wall(0.4, 0.3)
+    assert forces[298, 0] == pytest.approx(limit, rel=1e-9)  # sliding
+    assert forces[300, 0] == pytest.approx(limit, rel=1e-9)  # stopped: the spring's mu F_n
+    scale = limit**2 / (2 * kt)  # the spring's energy at the limit
+    for channel in (8, 9, 10):  # sliding, normal damping, tangential damping
+        assert np.all(np.diff(tallies[:, channel]) >= -1e-9 * scale)
+
+
+def test_a_dashpot_stronger_than_friction_loads_no_spring_along_the_slip():
+    """The case LAMMPS's reset gets wrong: the dashpot's force alone (g V = 3 mu F_n) exceeds
+    the Coulomb limit. The spring must still oppose the slip and hold at most mu F_n (stored
+    energy (mu F_n)^2 / 2 k_t), and the sliding and dashpot dissipations must both grow; with
+    the reset to the capped total less g V the spring would hold (g V - mu F_n) = 2 mu F_n along
+    the slip, 4x the energy, and the ledger's sliding channel would fall."""
+    forces, tallies, limit, kt, speed = _sliding_on_a_wall(0.4, 3.0)
+    assert forces[298, 0] == pytest.approx(limit, rel=1e-9)
+    assert forces[300, 0] == pytest.approx(limit, rel=1e-9)  # the spring opposes the slip
+    stored = tallies[298, 14]  # stored tangential
+    assert stored == pytest.approx(limit**2 / (2 * kt), rel=1e-6)
+    sliding, tangential_damping = tallies[:, 8], tallies[:, 10]
+    assert np.all(np.diff(sliding) >= -1e-9 * stored)
+    assert np.all(np.diff(tangential_damping) >= -1e-9 * stored)
+    # once the spring holds mu F_n the whole capped force is the spring's: the dashpot no
+    # longer works, the slider dissipates mu F_n V dt a step
+    assert tangential_damping[298] == pytest.approx(tangential_damping[200], abs=1e-9 * stored)
+    assert sliding[298] - sliding[200] == pytest.approx(98 * limit * speed * 1e-5, rel=1e-6)
 
 
 def test_the_tangential_force_acts_at_the_contact_plane_halfway_into_the_overlap():
