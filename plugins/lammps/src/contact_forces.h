@@ -1,24 +1,15 @@
 // One contact's forces besides the normal law, shared by pair_style geocontact (grain-grain)
-// and fix wall/geocontact (grain-wall), in the manner of LAMMPS's granular sub-models: the
-// contact frame, the stiffnesses from the law's state, viscous damping and the incremental
-// Mindlin-Coulomb tangential force; plus the packing of a law state into doubles (contact
-// histories, exchange and restart buffers) and the collective read of a parameter file.
+// and the wall fixes (grain-wall), in the manner of LAMMPS's granular sub-models: the contact
+// frame, the stiffnesses from the law's state, viscous damping, the incremental Mindlin-Coulomb
+// tangential force, rolling and twisting resistance, the energy ledger and the one contact step.
+// Physics only: reading law files, the run's unit style and the keywords are contact_setup.h;
+// a law state as doubles (histories, exchange and restart buffers) is contact_state.h.
 #ifndef LMP_GEOCONTACT_CONTACT_FORCES_H
 #define LMP_GEOCONTACT_CONTACT_FORCES_H
 
 #include "geocontact/law.hpp"
-#include "geocontact/params.hpp"
-
-#include "comm.h"
-#include "error.h"
-#include "force.h"
-#include "lammps.h"
-#include "update.h"
-#include "utils.h"
 
 #include <cmath>
-#include <cstring>
-#include <mpi.h>
 #include <string>
 
 namespace LAMMPS_NS {
@@ -91,18 +82,6 @@ inline bool physical_units(const std::string &style, RunUnits &u)
   else if (style == "electron") u = {bohr, hartree / bohr, hartree};
   else return false;
   return true;
-}
-
-// The run's units, or a one-line error naming the unit style (who opens it).
-inline RunUnits run_units(LAMMPS *lmp, const std::string &who)
-{
-  RunUnits u{};
-  const std::string style = lmp->update->unit_style ? lmp->update->unit_style : "";
-  if (!physical_units(style, u))
-    lmp->error->all(FLERR, "{}: units {} have no physical size, and the law file is SI; use "
-                           "units si, cgs, micro, nano, metal, real or electron", who, style);
-  u.ftm2v = lmp->force->ftm2v;
-  return u;
 }
 
 // Stiffnesses of the contact for damping and friction, in the run's units: the unloading
@@ -302,54 +281,6 @@ struct RollingCoeffs {
   bool rolling;      // rolling sds given
   bool twisting;     // twisting marshall given
 };
-
-// The keywords `rolling sds k_roll gamma_roll mu_roll` and `twisting marshall` at arg[iarg]
-// (the pair_coeff and fix wall/geocontact syntax of LAMMPS's granular models): false if
-// arg[iarg] is neither, else the coefficients set and iarg moved past them. Bad values stop
-// with a one-line error naming the argument; `who` opens it.
-inline bool parse_resistance(LAMMPS *lmp, int &iarg, int narg, char **arg, RollingCoeffs &c,
-                             const std::string &who)
-{
-  const std::string key = arg[iarg];
-  if (key == "rolling") {
-    if (iarg + 1 >= narg || strcmp(arg[iarg + 1], "sds") != 0)
-      lmp->error->all(FLERR, "{}: rolling takes the model sds (rolling sds k_roll gamma_roll "
-                             "mu_roll), got '{}'", who, iarg + 1 < narg ? arg[iarg + 1] : "");
-    const char *names[3] = {"k_roll", "gamma_roll", "mu_roll"};
-    double values[3];
-    for (int k = 0; k < 3; ++k) {
-      if (iarg + 2 + k >= narg)
-        lmp->error->all(FLERR, "{}: rolling sds needs k_roll gamma_roll mu_roll; {} is missing",
-                        who, names[k]);
-      const char *text = arg[iarg + 2 + k];
-      if (!utils::is_double(text))
-        lmp->error->all(FLERR, "{}: rolling sds {} must be a number, got '{}'", who, names[k],
-                        text);
-      values[k] = utils::numeric(FLERR, text, false, lmp);
-    }
-    if (!(values[0] > 0.0))
-      lmp->error->all(FLERR, "{}: rolling sds k_roll must be > 0, got {}", who, values[0]);
-    for (int k = 1; k < 3; ++k)
-      if (!(values[k] >= 0.0))
-        lmp->error->all(FLERR, "{}: rolling sds {} must be >= 0, got {}", who, names[k],
-                        values[k]);
-    c.stiffness = values[0];
-    c.damping = values[1];
-    c.friction = values[2];
-    c.rolling = true;
-    iarg += 5;
-    return true;
-  }
-  if (key == "twisting") {
-    if (iarg + 1 >= narg || strcmp(arg[iarg + 1], "marshall") != 0)
-      lmp->error->all(FLERR, "{}: twisting takes the model marshall (twisting marshall), got "
-                             "'{}'", who, iarg + 1 < narg ? arg[iarg + 1] : "");
-    c.twisting = true;
-    iarg += 2;
-    return true;
-  }
-  return false;
-}
 
 // Rolling resistance, spring-dashpot-slider (LAMMPS's `rolling sds`): the rolling displacement
 // xi (history) is first rotated into the current tangent plane keeping its magnitude, then
@@ -625,87 +556,6 @@ inline ContactResult contact_step(const geocontact::LawParams &law, const Stiffn
     for (int m = 0; m < 3; ++m) out.torque[m] += twist[m];
   }
   return out;
-}
-
-// --- a law state as doubles (history tables, exchange and restart buffers) ------------------
-
-constexpr int kStateSlots = 13;
-
-inline int pack_state(const geocontact::ContactState &s, double *buf)
-{
-  int m = 0;
-  buf[m++] = s.approach;
-  buf[m++] = s.force;
-  buf[m++] = s.max_approach;
-  buf[m++] = s.max_force;
-  buf[m++] = s.residual_approach;
-  buf[m++] = s.unloading_exponent;
-  buf[m++] = s.reloading_exponent;
-  buf[m++] = s.branch_value;
-  buf[m++] = s.ratchet_shift;
-  buf[m++] = s.pending_ratchet;
-  buf[m++] = s.cycles;
-  buf[m++] = s.work;
-  buf[m++] = static_cast<double>(s.branch);
-  return m;
-}
-
-inline int unpack_state(geocontact::ContactState &s, const double *buf)
-{
-  int m = 0;
-  s.approach = buf[m++];
-  s.force = buf[m++];
-  s.max_approach = buf[m++];
-  s.max_force = buf[m++];
-  s.residual_approach = buf[m++];
-  s.unloading_exponent = buf[m++];
-  s.reloading_exponent = buf[m++];
-  s.branch_value = buf[m++];
-  s.ratchet_shift = buf[m++];
-  s.pending_ratchet = buf[m++];
-  s.cycles = buf[m++];
-  s.work = buf[m++];
-  s.branch = static_cast<int>(buf[m++]);
-  return m;
-}
-
-// --- parameter files --------------------------------------------------------------------------
-
-// Rank 0 reads the file and sends its text to every rank, so errors are collective. `who`
-// opens the error messages ("pair_coeff geocontact", "Fix wall/geocontact").
-inline std::string read_text_collective(LAMMPS *lmp, const std::string &path,
-                                        const std::string &who)
-{
-  std::string text;
-  int status = 0;
-  if (lmp->comm->me == 0) {
-    try {
-      text = geocontact::read_text_file(path);
-    } catch (const geocontact::InputError &) {
-      status = 1;
-    }
-  }
-  MPI_Bcast(&status, 1, MPI_INT, 0, lmp->world);
-  if (status)
-    lmp->error->all(FLERR, "{}: parameter file not found or unreadable: {}", who, path);
-  int length = static_cast<int>(text.size());
-  MPI_Bcast(&length, 1, MPI_INT, 0, lmp->world);
-  text.resize(length);
-  MPI_Bcast(&text[0], length, MPI_CHAR, 0, lmp->world);
-  return text;
-}
-
-// Every rank parses the same text with the Python load_params rules and messages.
-inline geocontact::LawParams parse_law(LAMMPS *lmp, const std::string &text,
-                                       const std::string &source, const std::string &who)
-{
-  geocontact::LawParams params;
-  try {
-    params = geocontact::parse_params(text, source);
-  } catch (const geocontact::InputError &e) {
-    lmp->error->all(FLERR, "{}: {}", who, e.what());
-  }
-  return params;
 }
 
 }  // namespace geocontact_forces

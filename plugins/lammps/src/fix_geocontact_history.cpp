@@ -2,6 +2,8 @@
 #include "fix_geocontact_history.h"
 
 #include "contact_forces.h"
+#include "contact_setup.h"
+#include "contact_state.h"
 
 #include "atom.h"
 #include "comm.h"

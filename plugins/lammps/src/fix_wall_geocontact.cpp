@@ -2,7 +2,8 @@
 #include "fix_wall_geocontact.h"
 
 #include "contact_forces.h"
-#include "restitution.h"
+#include "contact_setup.h"
+#include "contact_state.h"
 
 #include "atom.h"
 #include "comm.h"

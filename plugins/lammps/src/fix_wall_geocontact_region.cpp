@@ -3,6 +3,8 @@
 #include "fix_wall_geocontact_region.h"
 
 #include "contact_forces.h"
+#include "contact_setup.h"
+#include "contact_state.h"
 
 #include "atom.h"
 #include "comm.h"

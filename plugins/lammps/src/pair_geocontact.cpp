@@ -2,8 +2,9 @@
 #include "pair_geocontact.h"
 
 #include "contact_forces.h"
+#include "contact_setup.h"
+#include "contact_state.h"
 #include "fix_geocontact_history.h"
-#include "restitution.h"
 #include "geocontact/params.hpp"
 
 #include "atom.h"

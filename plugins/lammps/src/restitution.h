@@ -20,11 +20,6 @@
 #define GEOCONTACT_RESTITUTION_H
 
 #include <cmath>
-#include <cstring>
-
-#include "error.h"
-#include "lammps.h"
-#include "utils.h"
 
 namespace LAMMPS_NS {
 namespace geocontact_forces {
@@ -78,32 +73,6 @@ inline double damping_of_restitution(double e)
     (restitution_of_damping(mid) > e ? low : high) = mid;
   }
   return 0.5 * (low + high);
-}
-
-// The normal damping of a pair_coeff or wall fix: `damping beta` (fraction of critical) or
-// `restitution e` (its beta), not both. Returns false when arg[iarg] is neither; else reads the
-// value into beta and moves iarg past it. `given` records which was met first ('d' or 'r').
-inline bool parse_damping(LAMMPS *lmp, int &iarg, int narg, char **arg, double &beta,
-                          char &given, const char *who)
-{
-  const bool damping = std::strcmp(arg[iarg], "damping") == 0;
-  if (!damping && std::strcmp(arg[iarg], "restitution") != 0) return false;
-  if (iarg + 1 >= narg) lmp->error->all(FLERR, "{}: keyword '{}' needs a value", who, arg[iarg]);
-  if (given && given != (damping ? 'd' : 'r'))
-    lmp->error->all(FLERR, "{}: give damping or restitution, not both", who);
-  given = damping ? 'd' : 'r';
-  const double value = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-  if (damping) {
-    if (!(value >= 0.0)) lmp->error->all(FLERR, "{}: damping must be >= 0, got {}", who, value);
-    beta = value;
-  } else {
-    if (!(value >= kMinRestitution && value <= 1.0))
-      lmp->error->all(FLERR, "{}: restitution must be in [{}, 1], got {}", who, kMinRestitution,
-                      value);
-    beta = damping_of_restitution(value);
-  }
-  iarg += 2;
-  return true;
 }
 
 }  // namespace geocontact_forces
