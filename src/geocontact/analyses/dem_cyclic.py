@@ -35,6 +35,7 @@ from ..files import (
     write_manifest,
 )
 from .dem import MAX_RANKS, check_sample, read_run, read_table, run_lammps
+from .restitution import restitution_of_damping
 
 SCHEMA = "geocontact.dem-cyclic/1"
 COMMAND = "dem-cyclic-shear"
@@ -150,6 +151,8 @@ def script_variables(run: Run, settings: CyclicSettings, law: Path, out: Path) -
               "spread": repr(settings.spread), "stress": repr(run.stress),
               "cycles": settings.cycles, "inertia": repr(settings.inertia),
               "friction": repr(settings.friction), "damping": repr(settings.damping),
+              # granular's Tsuji e: the restitution the plugin's damping gives (like for like)
+              "etsuji": repr(restitution_of_damping(settings.damping)),
               "seed": run.seed, "params": str(law),
               "contact": "granular" if run.law == "granular" else "geocontact",
               "drainfactor": 10 if settings.drained else 0,
