@@ -246,3 +246,58 @@ def test_loop_area_is_the_walls_work_per_volume(both):
         assert c["loop_area_top_wall_J_m3"] == pytest.approx(
             c["energy"]["boundary_work_J"] / volume, rel=0.1)
     assert doc["runs"]["granular"]["cycles"][0]["loop_area_top_wall_J_m3"] is None
+
+
+@pytest.fixture(scope="module")
+def high_stress(tmp_path_factory) -> tuple[Path, dict]:
+    """`--preset high-stress` (0.5 MPa, then 1 and 2 MPa with a loop to a quarter each), both
+    laws on the small sample, through the command."""
+    out = tmp_path_factory.mktemp("dem") / "high"
+    assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "300", "--inertia", "1e-2",
+                 "--preset", "high-stress", "--contact", "both", "--out", str(out)]) == 0
+    return out, json.loads((out / "summary.json").read_text())
+
+
+def test_high_stress_preset_loops(high_stress):
+    """At MPa the reference grain's contacts yield deeply: the dented packing unloads stiffer and
+    swells less than the same sample of elastic contacts (M_unload several times, Cs a fraction),
+    and on each loop stiffer than it reloads; the loop at a peak reached before (cycles 2, 4:
+    recompression) compresses less than the virgin loading to it (cycles 1, 3)."""
+    _, doc = high_stress
+    g, e = doc["runs"]["geocontact"], doc["runs"]["elastic"]
+    assert [c["peak_target_Pa"] for c in g["cycles"]] == [1e6, 1e6, 2e6, 2e6]
+    for cg, ce in zip(g["cycles"], e["cycles"], strict=True):
+        assert cg["unload_modulus_Pa"] > 2 * ce["unload_modulus_Pa"]
+        assert cg["swelling_index"] < 0.5 * ce["swelling_index"]
+        assert cg["unload_modulus_Pa"] > cg["reload_modulus_Pa"]
+        assert 0 < cg["swelling_index"] < cg["compression_index"]
+        assert cg["loop_area_J_m3"] > 0
+    virgin, reload = g["cycles"][0::2], g["cycles"][1::2]
+    for v, r in zip(virgin, reload, strict=True):
+        assert r["compression_index"] < v["compression_index"]
+
+
+def test_high_stress_depth_against_the_calibrated_range(high_stress):
+    """The deepest contact the run reaches, compute pair geocontact [17], against the law file's
+    calibrated range (max_depth 249 delta_y, 6000 N on R = 0.1 m): at 2 MPa the contacts of
+    mm grains go far beyond it (the issue's estimate: ~8 N, ~10^4 Fy), and the pair's depth lies
+    between the bounds from the dumped largest approaches, delta_max / delta_y(R_eff) with the
+    yield approach delta_y proportional to R_eff (similarity) between the smallest and largest
+    grains' pair (R_eff = r_min/2 .. r_max/2). The elastic baseline (yield at R/2) never goes
+    beyond its range."""
+    out, doc = high_stress
+    g = doc["runs"]["geocontact"]["calibrated_range"]
+    law = json.loads(LAW.read_text())
+    assert g["calibrated_max_depth"] == pytest.approx(law["calibrated_range"]["max_depth"])
+    assert g["beyond_range_contacts"] > 0 and g["walls_beyond_range_contacts"] > 0
+    assert g["beyond_range_max_depth"] > 10 * g["calibrated_max_depth"]
+    run = (out / "geocontact" / "run.txt").read_text().split("\n")
+    radius = {k: float(v) for k, v in (line.split() for line in run
+                                       if line.startswith("radius_m"))}
+    deepest = read_csv_column(out / "geocontact" / "residual_approach.csv", "max_approach_m").max()
+    per_radius = law["yield"]["approach_m"] / law["material"]["radius"]
+    lowest = deepest / (per_radius * radius["radius_max_m"] / 2)
+    highest = deepest / (per_radius * radius["radius_min_m"] / 2)
+    assert lowest <= g["beyond_range_max_depth"] <= highest
+    e = doc["runs"]["elastic"]["calibrated_range"]
+    assert e["beyond_range_contacts"] == 0 == e["walls_beyond_range_contacts"]
