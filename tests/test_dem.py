@@ -116,7 +116,8 @@ def test_report_section(both, tmp_path):
     html = build_report(out)
     text = html.read_text()
     assert "DEM oedometer" in text
-    for name in ("dem_loops", "dem_cycles", "dem_residual_approach"):
+    assert "Void ratio against log vertical stress" in text and "M unload (MPa)" in text
+    for name in ("dem_loops", "dem_cycles", "dem_residual_approach", "dem_void_ratio"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 1000
 
 
@@ -177,6 +178,10 @@ def test_bad_arguments_one_line(tmp_path, capsys):
                  "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "--targets:" in err
+    assert main(["dem", "seismic", "KOBE/NIS000", "--law", str(LAW), "--preset", "high-stress",
+                 "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--preset: only for the oedometer test" in err
     assert main(["dem", "oedometer", "--law", str(tmp_path / "none.json"),
                  "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip()
