@@ -45,6 +45,13 @@ DEFAULT_TARGETS = (1.5, 0.5, 1.5, 0.5, 1.5, 0.5,
                    1.25, 0.75, 1.5, 0.5, 1.75, 0.25,
                    1.75, 0.25, 1.5, 0.5, 1.25, 0.75)
 HISTORIES = ("repeated",) * 3 + ("increasing",) * 3 + ("decreasing",) * 3
+# `--preset high-stress` (issue 35): an oedometer where the contacts yield well. 1 mm grains of
+# the reference law carry about sigma d^2 per contact, ~2 N at 0.5 MPa, ~10^3 times the yield
+# force; virgin loading to 1 MPa, an unload-reload loop to a quarter of it, the same at 2 MPa
+# (each pair: the first cycle's loading is virgin compression, the second's a reload)
+HIGH_STRESS = 5e5
+HIGH_STRESS_TARGETS = (2.0, 0.5, 2.0, 0.5, 4.0, 1.0, 4.0, 1.0)
+PRESETS = {"high-stress": (HIGH_STRESS, HIGH_STRESS_TARGETS)}
 
 
 @dataclass
@@ -264,6 +271,22 @@ def critical_timestep(run: dict[str, str]) -> dict:
             "timestep_warning_step": int(warning) if warning is not None else None}
 
 
+def beyond_range(run: dict[str, str]) -> dict | None:
+    """The contacts the law extrapolated for at the end of the run, the pair's (compute pair
+    geocontact [16], deepest delta_max/delta_y [17]) and the walls' (fix wall/geocontact [19],
+    [20]): counts and depths (0: none beyond); None without geocontact contacts. The file's
+    calibrated top is added by the driver (``calibrated_max_depth``)."""
+    if "beyond_range_contacts" not in run:
+        return None
+    walls = "walls_beyond_range_contacts" in run
+    return {"beyond_range_contacts": int(float(run["beyond_range_contacts"])),
+            "beyond_range_max_depth": float(run["beyond_range_max_depth"]),
+            "walls_beyond_range_contacts": (int(float(run["walls_beyond_range_contacts"]))
+                                            if walls else None),
+            "walls_beyond_range_max_depth": (float(run["walls_beyond_range_max_depth"])
+                                             if walls else None)}
+
+
 def read_contacts(path: Path) -> np.ndarray:
     """The last snapshot of ``dump local``: rows of (approach, largest, residual approach)."""
     lines = path.read_text().splitlines()
@@ -299,10 +322,22 @@ def parse_run(folder: Path, settings: Settings) -> dict:
     def at(step_value: float) -> int:
         return int(np.searchsorted(step, step_value - 0.5))
 
-    def wall_work(s0: float, s1: float) -> float:
+    def wall_work(s0: float, s1: float, force: np.ndarray | None = None) -> float:
+        """The work on the sample between two steps: of the virial stress over the area, or of
+        ``force`` (the top wall's) when given, along the top wall's displacement."""
         i, j = at(s0), at(s1) + 1
-        s, h = stress[i:j], height[i:j]
-        return float(np.sum(0.5 * (s[1:] + s[:-1]) * area * -(h[1:] - h[:-1])))
+        f, h = (stress * area if force is None else force)[i:j], height[i:j]
+        return float(np.sum(0.5 * (f[1:] + f[:-1]) * -(h[1:] - h[:-1])))
+
+    top_force = series["top_wall_force_N"] if run["walls"] == "geocontact" else None
+
+    solid = float(run["solid_volume_m3"])
+
+    def solid_volume_ratio(total_volume: float) -> float:  # the void ratio, V_voids / V_solid
+        return total_volume / solid - 1.0
+
+    def unloading_branch(i: int, j: int) -> tuple[np.ndarray, np.ndarray]:
+        return stress[i:j + 1], strain[i:j + 1]
 
     def leg_value(r, column):
         return float(r[{"step": 3, "stress": 4, "height": 5, "law": 6, "coord": 7}[column]])
@@ -328,6 +363,18 @@ def parse_run(folder: Path, settings: Settings) -> dict:
             "law_dissipated_J": leg_value(valley, "law") - leg_value(start, "law"),
             "contacts_per_grain": leg_value(valley, "coord"),
         })
+        cycles[-1].update(cycle_compressibility(
+            [leg_value(r, "stress") for r in (start, peak, valley)],
+            [solid_volume_ratio(area * leg_value(r, "height")) for r in (start, peak, valley)],
+            [eps0, eps_peak, eps1], unloading_branch(at(leg_value(peak, "step")),
+                                                     at(leg_value(valley, "step")))))
+        # the loop area, the integral of sigma d eps around the cycle per unit volume (J/m^3),
+        # of the virial stress (the stress of the e-log sigma'v curve and the moduli) and of the
+        # top wall's force over the area, where the energy enters (geocontact walls)
+        cycles[-1]["loop_area_J_m3"] = cycles[-1]["wall_work_J"] / volume
+        cycles[-1]["loop_area_top_wall_J_m3"] = (
+            wall_work(leg_value(start, "step"), leg_value(valley, "step"), top_force) / volume
+            if top_force is not None else None)
         start = valley
     speed = float(run["cycle_speed_m_s"])
     rate = speed / h_ref
@@ -347,6 +394,7 @@ def parse_run(folder: Path, settings: Settings) -> dict:
         "reference_height_m": h_ref,
         "reference_stress_Pa": leg_value(reference, "stress"),
         "packing_fraction": float(run["solid_volume_m3"]) / volume,
+        "void_ratio_at_stress": solid_volume_ratio(volume),
         "strain_rate_1_s": rate,
         "inertia_number": {"at_stress": rate * d * math.sqrt(density / settings.stress),
                            "at_lowest_target": rate * d * math.sqrt(density / low)},
@@ -355,6 +403,7 @@ def parse_run(folder: Path, settings: Settings) -> dict:
         "contacts_per_grain_at_stress": leg_value(reference, "coord"),
         "cycles": cycles,
         "total_residual_strain": cycles[-1]["end_strain"],
+        "calibrated_range": beyond_range(run),
     }
     ledger_file = folder / "ledger.txt"
     if ledger_file.is_file():  # geocontact pair and walls: the energy ledger of every leg
@@ -367,7 +416,8 @@ def parse_run(folder: Path, settings: Settings) -> dict:
         for k, cycle in enumerate(cycles):
             cycle["energy"] = ledger_change(rows[str(1 + 2 * k)], rows[str(3 + 2 * k)])
     arrays = {"series": {"time_s": series["time_s"], "step": step, "height_m": height,
-                         "strain": strain, "stress_Pa": stress,
+                         "strain": strain, "void_ratio": area * height / solid - 1.0,
+                         "stress_Pa": stress,
                          "top_wall_force_N": series["top_wall_force_N"],
                          "law_dissipated_J": dissipated, "kinetic_J": series["kinetic_J"],
                          "contacts_per_grain": series["contacts_per_grain"]},
@@ -388,6 +438,55 @@ def parse_run(folder: Path, settings: Settings) -> dict:
         arrays["contacts"] = {"approach_m": touched[:, 0], "max_approach_m": touched[:, 1],
                               "residual_approach_m": touched[:, 2]}
     return {"summary": summary, "arrays": arrays}
+
+
+# --- the engineers' numbers of a cycle -------------------------------------------------------
+
+# the initial unloading modulus: the secant over this share of the unloading stress decrement (a
+# tangent at the reversal, over enough of the branch that the wall's reversal transient and the
+# sampling of the series do not decide it)
+INITIAL_UNLOADING_SHARE = 0.1
+
+
+def constrained_modulus(stress_a: float, stress_b: float, strain_a: float,
+                        strain_b: float) -> float | None:
+    """M = delta sigma'v / delta eps_v (the oedometer's constrained modulus, 1/m_v); None when the
+    strain does not change (no branch to measure)."""
+    d_strain = strain_b - strain_a
+    return (stress_b - stress_a) / d_strain if d_strain != 0 else None
+
+
+def log_index(e_a: float, e_b: float, stress_a: float, stress_b: float) -> float | None:
+    """-delta e / delta log10 sigma'v (the compression index Cc on a loading branch, the swelling
+    index Cs on an unloading one); None when the stress does not change."""
+    d_log = math.log10(stress_b / stress_a) if stress_a > 0 and stress_b > 0 else 0.0
+    return -(e_b - e_a) / d_log if d_log != 0 else None
+
+
+def initial_unloading_modulus(stress: np.ndarray, strain: np.ndarray) -> float | None:
+    """The constrained modulus at the start of unloading: the secant from the peak (the branch's
+    first sample) to the first sample INITIAL_UNLOADING_SHARE of the way down the branch."""
+    if len(stress) < 2:
+        return None
+    drop = INITIAL_UNLOADING_SHARE * (stress[0] - stress[-1])
+    k = int(np.argmax(stress <= stress[0] - drop))
+    k = k if k > 0 else len(stress) - 1
+    return constrained_modulus(stress[k], stress[0], strain[k], strain[0])
+
+
+def cycle_compressibility(stresses, void_ratios, strains, unloading) -> dict:
+    """A cycle's oedometer numbers from its (start, peak, valley) stress, void ratio and strain:
+    the void ratio at peak and valley, the reload (start -> peak) and unload (peak -> valley)
+    secant constrained moduli, the initial unloading modulus from the unloading branch's series
+    (``unloading``: stress, strain), the compression (reload branch; recompression when the peak
+    is not new) and swelling indices."""
+    (s0, s1, s2), (e0, e1, e2), (x0, x1, x2) = stresses, void_ratios, strains
+    return {"start_void_ratio": e0, "peak_void_ratio": e1, "valley_void_ratio": e2,
+            "reload_modulus_Pa": constrained_modulus(s0, s1, x0, x1),
+            "unload_modulus_Pa": constrained_modulus(s2, s1, x2, x1),
+            "unload_modulus_initial_Pa": initial_unloading_modulus(*unloading),
+            "compression_index": log_index(e0, e1, s0, s1),
+            "swelling_index": log_index(e2, e1, s2, s1)}
 
 
 # --- the command -------------------------------------------------------------------------------
@@ -421,6 +520,8 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
     """Run ``test`` for each contact model into ``out`` (one result folder, written as a unit):
     ``CONTACT/`` with the LAMMPS outputs and the parsed CSVs, and summary.json."""
 
+    from ..law import load_params
+
     if test not in TESTS:
         raise InputError(f"test: must be one of {', '.join(TESTS)}, got {test!r}")
     law, params = check_run(settings, law, contacts, ranks)
@@ -440,10 +541,16 @@ def run_dem(test: str, law: str | Path, settings: Settings, *, contacts: tuple[s
                               contact, ranks, folder, progress)
             parsed = parse_run(folder, settings)
             parsed["summary"]["runtime_s"] = wall
+            if parsed["summary"]["calibrated_range"] is not None:
+                file_params = load_params(law_file)
+                parsed["summary"]["calibrated_range"]["calibrated_max_depth"] = (
+                    file_params.calibrated_depth if math.isfinite(file_params.calibrated_depth)
+                    else None)
             parsed["summary"]["ranks"] = ranks
             write_csv(folder / "series.csv", parsed["arrays"]["series"])
             cycles = parsed["summary"]["cycles"]
-            write_csv(folder / "cycles.csv", {k: np.array([c[k] for c in cycles])
+            write_csv(folder / "cycles.csv", {k: np.array([math.nan if c[k] is None else c[k]
+                                                           for c in cycles])
                                               for k in cycles[0]
                                               if k not in ("history", "energy")})
             if "contacts" in parsed["arrays"]:

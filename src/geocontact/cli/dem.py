@@ -87,6 +87,10 @@ def register(sub) -> None:
     p.add_argument("--targets", type=float, nargs="+", default=None, metavar="RATIO",
                    help="peak and valley stresses of the cycles as multiples of --stress "
                         "(default: 3 repeated, 3 increasing, 3 decreasing cycles)")
+    p.add_argument("--preset", default=None, choices=["high-stress"],
+                   help="oedometer: high-stress: --stress 5e5 and --targets 2 0.5 2 0.5 4 1 4 1 "
+                        "(virgin loading to 1 and 2 MPa, each with an unload-reload loop to a "
+                        "quarter; the contacts of mm grains yield well), unless given")
     p.add_argument("--seed", type=int, default=None, help="random seed of the sample")
     p.add_argument("--out", help="output directory (written as one unit)")
     add_force_flag(p)
@@ -99,12 +103,14 @@ def _progress(message: str) -> None:
 
 
 def run(args) -> int:
-    from ..analyses.dem import Settings, run_dem
+    from ..analyses.dem import PRESETS, Settings, run_dem
 
     if args.law is None:
         raise InputError("--law: missing (law parameters, geocontact.law/1 JSON)")
     if args.out is None:
         raise InputError("--out: missing (output directory)")
+    if args.preset is not None and args.test != "oedometer":
+        raise InputError("--preset: only for the oedometer test")
     if args.test == "seismic":
         return run_seismic(args)
     if args.test == "cyclic-shear":
@@ -117,6 +123,10 @@ def run(args) -> int:
     args.stress = _one_stress(args.stress)
     if args.record is not None:
         raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
+    if args.preset is not None:
+        stress, targets = PRESETS[args.preset]
+        args.stress = stress if args.stress is None else args.stress
+        args.targets = list(targets) if args.targets is None else args.targets
     for name in ("strain", "decimate", "baseline"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: only for the seismic and cyclic-shear tests"
@@ -145,8 +155,27 @@ def run(args) -> int:
                   f"{c['peak_stress_Pa']:9.4g} Pa: residual strain {c['residual_strain']:+.3e}, "
                   f"wall work {c['wall_work_J']:.3e} J, law dissipation "
                   f"{c['law_dissipated_J']:.3e} J")
+            print(f"    e {c['peak_void_ratio']:.4f} at the peak, {c['valley_void_ratio']:.4f} "
+                  f"at the valley; M reload {_mpa(c['reload_modulus_Pa'])}, unload "
+                  f"{_mpa(c['unload_modulus_Pa'])} (initial "
+                  f"{_mpa(c['unload_modulus_initial_Pa'])}); Cc {_num(c['compression_index'])}, "
+                  f"Cs {_num(c['swelling_index'])}; loop area {c['loop_area_J_m3']:.4g} J/m3")
+        if s["calibrated_range"] is not None:
+            r = s["calibrated_range"]
+            print(f"  calibrated range: {r['beyond_range_contacts']} contacts beyond the file's "
+                  f"depth {_num(r['calibrated_max_depth'])} at the end (deepest "
+                  f"{r['beyond_range_max_depth']:.4g} delta_y); walls "
+                  f"{r['walls_beyond_range_contacts']}")
     print(f"wrote {args.out}")
     return 0
+
+
+def _num(value) -> str:
+    return "-" if value is None else f"{value:.4g}"
+
+
+def _mpa(value) -> str:
+    return "-" if value is None else f"{value / 1e6:.4g} MPa"
 
 
 def contact_choice(choice: str) -> tuple[str, ...]:

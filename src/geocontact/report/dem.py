@@ -25,8 +25,10 @@ def is_dem(directory: Path) -> bool:
 
 def _series(directory: Path, contact: str) -> dict[str, np.ndarray]:
     path = directory / contact / "series.csv"
-    return {k: read_csv_column(path, k) for k in ("step", "strain", "stress_Pa",
-                                                  "contacts_per_grain")}
+    names = ("step", "strain", "stress_Pa", "contacts_per_grain")
+    if "void_ratio" in path.read_text().partition("\n")[0].split(","):  # runs since issue 35
+        names += ("void_ratio",)
+    return {k: read_csv_column(path, k) for k in names}
 
 
 LEDGER_CHANNELS = (("Δ kinetic", ("change_kinetic_J",)),
@@ -72,6 +74,43 @@ def ledger_figure(ledgers: dict[str, dict], figures: Path, name: str, caption: s
     return save_to_figures(fig, figures, Figure(name, "Energy ledger", caption, data))
 
 
+def _number(value, scale: float = 1.0):
+    return "—" if value is None else value * scale
+
+
+def compressibility_items(directory: Path, runs: dict, tag: str, figures: Path) -> list:
+    """The oedometer as geotechnical engineers read it: void ratio against log10 of the vertical
+    stress with the unload-reload loops, and a table of each cycle's void ratios, constrained
+    moduli, compression and swelling indices and loop area (docs/dem.md)."""
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    data: dict[str, np.ndarray] = {}
+    rows = []
+    for contact, r in runs.items():
+        t = _series(directory, contact)
+        keep = (t["step"] >= r["cycle_start_step"]) & (t["stress_Pa"] > 0)
+        ax.semilogx(t["stress_Pa"][keep], t["void_ratio"][keep], lw=0.8, label=contact,
+                    color=COLOURS[contact])
+        data[f"{contact}_stress_Pa"] = t["stress_Pa"][keep]
+        data[f"{contact}_void_ratio"] = t["void_ratio"][keep]
+        for c in r["cycles"]:
+            rows.append([contact, c["cycle"], c["peak_stress_Pa"] / 1e3, c["peak_void_ratio"],
+                         c["valley_void_ratio"], _number(c["reload_modulus_Pa"], 1e-6),
+                         _number(c["unload_modulus_Pa"], 1e-6),
+                         _number(c["unload_modulus_initial_Pa"], 1e-6),
+                         _number(c["compression_index"]), _number(c["swelling_index"]),
+                         c["loop_area_J_m3"]])
+    ax.set_xlabel("vertical stress σ'v (Pa)")
+    ax.set_ylabel("void ratio e")
+    ax.legend(fontsize=8)
+    figure = save_to_figures(fig, figures, Figure(
+        f"{tag}_void_ratio", "Void ratio against log vertical stress",
+        "e = V_voids / V_solid from the top wall's position; the cycles' unload-reload loops "
+        "(docs/dem.md, \"Compressibility\").", data))
+    return [figure, table(["contact", "cycle", "peak σ'v (kPa)", "e peak", "e valley",
+                           "M reload (MPa)", "M unload (MPa)", "M unload initial (MPa)", "Cc",
+                           "Cs", "loop area (J/m³)"], rows)]
+
+
 def dem_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
     s = read_summary(directory)
     if s.get("test") == "seismic":
@@ -109,6 +148,10 @@ def dem_section(report: Report, directory: Path, root: Path, figures: Path) -> N
         f"{s['test']} of {next(iter(runs.values()))['grains']} grains, law {s['law_label']}; "
         "stress: contact virial over the sample volume; strain from the top wall's position.",
         data)))
+
+    if all("void_ratio" in _series(directory, c) and "swelling_index" in r["cycles"][0]
+           for c, r in runs.items()):
+        items += compressibility_items(directory, runs, tag, figures)
 
     # per cycle: residual strain, work of the top wall, law dissipation, coordination
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
