@@ -10,7 +10,8 @@
 6. the paper's three load histories through the calibrated law;
 7. a seismic record (Kobe 1995) with an aftershock through the calibrated law;
 8. a small DEM oedometer in LAMMPS (``geocontact dem``: 2000 grains, three repeated cycles, the
-   calibrated law beside granular Hertz-Mindlin; needs ``make plugin``);
+   calibrated law beside its grain's elastic law through the same pair style and LAMMPS's
+   granular Hertz-Mindlin, all damped to one restitution; needs ``make plugin``);
 9. ``geocontact report`` of the whole directory -> ``report.html``.
 
 Every FE run goes through the cached campaign (``fem.campaign``) or, for the reference cycle and
@@ -289,8 +290,8 @@ def _seismic(params, directory: Path, progress) -> dict:
 
 
 def _dem(law: Path, directory: Path, plan: Plan, progress) -> None:
-    """A small oedometer sample in LAMMPS with the calibrated law and with granular Hertz
-    (``geocontact dem oedometer``)."""
+    """A small oedometer sample in LAMMPS with the calibrated law, its grain's elastic law and
+    granular Hertz (``geocontact dem oedometer --contact all``)."""
     from ..analyses.dem import CONTACTS, Settings, run_dem
 
     settings = Settings(grains=plan.dem_grains, inertia=plan.dem_inertia,
