@@ -125,6 +125,10 @@ class PairGeocontact : public Pair {
   // told (once: the first energy step that finds one)
   double beyond_range_ = 0.0, deepest_beyond_ = 0.0;
   bool range_warned_ = false;
+  // pair_style geocontact memory place|pair: the dent forgotten once the contact point has
+  // travelled 2 a_max on either grain (place, the default), or kept for as long as the pair
+  // stays in the neighbor list (pair, the behaviour before; docs/dem.md "Memory with a place")
+  bool place_memory_ = true;
 };
 
 }  // namespace LAMMPS_NS
