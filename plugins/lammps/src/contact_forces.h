@@ -618,7 +618,10 @@ inline double dent_radius(const geocontact::LawParams &law, const geocontact::Co
 // carries with it as it moves (a steadily sliding contact keeps its Coulomb force), not a
 // property of the material under it; the change of the contact radius at the reset rescales the
 // tangential and twisting springs as any change of a does (radius_change), so none is created.
-// Returns true when the dent was forgotten. Call before the step's law update, with commit only.
+// `reset_stored` keeps the stored normal energy the resets changed, the old state's elastic
+// energy less the fresh one's (negative: energy the reset created), which is part of
+// `forgotten`. Returns true when the dent was forgotten. Call before the step's law update, with
+// commit only.
 template <class Record>
 inline bool track_place(const geocontact::LawParams &law, const StiffnessConstants &c,
                         const geocontact::Similarity &sim, Record &rec, double rate_i,
@@ -631,7 +634,10 @@ inline bool track_place(const geocontact::LawParams &law, const StiffnessConstan
   if (!(a_max > 0.0) || std::max(rec.travel[0], rec.travel[1]) <= 2.0 * a_max) return false;
   geocontact::ContactState fresh;
   geocontact::step(law, fresh, rec.law.approach);
-  rec.forgotten += sim.energy * c.energy_to_run * (rec.law.work - fresh.work);
+  const double energy = sim.energy * c.energy_to_run;
+  rec.forgotten += energy * (rec.law.work - fresh.work);
+  rec.reset_stored +=
+      energy * (geocontact::elastic_energy(law, rec.law) - geocontact::elastic_energy(law, fresh));
   rec.law = fresh;
   rec.travel[0] = rec.travel[1] = 0.0;
   return true;

@@ -104,6 +104,7 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = r.travel[0];
     buf[m++] = r.travel[1];
     buf[m++] = r.forgotten;
+    buf[m++] = r.reset_stored;
   }
   return m;
 }
@@ -131,6 +132,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     for (double &d : r.dissipated) d = with_ledger ? buf[m++] : 0.0;
     for (double &t : r.travel) t = with_travel ? buf[m++] : 0.0;
     r.forgotten = with_travel ? buf[m++] : 0.0;
+    r.reset_stored = with_travel ? buf[m++] : 0.0;
   }
   return m;
 }

@@ -57,14 +57,18 @@ struct ContactRecord {
   // fresh state's at the same approach, so the law's tally loses nothing at a reset
   double travel[2] = {0.0, 0.0};
   double forgotten = 0.0;
+  // of which: the stored normal energy the resets changed, old less fresh (negative: the fresh
+  // virgin state holds more than the dent did at the same approach, energy the reset created)
+  double reset_stored = 0.0;
 };
 
 class FixGeocontactHistory : public Fix {
  public:
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
   // rolling components, the twist angle, the energy scale, the law index, the contact radius
-  // and the ledger's channels, the two travelled distances and the forgotten law work
-  static constexpr int kRecordSize = 27 + geocontact_forces::kLedgerSlots;
+  // and the ledger's channels, the two travelled distances, the forgotten law work and its
+  // change of stored energy
+  static constexpr int kRecordSize = 28 + geocontact_forces::kLedgerSlots;
   // Per-atom restart layout: bumped whenever the packed record changes. Versions 1 (records
   // without rolling and twist, kRecordSizeV1 doubles), 2 (without the energy scale and law
   // index, kRecordSizeV2), 3 (without the contact radius, kRecordSizeV3) and 4 (without the

@@ -37,7 +37,7 @@ constexpr double kDefaultFriction = 0.5;
 constexpr int kRestartTag = 0x53504347;
 // Version 2 adds the rolling and twisting coefficients of each type pair, version 3 the law's
 // dissipation of the dropped contacts, version 4 their other ledger channels, version 5 the
-// memory keyword; older versions are read without them (at zero; memory: place, the default).
+// memory keyword and the dropped contacts' memory-reset energy; older versions are read without them (at zero; memory: place, the default).
 constexpr int kRestartLayoutVersion = 5;
 
 }  // namespace
@@ -303,7 +303,8 @@ void PairGeocontact::index_contacts()
   }
   // A dropped record takes its pair's dissipation with it: each pair has one record per grain
   // (newton off: a pair across ranks keeps one on each), so each dropped record carries half.
-  double departed[1 + kLedgerSlots] = {};  // the law's, then the ledger's channels
+  // the law's, the ledger's channels, then the memory resets' change of stored energy
+  double departed[2 + kLedgerSlots] = {};
   for (int i = 0; i < nlocal; ++i) {
     auto &table = tables[i];
     size_t kept = 0;
@@ -318,12 +319,14 @@ void PairGeocontact::index_contacts()
                          geocontact::dissipated_energy(laws_[gone.law_index], gone.law);
         departed[0] += 0.5 * gone.forgotten;
         for (int c = 0; c < kLedgerSlots; ++c) departed[1 + c] += 0.5 * gone.dissipated[c];
+        departed[1 + kLedgerSlots] += 0.5 * gone.reset_stored;
       }
     }
     table.resize(kept);
   }
-  double departed_all[1 + kLedgerSlots] = {};
-  MPI_Allreduce(departed, departed_all, 1 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  double departed_all[2 + kLedgerSlots] = {};
+  MPI_Allreduce(departed, departed_all, 2 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  departed_reset_ += departed_all[1 + kLedgerSlots];
   departed_dissipation_ += departed_all[0];
   for (int c = 0; c < kLedgerSlots; ++c) departed_ledger_[c] += departed_all[1 + c];
   for (int ii = 0; ii < inum; ++ii) {
@@ -397,6 +400,7 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   const double energy_scale = sim.energy * constants.energy_to_run;
   const double stored = energy_scale * geocontact::elastic_energy(law, state);
   pvector[GV_DISSIPATED] += w * (energy_scale * state.work - stored + rec.forgotten);
+  pvector[GV_MEMORY_RESET] += w * rec.reset_stored;
   pvector[GV_ELASTIC] += w * stored;
   if (state.force > 0.0) pvector[GV_CONTACTS] += w;
   if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
@@ -500,6 +504,7 @@ void PairGeocontact::compute(int eflag, int vflag)
     if (comm->me == 0) {  // summed over ranks
       pvector[GV_DISSIPATED] = departed_dissipation_;
       for (int c = 0; c < kLedgerSlots; ++c) pvector[GV_SLIDING + c] = departed_ledger_[c];
+      pvector[GV_MEMORY_RESET] = departed_reset_;
     }
   }
 
@@ -549,7 +554,7 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.law = geocontact::ContactState();
         clear_springs(rec);
         clear_ledger(rec);
-        rec.travel[0] = rec.travel[1] = rec.forgotten = 0.0;
+        rec.travel[0] = rec.travel[1] = rec.forgotten = rec.reset_stored = 0.0;
       } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
         rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
       }
@@ -637,7 +642,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so
 // a restart is self-contained, then per type pair the law index, friction and damping, and
 // (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, (version 3)
-// the law's dissipation of the contacts already dropped and (version 4) their ledger channels.
+// the law's dissipation of the contacts already dropped, (version 4) their ledger channels and
+// (version 5) the memory keyword and their memory resets' change of stored energy.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -667,6 +673,7 @@ void PairGeocontact::write_restart(FILE *fp)
   fwrite(departed_ledger_, sizeof(double), kLedgerSlots, fp);  // version 4
   const int memory = place_memory_ ? 1 : 0;  // version 5
   fwrite(&memory, sizeof(int), 1, fp);
+  fwrite(&departed_reset_, sizeof(double), 1, fp);
 }
 
 void PairGeocontact::read_restart(FILE *fp)
@@ -737,6 +744,10 @@ void PairGeocontact::read_restart(FILE *fp)
     utils::sfread(FLERR, &memory, sizeof(int), 1, fp, nullptr, error);
   MPI_Bcast(&memory, 1, MPI_INT, 0, world);
   place_memory_ = memory != 0;
+  departed_reset_ = 0.0;  // versions 1-4: no resets
+  if (layout[1] >= 5 && me == 0)
+    utils::sfread(FLERR, &departed_reset_, sizeof(double), 1, fp, nullptr, error);
+  MPI_Bcast(&departed_reset_, 1, MPI_DOUBLE, 0, world);
 }
 
 double PairGeocontact::memory_usage()
