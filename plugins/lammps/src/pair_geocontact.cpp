@@ -103,10 +103,12 @@ static void require_sphere(Atom *atom, Error *error)
                atom->atom_style);
 }
 
-// pair_style geocontact [memory place|pair]
+// pair_style geocontact [memory pair|place]: pair (the default) keeps a contact's dent however far
+// its point moves; place forgets it past the contact diameter, an instantaneous reset that can
+// store more normal energy than the dent held (docs/dem.md, "Memory with a place")
 void PairGeocontact::settings(int narg, char **arg)
 {
-  place_memory_ = true;
+  place_memory_ = false;
   for (int iarg = 0; iarg < narg; iarg += 2) {
     if (strcmp(arg[iarg], "memory") != 0)
       error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (allowed: "
@@ -739,7 +741,7 @@ void PairGeocontact::read_restart(FILE *fp)
   if (layout[1] >= 4 && me == 0)
     utils::sfread(FLERR, departed_ledger_, sizeof(double), kLedgerSlots, fp, nullptr, error);
   MPI_Bcast(departed_ledger_, kLedgerSlots, MPI_DOUBLE, 0, world);
-  int memory = 1;  // versions 1-4: not recorded, the default (place)
+  int memory = 0;  // versions 1-4: not recorded, the behaviour they had (pair)
   if (layout[1] >= 5 && me == 0)
     utils::sfread(FLERR, &memory, sizeof(int), 1, fp, nullptr, error);
   MPI_Bcast(&memory, 1, MPI_INT, 0, world);
