@@ -267,13 +267,14 @@ def test_restart_with_rolling_and_twist_history_continues_as_the_uninterrupted_r
 
 
 @pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart", "pair-v3.restart",
-                                  "pair-v4.restart"])
+                                  "pair-v4.restart", "pair-v5.restart"])
 def test_pair_restart_files_of_older_layouts_are_still_read(name):
     """Files written by older plugins (tests/data/make_layout_restarts.py): version 1, before
     rolling, version 2, before the cumulative dissipation tally, version 3, before the contact
-    radius in the record, and version 4, before the energy ledger: the pair's contacts carry on
-    as the same run with this plugin (zero rolling and twist history; the energy scale set and
-    the contact radius taken from the law state at the next step; the ledger from zero). The
+    radius in the record, version 4, before the energy ledger, and version 5, before the
+    travelled distances: the pair's contacts carry on as the same run with this plugin (zero
+    rolling and twist history; the energy scale set and the contact radius taken from the law
+    state at the next step; the ledger from zero; travel 0, far below the dent's diameter here). The
     normal history is the run's to round-off. The tangential force these plugins stored was
     not rescaled as the contact radius fell (issue 34), so the file's differs from this
     plugin's run: it is rescaled at the first step (and never above the Coulomb limit), and

@@ -9,6 +9,8 @@ Version 2 (before the cumulative dissipation tally; commit e6b383e): pair-v2.res
 layout did not change).
 Version 3 (before the contact radius in the records, when the tangential force was not rescaled
 with it; commit 6d76908): pair-v3.restart and wall-v2.restart (the wall's layout version 2).
+Version 5 (before the travelled distances of memory with a place; commit 8ae4650):
+pair-v5.restart (the pair's own section at its layout version 4; the wall's did not change).
 
 pair-vN.restart: the slipping pair of test_lammps_plugin.py after PAIR_STEPS steps of its
 approach path (plastic, unloading, a tangential force built up); wall-vN.restart: the grain of

@@ -9,6 +9,7 @@
 
 #include "geocontact/law.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -556,6 +557,90 @@ inline ContactResult contact_step(const geocontact::LawParams &law, const Stiffn
     for (int m = 0; m < 3; ++m) out.torque[m] += twist[m];
   }
   return out;
+}
+
+// --- memory with a place (docs/dem.md "Memory with a place") ----------------------------------
+//
+// The law's state (delta_max, delta_res, the branch) is a dent in the material of the grains at
+// the spot where they touch. When the grains slide or roll, the contact point moves over their
+// surfaces; once it has moved by more than the dent's diameter 2 a_max on either grain, the
+// contact presses material that was never loaded, and the law starts again from untouched.
+//
+// How far the contact point moves on grain i's surface. Body i's centre is x_i, the unit normal
+// n = (x_i - x_j) / r points towards i, and the contact point is c = x_i - b_i n with the arm
+// b_i = r_i - delta/2 (contact_frame). The material point of i at c moves with
+// v_i + w_i x (c - x_i) = v_i - b_i w_i x n; the contact point with dc/dt = v_i - b_i dn/dt
+// - (db_i/dt) n. Their difference, dc/dt - v_mat = -b_i (dn/dt - w_i x n) - (db_i/dt) n, has the
+// tangential part -b_i (dn/dt - w_i x n) (dn/dt and w_i x n are both normal to n, as |n| = 1);
+// the normal part is the indentation, not a move along the surface. On j, c = x_j + b_j n and the
+// same steps give b_j (dn/dt - w_j x n). With dn/dt = (v_r - (v_r . n) n) / r, v_r = v_i - v_j:
+// one grain sliding round a fixed, non-spinning other one at tangential speed u moves the point
+// by b_i u / r on i and b_j u / r on j (together u, the slip); rolling without slip moves it by
+// the same arc on both. Each step adds |.| dt to the distance travelled on each grain.
+inline void travel_rates(const double *n, const double *vi, const double *vj, const double *wi,
+                         const double *wj, double r, double armi, double armj, double &rate_i,
+                         double &rate_j)
+{
+  const double vr[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
+  const double vn = dot3(vr, n);
+  double ndot[3], wn_i[3], wn_j[3];
+  for (int k = 0; k < 3; ++k) ndot[k] = (vr[k] - vn * n[k]) / r;
+  cross3(wi, n, wn_i);
+  cross3(wj, n, wn_j);
+  const double di[3] = {ndot[0] - wn_i[0], ndot[1] - wn_i[1], ndot[2] - wn_i[2]};
+  const double dj[3] = {ndot[0] - wn_j[0], ndot[1] - wn_j[1], ndot[2] - wn_j[2]};
+  rate_i = armi * std::sqrt(dot3(di, di));
+  rate_j = armj * std::sqrt(dot3(dj, dj));
+}
+
+// The dent's radius a_max: the contact radius at the top of its envelope (F = F_max at
+// delta_max), in the law's SI units; 0 for a contact never loaded.
+inline double dent_radius(const geocontact::LawParams &law, const geocontact::ContactState &s)
+{
+  if (!s.touched() || !(s.max_force > 0.0)) return 0.0;
+  geocontact::ContactState top = s;
+  top.approach = s.max_approach + s.ratchet_shift;
+  top.force = s.max_force;
+  return geocontact::contact_radius(law, top);
+}
+
+// Advance the distances the contact point travelled on each grain over the step (`Record`: the
+// pair's, with travel[2] and forgotten) and forget the dent once either passes 2 a_max: the law
+// restarts untouched at the approach of its last step, and `forgotten` keeps the law's work.
+// Only a contact that yielded has a dent; an elastic one has nothing to forget. The law's tally
+// is work - elastic energy, so the old state's work less the fresh state's work at the same
+// approach keeps the total (law tally + stored normal energy) unchanged at the reset: the
+// elastic energy the fresh virgin state holds differs from the old dent's, and that difference
+// is booked in the law's channel (it can lower it), which keeps the ledger closed; physically
+// the sliding or rolling that carried the contact onto fresh material pays for it (ploughing,
+// which the model does not resolve). The tangential, rolling and twisting springs are kept:
+// they are the elastic shear and bending of the grains round the contact, which the contact
+// carries with it as it moves (a steadily sliding contact keeps its Coulomb force), not a
+// property of the material under it; the change of the contact radius at the reset rescales the
+// tangential and twisting springs as any change of a does (radius_change), so none is created.
+// `reset_stored` keeps the stored normal energy the resets changed, the old state's elastic
+// energy less the fresh one's (negative: energy the reset created), which is part of
+// `forgotten`. Returns true when the dent was forgotten. Call before the step's law update, with
+// commit only.
+template <class Record>
+inline bool track_place(const geocontact::LawParams &law, const StiffnessConstants &c,
+                        const geocontact::Similarity &sim, Record &rec, double rate_i,
+                        double rate_j, double dt)
+{
+  rec.travel[0] += rate_i * dt;
+  rec.travel[1] += rate_j * dt;
+  if (!(rec.law.max_approach > law.yield_approach)) return false;
+  const double a_max = sim.scale * c.length_to_run * dent_radius(law, rec.law);
+  if (!(a_max > 0.0) || std::max(rec.travel[0], rec.travel[1]) <= 2.0 * a_max) return false;
+  geocontact::ContactState fresh;
+  geocontact::step(law, fresh, rec.law.approach);
+  const double energy = sim.energy * c.energy_to_run;
+  rec.forgotten += energy * (rec.law.work - fresh.work);
+  rec.reset_stored +=
+      energy * (geocontact::elastic_energy(law, rec.law) - geocontact::elastic_energy(law, fresh));
+  rec.law = fresh;
+  rec.travel[0] = rec.travel[1] = 0.0;
+  return true;
 }
 
 }  // namespace geocontact_forces

@@ -101,6 +101,10 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = static_cast<double>(r.law_index);
     buf[m++] = r.contact_radius;
     for (double d : r.dissipated) buf[m++] = d;
+    buf[m++] = r.travel[0];
+    buf[m++] = r.travel[1];
+    buf[m++] = r.forgotten;
+    buf[m++] = r.reset_stored;
   }
   return m;
 }
@@ -110,6 +114,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
 {
   const bool with_rolling = layout_version >= 2, with_scale = layout_version >= 3;
   const bool with_radius = layout_version >= 4, with_ledger = layout_version >= 5;
+  const bool with_travel = layout_version >= 6;
   int m = 0;
   const int n = static_cast<int>(buf[m++]);
   table.resize(n);
@@ -125,6 +130,9 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     r.law_index = with_scale ? static_cast<int>(buf[m++]) : 0;
     r.contact_radius = with_radius ? buf[m++] : -1.0;
     for (double &d : r.dissipated) d = with_ledger ? buf[m++] : 0.0;
+    for (double &t : r.travel) t = with_travel ? buf[m++] : 0.0;
+    r.forgotten = with_travel ? buf[m++] : 0.0;
+    r.reset_stored = with_travel ? buf[m++] : 0.0;
   }
   return m;
 }
@@ -157,7 +165,8 @@ int FixGeocontactHistory::pack_restart(int i, double *buf)
 // Layout version 1 (no rolling and twist slots) is read with both at zero, version 2 (no
 // energy scale) with the scale unknown until the record's next step, version 3 (no contact
 // radius) with the radius taken from the law state at the record's next step, version 4 (no
-// ledger) with the ledger at zero.
+// ledger) with the ledger at zero, version 5 (no travelled distances) with travel 0 and nothing
+// forgotten.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -173,6 +182,7 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
                    : version == 2 ? kRecordSizeV2
                    : version == 3 ? kRecordSizeV3
                    : version == 4 ? kRecordSizeV4
+                   : version == 5 ? kRecordSizeV5
                                   : kRecordSize;
   const int count =
       version >= 1 && version <= kRestartLayoutVersion ? static_cast<int>(record[2]) : -1;

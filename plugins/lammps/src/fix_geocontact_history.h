@@ -50,25 +50,39 @@ struct ContactRecord {
   // its dashpots, sliding, rolling and twisting dissipated since it formed; the same on both
   // atoms
   double dissipated[geocontact_forces::kLedgerSlots] = {};
+  // memory with a place (contact_forces.h track_place): how far the contact point has moved on
+  // this atom's surface [0] and on the partner's [1] since the law's envelope was last set (run
+  // lengths; swapped in the partner's mirror), and the law's work carried over the dents the
+  // contact has forgotten (run energy units, the same on both atoms): the old work less the
+  // fresh state's at the same approach, so the law's tally loses nothing at a reset
+  double travel[2] = {0.0, 0.0};
+  double forgotten = 0.0;
+  // of which: the stored normal energy the resets changed, old less fresh (negative: the fresh
+  // virgin state holds more than the dent did at the same approach, energy the reset created)
+  double reset_stored = 0.0;
 };
 
 class FixGeocontactHistory : public Fix {
  public:
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
   // rolling components, the twist angle, the energy scale, the law index, the contact radius
-  // and the ledger's channels
-  static constexpr int kRecordSize = 24 + geocontact_forces::kLedgerSlots;
+  // and the ledger's channels, the two travelled distances, the forgotten law work and its
+  // change of stored energy
+  static constexpr int kRecordSize = 28 + geocontact_forces::kLedgerSlots;
   // Per-atom restart layout: bumped whenever the packed record changes. Versions 1 (records
   // without rolling and twist, kRecordSizeV1 doubles), 2 (without the energy scale and law
   // index, kRecordSizeV2), 3 (without the contact radius, kRecordSizeV3) and 4 (without the
-  // energy ledger, kRecordSizeV4) are still read: contacts that have not rolled or twisted yet,
-  // whose energy scale the next step sets, whose contact radius is taken from their law state,
-  // and whose ledger starts at zero (what they dissipated before is not known).
-  static constexpr int kRestartLayoutVersion = 5;
+  // energy ledger, kRecordSizeV4) and 5 (without the travelled distances and the forgotten law
+  // work, kRecordSizeV5) are still read: contacts that have not rolled or twisted yet, whose
+  // energy scale the next step sets, whose contact radius is taken from their law state, whose
+  // ledger starts at zero (what they dissipated before is not known) and whose contact point
+  // has not travelled yet (travel 0, nothing forgotten).
+  static constexpr int kRestartLayoutVersion = 6;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
   static constexpr int kRecordSizeV3 = 23;
   static constexpr int kRecordSizeV4 = 24;
+  static constexpr int kRecordSizeV5 = 24 + geocontact_forces::kLedgerSlots;
   // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
   // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
   // it travels as the bit pattern of a (normal, finite) double.

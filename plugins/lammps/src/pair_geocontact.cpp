@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 using namespace LAMMPS_NS;
@@ -35,9 +36,9 @@ constexpr double kDefaultFriction = 0.5;
 // version whenever write_restart changes.
 constexpr int kRestartTag = 0x53504347;
 // Version 2 adds the rolling and twisting coefficients of each type pair, version 3 the law's
-// dissipation of the dropped contacts, version 4 their other ledger channels; older versions
-// are read without them (at zero).
-constexpr int kRestartLayoutVersion = 4;
+// dissipation of the dropped contacts, version 4 their other ledger channels, version 5 the
+// memory keyword and the dropped contacts' memory-reset energy; older versions are read without them (at zero; memory: place, the default).
+constexpr int kRestartLayoutVersion = 5;
 
 }  // namespace
 
@@ -102,11 +103,25 @@ static void require_sphere(Atom *atom, Error *error)
                atom->atom_style);
 }
 
+// pair_style geocontact [memory pair|place]: pair (the default) keeps a contact's dent however far
+// its point moves; place forgets it past the contact diameter, an instantaneous reset that can
+// store more normal energy than the dent held (docs/dem.md, "Memory with a place")
 void PairGeocontact::settings(int narg, char **arg)
 {
-  if (narg != 0)
-    error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (the "
-                      "parameters go in pair_coeff * * P.json)", arg[0]);
+  place_memory_ = false;
+  for (int iarg = 0; iarg < narg; iarg += 2) {
+    if (strcmp(arg[iarg], "memory") != 0)
+      error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (allowed: "
+                        "memory place|pair; the parameters go in pair_coeff * * P.json)",
+                 arg[iarg]);
+    if (iarg + 1 >= narg)
+      error->all(FLERR, "pair_style geocontact: keyword 'memory' needs a value (place or pair)");
+    if (strcmp(arg[iarg + 1], "place") == 0) place_memory_ = true;
+    else if (strcmp(arg[iarg + 1], "pair") == 0) place_memory_ = false;
+    else
+      error->all(FLERR, "pair_style geocontact: memory must be place or pair, got '{}'",
+                 arg[iarg + 1]);
+  }
 }
 
 // Keep one copy of each distinct parameter document.
@@ -290,7 +305,8 @@ void PairGeocontact::index_contacts()
   }
   // A dropped record takes its pair's dissipation with it: each pair has one record per grain
   // (newton off: a pair across ranks keeps one on each), so each dropped record carries half.
-  double departed[1 + kLedgerSlots] = {};  // the law's, then the ledger's channels
+  // the law's, the ledger's channels, then the memory resets' change of stored energy
+  double departed[2 + kLedgerSlots] = {};
   for (int i = 0; i < nlocal; ++i) {
     auto &table = tables[i];
     size_t kept = 0;
@@ -303,13 +319,16 @@ void PairGeocontact::index_contacts()
           departed[0] += 0.5 * gone.energy_scale *
                          stiffness_constants_[gone.law_index].energy_to_run *
                          geocontact::dissipated_energy(laws_[gone.law_index], gone.law);
+        departed[0] += 0.5 * gone.forgotten;
         for (int c = 0; c < kLedgerSlots; ++c) departed[1 + c] += 0.5 * gone.dissipated[c];
+        departed[1 + kLedgerSlots] += 0.5 * gone.reset_stored;
       }
     }
     table.resize(kept);
   }
-  double departed_all[1 + kLedgerSlots] = {};
-  MPI_Allreduce(departed, departed_all, 1 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  double departed_all[2 + kLedgerSlots] = {};
+  MPI_Allreduce(departed, departed_all, 2 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  departed_reset_ += departed_all[1 + kLedgerSlots];
   departed_dissipation_ += departed_all[0];
   for (int c = 0; c < kLedgerSlots; ++c) departed_ledger_[c] += departed_all[1 + c];
   for (int ii = 0; ii < inum; ++ii) {
@@ -359,6 +378,7 @@ void PairGeocontact::sync_mirrors()
         ContactRecord mirror = pair_records_[k];
         mirror.partner = tag[i];
         for (int c = 0; c < 3; ++c) mirror.tangential[c] = -mirror.tangential[c];
+        std::swap(mirror.travel[0], mirror.travel[1]);
         store(j, mirror);
       }
     }
@@ -381,7 +401,8 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   const double w = owned_pair ? 1.0 : 0.5;
   const double energy_scale = sim.energy * constants.energy_to_run;
   const double stored = energy_scale * geocontact::elastic_energy(law, state);
-  pvector[GV_DISSIPATED] += w * (energy_scale * state.work - stored);
+  pvector[GV_DISSIPATED] += w * (energy_scale * state.work - stored + rec.forgotten);
+  pvector[GV_MEMORY_RESET] += w * rec.reset_stored;
   pvector[GV_ELASTIC] += w * stored;
   if (state.force > 0.0) pvector[GV_CONTACTS] += w;
   if (state.max_approach > law.yield_approach) pvector[GV_PLASTIC_CONTACTS] += w;
@@ -485,6 +506,7 @@ void PairGeocontact::compute(int eflag, int vflag)
     if (comm->me == 0) {  // summed over ranks
       pvector[GV_DISSIPATED] = departed_dissipation_;
       for (int c = 0; c < kLedgerSlots; ++c) pvector[GV_SLIDING + c] = departed_ledger_[c];
+      pvector[GV_MEMORY_RESET] = departed_reset_;
     }
   }
 
@@ -534,6 +556,7 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.law = geocontact::ContactState();
         clear_springs(rec);
         clear_ledger(rec);
+        rec.travel[0] = rec.travel[1] = rec.forgotten = rec.reset_stored = 0.0;
       } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
         rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
       }
@@ -546,8 +569,18 @@ void PairGeocontact::compute(int eflag, int vflag)
                                      radi - half, radius[j] - half, radi * radius[j] / radsum,
                                      reduced_mass(rmass[i], rmass[j])};
       const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
+      if (commit && known && place_memory_) {
+        double rate_i = 0.0, rate_j = 0.0;
+        travel_rates(n, v[i], v[j], omega[i], omega[j], r, geometry.armi, geometry.armj, rate_i,
+                     rate_j);
+        track_place(law, constants, sim, rec, rate_i, rate_j, dt);
+      }
+      const double envelope = rec.law.max_approach;
       const ContactResult res =
           contact_step(law, constants, cc, rec, geometry, dt, commit);
+      // the envelope set anew (virgin loading): the dent is where the contact is now
+      if (rec.law.max_approach > envelope)
+        rec.travel[0] = rec.travel[1] = 0.0;
       rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
       if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
@@ -603,7 +636,7 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
   svector[SV_BRANCH] = st.branch;
   svector[SV_CYCLES] = st.cycles;
   svector[SV_WORK] = energy * st.work;
-  svector[SV_DISSIPATED] = energy * geocontact::dissipated_energy(law, st);
+  svector[SV_DISSIPATED] = energy * geocontact::dissipated_energy(law, st) + rec.forgotten;
   svector[SV_CONTACT_RADIUS] = length * geocontact::contact_radius(law, st);
   return energy * geocontact::elastic_energy(law, st);
 }
@@ -611,7 +644,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 // Restart: the layout tag and version, the parameter documents themselves (not their paths), so
 // a restart is self-contained, then per type pair the law index, friction and damping, and
 // (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, (version 3)
-// the law's dissipation of the contacts already dropped and (version 4) their ledger channels.
+// the law's dissipation of the contacts already dropped, (version 4) their ledger channels and
+// (version 5) the memory keyword and their memory resets' change of stored energy.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -639,6 +673,9 @@ void PairGeocontact::write_restart(FILE *fp)
     }
   fwrite(&departed_dissipation_, sizeof(double), 1, fp);  // version 3
   fwrite(departed_ledger_, sizeof(double), kLedgerSlots, fp);  // version 4
+  const int memory = place_memory_ ? 1 : 0;  // version 5
+  fwrite(&memory, sizeof(int), 1, fp);
+  fwrite(&departed_reset_, sizeof(double), 1, fp);
 }
 
 void PairGeocontact::read_restart(FILE *fp)
@@ -704,6 +741,15 @@ void PairGeocontact::read_restart(FILE *fp)
   if (layout[1] >= 4 && me == 0)
     utils::sfread(FLERR, departed_ledger_, sizeof(double), kLedgerSlots, fp, nullptr, error);
   MPI_Bcast(departed_ledger_, kLedgerSlots, MPI_DOUBLE, 0, world);
+  int memory = 0;  // versions 1-4: not recorded, the behaviour they had (pair)
+  if (layout[1] >= 5 && me == 0)
+    utils::sfread(FLERR, &memory, sizeof(int), 1, fp, nullptr, error);
+  MPI_Bcast(&memory, 1, MPI_INT, 0, world);
+  place_memory_ = memory != 0;
+  departed_reset_ = 0.0;  // versions 1-4: no resets
+  if (layout[1] >= 5 && me == 0)
+    utils::sfread(FLERR, &departed_reset_, sizeof(double), 1, fp, nullptr, error);
+  MPI_Bcast(&departed_reset_, 1, MPI_DOUBLE, 0, world);
 }
 
 double PairGeocontact::memory_usage()

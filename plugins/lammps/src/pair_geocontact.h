@@ -70,7 +70,7 @@ class PairGeocontact : public Pair {
     GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_MAX_STIFFNESS,
     GV_CRITICAL_DT, GV_SLIDING, GV_NORMAL_DAMPING, GV_TANGENTIAL_DAMPING, GV_ROLLING,
     GV_TWISTING, GV_RADIUS_CHANGE, GV_STORED_TANGENTIAL, GV_STORED_ROLLING, GV_STORED_TWISTING,
-    GV_BEYOND_RANGE, GV_DEEPEST_BEYOND, GV_COUNT
+    GV_BEYOND_RANGE, GV_DEEPEST_BEYOND, GV_MEMORY_RESET, GV_COUNT
   };
   static_assert(GV_RADIUS_CHANGE - GV_SLIDING + 1 == geocontact_forces::kLedgerSlots,
                 "the compute's ledger indices follow LedgerChannel");
@@ -119,12 +119,17 @@ class PairGeocontact : public Pair {
   double departed_dissipation_ = 0.0;
   // the same for the ledger's other channels (geocontact_forces::LedgerChannel)
   double departed_ledger_[geocontact_forces::kLedgerSlots] = {};
+  double departed_reset_ = 0.0;  // memory place: the dropped contacts' reset_stored
   double max_stiffness_ = 0.0;  // this rank's stiffest contact since the last energy step
   // this rank's contacts beyond their law's calibrated range at this energy step (weighted as
   // the other tallies) and the deepest of them (delta_max / delta_y), and whether the run was
   // told (once: the first energy step that finds one)
   double beyond_range_ = 0.0, deepest_beyond_ = 0.0;
   bool range_warned_ = false;
+  // pair_style geocontact memory place|pair: the dent forgotten once the contact point has
+  // travelled 2 a_max on either grain (place, the default), or kept for as long as the pair
+  // stays in the neighbor list (pair, the behaviour before; docs/dem.md "Memory with a place")
+  bool place_memory_ = true;
 };
 
 }  // namespace LAMMPS_NS
