@@ -169,6 +169,18 @@ def test_one_and_two_ranks_agree_statistically(tmp_path):
         ledger_closes(run)
 
 
+def test_memory_flag_reaches_the_pair_style(tmp_path):
+    """--memory place: the run's pair style forgets dents past the contact diameter
+    (docs/dem.md "Memory with a place"); the choice is in the run's log and its inputs."""
+    out = tmp_path / "oed"
+    assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "300", "--inertia", "1e-2",
+                 "--targets", "1.5", "0.5", "--contact", "geocontact", "--memory", "place",
+                 "--out", str(out)]) == 0
+    assert "pair_style geocontact memory place" in (out / "geocontact.log").read_text()
+    inputs = json.loads((out / "summary.json").read_text())["provenance"]["inputs"]
+    assert inputs["extra"]["memory"] == "place"
+
+
 def test_bad_arguments_one_line(tmp_path, capsys):
     assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "10",
                  "--out", str(tmp_path / "x")]) == 2

@@ -233,6 +233,8 @@ def test_report_section(study):
     (["--baseline", "linear"], "--baseline: must be elastic"),
     (["--restitution", "0.5"], "--restitution: not for the cyclic-shear test"),
     (["--targets", "1.5", "0.5"], "--targets: not for the cyclic-shear test"),
+    (["--memory", "place"], "--memory: not for the cyclic-shear test"),
+    (["--memory", "spot"], "argument --memory: invalid choice: 'spot'"),
     (["--grains", "10"], "--grains: must be in [50, 200000]"),
 ])
 def test_bad_inputs_one_line(tmp_path, capsys, args, message):

@@ -91,6 +91,10 @@ def register(sub) -> None:
                    help="oedometer: high-stress: --stress 5e5 and --targets 2 0.5 2 0.5 4 1 4 1 "
                         "(virgin loading to 1 and 2 MPa, each with an unload-reload loop to a "
                         "quarter; the contacts of mm grains yield well), unless given")
+    p.add_argument("--memory", default=None, choices=["pair", "place"],
+                   help="oedometer, seismic: pair_style geocontact memory: pair (default, the "
+                        "dent follows the pair) or place (forgotten past the contact diameter; "
+                        "docs/dem.md 'Memory with a place')")
     p.add_argument("--seed", type=int, default=None, help="random seed of the sample")
     p.add_argument("--out", help="output directory (written as one unit)")
     add_force_flag(p)
@@ -137,6 +141,8 @@ def run(args) -> int:
             setattr(settings, name, getattr(args, name))
     if args.targets is not None:
         settings.targets = tuple(args.targets)
+    if args.memory is not None:
+        settings.extra["memory"] = args.memory
     contacts = contact_choice(args.contact)
     with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
         document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
@@ -210,6 +216,8 @@ def run_seismic(args) -> int:
                  "decimate", "baseline", "restitution"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
+    if args.memory is not None:
+        settings.extra["memory"] = args.memory
     contacts = contact_choice(args.contact)
     with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
         document = run(args.record, args.law, settings, contacts=contacts, ranks=args.ranks,
@@ -243,7 +251,7 @@ def run_cyclic(args) -> int:
 
     if args.record is not None:
         raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
-    for name in ("strain", "decimate", "targets", "walls", "restitution"):
+    for name in ("strain", "decimate", "targets", "walls", "restitution", "memory"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}: not for the cyclic-shear test")
     if args.contact != "geocontact":
