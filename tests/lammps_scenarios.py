@@ -58,8 +58,17 @@ def run_scenario(ranks: int, *args: str) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "result.json"
         env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-        subprocess.run([str(mpiexec), "-n", str(ranks), sys.executable, str(Path(__file__)),
-                        *args, "--out", str(out)], check=True, env=env, timeout=600, cwd=tmp)
+        command = [str(mpiexec), "-n", str(ranks), sys.executable, str(Path(__file__)), *args,
+                   "--out", str(out)]
+        for attempt in (1, 2):
+            done = subprocess.run(command, env=env, timeout=600, cwd=tmp)
+            # exit code 9: mpiexec saw a rank killed by SIGKILL, which nothing in the run can
+            # raise (a crash is 11, an error 1); seen once in a clean-clone CI on the shared
+            # machine and not again in the same test rerun: run once more, then fail as before
+            if done.returncode != 9 or attempt == 2:
+                break
+        if done.returncode != 0:
+            raise subprocess.CalledProcessError(done.returncode, command)
         return json.loads(out.read_text())
 
 # Packing: cells per side, time step, steps per leg, wall displacement of each leg's end (m).
