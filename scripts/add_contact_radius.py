@@ -19,11 +19,11 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from add_calibrated_range import rewrite_linked  # noqa: E402  (a sibling script)
+from add_calibrated_range import rewrite_main  # noqa: E402  (a sibling script)
 
 from geocontact.calibrate.campaign import radius_level
 from geocontact.calibrate.contact_radius import fit_contact_radius
-from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
+from geocontact.errors import InputError
 from geocontact.fem.identity import load_result
 from geocontact.law.params import LawParams
 
@@ -48,23 +48,14 @@ def from_runs(params: LawParams, cache: str | Path | None = None) -> LawParams:
                    fit_errors={**params.fit_errors, "contact_radius": errors})
 
 
+def describe(params: LawParams) -> str:
+    worst = max(e["rms"] for e in params.fit_errors["contact_radius"]["below_envelope"])
+    return (f"contact_radius with {len(params.radius_table.depth)} knots; largest RMS below "
+            f"the envelope {worst:.2%}")
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python scripts/add_contact_radius.py",
-                            description=__doc__.split("\n\n")[0])
-    parser.add_argument("params", nargs="+", help="FE calibration files (P.json), rewritten")
-    parser.add_argument("--cache", default=None, help="FE cache of the runs (default: the "
-                                                      "file's provenance.inputs.cache)")
-
-    def run() -> int:
-        args = parser.parse_args(argv)
-        for name in args.params:
-            params = rewrite_linked(name, lambda p: from_runs(p, args.cache))
-            worst = max(e["rms"] for e in params.fit_errors["contact_radius"]["below_envelope"])
-            print(f"{name}: contact_radius with {len(params.radius_table.depth)} knots; "
-                  f"largest RMS below the envelope {worst:.2%}")
-        return 0
-
-    return run_reporting_errors(run)
+    return rewrite_main("add_contact_radius.py", __doc__, from_runs, describe, argv)
 
 
 if __name__ == "__main__":

@@ -231,7 +231,8 @@ def generate(params: LawParams, n_per_family: int = PER_FAMILY, seed: int = SEED
                 })
     return {
         "schema": GOLDEN_SCHEMA,
-        "generator": "python scripts/make_golden_vectors.py (scalar reference geocontact.law.Contact)",
+        "generator": ("python scripts/make_golden_vectors.py "
+                      "(scalar reference geocontact.law.Contact)"),
         "seed": seed,
         "params": variants,
         "cases": cases,

@@ -1,13 +1,12 @@
 """How many surface elements must span the contact radius (docs/model.md §5, mesh; issue 16).
 
-Part A, the threshold: an elastic grain (sigma_c = 1e15 Pa, E = 10 GPa, nu = 0.25, R = 0.1 m)
-on meshes of every preset sized for contact radii from the Hertz radius at 60 N to the one at
-6000 N (``mesh.build_mesh``), loaded elastically to 120 forces from 0.01 to 6000 N, so that the
-contact spans from a fraction of an element (the uniform tip region) to tens of them. At each
-force: the surface elements across the Hertz contact radius (``mesh.elements_across``) and the
-error of the FE approach and contact radius against Hertz (``geocontact.grain.hertz``). The table bins
-the largest errors by the number of elements; it is what ``mesh.MIN_ELEMENTS_ACROSS_CONTACT`` is
-chosen from.
+Part A, the threshold: an elastic grain (sigma_c = 1e15 Pa, E = 10 GPa, nu = 0.25, R = 0.1 m) on
+meshes of every preset sized for contact radii from the Hertz radius at 60 N to the one at 6000 N
+(``mesh.build_mesh``), loaded elastically to 120 forces from 0.01 to 6000 N, so that the contact
+spans from a fraction of an element (the uniform tip region) to tens of them. At each force: the
+surface elements across the Hertz contact radius (``mesh.elements_across``) and the error of the FE
+approach and contact radius against Hertz (``geocontact.grain.hertz``). The table bins the largest
+errors by the number of elements; it is what ``mesh.MIN_ELEMENTS_ACROSS_CONTACT`` is chosen from.
 
 Part B, the runs: ``run_history`` of that grain on its own mesh (sized by ``history_mesh`` from
 the history's smallest load step): 0 -> 6000 N on the default mesh (the issue's new-user case)

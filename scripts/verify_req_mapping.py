@@ -1,14 +1,14 @@
 """How good is the r_eq mapping of unequal spheres (issue 11)?
 
-The law treats two spheres of radii r1 != r2 (one material) as two identical spheres of radius
-r_eq = 2 r1 r2 / (r1 + r2). This script measures the error of that mapping with the FE engine:
-two deformable spheres (``geocontact.fem.two_spheres``, r1 / r2 = 1, 2, 5 with r_eq = 0.1 m fixed) against
-the half model of the identical pair at r_eq (``geocontact.fem.run``), both under the same force
-history 0 -> 10 Fy -> 0 -> 100 Fy -> 0 -> 1000 Fy -> 0 (Fy: analytic first yield of the r_eq pair,
-``geocontact.grain.hertz``), reference material (``geocontact preset reference``, sigma_c = 10 MPa).
-FE against FE on the same mesh preset isolates the mapping from the law's fit error; the shipped
-calibrated law (examples/params-reference.json, calibrated at R = 0.1 m = r_eq, so no similarity
-scaling enters) is compared with the two-sphere FE as a second column.
+The law treats two spheres of radii r1 != r2 (one material) as two identical spheres of radius r_eq
+= 2 r1 r2 / (r1 + r2). This script measures the error of that mapping with the FE engine: two
+deformable spheres (``geocontact.fem.two_spheres``, r1 / r2 = 1, 2, 5 with r_eq = 0.1 m fixed)
+against the half model of the identical pair at r_eq (``geocontact.fem.run``), both under the same
+force history 0 -> 10 Fy -> 0 -> 100 Fy -> 0 -> 1000 Fy -> 0 (Fy: analytic first yield of the r_eq
+pair, ``geocontact.grain.hertz``), reference material (``geocontact preset reference``, sigma_c = 10
+MPa). FE against FE on the same mesh preset isolates the mapping from the law's fit error; the
+shipped calibrated law (examples/params-reference.json, calibrated at R = 0.1 m = r_eq, so no
+similarity scaling enters) is compared with the two-sphere FE as a second column.
 
 Per cycle (peak F = 10, 100, 1000 Fy) and ratio, errors of the mapping (r_eq prediction / pair - 1):
 - approach at the peak force (delta_max), force at the pair's peak approach (the half model's
