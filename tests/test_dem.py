@@ -17,6 +17,7 @@ import pytest
 
 from geocontact.analyses.dem import Settings, run_dem
 from geocontact.cli import main
+from geocontact.cli.dem import TESTS_TAKING
 from geocontact.files import read_csv_column, verify_manifest
 
 LAW = Path("examples/params-reference.json")
@@ -318,3 +319,31 @@ def test_high_stress_depth_against_the_calibrated_range(high_stress):
     assert lowest <= g["beyond_range_max_depth"] <= highest
     e = doc["runs"]["elastic"]["calibrated_range"]
     assert e["beyond_range_contacts"] == 0 == e["walls_beyond_range_contacts"]
+
+
+# A valid value of each flag that only some tests take (cli.dem.TESTS_TAKING).
+ONLY_SOME_TESTS = {
+    "preset": ["--preset", "high-stress"], "walls": ["--walls", "elastic"],
+    "targets": ["--targets", "1.5"], "strain": ["--strain", "0.01"],
+    "decimate": ["--decimate", "2"], "baseline": ["--baseline", "elastic"],
+    "restitution": ["--restitution", "0.5"], "memory": ["--memory", "place"],
+    "amplitudes": ["--amplitudes", "1e-6", "1e-5"], "cycles": ["--cycles", "3"],
+    "seeds": ["--seeds", "2"], "friction": ["--friction", "0.5"],
+    "damping": ["--damping", "0.1"], "drained": ["--drained"],
+}
+
+
+@pytest.mark.parametrize("flag", sorted(TESTS_TAKING))
+def test_every_test_refuses_the_flags_it_does_not_take(tmp_path, capsys, flag):
+    """Each flag of TESTS_TAKING, given to each test not in its entry: exit 2, one line naming
+    the flag and the tests that take it, nothing written."""
+    others = [t for t in ("oedometer", "seismic", "cyclic-shear") if t not in TESTS_TAKING[flag]]
+    assert others and set(ONLY_SOME_TESTS) == set(TESTS_TAKING)
+    for test in others:
+        record = ["KOBE/NIS000"] if test == "seismic" else []
+        assert main(["dem", test, *record, "--law", str(LAW), *ONLY_SOME_TESTS[flag],
+                     "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and f"--{flag}: only for the {TESTS_TAKING[flag][0]}" in err
+        assert f"not for {test}" in err
+        assert not (tmp_path / "x").exists()

@@ -231,9 +231,9 @@ def test_report_section(study):
     (["--stress", "1e5", "0.5"], "--stress: must be in [1, 1e+09]"),
     (["--baseline", "hertz"], "--baseline: must be elastic"),
     (["--baseline", "linear"], "--baseline: must be elastic"),
-    (["--restitution", "0.5"], "--restitution: not for the cyclic-shear test"),
-    (["--targets", "1.5", "0.5"], "--targets: not for the cyclic-shear test"),
-    (["--memory", "place"], "--memory: not for the cyclic-shear test"),
+    (["--restitution", "0.5"], "--restitution: only for the oedometer and seismic tests, not for cyclic-shear"),
+    (["--targets", "1.5", "0.5"], "--targets: only for the oedometer test, not for cyclic-shear"),
+    (["--memory", "place"], "--memory: only for the oedometer and seismic tests, not for cyclic-shear"),
     (["--memory", "spot"], "argument --memory: invalid choice: 'spot'"),
     (["--grains", "10"], "--grains: must be in [50, 200000]"),
 ])
@@ -255,7 +255,7 @@ def test_a_folder_of_the_users_is_not_written_into(tmp_path):
 
 
 def test_other_tests_refuse_cyclic_shear_flags(tmp_path, capsys):
-    for args, message in ((["oedometer", "--cycles", "3"], "--cycles: only for the cyclic-shear"),
+    for args, message in ((["oedometer", "--cycles", "3"], "--cycles: only for the cyclic-shear test, not for oedometer"),
                           (["oedometer", "--stress", "1", "2"], "--stress: one stress")):
         assert main(["dem", *args, "--law", str(LAW), "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err.strip()

@@ -102,6 +102,28 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+# The flags that only some tests take (the others are common to all three).
+TESTS_TAKING = {
+    "preset": ("oedometer",), "walls": ("oedometer",), "targets": ("oedometer",),
+    "strain": ("seismic",), "decimate": ("seismic",),
+    "baseline": ("seismic", "cyclic-shear"),
+    "restitution": ("oedometer", "seismic"), "memory": ("oedometer", "seismic"),
+    **dict.fromkeys(("amplitudes", "cycles", "seeds", "friction", "damping", "drained"),
+                    ("cyclic-shear",)),
+}
+
+
+def refuse_other_tests_flags(args) -> None:
+    """One line naming the first flag given that ``args.test`` does not take (TESTS_TAKING),
+    and the record given to a test other than seismic."""
+    for name, tests in TESTS_TAKING.items():
+        if args.test not in tests and getattr(args, name) not in (None, False):
+            raise InputError(f"--{name}: only for the {' and '.join(tests)} "
+                             f"test{'s' if len(tests) > 1 else ''}, not for {args.test}")
+    if args.record is not None and args.test != "seismic":
+        raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
+
+
 def _progress(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
@@ -113,28 +135,16 @@ def run(args) -> int:
         raise InputError("--law: missing (law parameters, geocontact.law/1 JSON)")
     if args.out is None:
         raise InputError("--out: missing (output directory)")
-    if args.preset is not None and args.test != "oedometer":
-        raise InputError("--preset: only for the oedometer test")
+    refuse_other_tests_flags(args)
     if args.test == "seismic":
         return run_seismic(args)
     if args.test == "cyclic-shear":
         return run_cyclic(args)
-    for name in ("amplitudes", "cycles", "seeds", "friction", "damping"):
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name}: only for the cyclic-shear test")
-    if args.drained:
-        raise InputError("--drained: only for the cyclic-shear test")
     args.stress = _one_stress(args.stress)
-    if args.record is not None:
-        raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
     if args.preset is not None:
         stress, targets = PRESETS[args.preset]
         args.stress = stress if args.stress is None else args.stress
         args.targets = list(targets) if args.targets is None else args.targets
-    for name in ("strain", "decimate", "baseline"):
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name}: only for the seismic and cyclic-shear tests"
-                             if name == "baseline" else f"--{name}: only for the seismic test")
     settings = Settings(grains=2000 if args.grains is None else args.grains)
     for name in ("stress", "radius", "spread", "inertia", "seed", "walls", "restitution"):
         if getattr(args, name) is not None:
@@ -198,14 +208,6 @@ def run_seismic(args) -> int:
     if args.record is None:
         raise InputError("record: missing (an AT2/CSV file, a FEMA P695 component such as "
                          "KOBE/NIS000, or ELCENTRO1940/ELC180)")
-    for name in ("walls", "targets"):
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name}: not for the seismic test")
-    for name in ("amplitudes", "cycles", "seeds", "friction", "damping"):
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name}: only for the cyclic-shear test")
-    if args.drained:
-        raise InputError("--drained: only for the cyclic-shear test")
     args.stress = _one_stress(args.stress)
     if args.baseline is not None and args.baseline not in ("none", "mean", "linear",
                                                            "quadratic"):
@@ -249,11 +251,6 @@ def _one_stress(stress: list[float] | None) -> float | None:
 def run_cyclic(args) -> int:
     from ..analyses.dem_cyclic import COMMAND, CyclicSettings, run_cyclic_shear
 
-    if args.record is not None:
-        raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
-    for name in ("strain", "decimate", "targets", "walls", "restitution", "memory"):
-        if getattr(args, name) is not None:
-            raise InputError(f"--{name}: not for the cyclic-shear test")
     if args.contact != "geocontact":
         raise InputError("--contact: not for the cyclic-shear test (it runs the law and "
                          "--baseline)")
