@@ -191,17 +191,18 @@ SAMPLE_STUDY ?= out/sample-study
 SAMPLE_STUDY_GRAINS ?= 1000
 sample-study: sample-study-reference sample-study-quartz-like
 	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json --stress 1e5 \
-	  --grains $$((2 * $(SAMPLE_STUDY_GRAINS))) --out $(SAMPLE_STUDY)/reference-twice-the-grains
+	  --cyclic-extension off --grains $$((2 * $(SAMPLE_STUDY_GRAINS))) \
+	  --out $(SAMPLE_STUDY)/reference-twice-the-grains
 	$(VENV)/bin/geocontact report $(SAMPLE_STUDY)
 sample-study-reference: $(STAMP) plugin
 	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json \
-	  --stress 1e2 1e5 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/reference
+	  --cyclic-extension off --stress 1e2 1e5 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/reference
 $(SAMPLE_STUDY)/params-quartz-like.json: $(STAMP) examples/sample-study/quartz-like.toml
 	mkdir -p $(SAMPLE_STUDY)
 	$(VENV)/bin/geocontact params --material examples/sample-study/quartz-like.toml --out $@
 sample-study-quartz-like: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
 	$(VENV)/bin/geocontact dem cyclic-shear --law $(SAMPLE_STUDY)/params-quartz-like.json \
-	  --stress 1e5 1e7 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/quartz-like
+	  --cyclic-extension off --stress 1e5 1e7 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/quartz-like
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
 # from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a

@@ -330,6 +330,7 @@ ONLY_SOME_TESTS = {
     "amplitudes": ["--amplitudes", "1e-6", "1e-5"], "cycles": ["--cycles", "3"],
     "seeds": ["--seeds", "2"], "friction": ["--friction", "0.5"],
     "damping": ["--damping", "0.1"], "drained": ["--drained"],
+    "cyclic_extension": ["--cyclic-extension", "off"],
 }
 
 
@@ -344,6 +345,7 @@ def test_every_test_refuses_the_flags_it_does_not_take(tmp_path, capsys, flag):
         assert main(["dem", test, *record, "--law", str(LAW), *ONLY_SOME_TESTS[flag],
                      "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err.strip()
-        assert "\n" not in err and f"--{flag}: only for the {TESTS_TAKING[flag][0]}" in err
+        option = flag.replace("_", "-")
+        assert "\n" not in err and f"--{option}: only for the {TESTS_TAKING[flag][0]}" in err
         assert f"not for {test}" in err
         assert not (tmp_path / "x").exists()

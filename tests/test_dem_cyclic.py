@@ -30,18 +30,6 @@ LAW = Path("examples/params-reference.json")
 TINY = {"grains": 100, "amplitudes": (1e-6, 1e-5, 1e-4), "cycles": 2, "seeds": 2}
 
 
-def without_ratchet(folder: Path) -> Path:
-    """The shipped FE calibration of the reference grain with its cyclic (ratchet) extension
-    off: in a sample the extension feeds energy into the grains' motion (see
-    test_the_ratchet_extension_feeds_the_grains_motion), which the tests of the measures must
-    not see."""
-    params = json.loads(LAW.read_text())
-    params["cyclic"]["enabled"] = False
-    path = folder / "params-reference-no-ratchet.json"
-    path.write_text(json.dumps(params, indent=1))
-    return path
-
-
 def _rows(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as handle:
         return list(csv.DictReader(handle))
@@ -50,9 +38,14 @@ def _rows(path: Path) -> list[dict[str, str]]:
 @pytest.fixture(scope="module")
 def study(tmp_path_factory) -> tuple[Path, dict, list[str]]:
     folder = tmp_path_factory.mktemp("cyclic")
-    out, law = folder / "study", without_ratchet(folder)
+    # the shipped reference calibration with its cyclic (ratchet) extension off: in a sample
+    # the extension feeds energy into the grains' motion (see
+    # test_the_ratchet_extension_leaves_the_grains_at_rest_under_micro_cycles), which the tests
+    # of the measures must not see
     lines: list[str] = []
-    doc = run_cyclic_shear(law, CyclicSettings(**TINY), out=out, progress=lines.append)
+    doc = run_cyclic_shear(LAW, CyclicSettings(**TINY, cyclic_extension="off"),
+                           out=folder / "study", progress=lines.append)
+    out = folder / "study"
     return out, doc, lines
 
 
@@ -90,6 +83,13 @@ def test_files_and_columns(study):
         else:  # the elastic law: Hertz up to R/2, where no contact goes
             assert r["beyond_range_contacts"] == 0
         assert (out / "runs" / r["run"] / "law-elastic.json").is_file() == (r["law"] == "elastic")
+        # --cyclic-extension off: the geocontact runs read the file with the extension off,
+        # kept beside the run; the shipped file itself has it on
+        read = out / "runs" / r["run"] / "law-no-cyclic-extension.json"
+        assert read.is_file() == (r["law"] == "geocontact")
+        if read.is_file():
+            assert json.loads(read.read_text())["cyclic"]["enabled"] is False
+            assert json.loads(LAW.read_text())["cyclic"]["enabled"] is True
         # consolidated: the mean stress reached, a dense jammed packing
         assert abs(r["consolidated_mean_stress_Pa"] / 1e5 - 1) < 0.01
         assert 0.60 < r["packing_fraction"] < 0.70 and r["contacts_per_grain"] > 4
@@ -190,25 +190,29 @@ def test_drained_between_cycles_restores_the_vertical_stress(tmp_path):
 def test_rerun_reuses_finished_runs_and_checks_their_inputs(study, capsys):
     out, _, _ = study
     before = {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("run.json")}
-    law = out.parent / "params-reference-no-ratchet.json"
+    law, off = LAW, {**TINY, "cyclic_extension": "off"}
     lines: list[str] = []
-    run_cyclic_shear(law, CyclicSettings(**TINY), out=out, progress=lines.append)
+    run_cyclic_shear(law, CyclicSettings(**off), out=out, progress=lines.append)
     assert sum("finished before, reused" in line for line in lines) == 4
     assert not any("done in" in line for line in lines)
     assert {p: p.stat().st_mtime_ns for p in (out / "runs").rglob("run.json")} == before
     assert verify_manifest(out) == []
     # the command line on the same folder: every run reused, the tables written again
     assert main(["dem", "cyclic-shear", "--law", str(law), "--grains", "100", "--amplitudes",
-                 "1e-6", "1e-5", "1e-4", "--cycles", "2", "--seeds", "2", "--out",
-                 str(out)]) == 0
+                 "1e-6", "1e-5", "1e-4", "--cycles", "2", "--seeds", "2",
+                 "--cyclic-extension", "off", "--out", str(out)]) == 0
     captured = capsys.readouterr()
     assert captured.err.count("finished before, reused") == 4
     assert f"wrote {out}" in captured.out and "G/Gmax" in captured.out
     assert verify_manifest(out) == []
     with pytest.raises(InputError, match="made with other inputs"):
-        run_cyclic_shear(law, CyclicSettings(**{**TINY, "cycles": 3}), out=out)
-    with pytest.raises(InputError, match="made with other inputs"):  # another law file
-        run_cyclic_shear(LAW, CyclicSettings(**TINY), out=out)
+        run_cyclic_shear(law, CyclicSettings(**{**off, "cycles": 3}), out=out)
+    with pytest.raises(InputError, match="made with other inputs"):  # the extension on
+        run_cyclic_shear(law, CyclicSettings(**TINY), out=out)
+    other = out.parent / "params-reference-copy.json"  # another law file
+    other.write_text(LAW.read_text())
+    with pytest.raises(InputError, match="made with other inputs"):
+        run_cyclic_shear(other, CyclicSettings(**off), out=out)
 
 
 def test_report_section(study):
@@ -231,9 +235,9 @@ def test_report_section(study):
     (["--stress", "1e5", "0.5"], "--stress: must be in [1, 1e+09]"),
     (["--baseline", "hertz"], "--baseline: must be elastic"),
     (["--baseline", "linear"], "--baseline: must be elastic"),
-    (["--restitution", "0.5"], "--restitution: only for the oedometer and seismic tests, not for cyclic-shear"),
+    (["--restitution", "0.5"], "--restitution: only for the oedometer and seismic tests"),
     (["--targets", "1.5", "0.5"], "--targets: only for the oedometer test, not for cyclic-shear"),
-    (["--memory", "place"], "--memory: only for the oedometer and seismic tests, not for cyclic-shear"),
+    (["--memory", "place"], "--memory: only for the oedometer and seismic tests"),
     (["--memory", "spot"], "argument --memory: invalid choice: 'spot'"),
     (["--grains", "10"], "--grains: must be in [50, 200000]"),
 ])
@@ -255,7 +259,8 @@ def test_a_folder_of_the_users_is_not_written_into(tmp_path):
 
 
 def test_other_tests_refuse_cyclic_shear_flags(tmp_path, capsys):
-    for args, message in ((["oedometer", "--cycles", "3"], "--cycles: only for the cyclic-shear test, not for oedometer"),
+    for args, message in ((["oedometer", "--cycles", "3"],
+                           "--cycles: only for the cyclic-shear test, not for oedometer"),
                           (["oedometer", "--stress", "1", "2"], "--stress: one stress")):
         assert main(["dem", *args, "--law", str(LAW), "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err.strip()

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import shutil
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +47,7 @@ DEFAULT_AMPLITUDES = tuple(float(f"{a:.3g}") for a in np.logspace(-6, -2, 9))
 # style (law.elastic: like for like, the normal law alone differs); "granular", LAMMPS's pair
 # granular hertz/material + Mindlin + Tsuji (a cross-check); "none": the law alone
 BASELINES = ("elastic", "granular", "none")
+CYCLIC_EXTENSION = ("file", "off")  # CyclicSettings.cyclic_extension
 MIN_AMPLITUDE, MAX_AMPLITUDE = 1e-8, 0.05  # below: round-off of the tilt; above: not a cycle
 MAX_AMPLITUDES = 30
 MAX_CYCLES = 20
@@ -73,6 +74,11 @@ class CyclicSettings:
     # drained between cycles: after each cycle a servo on lz restores the vertical stress (the
     # volumetric strain per cycle); False: every cycle and the time between at constant volume
     drained: bool = False
+    # the law file's cyclic (ratchet) extension: "file" as the file has it, or "off" (the file
+    # with cyclic.enabled false, written beside each geocontact run): the extension counts
+    # micro-cycles of any amplitude (docs/sample-study.md), so small-strain curves are measured
+    # without it until a threshold is settled
+    cyclic_extension: str = "file"
     extra: dict[str, str] = field(default_factory=dict)  # other script variables (-var k v)
 
     @property
@@ -110,6 +116,9 @@ class CyclicSettings:
             raise InputError(f"seeds: must be in [1, {MAX_SEEDS}], got {self.seeds}")
         if self.seed + self.seeds > 2**31 - 2:
             raise InputError(f"seed: must be at most {2**31 - 2 - self.seeds}, got {self.seed}")
+        if self.cyclic_extension not in CYCLIC_EXTENSION:
+            raise InputError(f"cyclic_extension: must be file (as the law file has it) or off, "
+                             f"got {self.cyclic_extension!r}")
         if self.baseline not in BASELINES:
             raise InputError(f"baseline: must be elastic (the grain's elastic law through pair "
                              f"geocontact), granular (pair granular hertz/material + Mindlin) "
@@ -138,6 +147,8 @@ def run_inputs(run: Run, settings: CyclicSettings, law: Path) -> dict:
     s = asdict(settings)
     for key in ("stresses", "seeds", "seed", "baseline"):
         s.pop(key)
+    if run.law != "geocontact":  # the baselines have no cyclic extension
+        s.pop("cyclic_extension")
     return {"law_file": str(law), "contact": run.law, "stress": run.stress, "seed": run.seed,
             **s, "amplitudes": list(settings.amplitudes)}
 
@@ -399,6 +410,16 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
     return document
 
 
+def without_cyclic_extension(law: Path, path: Path) -> Path:
+    """The law file at ``law`` with its cyclic extension off, saved at ``path`` (the run's own
+    copy: what the run read is kept beside its results)."""
+    from ..law import load_params
+
+    params = load_params(law)
+    replace(params, cyclic=replace(params.cyclic, enabled=False)).save(path)
+    return path
+
+
 def run_one(run: Run, settings: CyclicSettings, law: Path, material: str, folder: Path,
             ranks: int = 1, progress: Callable[[str], None] | None = None) -> dict:
     """One LAMMPS run committed to ``folder`` (a result of its own: ``lammps/`` with the
@@ -407,6 +428,8 @@ def run_one(run: Run, settings: CyclicSettings, law: Path, material: str, folder
                           inputs=run_inputs(run, settings, law)) as tmp:
         lammps = tmp / "lammps"
         contact_law = law
+        if run.law == "geocontact" and settings.cyclic_extension == "off":
+            contact_law = without_cyclic_extension(law, tmp / "law-no-cyclic-extension.json")
         if run.law == "elastic":  # the grain's elastic law, kept beside the run
             from ..law import load_params
             from ..law.elastic import elastic_law

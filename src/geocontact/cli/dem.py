@@ -80,6 +80,10 @@ def register(sub) -> None:
                         "(default 0.5)")
     p.add_argument("--damping", type=float, default=None,
                    help="cyclic-shear: contact damping, fraction of critical (default 0.5)")
+    p.add_argument("--cyclic-extension", default=None, choices=["file", "off"],
+                   help="cyclic-shear: the law's cyclic (ratchet) extension as the file has it "
+                        "(default) or off (it counts micro-cycles of any amplitude: "
+                        "docs/sample-study.md)")
     p.add_argument("--drained", action="store_true",
                    help="cyclic-shear: after each cycle a servo on the box height restores the "
                         "vertical stress (volumetric strain per cycle); default: constant volume "
@@ -108,7 +112,8 @@ TESTS_TAKING = {
     "strain": ("seismic",), "decimate": ("seismic",),
     "baseline": ("seismic", "cyclic-shear"),
     "restitution": ("oedometer", "seismic"), "memory": ("oedometer", "seismic"),
-    **dict.fromkeys(("amplitudes", "cycles", "seeds", "friction", "damping", "drained"),
+    **dict.fromkeys(("amplitudes", "cycles", "seeds", "friction", "damping", "drained",
+                     "cyclic_extension"),
                     ("cyclic-shear",)),
 }
 
@@ -118,7 +123,7 @@ def refuse_other_tests_flags(args) -> None:
     and the record given to a test other than seismic."""
     for name, tests in TESTS_TAKING.items():
         if args.test not in tests and getattr(args, name) not in (None, False):
-            raise InputError(f"--{name}: only for the {' and '.join(tests)} "
+            raise InputError(f"--{name.replace('_', '-')}: only for the {' and '.join(tests)} "
                              f"test{'s' if len(tests) > 1 else ''}, not for {args.test}")
     if args.record is not None and args.test != "seismic":
         raise InputError(f"record: only the seismic test takes a record, got {args.record!r}")
@@ -256,7 +261,7 @@ def run_cyclic(args) -> int:
                          "--baseline)")
     settings = CyclicSettings(drained=args.drained)
     for name in ("grains", "radius", "spread", "inertia", "seed", "cycles", "seeds",
-                 "friction", "damping", "baseline"):
+                 "friction", "damping", "baseline", "cyclic_extension"):
         if getattr(args, name) is not None:
             setattr(settings, name, getattr(args, name))
     if args.stress is not None:
