@@ -47,7 +47,7 @@ class FeSettings:
     "small" | "finite". ``step_rule``: "segment" | "decade" (fem.run.load_schedule).
     ``max_step_ratio``: None or a cap in (1, 2] on the loading force ratio of one solve above
     the first-yield force (fem.run.sub_steps). ``contact``: "node" | "facet". ``kernels``:
-    "numpy" | "compiled" (finite strain, node contact; fem.compiled).
+    "numpy" | "compiled" (small or finite strain, node contact; fem.compiled).
     """
 
     mesh: str = "coarse"
@@ -79,10 +79,9 @@ class FeSettings:
             value = getattr(self, name)
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
-        if self.kernels == "compiled" and (self.kinematics != "finite" or self.contact != "node"):
-            raise InputError("kernels: 'compiled' is the finite-strain engine with the node "
-                             f"contact (got kinematics {self.kinematics!r}, contact "
-                             f"{self.contact!r})")
+        if self.kernels == "compiled" and self.contact != "node":
+            raise InputError("kernels: 'compiled' is the engine with the node contact (got "
+                             f"contact {self.contact!r})")
         ratio = self.max_step_ratio
         if ratio is not None and not (_is_number(ratio) and 1.0 < ratio <= 2.0):
             raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
