@@ -340,8 +340,9 @@ def test_compiled_small_strain_refuses_the_facet_contact(material, mesh):
 
 def test_small_strain_run_with_compiled_kernels_equals_the_numpy_path():
     """The weak grain to 40 N (far past first yield) and back, coarse mesh, 6 steps per
-    segment, through run_history on both paths: the same steps and contact sets, the curve,
-    residual approach and plastic work within the Newton tolerance."""
+    segment, through run_history on both paths: the same steps and Newton iterations, the
+    curve, residual approach and plastic work within the Newton tolerance (1e-8; measured
+    ~1e-13: the paths differ by round-off only)."""
     material = preset("reference-weak")
     forces = [0.0, 40.0, 0.0]
     runs = {k: run_history(material, forces, mesh="coarse", steps_per_segment=6,
@@ -352,8 +353,9 @@ def test_small_strain_run_with_compiled_kernels_equals_the_numpy_path():
     assert "kernels" not in a.summary["identity"]["inputs"]
     assert np.allclose(a.curve["force_N"], b.curve["force_N"], rtol=1e-9, atol=0.0)
     assert np.max(a.curve["plastic_points"]) > 100
+    assert np.array_equal(a.curve["iterations"], b.curve["iterations"])
     approach = np.max(np.abs(b.curve["approach_m"] - a.curve["approach_m"]))
-    assert approach <= 1e-6 * np.max(a.curve["approach_m"])
+    assert approach <= 1e-8 * np.max(a.curve["approach_m"])
     ca, cb = a.summary["cycles"][0], b.summary["cycles"][0]
-    assert abs(cb["residual_approach_m"] / ca["residual_approach_m"] - 1) < 1e-5
-    assert abs(cb["plastic_work_J"] / ca["plastic_work_J"] - 1) < 1e-6
+    assert abs(cb["residual_approach_m"] / ca["residual_approach_m"] - 1) < 1e-8
+    assert abs(cb["plastic_work_J"] / ca["plastic_work_J"] - 1) < 1e-8

@@ -182,6 +182,16 @@ REPRODUCED_FE_CODE["3399407d181157cd"] = {
        for older, why in REPRODUCED_FE_CODE["163d9399ec173f3c"].items()},
 }
 
+_COMPILED_SMALL_STRAIN = ("the opt-in compiled small-strain kernels added (kernels='compiled' "
+                          "with kinematics='small', refused before; recorded in the identity as "
+                          "kernels): fem.run._solver builds the numpy path's solvers as before")
+REPRODUCED_FE_CODE["462931d32dfb6bc4"] = {
+    "3399407d181157cd": _COMPILED_SMALL_STRAIN,
+    **{older: _COMPILED_SMALL_STRAIN + "; " + why
+       for older, why in REPRODUCED_FE_CODE["3399407d181157cd"].items()},
+}
+
+
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
     sources (``REPRODUCED_FE_CODE``), or None."""
