@@ -6,6 +6,9 @@ from a virgin and from a plastic state), their tangent the derivative of their i
 the same solution, and load steps and runs solved with them the same as with the numpy path
 within the Newton tolerance."""
 
+import hashlib
+from pathlib import Path
+
 import numpy as np
 import pytest
 from test_fem_finite_strain import _large_deformation, assert_tangent_is_the_derivative
@@ -16,10 +19,11 @@ from geocontact.fem.compiled import (
     CompiledSmallStrainSolver,
     available_factorisers,
     compiled_solver,
+    kernels,
     make_factoriser,
 )
 from geocontact.fem.finite_strain import FiniteStrainSolver
-from geocontact.fem.identity import FeRunIdentity
+from geocontact.fem.identity import FeRunIdentity, compiled_code_hash, difference
 from geocontact.fem.mesh import build_mesh
 from geocontact.fem.plasticity import APEX, CONE
 from geocontact.fem.run import run_history
@@ -188,6 +192,8 @@ def test_load_steps_equal_the_numpy_path(name):
 
 
 def test_identity_of_the_compiled_kernels(material):
+    from geocontact.fem import identity
+
     numpy_path = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite")
     compiled = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="compiled")
     assert numpy_path.key() != compiled.key()
@@ -197,6 +203,12 @@ def test_identity_of_the_compiled_kernels(material):
     assert "compiled kernels" in compiled.describe()
     with pytest.raises(InputError, match="^kernels: unknown 'fortran'"):
         FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="fortran")
+    # the compiled code (fem/compiled.py and the C++ the module was built from) is part of a
+    # compiled run's identity only
+    assert "compiled_code" not in numpy_path.to_dict()
+    assert compiled.to_dict()["compiled_code"] == compiled_code_hash()
+    assert kernels().SOURCE_HASH == hashlib.sha256(
+        (Path(identity.__file__).parent / "_kernels.cpp").read_bytes()).hexdigest()
     small = FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
     assert small.inputs()["kernels"] == "compiled"
     assert small.key() != FeRunIdentity.of(material, [0.0, 10.0]).key()
@@ -359,3 +371,18 @@ def test_small_strain_run_with_compiled_kernels_equals_the_numpy_path():
     ca, cb = a.summary["cycles"][0], b.summary["cycles"][0]
     assert abs(cb["residual_approach_m"] / ca["residual_approach_m"] - 1) < 1e-8
     assert abs(cb["plastic_work_J"] / ca["plastic_work_J"] - 1) < 1e-8
+
+
+def test_a_compiled_run_of_other_kernels_is_not_reused(material, monkeypatch):
+    """An edit of the compiled kernels changes a compiled run's key, and its recorded identity
+    is then told apart (``difference``), while the numpy path's key stays."""
+    from geocontact.fem import identity
+
+    compiled = FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
+    numpy_path = FeRunIdentity.of(material, [0.0, 10.0])
+    recorded, numpy_key = compiled.to_dict(), numpy_path.key()
+    monkeypatch.setattr(identity, "compiled_code_hash", lambda: "0" * 16)
+    assert compiled.key() != recorded["key"]
+    assert numpy_path.key() == numpy_key
+    assert difference(recorded, compiled) == "made by other compiled kernels"
+    assert difference(recorded, compiled, rounding=True) == "made by other compiled kernels"

@@ -22,6 +22,10 @@
 namespace nb = nanobind;
 using namespace nb::literals;
 
+#ifndef GEOCONTACT_KERNELS_HASH
+#define GEOCONTACT_KERNELS_HASH "unknown"  // built without CMakeLists.txt
+#endif
+
 namespace {
 
 constexpr int LOCAL = 12;   // dofs of a P2 vector triangle
@@ -684,7 +688,8 @@ void scatter(Array<const double, 1> values, Array<const int64_t, 1> slot,
 
 NB_MODULE(_kernels, module)
 {
-  module.doc() = "Compiled small- and finite-strain element kernels of the FE engine (fem/compiled.py).";
+  module.doc() = "Compiled small- and finite-strain element kernels of the FE (fem/compiled.py).";
+  module.attr("SOURCE_HASH") = GEOCONTACT_KERNELS_HASH;  // sha256 of this file (CMakeLists.txt)
   module.def("finite_strain", &finite_strain, "grad0"_a, "element_dofs"_a, "displacement"_a,
              "projection"_a, "dvolume"_a, "cp_old"_a, "eqps_old"_a, "shear"_a, "bulk"_a,
              "tan_beta"_a, "yield_stress"_a, "hardening"_a, "plastic"_a, "stress"_a, "cp"_a,

@@ -231,6 +231,20 @@ def fe_code_hash() -> str:
 
 
 @functools.cache
+def compiled_code_hash() -> str:
+    """Hash of the compiled kernels' code, recorded in the identity of a run with
+    ``kernels="compiled"`` (``compiled_code``): fem/compiled.py's code (``code_fingerprint``)
+    and the C++ source the loaded ``_kernels`` module was built from (its ``SOURCE_HASH``, the
+    sha256 CMake takes at build time: the wheel leaves the source out). Not in ``FE_SOURCES``,
+    so an edit of the kernels leaves the numpy path's runs as they are."""
+    from . import compiled
+
+    digest = hashlib.sha256(code_fingerprint(Path(compiled.__file__).read_text()).encode())
+    digest.update(str(compiled.kernels().SOURCE_HASH).encode())
+    return digest.hexdigest()[:16]
+
+
+@functools.cache
 def distribution_version(name: str) -> str:
     """Installed version of the distribution ``name`` ("absent" if it is not installed); read
     once per process, as the modules in use are the ones loaded then."""
@@ -285,6 +299,8 @@ class FeRunIdentity:
         """Inputs, FE source hash and library versions, and the key of them all."""
         record = {"schema": SCHEMA, "inputs": self.inputs(), "fe_code": fe_code_hash(),
                   "libraries": library_versions()}
+        if self.kernels == "compiled":  # only then: the numpy path's records as they were
+            record["compiled_code"] = compiled_code_hash()
         return {"key": identity_key(record), **record}
 
     def key(self) -> str:
@@ -353,6 +369,8 @@ def difference(recorded: Any, identity: FeRunIdentity, *,
         return None
     if recorded.get("fe_code") != current["fe_code"]:
         return "made by other FE code"
+    if recorded.get("compiled_code") != current.get("compiled_code"):
+        return "made by other compiled kernels"
     theirs = recorded.get("libraries") or {}
     for name, version in current["libraries"].items():
         if theirs.get(name) != version:
@@ -466,6 +484,7 @@ def cached_run(cache: str | Path, identity: FeRunIdentity) -> FemResult | None:
 
 
 __all__ = ["FE_SOURCES", "LIBRARIES", "REPRODUCED_FE_CODE", "ROUNDING", "FeRunIdentity",
-           "cached_run", "difference", "distribution_version", "equivalent_run", "fe_code_hash",
-           "finished_run", "identity_key", "library_versions", "load_result",
-           "recorded_identities", "reproduced_code", "run_key", "same_to_rounding"]
+           "cached_run", "compiled_code_hash", "difference", "distribution_version",
+           "equivalent_run", "fe_code_hash", "finished_run", "identity_key", "library_versions",
+           "load_result", "recorded_identities", "reproduced_code", "run_key",
+           "same_to_rounding"]
