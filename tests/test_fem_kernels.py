@@ -386,3 +386,48 @@ def test_a_compiled_run_of_other_kernels_is_not_reused(material, monkeypatch):
     assert numpy_path.key() == numpy_key
     assert difference(recorded, compiled) == "made by other compiled kernels"
     assert difference(recorded, compiled, rounding=True) == "made by other compiled kernels"
+
+
+def test_kernels_flag_reaches_the_runs(tmp_path, monkeypatch, capsys):
+    """``--kernels compiled`` of ``geocontact fem`` and ``cycles`` reaches the FE run (captured
+    here), ``calibrate``'s jobs through ``FeSettings.model_of`` (only when not the default, so
+    the records of default runs are unchanged) and ``FemJob``; with the facet contact it is
+    refused in one line before any work."""
+    import argparse
+
+    import geocontact.fem.run as fem_run
+    from geocontact.cli import main
+    from geocontact.fem.campaign import FemJob
+    from geocontact.fem.settings import FeSettings
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def capture(*args, **kwargs):
+        seen.append(kwargs.get("kernels"))
+        raise Stop
+
+    monkeypatch.setattr(fem_run, "run_history", capture)
+    history = tmp_path / "h.toml"
+    history.write_text("[history]\nforces = [0, 60, 0]\n")
+    for command in ("fem", "cycles"):
+        with pytest.raises(Stop):
+            main([command, "--material", "reference", "--history", str(history), "--mesh",
+                  "coarse", "--out", str(tmp_path / command), "--kernels", "compiled"])
+    assert seen == ["compiled", "compiled"]
+    parser = argparse.ArgumentParser()
+    FeSettings.add_model_flags(parser)
+    assert "kernels" not in FeSettings.model_of(parser.parse_args([]))
+    model = FeSettings.model_of(parser.parse_args(["--kernels", "compiled"]))
+    assert model["kernels"] == "compiled"
+    job = FemJob(preset("reference"), (0.0, 10.0), **model)
+    assert job.identity().inputs()["kernels"] == "compiled"
+    assert FemJob.of_inputs(job.identity().inputs()).key() == job.key()
+    monkeypatch.undo()
+    code = main(["fem", "--material", "reference", "--history", str(history), "--out",
+                 str(tmp_path / "x"), "--kernels", "compiled", "--contact", "facet"])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and err.count("\n") == 0 and "kernels" in err and "facet" in err
+    assert not (tmp_path / "x").exists()

@@ -184,8 +184,9 @@ REPRODUCED_FE_CODE["3399407d181157cd"] = {
 
 _COMPILED_SMALL_STRAIN = ("the opt-in compiled small-strain kernels added (kernels='compiled' "
                           "with kinematics='small', refused before; recorded in the identity as "
-                          "kernels): fem.run._solver builds the numpy path's solvers as before")
-REPRODUCED_FE_CODE["462931d32dfb6bc4"] = {
+                          "kernels) and the --kernels flag (passed on only when not at its "
+                          "default): fem.run._solver builds the numpy path's solvers as before")
+REPRODUCED_FE_CODE["82eb800afc111cfd"] = {
     "3399407d181157cd": _COMPILED_SMALL_STRAIN,
     **{older: _COMPILED_SMALL_STRAIN + "; " + why
        for older, why in REPRODUCED_FE_CODE["3399407d181157cd"].items()},

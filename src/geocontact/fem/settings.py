@@ -159,8 +159,8 @@ class FeSettings:
     # --- the command line ----------------------------------------------------------------
     @staticmethod
     def add_model_flags(p) -> None:
-        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --contact of the FE
-        engine (docs/fem.md); their defaults are the settings'."""
+        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --contact and --kernels of
+        the FE engine (docs/fem.md); their defaults are the settings'."""
         default = FeSettings.__dataclass_fields__
         p.add_argument("--kinematics", default=default["kinematics"].default,
                        choices=list(KINEMATICS),
@@ -190,15 +190,21 @@ class FeSettings:
                             "constraint) or 'facet' (penalty integrated over the surface "
                             "facets, the contact edge moving inside an element: no kink in the "
                             "loading curve as a node engages)")
+        p.add_argument("--kernels", default=default["kernels"].default,
+                       choices=["numpy", "compiled"],
+                       help="FE element kernels: 'numpy' (default) or 'compiled' (C++, small "
+                            "and finite strain, node contact: the same results within the "
+                            "Newton tolerance, not bit for bit, in less time; docs/fem.md)")
 
     @staticmethod
     def model_of(args) -> dict[str, Any]:
         """The FE model the flags of ``add_model_flags`` chose, as settings keywords
-        (``contact`` only when not the default, so the records of default runs are
-        unchanged)."""
+        (``contact`` and ``kernels`` only when not the default, so the records of default runs
+        are unchanged)."""
         model = {key: getattr(args, key) for key in MODEL_FLAGS}
-        if args.contact != FeSettings.__dataclass_fields__["contact"].default:
-            model["contact"] = args.contact
+        for name in ("contact", "kernels"):
+            if getattr(args, name) != FeSettings.__dataclass_fields__[name].default:
+                model[name] = getattr(args, name)
         return model
 
 
