@@ -20,10 +20,13 @@ with two of its pieces replaced, the equations unchanged:
   the symbolic analysis of a contact set's pattern and reuse it at every iteration.
 
 Everything else (contact, load control, the predictor with its cached CHOLMOD factorisation,
-outputs) is the engine's own. The results equal the numpy path's within the Newton tolerance,
-not bit for bit, so it is an opt-in (``run_history(kernels="compiled")``, recorded in the run's
-identity) and the engine's default stays the numpy path until the committed datasets are rerun
-with this one (docs/fem.md "Compiled kernels").
+outputs) is the engine's own. :class:`CompiledSmallStrainSolver` (below) is the small-strain
+engine on the same route. The results equal the numpy paths' within the Newton tolerance, not
+bit for bit, so they are an opt-in (``run_history(kernels="compiled")``, ``--kernels compiled``,
+recorded in the run's identity with ``compiled_code``): the committed datasets rerun on them
+agree to ~1e-13 (docs/verification/fe-kernels-agreement.json), but a committed run is reused
+only by code that reproduces it bit for bit (docs/fem.md, "Why kernels="compiled" is not the
+default").
 """
 
 from __future__ import annotations
