@@ -2,7 +2,7 @@
 
 Writes out/bench/*.json and the results table of docs/benchmarks.md.
 Usage: python benchmarks/run.py [law] [lammps] [lammps_poly] [lammps_wall] [fem] [ccx]
-       [fem_finite] [ccx_nlgeom] [fem_kernels] [--quick]
+       [fem_finite] [ccx_nlgeom] [fem_kernels] [fem_kernels_small] [--quick]
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def main(argv: list[str]) -> int:
     quick = "--quick" in argv
     names = ([a for a in argv if not a.startswith("--")]
              or ["law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx", "fem_finite",
-                 "ccx_nlgeom", "fem_kernels"])
+                 "ccx_nlgeom", "fem_kernels", "fem_kernels_small"])
     if "law" in names:
         import bench_law
 
@@ -62,6 +62,10 @@ def main(argv: list[str]) -> int:
         import bench_fem_kernels
 
         bench_fem_kernels.main(mesh="coarse" if quick else "default")
+    if "fem_kernels_small" in names:
+        import bench_fem_kernels_small
+
+        bench_fem_kernels_small.main(mesh="coarse" if quick else "default")
     write_table()
     return 0
 

@@ -15,13 +15,26 @@ summary.json field for field, except what must differ (``identity``: the FE code
 
 Exit status 0 if every run compared equal, 1 otherwise. A run already in ``--out`` of the
 current code is compared without running it again (the runs resume from their checkpoints).
+
+``--kernels compiled``: the runs made again on the compiled kernels (``fem.compiled``) instead
+of the kernels they were made with, which agree with the numpy path within the Newton tolerance,
+not bit for bit: each row then also gives the largest difference of every curve column and of
+every number of summary.json, relative to the largest magnitude of that column or field
+(``largest_differences``), the CPU time of both runs and their Newton iterations, and the
+evidence goes to its own file (docs/verification/fe-kernels-agreement.json):
+
+    PYTHONPATH=src .venv/bin/python scripts/reproduce_fe_runs.py \
+        datasets/fe-runs/weak-finite-coarse --runs 1 --kernels compiled \
+        --out out/reproduce-compiled --json docs/verification/fe-kernels-agreement.json
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -45,9 +58,12 @@ def committed_runs(campaign: Path) -> list[Path]:
                                           p.name))
 
 
-def rerun(folder: Path, out: Path):
-    """The run of ``folder`` made again from its recorded inputs into ``out/<key>``."""
+def rerun(folder: Path, out: Path, kernels: str | None = None):
+    """The run of ``folder`` made again from its recorded inputs into ``out/<key>`` (with
+    ``kernels``: on those kernels instead of the recorded ones)."""
     inputs = load_result(folder).summary["identity"]["inputs"]
+    if kernels is not None:
+        inputs = {**inputs, "kernels": kernels}
     return run_history(
         Material.from_dict(inputs["material"]), inputs["forces_N"], mesh=inputs["mesh"],
         out=out / folder.name, steps_per_segment=inputs["steps_per_segment"],
@@ -80,6 +96,42 @@ def compare(committed: Path, again) -> dict:
             "equal": not curve_differs and not summary_differs}
 
 
+def _numbers(value, path=()):
+    """The numeric leaves of a JSON-like value, as {path: float}."""
+    if isinstance(value, dict):
+        return {k: v for key, item in value.items()
+                for k, v in _numbers(item, (*path, key)).items()}
+    if isinstance(value, list):
+        return {k: v for i, item in enumerate(value)
+                for k, v in _numbers(item, (*path, i)).items()}
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return {path: float(value)}
+    return {}
+
+
+def agreement(old, again) -> dict:
+    """How far the run ``again`` (a FemResult) made on other kernels is from ``old``: the
+    largest difference of each curve column relative to the column's largest magnitude, and of
+    each number of summary.json (but its identity and wall time) relative to its magnitude
+    (the 8 largest); the Newton iterations of both (old, again)."""
+    columns = {}
+    for name, values in old.curve.items():
+        if name in again.curve and len(again.curve[name]) == len(values):
+            scale = float(np.max(np.abs(values))) or 1.0
+            columns[name] = float(np.max(np.abs(again.curve[name] - values))) / scale
+    before = _numbers({k: v for k, v in old.summary.items() if k not in EXPECTED_TO_DIFFER})
+    after = _numbers({k: v for k, v in again.summary.items() if k not in EXPECTED_TO_DIFFER})
+    summary = {}
+    for key, value in before.items():
+        if key in after and math.isfinite(value):
+            scale = abs(value) or 1.0
+            summary[".".join(map(str, key))] = abs(after[key] - value) / scale
+    largest = sorted(summary.items(), key=lambda kv: -kv[1])[:8]
+    return {"largest_differences": {"curve": columns, "summary_largest": dict(largest)},
+            "newton_iterations": [int(np.sum(old.curve["iterations"])),
+                                  int(np.sum(again.curve["iterations"]))]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("campaign", type=Path, help="a committed campaign folder")
@@ -87,6 +139,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="how many of its finished runs, the cheapest first (default 1)")
     parser.add_argument("--keys", nargs="*", default=None, help="these runs instead")
     parser.add_argument("--out", type=Path, default=Path("out/reproduce"))
+    parser.add_argument("--kernels", choices=["numpy", "compiled"], default=None,
+                        help="make the runs again on these kernels (default: the recorded "
+                             "ones); other than the recorded: compared within tolerance")
     parser.add_argument("--json", type=Path, default=None,
                         help="write the comparison here (merged with an earlier file's runs: "
                              "one row per run and FE code)")
@@ -106,7 +161,12 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for folder in folders:
         print(f"reproduce: {folder}", file=sys.stderr)
-        row = {"campaign": args.campaign.name, **compare(folder, rerun(folder, args.out))}
+        cpu = time.process_time()
+        again = rerun(folder, args.out, args.kernels)
+        row = {"campaign": args.campaign.name, **compare(folder, again)}
+        if args.kernels is not None:
+            row.update(kernels=args.kernels, cpu_s_again=time.process_time() - cpu,
+                       **agreement(load_result(folder), again))
         print(f"reproduce: {folder.name}: {'equal' if row['equal'] else 'DIFFERENT'} "
               f"({row['rows']} curve rows; differing: "
               f"{row['curve_columns_differing'] + row['summary_fields_differing'] or 'none'})",

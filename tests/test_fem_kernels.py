@@ -1,9 +1,13 @@
-"""The compiled finite-strain kernels and factorisers (fem.compiled, issue 36): equal to the numpy
-path of fem.finite_strain to round-off at every point and in every element matrix (cone and apex
-returns, each volumetric treatment, from a virgin and from a plastic state), their tangent the
-derivative of their internal force (central differences), the bordered system and its
-factorisers (UMFPACK, KLU, PARDISO, SuperLU) the same solution, and load steps solved with them
-the same as with the numpy path within the Newton tolerance."""
+"""The compiled element kernels and factorisers (fem.compiled, issue 36): the finite-strain and
+the small-strain kernels equal to the numpy paths of fem.finite_strain and fem.solver to round-off
+at every point and in every element matrix (cone and apex returns, each volumetric treatment,
+from a virgin and from a plastic state), their tangent the derivative of their internal force
+(central differences), the bordered system and its factorisers (UMFPACK, KLU, PARDISO, SuperLU)
+the same solution, and load steps and runs solved with them the same as with the numpy path
+within the Newton tolerance."""
+
+import hashlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,15 +16,18 @@ from test_fem_finite_strain import _large_deformation, assert_tangent_is_the_der
 from geocontact.errors import InputError
 from geocontact.fem.compiled import (
     CompiledFiniteStrainSolver,
+    CompiledSmallStrainSolver,
     available_factorisers,
     compiled_solver,
+    kernels,
     make_factoriser,
 )
 from geocontact.fem.finite_strain import FiniteStrainSolver
-from geocontact.fem.identity import FeRunIdentity
+from geocontact.fem.identity import FeRunIdentity, compiled_code_hash, difference
 from geocontact.fem.mesh import build_mesh
 from geocontact.fem.plasticity import APEX, CONE
 from geocontact.fem.run import run_history
+from geocontact.fem.solver import ContactSolver
 from geocontact.grain.material import preset
 
 ROUND_OFF = 1e-13  # relative to the largest entry of each output
@@ -185,6 +192,8 @@ def test_load_steps_equal_the_numpy_path(name):
 
 
 def test_identity_of_the_compiled_kernels(material):
+    from geocontact.fem import identity
+
     numpy_path = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite")
     compiled = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="compiled")
     assert numpy_path.key() != compiled.key()
@@ -194,11 +203,20 @@ def test_identity_of_the_compiled_kernels(material):
     assert "compiled kernels" in compiled.describe()
     with pytest.raises(InputError, match="^kernels: unknown 'fortran'"):
         FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="fortran")
-    with pytest.raises(InputError, match="^kernels: 'compiled' is the finite-strain engine"):
-        FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
-    with pytest.raises(InputError, match="^kernels: 'compiled' is the finite-strain engine"):
-        FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", contact="facet",
-                         kernels="compiled")
+    # the compiled code (fem/compiled.py and the C++ the module was built from) is part of a
+    # compiled run's identity only
+    assert "compiled_code" not in numpy_path.to_dict()
+    assert compiled.to_dict()["compiled_code"] == compiled_code_hash()
+    assert kernels().SOURCE_HASH == hashlib.sha256(
+        (Path(identity.__file__).parent / "_kernels.cpp").read_bytes()).hexdigest()
+    small = FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
+    assert small.inputs()["kernels"] == "compiled"
+    assert small.key() != FeRunIdentity.of(material, [0.0, 10.0]).key()
+    for kinematics in ("small", "finite"):
+        with pytest.raises(InputError, match="^kernels: 'compiled' is the engine with the node "
+                                             "contact"):
+            FeRunIdentity.of(material, [0.0, 10.0], kinematics=kinematics, contact="facet",
+                             kernels="compiled")
 
 
 def test_run_history_with_compiled_kernels_equals_the_numpy_path(material):
@@ -218,3 +236,198 @@ def test_run_history_with_compiled_kernels_equals_the_numpy_path(material):
     ca, cb = a.summary["cycles"][0], b.summary["cycles"][0]
     assert abs(cb["residual_approach_m"] / ca["residual_approach_m"] - 1) < 1e-5
     assert abs(cb["plastic_work_J"] / ca["plastic_work_J"] - 1) < 1e-6
+
+
+# --- small strain ----------------------------------------------------------------------------
+def _small_pair(material, mesh, **kwargs):
+    return ContactSolver(material, mesh, **kwargs), CompiledSmallStrainSolver(material, mesh,
+                                                                              **kwargs)
+
+
+def _small_compare(reference, compiled, old, u, *, elastic=False):
+    """The numpy path's response at ``u`` (stress, strain, eqps, status, internal force and
+    element matrices) against the compiled one's; returns the numpy path's status."""
+    stress, strain, eqps, status, force, tangent = reference._response(old, u, elastic=elastic)
+    local = reference.element_matrices(tangent)
+    result = compiled._response(old, u, elastic=elastic)
+    assert np.array_equal(status, result[3])
+    # a strain is a difference of nodal displacements (B u): its round-off is that of
+    # sum |B| |u|, a few hundred times the strain here, and the stress and eqps inherit it
+    magnified = np.einsum("jceq,je->ceq", np.abs(reference.B),
+                          np.abs(u[reference.element_dofs]))
+    condition = max(1.0, np.max(magnified) / np.max(np.abs(strain)))
+    for numpy_value, compiled_value in ((stress, result[0]), (strain, result[1]),
+                                        (eqps, result[2])):
+        assert _close(numpy_value, compiled_value, condition * np.max(np.abs(numpy_value)))
+    for numpy_value, compiled_value in ((force, result[4]),
+                                        (local, compiled.element_matrices(result[5]))):
+        assert _close(numpy_value, compiled_value)
+    return status
+
+
+def _small_strain_field(solver):
+    """A smooth field with strains of ~1e-3 and noise: the reference grain mostly on the cone
+    (ten times it: mostly at the apex)."""
+    return 0.01 * _large_deformation(solver)
+
+
+@pytest.mark.parametrize("volumetric", [(True, 0), (True, 1), (False, 0)])
+def test_small_strain_kernels_equal_the_numpy_path(material, mesh, volumetric):
+    """Virgin and plastic states, cone and apex returns, the elastic predictor: stresses,
+    strains, plastic strain, internal force and element matrices to round-off."""
+    bbar, order = volumetric
+    reference, compiled = _small_pair(material, mesh, bbar=bbar, volumetric_order=order)
+    old = reference.initial_state()
+    u = _small_strain_field(reference)
+    assert np.count_nonzero(_small_compare(reference, compiled, old, 10.0 * u) == APEX) > 1000
+    status = _small_compare(reference, compiled, old, u)
+    assert np.count_nonzero(status == CONE) > 1000
+    assert np.count_nonzero(status == APEX) > 0
+    _small_compare(reference, compiled, old, u, elastic=True)
+    # from the plastic state just reached (stress, strain and eqps > 0), loaded further
+    stress, strain, eqps = reference._response(old, u, elastic=False)[:3]
+    plastic = reference.initial_state()
+    plastic.stress, plastic.strain, plastic.eqps = stress, strain, eqps
+    assert np.max(eqps) > 0.0
+    assert np.count_nonzero(_small_compare(reference, compiled, plastic, 1.1 * u) == CONE) > 100
+    _small_compare(reference, compiled, plastic, 0.9 * u)  # unloading: elastic returns
+
+
+def test_small_strain_kernels_equal_the_numpy_path_for_von_mises(mesh):
+    material = preset("von-mises")  # tan(beta) = 0: no apex
+    reference, compiled = _small_pair(material, mesh)
+    status = _small_compare(reference, compiled, reference.initial_state(),
+                            0.1 * _large_deformation(reference))
+    assert np.count_nonzero(status == CONE) > 1000
+
+
+@pytest.mark.parametrize("plastic", [False, True])
+def test_compiled_small_strain_tangent_is_the_derivative_of_the_internal_force(material, mesh,
+                                                                             plastic):
+    """K v against the central difference of the internal force along v, its error falling as
+    h^2 (a wrong tangent would stall at O(1)); plastic: from a plastic state, loaded further."""
+    solver = CompiledSmallStrainSolver(material, mesh, plastic=plastic)
+    old = solver.initial_state()
+    u = _small_strain_field(solver)
+    if plastic:
+        stress, strain, eqps, status = solver._response(old, u, elastic=False)[:4]
+        assert np.count_nonzero(status) > 1000
+        old.stress, old.strain, old.eqps = stress, strain, eqps
+        u = 1.2 * u
+    _, _, _, status, _, local = solver._evaluate(old, u, plastic=plastic, tangent=True)
+    if plastic:
+        assert np.count_nonzero(status == CONE) > 1000
+    stiffness = solver.stiffness(local)
+    v = 1e-3 * np.max(np.abs(u)) * np.random.default_rng(7).standard_normal(solver.ndofs)
+    v[solver.axis_dofs] = 0.0
+    errors = []
+    for h in (1e-2, 1e-3):
+        plus = solver._evaluate(old, u + h * v, plastic=plastic, tangent=False)[4]
+        minus = solver._evaluate(old, u - h * v, plastic=plastic, tangent=False)[4]
+        fd = (plus - minus) / (2 * h)
+        errors.append(np.linalg.norm(fd - stiffness @ v) / np.linalg.norm(fd))
+    assert errors[1] < 1e-6
+    if plastic:  # the cone's normal turns with the stress: O(h^2)
+        assert errors[1] < 0.05 * errors[0]
+    else:  # linear: exact to round-off
+        assert errors[0] < 1e-9
+
+
+def test_small_strain_bordered_system_is_the_engines(material, mesh):
+    solver = CompiledSmallStrainSolver(material, mesh)
+    local = solver._response(solver.initial_state(), _small_strain_field(solver),
+                             elastic=False)[5]
+    active = np.zeros(len(solver.candidate_dofs), dtype=bool)
+    active[:5] = True
+    reduced = solver._reduced(active)
+    expected = ContactSolver._bordered_system(solver, local, reduced).toarray()
+    assembled = solver._bordered_system(local, reduced).toarray()
+    assert np.max(np.abs(assembled - expected)) <= ROUND_OFF * np.max(np.abs(expected))
+
+
+def test_compiled_small_strain_refuses_the_facet_contact(material, mesh):
+    with pytest.raises(ValueError, match="node contact"):
+        CompiledSmallStrainSolver(material, mesh, contact="facet")
+
+
+def test_small_strain_run_with_compiled_kernels_equals_the_numpy_path():
+    """The weak grain to 40 N (far past first yield) and back, coarse mesh, 6 steps per
+    segment, through run_history on both paths: the same steps and Newton iterations, the
+    curve, residual approach and plastic work within the Newton tolerance (1e-8; measured
+    ~1e-13: the paths differ by round-off only)."""
+    material = preset("reference-weak")
+    forces = [0.0, 40.0, 0.0]
+    runs = {k: run_history(material, forces, mesh="coarse", steps_per_segment=6,
+                           write_fields=False, kernels=k)
+            for k in ("numpy", "compiled")}
+    a, b = runs["numpy"], runs["compiled"]
+    assert b.summary["identity"]["inputs"]["kernels"] == "compiled"
+    assert "kernels" not in a.summary["identity"]["inputs"]
+    assert np.allclose(a.curve["force_N"], b.curve["force_N"], rtol=1e-9, atol=0.0)
+    assert np.max(a.curve["plastic_points"]) > 100
+    assert np.array_equal(a.curve["iterations"], b.curve["iterations"])
+    approach = np.max(np.abs(b.curve["approach_m"] - a.curve["approach_m"]))
+    assert approach <= 1e-8 * np.max(a.curve["approach_m"])
+    ca, cb = a.summary["cycles"][0], b.summary["cycles"][0]
+    assert abs(cb["residual_approach_m"] / ca["residual_approach_m"] - 1) < 1e-8
+    assert abs(cb["plastic_work_J"] / ca["plastic_work_J"] - 1) < 1e-8
+
+
+def test_a_compiled_run_of_other_kernels_is_not_reused(material, monkeypatch):
+    """An edit of the compiled kernels changes a compiled run's key, and its recorded identity
+    is then told apart (``difference``), while the numpy path's key stays."""
+    from geocontact.fem import identity
+
+    compiled = FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
+    numpy_path = FeRunIdentity.of(material, [0.0, 10.0])
+    recorded, numpy_key = compiled.to_dict(), numpy_path.key()
+    monkeypatch.setattr(identity, "compiled_code_hash", lambda: "0" * 16)
+    assert compiled.key() != recorded["key"]
+    assert numpy_path.key() == numpy_key
+    assert difference(recorded, compiled) == "made by other compiled kernels"
+    assert difference(recorded, compiled, rounding=True) == "made by other compiled kernels"
+
+
+def test_kernels_flag_reaches_the_runs(tmp_path, monkeypatch, capsys):
+    """``--kernels compiled`` of ``geocontact fem`` and ``cycles`` reaches the FE run (captured
+    here), ``calibrate``'s jobs through ``FeSettings.model_of`` (only when not the default, so
+    the records of default runs are unchanged) and ``FemJob``; with the facet contact it is
+    refused in one line before any work."""
+    import argparse
+
+    import geocontact.fem.run as fem_run
+    from geocontact.cli import main
+    from geocontact.fem.campaign import FemJob
+    from geocontact.fem.settings import FeSettings
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def capture(*args, **kwargs):
+        seen.append(kwargs.get("kernels"))
+        raise Stop
+
+    monkeypatch.setattr(fem_run, "run_history", capture)
+    history = tmp_path / "h.toml"
+    history.write_text("[history]\nforces = [0, 60, 0]\n")
+    for command in ("fem", "cycles"):
+        with pytest.raises(Stop):
+            main([command, "--material", "reference", "--history", str(history), "--mesh",
+                  "coarse", "--out", str(tmp_path / command), "--kernels", "compiled"])
+    assert seen == ["compiled", "compiled"]
+    parser = argparse.ArgumentParser()
+    FeSettings.add_model_flags(parser)
+    assert "kernels" not in FeSettings.model_of(parser.parse_args([]))
+    model = FeSettings.model_of(parser.parse_args(["--kernels", "compiled"]))
+    assert model["kernels"] == "compiled"
+    job = FemJob(preset("reference"), (0.0, 10.0), **model)
+    assert job.identity().inputs()["kernels"] == "compiled"
+    assert FemJob.of_inputs(job.identity().inputs()).key() == job.key()
+    monkeypatch.undo()
+    code = main(["fem", "--material", "reference", "--history", str(history), "--out",
+                 str(tmp_path / "x"), "--kernels", "compiled", "--contact", "facet"])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and err.count("\n") == 0 and "kernels" in err and "facet" in err
+    assert not (tmp_path / "x").exists()

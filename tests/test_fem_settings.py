@@ -40,7 +40,8 @@ def test_defaults_are_the_verified_settings_and_resolve_per_history():
     ({"volumetric": "x"}, r"^volumetric: unknown 'x' \(allowed: bbar-p1, bbar-p0, full\)$"),
     ({"kinematics": "large"}, r"^kinematics: unknown 'large' \(allowed: small, finite\)$"),
     ({"max_step_ratio": 3.0}, r"^max_step_ratio: must be a number in \(1, 2\] or None"),
-    ({"kernels": "compiled"}, "^kernels: 'compiled' is the finite-strain engine"),
+    ({"kernels": "compiled", "contact": "facet"},
+     r"^kernels: 'compiled' is the engine with the node contact \(got contact 'facet'\)$"),
     ({"mesh_force": -1.0}, "^mesh_force: must be a positive number, got -1.0$"),
 ])
 def test_a_setting_the_fe_refuses_is_one_line_naming_it(keywords, message):

@@ -104,4 +104,5 @@ def _run(args, material, forces, params) -> dict:
                 "params": args.params},
         overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
         step_rule=args.step_rule, max_step_ratio=args.max_step_ratio, contact=args.contact,
+        kernels=args.kernels,
     )

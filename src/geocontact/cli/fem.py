@@ -48,6 +48,7 @@ def run(args) -> int:
                              overwrite=args.force, kinematics=args.kinematics,
                              mesh_rule=args.mesh_rule, step_rule=args.step_rule,
                              max_step_ratio=args.max_step_ratio, contact=args.contact,
+                             kernels=args.kernels,
                              progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:

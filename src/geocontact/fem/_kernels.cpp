@@ -22,6 +22,10 @@
 namespace nb = nanobind;
 using namespace nb::literals;
 
+#ifndef GEOCONTACT_KERNELS_HASH
+#define GEOCONTACT_KERNELS_HASH "unknown"  // built without CMakeLists.txt
+#endif
+
 namespace {
 
 constexpr int LOCAL = 12;   // dofs of a P2 vector triangle
@@ -517,6 +521,141 @@ void finite_strain(Array<const double, 4> grad0, Array<const int64_t, 2> element
   }
 }
 
+// --- small strain (fem/solver.py ContactSolver) ------------------------------------------------
+// One Newton iterate of the small-strain engine (ContactSolver._response and element_matrices):
+// at every point the strain B u_e (B the engine's strain matrices, the B-bar projection of the
+// volumetric strain already in them: ContactSolver._strain_matrices), the trial stress
+// sigma_old + D (eps - eps_old), the Drucker-Prager return mapping with its consistent tangent
+// (plasticity.return_mapping; without `plastic` the trial stress, status elastic), the internal
+// force sum B^T sigma dV and, if `local` is not empty, the element matrices sum B^T D_ep B dV.
+// Layouts: strain matrices (elements, points, 4, 12); point fields (4, elements, points).
+
+void require_small(bool ok, const char *what)
+{
+  if (!ok)
+    throw std::invalid_argument(std::string("fem._kernels.small_strain: ") + what);
+}
+
+// K_e += B^T (D dv) B, upper triangle only (D symmetric: associated flow; mirrored by the caller).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#endif
+void add_small_strain_matrix(const double *__restrict b, const double (&d)[4][4], double dv,
+                             double *__restrict local)
+{
+  double db[4][LOCAL];  // (D dv) B
+  for (int c = 0; c < 4; ++c) {
+    const double d0 = d[c][0] * dv, d1 = d[c][1] * dv, d2 = d[c][2] * dv, d3 = d[c][3] * dv;
+    for (int k = 0; k < LOCAL; ++k)
+      db[c][k] = d0 * b[k] + d1 * b[LOCAL + k] + d2 * b[2 * LOCAL + k] + d3 * b[3 * LOCAL + k];
+  }
+  for (int j = 0; j < LOCAL; ++j) {
+    const double b0 = b[j], b1 = b[LOCAL + j], b2 = b[2 * LOCAL + j], b3 = b[3 * LOCAL + j];
+    double *__restrict row = local + j * LOCAL;
+    for (int k = j; k < LOCAL; ++k)
+      row[k] += b0 * db[0][k] + b1 * db[1][k] + b2 * db[2][k] + b3 * db[3][k];
+  }
+}
+
+void small_strain(Array<const double, 4> strain_matrices, Array<const int64_t, 2> element_dofs,
+                  Array<const double, 1> displacement, Array<const double, 2> dvolume,
+                  Array<const double, 3> stress_old, Array<const double, 3> strain_old,
+                  Array<const double, 2> eqps_old, double shear, double bulk, double tan_beta,
+                  double yield_stress, double hardening, bool plastic,
+                  Array<double, 3> stress, Array<double, 3> strain, Array<double, 2> eqps,
+                  Array<int8_t, 2> status, Array<double, 1> force, Array<double, 3> local)
+{
+  const std::size_t ne = strain_matrices.shape(0), nq = strain_matrices.shape(1);
+  const std::size_t ndofs = displacement.shape(0);
+  require_small(strain_matrices.shape(2) == 4 && strain_matrices.shape(3) == LOCAL,
+                "strain_matrices must be (e, q, 4, 12)");
+  require_small(element_dofs.shape(0) == ne && element_dofs.shape(1) == LOCAL,
+                "element_dofs (e, 12)");
+  require_small(dvolume.shape(0) == ne && dvolume.shape(1) == nq, "dvolume (e, q)");
+  for (auto *field : {&stress_old, &strain_old})
+    require_small(field->shape(0) == 4 && field->shape(1) == ne && field->shape(2) == nq,
+                  "point tensors (4, e, q)");
+  for (auto *field : {&stress, &strain})
+    require_small(field->shape(0) == 4 && field->shape(1) == ne && field->shape(2) == nq,
+                  "point tensors (4, e, q)");
+  require_small(eqps_old.shape(0) == ne && eqps_old.shape(1) == nq && eqps.shape(0) == ne &&
+                eqps.shape(1) == nq && status.shape(0) == ne && status.shape(1) == nq,
+                "(e, q)");
+  require_small(force.shape(0) == ndofs, "force (ndofs,)");
+  const bool tangent = local.size() > 0;
+  require_small(!tangent || (local.shape(0) == ne && local.shape(1) == LOCAL &&
+                             local.shape(2) == LOCAL), "local (e, 12, 12)");
+  const int64_t *dofs = element_dofs.data();
+  for (std::size_t i = 0; i < ne * LOCAL; ++i)
+    require_small(dofs[i] >= 0 && static_cast<std::size_t>(dofs[i]) < ndofs,
+                  "dof out of range");
+
+  const DruckerPrager model{shear, bulk, tan_beta, yield_stress, hardening};
+  double d_el[4][4];
+  elastic_matrix(model, d_el);
+  const double *u = displacement.data();
+  const std::size_t field = ne * nq;  // stride of a component of a (4, e, q) field
+  double *f = force.data();
+  for (std::size_t i = 0; i < ndofs; ++i)
+    f[i] = 0.0;
+  for (std::size_t e = 0; e < ne; ++e) {
+    const int64_t *edofs = dofs + e * LOCAL;
+    double ue[LOCAL];
+    for (int j = 0; j < LOCAL; ++j)
+      ue[j] = u[edofs[j]];
+    const double *dv = dvolume.data() + e * nq;
+    double *ke = tangent ? local.data() + e * LOCAL * LOCAL : nullptr;
+    if (tangent)
+      for (int i = 0; i < LOCAL * LOCAL; ++i)
+        ke[i] = 0.0;
+    double fe[LOCAL] = {};
+    for (std::size_t q = 0; q < nq; ++q) {
+      const std::size_t point = e * nq + q;
+      const double *b = strain_matrices.data() + point * 4 * LOCAL;
+      double d_eps[4];
+      for (int c = 0; c < 4; ++c) {
+        double sum = 0.0;
+        for (int j = 0; j < LOCAL; ++j)
+          sum += b[c * LOCAL + j] * ue[j];
+        strain.data()[c * field + point] = sum;
+        d_eps[c] = sum - strain_old.data()[c * field + point];
+      }
+      double trial[4];
+      for (int c = 0; c < 4; ++c)
+        trial[c] = stress_old.data()[c * field + point] +
+                   (d_el[c][0] * d_eps[0] + d_el[c][1] * d_eps[1] + d_el[c][2] * d_eps[2] +
+                    d_el[c][3] * d_eps[3]);
+      const double eqps_prev = eqps_old.data()[point];
+      double s[4], d_ep[4][4], eqps_new = eqps_prev;
+      signed char state = ELASTIC;
+      if (plastic) {
+        state = return_mapping(model, trial, eqps_prev, s, eqps_new, tangent ? d_ep : nullptr);
+      } else {
+        for (int c = 0; c < 4; ++c) {
+          s[c] = trial[c];
+          for (int d = 0; d < 4; ++d)
+            d_ep[c][d] = d_el[c][d];
+        }
+      }
+      for (int c = 0; c < 4; ++c)
+        stress.data()[c * field + point] = s[c];
+      eqps.data()[point] = eqps_new;
+      status.data()[point] = state;
+      for (int j = 0; j < LOCAL; ++j)
+        fe[j] += (b[j] * s[0] + b[LOCAL + j] * s[1] + b[2 * LOCAL + j] * s[2] +
+                  b[3 * LOCAL + j] * s[3]) * dv[q];
+      if (tangent)
+        add_small_strain_matrix(b, d_ep, dv[q], ke);
+    }
+    if (tangent)
+      for (int j = 0; j < LOCAL; ++j)
+        for (int k = 0; k < j; ++k)
+          ke[j * LOCAL + k] = ke[k * LOCAL + j];
+    for (int j = 0; j < LOCAL; ++j)
+      f[edofs[j]] += fe[j];
+  }
+}
+
 // out = 0, then out[slot[i]] += weight[i] * values[i] for slot[i] >= 0: element matrices into
 // the data of a fixed sparse pattern (an empty `weight` means all ones).
 void scatter(Array<const double, 1> values, Array<const int64_t, 1> slot,
@@ -549,11 +688,17 @@ void scatter(Array<const double, 1> values, Array<const int64_t, 1> slot,
 
 NB_MODULE(_kernels, module)
 {
-  module.doc() = "Compiled finite-strain element kernels of the FE engine (fem/compiled.py).";
+  module.doc() = "Compiled small- and finite-strain element kernels of the FE (fem/compiled.py).";
+  module.attr("SOURCE_HASH") = GEOCONTACT_KERNELS_HASH;  // sha256 of this file (CMakeLists.txt)
   module.def("finite_strain", &finite_strain, "grad0"_a, "element_dofs"_a, "displacement"_a,
              "projection"_a, "dvolume"_a, "cp_old"_a, "eqps_old"_a, "shear"_a, "bulk"_a,
              "tan_beta"_a, "yield_stress"_a, "hardening"_a, "plastic"_a, "stress"_a, "cp"_a,
              "eqps"_a, "status"_a, "plastic_strain"_a, "force"_a, "local"_a,
+             nb::call_guard<nb::gil_scoped_release>());
+  module.def("small_strain", &small_strain, "strain_matrices"_a, "element_dofs"_a,
+             "displacement"_a, "dvolume"_a, "stress_old"_a, "strain_old"_a, "eqps_old"_a,
+             "shear"_a, "bulk"_a, "tan_beta"_a, "yield_stress"_a, "hardening"_a, "plastic"_a,
+             "stress"_a, "strain"_a, "eqps"_a, "status"_a, "force"_a, "local"_a,
              nb::call_guard<nb::gil_scoped_release>());
   module.def("scatter", &scatter, "values"_a, "slot"_a, "weight"_a, "out"_a,
              nb::call_guard<nb::gil_scoped_release>());

@@ -73,6 +73,7 @@ class FemJob:
     step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
+    kernels: str = "numpy"  # "numpy" | "compiled" (fem.compiled)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
@@ -89,7 +90,8 @@ class FemJob:
                   mesh_rule=inputs.get("mesh_rule", "yield"),
                   step_rule=inputs.get("step_rule", "segment"),
                   max_step_ratio=inputs.get("max_step_ratio"),
-                  contact=inputs.get("contact", "node"))
+                  contact=inputs.get("contact", "node"),
+                  kernels=inputs.get("kernels", "numpy"))
         return replace(job, **changes) if changes else job
 
     def settings(self) -> FeSettings:

@@ -20,10 +20,13 @@ with two of its pieces replaced, the equations unchanged:
   the symbolic analysis of a contact set's pattern and reuse it at every iteration.
 
 Everything else (contact, load control, the predictor with its cached CHOLMOD factorisation,
-outputs) is the engine's own. The results equal the numpy path's within the Newton tolerance,
-not bit for bit, so it is an opt-in (``run_history(kernels="compiled")``, recorded in the run's
-identity) and the engine's default stays the numpy path until the committed datasets are rerun
-with this one (docs/fem.md "Compiled kernels").
+outputs) is the engine's own. :class:`CompiledSmallStrainSolver` (below) is the small-strain
+engine on the same route. The results equal the numpy paths' within the Newton tolerance, not
+bit for bit, so they are an opt-in (``run_history(kernels="compiled")``, ``--kernels compiled``,
+recorded in the run's identity with ``compiled_code``): the committed datasets rerun on them
+agree to ~1e-13 (docs/verification/fe-kernels-agreement.json), but a committed run is reused
+only by code that reproduces it bit for bit (docs/fem.md, "Why kernels="compiled" is not the
+default").
 """
 
 from __future__ import annotations
@@ -298,3 +301,65 @@ def compiled_solver(material, mesh, *, factoriser: str | None = None,
     solver = CompiledFiniteStrainSolver(material, mesh, **kwargs)
     solver.factoriser = factoriser
     return solver
+
+
+class CompiledSmallStrainSolver(ContactSolver):
+    """The small-strain engine (:class:`~geocontact.fem.solver.ContactSolver`, node contact) with
+    its evaluation at a Newton iterate compiled: strains with the engine's B-bar strain matrices,
+    the trial stress, the Drucker-Prager return mapping with its consistent tangent, the internal
+    force and the element matrices are one call of ``_kernels.small_strain`` (a loop over
+    elements and points, no temporary arrays; equal to ``ContactSolver._response`` and
+    ``element_matrices`` to round-off, tests/test_fem_kernels.py). The bordered system is
+    assembled by ``_kernels.scatter`` through the map of :class:`CompiledFiniteStrainSolver` and
+    factorised as the engine does (CHOLMOD's LDL^T, symbolic analysis per contact set; the
+    tangent is symmetric). The elastic predictor is the engine's own (its element matrices and
+    factorisations cached per contact set), so only the plastic iterations change."""
+
+    # the reduced system straight from the element matrices (the finite-strain solver's map)
+    _plan = CompiledFiniteStrainSolver._plan
+    _bordered_data = CompiledFiniteStrainSolver._bordered_data
+    _bordered_system = CompiledFiniteStrainSolver._bordered_system
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.contact != "node":
+            raise ValueError("the compiled small-strain kernels solve the node contact, "
+                             f"got contact {self.contact!r}")
+        self._strain_rows = np.ascontiguousarray(self.B.transpose(2, 3, 1, 0))  # (e, q, 4, 12)
+        self._dofs = np.ascontiguousarray(self.element_dofs.T, dtype=np.int64)  # (e, 12)
+        self._plans: dict[int, _Plan] = {}
+
+    def _evaluate(self, old: State, u: np.ndarray, *, plastic: bool, tangent: bool):
+        """(stress, strain, eqps, status, internal force, element matrices or None) at ``u``:
+        with ``plastic`` the return mapping, else the elastic trial state."""
+        e, q = self.dvolume.shape
+        stress, strain = np.empty((4, e, q)), np.empty((4, e, q))
+        eqps, status = np.empty((e, q)), np.empty((e, q), dtype=np.int8)
+        f_int = np.empty(self.ndofs)
+        local = np.empty((e, 12, 12) if tangent else (0, 12, 12))
+        m = self.model
+        kernels().small_strain(
+            self._strain_rows, self._dofs, np.ascontiguousarray(u, dtype=float), self.dvolume,
+            np.ascontiguousarray(old.stress), np.ascontiguousarray(old.strain),
+            np.ascontiguousarray(old.eqps), m.shear_modulus, m.bulk_modulus, m.tan_beta,
+            m.yield_stress, m.hardening_modulus, plastic, stress, strain, eqps, status, f_int,
+            local)
+        return stress, strain, eqps, status, f_int, (local if tangent else None)
+
+    def _response(self, old: State, u: np.ndarray, *, elastic: bool):
+        # elastic (the predictor) or an elastic material: no tangent, the engine's cached
+        # elastic element matrices and factorisations (ContactSolver._fast_step)
+        plastic = self.plastic and not elastic
+        return self._evaluate(old, u, plastic=plastic, tangent=plastic)
+
+    def element_matrices(self, tangent):
+        if tangent is None or tangent.ndim == 4:  # the elastic matrices, or a (4, 4, e, q) D
+            return super().element_matrices(tangent)
+        return tangent  # (elements, 12, 12): _evaluate assembled them
+
+    def stiffness(self, tangent):
+        if tangent is None or tangent.ndim == 4:
+            return super().stiffness(tangent)
+        a = self._assembly
+        data = np.bincount(a.slot, weights=tangent.ravel(), minlength=len(a.indices))
+        return sp.csr_matrix((data, a.indices, a.indptr), shape=(self.ndofs, self.ndofs))

@@ -182,6 +182,17 @@ REPRODUCED_FE_CODE["3399407d181157cd"] = {
        for older, why in REPRODUCED_FE_CODE["163d9399ec173f3c"].items()},
 }
 
+_COMPILED_SMALL_STRAIN = ("the opt-in compiled small-strain kernels added (kernels='compiled' "
+                          "with kinematics='small', refused before; recorded in the identity as "
+                          "kernels) and the --kernels flag (passed on only when not at its "
+                          "default): fem.run._solver builds the numpy path's solvers as before")
+REPRODUCED_FE_CODE["82eb800afc111cfd"] = {
+    "3399407d181157cd": _COMPILED_SMALL_STRAIN,
+    **{older: _COMPILED_SMALL_STRAIN + "; " + why
+       for older, why in REPRODUCED_FE_CODE["3399407d181157cd"].items()},
+}
+
+
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
     sources (``REPRODUCED_FE_CODE``), or None."""
@@ -218,6 +229,20 @@ def sources_hash(root: Path) -> str:
 def fe_code_hash() -> str:
     """Hash of the FE engine's code (``FE_SOURCES``, ``code_fingerprint``)."""
     return sources_hash(Path(__file__).resolve().parent.parent)
+
+
+@functools.cache
+def compiled_code_hash() -> str:
+    """Hash of the compiled kernels' code, recorded in the identity of a run with
+    ``kernels="compiled"`` (``compiled_code``): fem/compiled.py's code (``code_fingerprint``)
+    and the C++ source the loaded ``_kernels`` module was built from (its ``SOURCE_HASH``, the
+    sha256 CMake takes at build time: the wheel leaves the source out). Not in ``FE_SOURCES``,
+    so an edit of the kernels leaves the numpy path's runs as they are."""
+    from . import compiled
+
+    digest = hashlib.sha256(code_fingerprint(Path(compiled.__file__).read_text()).encode())
+    digest.update(str(compiled.kernels().SOURCE_HASH).encode())
+    return digest.hexdigest()[:16]
 
 
 @functools.cache
@@ -275,6 +300,8 @@ class FeRunIdentity:
         """Inputs, FE source hash and library versions, and the key of them all."""
         record = {"schema": SCHEMA, "inputs": self.inputs(), "fe_code": fe_code_hash(),
                   "libraries": library_versions()}
+        if self.kernels == "compiled":  # only then: the numpy path's records as they were
+            record["compiled_code"] = compiled_code_hash()
         return {"key": identity_key(record), **record}
 
     def key(self) -> str:
@@ -343,6 +370,8 @@ def difference(recorded: Any, identity: FeRunIdentity, *,
         return None
     if recorded.get("fe_code") != current["fe_code"]:
         return "made by other FE code"
+    if recorded.get("compiled_code") != current.get("compiled_code"):
+        return "made by other compiled kernels"
     theirs = recorded.get("libraries") or {}
     for name, version in current["libraries"].items():
         if theirs.get(name) != version:
@@ -456,6 +485,7 @@ def cached_run(cache: str | Path, identity: FeRunIdentity) -> FemResult | None:
 
 
 __all__ = ["FE_SOURCES", "LIBRARIES", "REPRODUCED_FE_CODE", "ROUNDING", "FeRunIdentity",
-           "cached_run", "difference", "distribution_version", "equivalent_run", "fe_code_hash",
-           "finished_run", "identity_key", "library_versions", "load_result",
-           "recorded_identities", "reproduced_code", "run_key", "same_to_rounding"]
+           "cached_run", "compiled_code_hash", "difference", "distribution_version",
+           "equivalent_run", "fe_code_hash", "finished_run", "identity_key", "library_versions",
+           "load_result", "recorded_identities", "reproduced_code", "run_key",
+           "same_to_rounding"]

@@ -516,7 +516,9 @@ def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> Contac
     bbar, order = VOLUMETRIC[identity.volumetric]
     kind = ContactSolver
     if identity.kernels == "compiled":  # opt-in (fem/compiled.py); the defaults' path unchanged
-        from .compiled import compiled_solver as kind
+        from .compiled import CompiledSmallStrainSolver, compiled_solver
+
+        kind = compiled_solver if identity.kinematics == "finite" else CompiledSmallStrainSolver
     elif identity.kinematics == "finite":
         from .finite_strain import FiniteStrainSolver as kind
     if identity.contact != "node":  # the default's arguments as they were

@@ -47,7 +47,7 @@ class FeSettings:
     "small" | "finite". ``step_rule``: "segment" | "decade" (fem.run.load_schedule).
     ``max_step_ratio``: None or a cap in (1, 2] on the loading force ratio of one solve above
     the first-yield force (fem.run.sub_steps). ``contact``: "node" | "facet". ``kernels``:
-    "numpy" | "compiled" (finite strain, node contact; fem.compiled).
+    "numpy" | "compiled" (small or finite strain, node contact; fem.compiled).
     """
 
     mesh: str = "coarse"
@@ -79,10 +79,9 @@ class FeSettings:
             value = getattr(self, name)
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
-        if self.kernels == "compiled" and (self.kinematics != "finite" or self.contact != "node"):
-            raise InputError("kernels: 'compiled' is the finite-strain engine with the node "
-                             f"contact (got kinematics {self.kinematics!r}, contact "
-                             f"{self.contact!r})")
+        if self.kernels == "compiled" and self.contact != "node":
+            raise InputError("kernels: 'compiled' is the engine with the node contact (got "
+                             f"contact {self.contact!r})")
         ratio = self.max_step_ratio
         if ratio is not None and not (_is_number(ratio) and 1.0 < ratio <= 2.0):
             raise InputError(f"max_step_ratio: must be a number in (1, 2] or None, "
@@ -160,8 +159,8 @@ class FeSettings:
     # --- the command line ----------------------------------------------------------------
     @staticmethod
     def add_model_flags(p) -> None:
-        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --contact of the FE
-        engine (docs/fem.md); their defaults are the settings'."""
+        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --contact and --kernels of
+        the FE engine (docs/fem.md); their defaults are the settings'."""
         default = FeSettings.__dataclass_fields__
         p.add_argument("--kinematics", default=default["kinematics"].default,
                        choices=list(KINEMATICS),
@@ -191,15 +190,21 @@ class FeSettings:
                             "constraint) or 'facet' (penalty integrated over the surface "
                             "facets, the contact edge moving inside an element: no kink in the "
                             "loading curve as a node engages)")
+        p.add_argument("--kernels", default=default["kernels"].default,
+                       choices=["numpy", "compiled"],
+                       help="FE element kernels: 'numpy' (default) or 'compiled' (C++, small "
+                            "and finite strain, node contact: the same results within the "
+                            "Newton tolerance, not bit for bit, in less time; docs/fem.md)")
 
     @staticmethod
     def model_of(args) -> dict[str, Any]:
         """The FE model the flags of ``add_model_flags`` chose, as settings keywords
-        (``contact`` only when not the default, so the records of default runs are
-        unchanged)."""
+        (``contact`` and ``kernels`` only when not the default, so the records of default runs
+        are unchanged)."""
         model = {key: getattr(args, key) for key in MODEL_FLAGS}
-        if args.contact != FeSettings.__dataclass_fields__["contact"].default:
-            model["contact"] = args.contact
+        for name in ("contact", "kernels"):
+            if getattr(args, name) != FeSettings.__dataclass_fields__[name].default:
+                model[name] = getattr(args, name)
         return model
 
 
