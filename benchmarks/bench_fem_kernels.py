@@ -222,13 +222,17 @@ def main(mesh: str = "default", load_steps: int = 6, repeats: int = 9) -> dict:
               f"{today['evaluation_cpu_ms']:.0f} ms, linear algebra "
               f"{today['linear_algebra_cpu_ms']:.0f} ms)"),
     )
-    best = min(rows, key=lambda name: rows[name]["iteration_cpu_ms"])
+    best = min((name for name in rows if name != "cholmod+reuse"),
+               key=lambda name: rows[name]["iteration_cpu_ms"])
+    reuse = rows.get("cholmod+reuse")
+    reused = (f"; with the reuse of the factorisation {reuse['iteration_cpu_ms']:.0f} ms"
+              if reuse else "")
     return record(
         f"fem_newton_iteration_goal_{mesh}", fast["iteration_cpu_ms"], "ms",
         "issue-36 goal (one core)", GOAL_MS, ratio=fast["iteration_cpu_ms"] / GOAL_MS,
         **common,
         note=(f"compiled kernels + {chosen}, {n} unknowns; <= 1 meets the goal; fastest "
-              f"factoriser here {best} ({rows[best]['iteration_cpu_ms']:.0f} ms)"),
+              f"factoriser here {best} ({rows[best]['iteration_cpu_ms']:.0f} ms){reused}"),
     )
 
 
