@@ -13,8 +13,11 @@ with two of its pieces replaced, the equations unchanged:
 - the bordered system of a contact set is assembled by ``_kernels.scatter`` straight from the
   element matrices through one precomputed map (element entry -> position in the reduced CSC
   data, with the sign of u_top = -w), and factorised by ``factoriser``: "cholmod" (default:
-  the engine's CHOLMOD LDL^T, :func:`~geocontact.fem.solver.factorise`, the tangent being
-  symmetric to round-off), "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
+  CHOLMOD's supernodal LL^T on OpenBLAS, the tangent being symmetric to round-off, with the
+  LDL^T of :func:`~geocontact.fem.solver.factorise` for a matrix that is not positive definite;
+  a Newton step may instead be solved by CG preconditioned with an earlier factorisation,
+  ``reuse_factor``), "cholmod-simplicial" (that LDL^T alone: the compiled path before),
+  "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
   "pardiso" or "pardiso-sym" (Intel MKL PARDISO's LU or LDL^T through pypardiso, if installed)
   or "superlu" (the numpy path's :func:`~geocontact.fem.solver._lu`); all but SuperLU keep
   the symbolic analysis of a contact set's pattern and reuse it at every iteration.
@@ -37,16 +40,17 @@ import numpy as np
 import scipy.sparse as sp
 
 from .finite_strain import FiniteStrainSolver
-from .solver import State, _cholmod, _lu, _Reduced
+from .solver import ContactSolver, State, _cholmod, _lu, _Reduced
 
 FACTORISERS = ("cholmod", "cholmod-simplicial", "umfpack", "klu", "pardiso", "pardiso-sym",
                "superlu")
 # run_history(kernels=...): the numpy path of fem/finite_strain.py (default) or this module's
 KERNELS = ("numpy", "compiled")
-# The factoriser of kernels="compiled", the first available: CHOLMOD's LDL^T of the symmetric
-# tangent (what `make` installs). Measured on the 22 624-unknown tangent (docs/benchmarks.md
-# "Newton iteration"): PARDISO's LDL^T (pypardiso, not installed by `make`: ~1 GB of MKL) is
-# ~25 % faster, UMFPACK, KLU and SuperLU 2-3x slower. Not "whichever is installed", so that a
+# The factoriser of kernels="compiled", the first available: CHOLMOD's supernodal LL^T of the
+# symmetric tangent on OpenBLAS (what `make` installs). Measured on the 22 624-unknown tangent
+# (docs/benchmarks.md "Newton iteration"): 0.78x its simplicial LDL^T; PARDISO's LDL^T
+# (pypardiso, not installed by `make`: ~1 GB of MKL) was ~25 % faster than the simplicial one;
+# UMFPACK, KLU and SuperLU 3x slower. Not "whichever is installed", so that a
 # run's arithmetic does not depend on an optional package.
 PREFERRED_FACTORISERS = ("cholmod", "superlu")
 # Reuse of the factorisation (``reuse_factor``): a Newton step is solved by conjugate gradients
