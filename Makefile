@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
 	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
-	test-plugin ccx chromium check-figures cholmod suitesparse calibrate-weak-finite \
+	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite \
 	calibrate-weak-finite-coarse paper-histories-finite sample-study sample-study-reference \
 	sample-study-quartz-like
 
@@ -29,7 +29,7 @@ $(shell mkdir -p $(VENV) && find src/geocontact -name '*.py' | LC_ALL=C sort > $
   && (cmp -s $(PY_FILES).now $(PY_FILES) || mv $(PY_FILES).now $(PY_FILES)); rm -f $(PY_FILES).now)
 
 $(STAMP): pyproject.toml $(CORE_SOURCES) $(PY_FILES) | $(PY)
-	$(MAKE) --no-print-directory suitesparse
+	$(MAKE) --no-print-directory suitesparse blas
 	$(PY) -m pip install -q -e ".[fem,campaign,seismic,test]"
 	$(MAKE) --no-print-directory cholmod
 	touch $(STAMP)
@@ -41,6 +41,18 @@ suitesparse:
 	  || (apt-get update && apt-get install -y libsuitesparse-dev) \
 	  || (sudo apt-get update && sudo apt-get install -y libsuitesparse-dev) \
 	  || echo "note: libsuitesparse-dev not installed; the FE uses SuperLU (same results, slower)"
+
+# An optimised BLAS under SuiteSparse (Debian/Ubuntu libopenblas0-serial, which becomes the
+# libblas.so.3 / liblapack.so.3 alternative): the compiled FE's factorisation, CHOLMOD's
+# supernodal LL^T, does its dense blocks with BLAS, and on the reference BLAS of libblas3 it is
+# slower than the simplicial mode (docs/fem.md "Compiled finite-strain kernels"). Serial: two
+# OpenBLAS threads did not pay on these 2-D systems (measured, docs/benchmarks.md). numpy's
+# wheels bundle their own OpenBLAS and are not affected.
+blas:
+	dpkg-query -W -f '$${Status}' libopenblas0-serial 2>/dev/null | grep -q "ok installed" \
+	  || (apt-get update && apt-get install -y libopenblas0-serial) \
+	  || (sudo apt-get update && sudo apt-get install -y libopenblas0-serial) \
+	  || echo "note: libopenblas0-serial not installed; CHOLMOD runs on the system BLAS (same results to round-off, slower)"
 
 # CHOLMOD (SuiteSparse), the FE's factorisation (docs/benchmarks.md), through scikit-sparse built
 # on the Debian/Ubuntu libsuitesparse-dev (the 0.4 line: 0.5 needs SuiteSparse 7). Without it the

@@ -13,8 +13,11 @@ with two of its pieces replaced, the equations unchanged:
 - the bordered system of a contact set is assembled by ``_kernels.scatter`` straight from the
   element matrices through one precomputed map (element entry -> position in the reduced CSC
   data, with the sign of u_top = -w), and factorised by ``factoriser``: "cholmod" (default:
-  the engine's CHOLMOD LDL^T, :func:`~geocontact.fem.solver.factorise`, the tangent being
-  symmetric to round-off), "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
+  CHOLMOD's supernodal LL^T on OpenBLAS, the tangent being symmetric to round-off, with the
+  LDL^T of :func:`~geocontact.fem.solver.factorise` for a matrix that is not positive definite;
+  a Newton step may instead be solved by CG preconditioned with an earlier factorisation,
+  ``reuse_factor``), "cholmod-simplicial" (that LDL^T alone: the compiled path before),
+  "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
   "pardiso" or "pardiso-sym" (Intel MKL PARDISO's LU or LDL^T through pypardiso, if installed)
   or "superlu" (the numpy path's :func:`~geocontact.fem.solver._lu`); all but SuperLU keep
   the symbolic analysis of a contact set's pattern and reuse it at every iteration.
@@ -39,15 +42,38 @@ import scipy.sparse as sp
 from .finite_strain import FiniteStrainSolver
 from .solver import ContactSolver, State, _cholmod, _lu, _Reduced
 
-FACTORISERS = ("cholmod", "umfpack", "klu", "pardiso", "pardiso-sym", "superlu")
+FACTORISERS = ("cholmod", "cholmod-simplicial", "umfpack", "klu", "pardiso", "pardiso-sym",
+               "superlu")
 # run_history(kernels=...): the numpy path of fem/finite_strain.py (default) or this module's
 KERNELS = ("numpy", "compiled")
-# The factoriser of kernels="compiled", the first available: CHOLMOD's LDL^T of the symmetric
-# tangent (what `make` installs). Measured on the 22 624-unknown tangent (docs/benchmarks.md
-# "Newton iteration"): PARDISO's LDL^T (pypardiso, not installed by `make`: ~1 GB of MKL) is
-# ~25 % faster, UMFPACK, KLU and SuperLU 2-3x slower. Not "whichever is installed", so that a
+# The factoriser of kernels="compiled", the first available: CHOLMOD's supernodal LL^T of the
+# symmetric tangent on OpenBLAS (what `make` installs). Measured on the 22 624-unknown tangent
+# (docs/benchmarks.md "Newton iteration"): 0.78x its simplicial LDL^T; PARDISO's LDL^T
+# (pypardiso, not installed by `make`: ~1 GB of MKL) was ~25 % faster than the simplicial one;
+# UMFPACK, KLU and SuperLU 3x slower. Not "whichever is installed", so that a
 # run's arithmetic does not depend on an optional package.
 PREFERRED_FACTORISERS = ("cholmod", "superlu")
+# Reuse of the factorisation (``reuse_factor``): a Newton step is solved by conjugate gradients
+# preconditioned with the last factorisation of a tangent of the same contact set (the previous
+# iteration's or the previous load step's) when at most STATUS_CHANGES points changed their
+# return (elastic, cone, apex) since that tangent, and while that takes at most
+# KRYLOV_ITERATIONS iterations; else the tangent is factorised again. A point that changes its
+# return changes the tangent by a matrix of rank <= 4 in its element, and CG preconditioned with
+# the old factor converges in about as many iterations as the change has rank; measured on the
+# weak grain's run (coarse, 699 Krylov solves): 3.8 iterations and no refactorisation with no
+# change, 4.5 and 10 % with 1-5, 7.1 and 48 % with 6-20, > 80 % refactorised beyond. One
+# iteration costs a product with the matrix and a solve with the factor (~2.5 ms on the 22 624-
+# unknown tangent against ~40 ms for a factorisation).
+STATUS_CHANGES = 5
+KRYLOV_ITERATIONS = 8
+# The linear residual each step is solved to (inexact Newton, Eisenstat & Walker 1996): its max
+# norm at most ETA_MAX and at most |r| / F (the residual relative to the Newton's force scale,
+# which keeps Newton's quadratic convergence) times the Newton residual |r|, and never below
+# NEWTON_FRACTION of the Newton tolerance (the step that converges is solved to well within it).
+# ETA_MAX = 0.1 let a run's early Newton iterations take another course (one cut-back fewer,
+# the answer 1e-5 away); 0.01 keeps the course of the direct solves (1e-10 away).
+ETA_MAX = 0.01
+NEWTON_FRACTION = 0.1
 
 
 def kernels():
@@ -68,7 +94,7 @@ def sparse_lu():
 
 
 def available_factorisers() -> tuple[str, ...]:
-    names = ["cholmod"] if _cholmod() is not None else []
+    names = ["cholmod", "cholmod-simplicial"] if _cholmod() is not None else []
     if sparse_lu() is not None:
         names += ["umfpack", "klu"]
     try:
@@ -100,6 +126,8 @@ class _Plan:
     slot: np.ndarray  # (e * 144,) position in the reduced CSC data, -1: not in the system
     weight: np.ndarray  # (e * 144,) +-1 (u_top = -w)
     factoriser: object = None
+    preconditioner: object = None  # the last LDL^T of a tangent of this pattern (a Factor)
+    status: np.ndarray | None = None  # the points' returns at that tangent
 
 
 class _Pardiso:
@@ -146,24 +174,46 @@ class _Pardiso:
 
 
 class _Cholmod:
-    """CHOLMOD's simplicial LDL^T (scikit-sparse) as the engine's ``solver.factorise`` uses it,
-    for a symmetric matrix of one pattern: AMD analysis once, numeric factorisation per matrix."""
+    """CHOLMOD (scikit-sparse) for a symmetric matrix of one pattern: the symbolic analysis (AMD
+    ordering; supernodes in the supernodal mode) once, a numeric factorisation per matrix.
+    ``factor`` keeps the last factorisation for ``solve``; ``factorise`` returns it as a Factor
+    of its own (a later ``factor`` does not change it).
 
-    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
-        self.indptr, self.indices = indptr, indices
-        self.symbolic, self.factor_ = None, None
+    The supernodal mode (the default) is CHOLMOD's LL^T with the dense blocks of the factor done
+    by BLAS; with an optimised BLAS under CHOLMOD (OpenBLAS, which the Makefile installs) it is
+    the fastest of the modes and orderings on the 22 624-unknown tangent (docs/benchmarks.md
+    "Newton iteration"; docs/fem.md "Compiled finite-strain kernels"). A matrix that is not
+    positive definite (LL^T fails) gets the simplicial LDL^T of the engine's
+    :func:`~geocontact.fem.solver.factorise`, which takes an indefinite one; "simplicial" uses
+    only that."""
 
-    def factor(self, data: np.ndarray) -> bool:
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, *, mode: str = "supernodal"):
+        self.indptr, self.indices, self.mode = indptr, indices, mode
+        self.symbolic, self.indefinite, self.factor_ = None, None, None
+
+    def factorise(self, data: np.ndarray):
+        """The factorisation of the matrix with these values (a sksparse Factor), or None if
+        CHOLMOD cannot factorise it (a zero pivot)."""
         analyze, errors = _cholmod()
         n = len(self.indptr) - 1
         matrix = sp.csc_matrix((data, self.indices, self.indptr), shape=(n, n))
         try:
             if self.symbolic is None:
-                self.symbolic = analyze(matrix, mode="simplicial", ordering_method="amd")
-            self.factor_ = self.symbolic.cholesky(matrix)
+                self.symbolic = analyze(matrix, mode=self.mode, ordering_method="amd")
+            return self.symbolic.cholesky(matrix)
+        except errors:  # not positive definite (LL^T), or a zero pivot (LDL^T)
+            if self.mode == "simplicial":
+                return None
+        try:
+            if self.indefinite is None:
+                self.indefinite = analyze(matrix, mode="simplicial", ordering_method="amd")
+            return self.indefinite.cholesky(matrix)
         except errors:
-            return False
-        return True
+            return None
+
+    def factor(self, data: np.ndarray) -> bool:
+        self.factor_ = self.factorise(data)
+        return self.factor_ is not None
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.factor_.solve_A(rhs)
@@ -172,10 +222,11 @@ class _Cholmod:
 def make_factoriser(name: str, indptr: np.ndarray, indices: np.ndarray):
     """A factoriser object with ``factor(data) -> bool`` and ``solve(rhs)`` for one CSC
     pattern (the symbolic analysis is made at the first ``factor`` and kept)."""
-    if name == "cholmod":
+    if name in ("cholmod", "cholmod-simplicial"):
         if _cholmod() is None:
-            raise ValueError("factoriser 'cholmod' needs scikit-sparse (make cholmod)")
-        return _Cholmod(indptr, indices)
+            raise ValueError(f"factoriser {name!r} needs scikit-sparse (make cholmod)")
+        return _Cholmod(indptr, indices,
+                        mode="simplicial" if name == "cholmod-simplicial" else "supernodal")
     if name in ("umfpack", "klu"):
         module = sparse_lu()
         if module is None:
@@ -195,9 +246,15 @@ class CompiledFiniteStrainSolver(FiniteStrainSolver):
     is set after construction (``solver.factoriser = "klu"``) or by :func:`compiled_solver`."""
 
     factoriser: str = "cholmod"
+    reuse_factor: bool = True  # CHOLMOD: Krylov solves preconditioned with the last LDL^T
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        self.krylov_solves = 0  # Newton steps solved by preconditioned CG (reuse_factor)
+        self.krylov_iterations = 0  # their CG iterations, in all
+        self.krylov_refactorisations = 0  # of them, those that needed a new factorisation
+        self._newton_tolerance = self.tolerance * self.force_scale
+        self._status = None  # the points' returns at the last tangent evaluated
         self._grad0 = np.ascontiguousarray(self.G0.transpose(2, 3, 1, 0))  # (e, q, 5, 12)
         self._dofs = np.ascontiguousarray(self.element_dofs.T, dtype=np.int64)  # (e, 12)
         self._projection = self._projection_matrices()
@@ -230,6 +287,8 @@ class CompiledFiniteStrainSolver(FiniteStrainSolver):
             m.shear_modulus, m.bulk_modulus, m.tan_beta, m.yield_stress, m.hardening_modulus,
             self.plastic and not elastic, update.stress, update.cp, update.eqps, update.status,
             update.plastic_strain, f_int, local)
+        if tangent:
+            self._status = update.status  # the returns of this tangent (reuse_factor)
         return update, f_int, (local if tangent else None)
 
     def _dissipation(self, old: State, u: np.ndarray, stress: np.ndarray,
@@ -267,21 +326,111 @@ class CompiledFiniteStrainSolver(FiniteStrainSolver):
         size = reduced.n + 1
         return sp.csc_matrix((data, reduced.indices, reduced.indptr), shape=(size, size))
 
+    def _iterate(self, old, force, u, w, active, **kwargs):
+        # the Newton tolerance in force units, as ContactSolver._iterate sets it, for the
+        # inexact solves of reuse_factor
+        self._newton_tolerance = self.tolerance * max(abs(force), 1e-3 * self.force_scale,
+                                                      1e-30)
+        return super()._iterate(old, force, u, w, active, **kwargs)
+
     def _factor(self, local, reduced):
-        if local is self._cache.get("elastic_local") or self.factoriser == "superlu":
-            return super()._factor(local, reduced)  # the predictor's CHOLMOD, or SuperLU
-        if self.factoriser == "cholmod":  # LDL^T of the symmetric tangent (its symbolic
-            return ContactSolver._factor(self, local, reduced)  # analysis: the predictor's)
-        self.factorisations += 1
+        elastic = local is self._cache.get("elastic_local")
+        if self.factoriser == "superlu" or (elastic and not self.factoriser.startswith("cholmod")):
+            return super()._factor(local, reduced)  # the engine's CHOLMOD, or SuperLU
         plan = self._plan(reduced)
         if plan.factoriser is None:
             plan.factoriser = make_factoriser(self.factoriser, reduced.indptr, reduced.indices)
         data = self._bordered_data(local, plan)
-        if not (np.all(np.isfinite(data)) and plan.factoriser.factor(data)):
-            size = reduced.n + 1  # singular or not finite: SuperLU's verdict, as before
-            return _lu(sp.csc_matrix((data, reduced.indices, reduced.indptr),
-                                     shape=(size, size)))
-        return plan.factoriser.solve
+        if not np.all(np.isfinite(data)):  # not finite: SuperLU's verdict, as before
+            self.factorisations += 1
+            return _lu(self._csc(data, reduced))
+        if not isinstance(plan.factoriser, _Cholmod):
+            self.factorisations += 1
+            if not plan.factoriser.factor(data):  # singular: SuperLU's verdict, as before
+                return _lu(self._csc(data, reduced))
+            return plan.factoriser.solve
+        if not elastic and self._reusable(plan):
+            return lambda rhs: self._krylov_solve(plan, data, rhs)
+        return self._ldlt(plan, data, keep=not elastic)
+
+    @staticmethod
+    def _csc(data: np.ndarray, reduced: _Reduced) -> sp.csc_matrix:
+        size = reduced.n + 1
+        return sp.csc_matrix((data, reduced.indices, reduced.indptr), shape=(size, size))
+
+    def _ldlt(self, plan: _Plan, data: np.ndarray, *, keep: bool):
+        """The solve function of CHOLMOD's LDL^T of the matrix (``keep``: it becomes the
+        contact set's preconditioner); as :func:`~geocontact.fem.solver.factorise`, SuperLU if
+        CHOLMOD fails or its solution is not finite."""
+        self.factorisations += 1
+        factor = plan.factoriser.factorise(data)
+        if factor is None:  # e.g. a zero pivot
+            return _lu(self._csc(data, plan.reduced))
+        if keep:
+            plan.preconditioner, plan.status = factor, self._status
+
+        def solve(rhs: np.ndarray) -> np.ndarray:
+            x = factor.solve_A(rhs)
+            if np.all(np.isfinite(x)):
+                return x
+            lu = _lu(self._csc(data, plan.reduced))
+            return lu(rhs) if lu is not None else x
+
+        return solve
+
+    def _reusable(self, plan: _Plan) -> bool:
+        """Whether the contact set's last factorisation preconditions this tangent well: at
+        most STATUS_CHANGES points changed their return since (``STATUS_CHANGES``)."""
+        return (self.reuse_factor and plan.preconditioner is not None
+                and plan.status is not None and self._status is not None
+                and np.count_nonzero(self._status != plan.status) <= STATUS_CHANGES)
+
+    def _krylov_solve(self, plan: _Plan, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """The Newton step by conjugate gradients preconditioned with the contact set's last
+        factorisation, to the inexact-Newton target (ETA_MAX, NEWTON_FRACTION); if that takes
+        more than KRYLOV_ITERATIONS iterations (or breaks down), the matrix is factorised and
+        the step solved directly, as without reuse."""
+        r = float(np.max(np.abs(rhs)))
+        tolerance = self._newton_tolerance
+        scale = tolerance / self.tolerance  # the Newton's force scale
+        target = max(NEWTON_FRACTION * tolerance, min(ETA_MAX, r / scale) * r)
+        self.krylov_solves += 1
+        x, iterations = preconditioned_cg(self._csc(data, plan.reduced), rhs,
+                                          plan.preconditioner.solve_A, target, KRYLOV_ITERATIONS)
+        self.krylov_iterations += iterations
+        if x is not None:
+            return x
+        self.krylov_refactorisations += 1
+        return self._ldlt(plan, data, keep=True)(rhs)
+
+
+def preconditioned_cg(matrix, rhs: np.ndarray, precondition, target: float,
+                      max_iterations: int) -> tuple[np.ndarray | None, int]:
+    """Conjugate gradients on ``matrix @ x = rhs`` (symmetric) preconditioned with
+    ``precondition`` (x ~ matrix^-1 r, symmetric positive definite), from x = 0, until the max
+    norm of the residual is at most ``target`` (Saad 2003, Algorithm 9.1; the residual updated
+    by the recurrence). (x, iterations), x None if not reached within ``max_iterations`` or if
+    the iteration breaks down (a direction of non-positive curvature: an indefinite matrix or
+    preconditioner)."""
+    x = np.zeros_like(rhs)
+    r = rhs.copy()
+    z = precondition(r)
+    p = z.copy()
+    rz = float(r @ z)
+    for iteration in range(1, max_iterations + 1):
+        ap = matrix @ p
+        curvature = float(p @ ap)
+        if not (rz > 0.0 and curvature > 0.0):
+            return None, iteration
+        alpha = rz / curvature
+        x += alpha * p
+        r -= alpha * ap
+        if np.max(np.abs(r)) <= target:
+            return x, iteration
+        z = precondition(r)
+        rz, previous = float(r @ z), rz
+        p = z + (rz / previous) * p
+    return None, max_iterations
 
 
 def default_factoriser() -> str:

@@ -76,6 +76,14 @@ _CODE_ONLY = ("the FE hash reads the sources' code (their syntax trees without d
               "modules were moved (material, hertz, force_history to grain, resolution "
               "to fem.roundoff, io to files) and their comments edited, with every syntax tree the "
               "same as at 209c6c5f6f7c038c (checked with this function on both trees)")
+# fem/compiled.py is not among FE_SOURCES; its code is in a compiled run's identity
+# (``compiled_code_hash``). Its finite-strain factoriser changed (issue 36, fe-solver) from
+# CHOLMOD's simplicial LDL^T to its supernodal LL^T on OpenBLAS, with Newton steps by CG
+# preconditioned with a reused factorisation (``reuse_factor``): a run's steps, cut-backs and
+# Newton iterations as before, its states within the Newton tolerance of the earlier ones (the
+# approach within 4e-8 at the first steps' absolute tolerance, 1e-9 after, on the weak grain's
+# coarse run: scripts/compare_factor_reuse.py), not bit for bit, so the kernels="compiled" runs
+# made before are stale ("made by other compiled kernels").
 _COMPILED_KERNELS = ("the opt-in compiled finite-strain kernels added (kernels='compiled', "
                      "fem/compiled.py; recorded in the identity as kernels): fem.run._solver "
                      "builds the numpy path's solvers as before")
