@@ -133,11 +133,25 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
         rows = [r for r in _rows(directory) if int(r["index"]) != point.index] + [row]
         write_text_atomic(directory / "points.csv", format_rows(rows))
         added.append(point.index)
+        _prepare(directory, progress)
         if progress:
             print(f"record campaign: point {point.index} done ({info['point_cpu_time_s']:.0f} "
                   f"s CPU, {info['point_wall_time_s']:.0f} s wall; top a/R "
                   f"{info['levels']['achieved_contact_over_radius'][-1]:.3f})", file=sys.stderr)
     return added
+
+
+def _prepare(directory: Path, progress: bool) -> None:
+    """fits.json brought up to date (``record_law.prepare``) once there are 2 points."""
+    from .record_law import prepare
+
+    if read_points(directory)["index"].size < 2:
+        return
+    try:
+        prepare(directory)
+    except InputError as exc:
+        if progress:
+            print(f"record campaign: fits.json not updated ({exc})", file=sys.stderr)
 
 
 def _rows(directory: Path) -> list[dict[str, Any]]:

@@ -147,8 +147,76 @@ def normalised_data(values: dict[str, float]) -> dict[str, Any]:
             "levels": levels, "fe_yield_ratio": float(values["fe_yield_ratio"])}
 
 
+FITS_FILE = "fits.json"
+WARM_STARTS = 2
+
+
+def row_key(data: dict[str, np.ndarray], i: int) -> str:
+    """Hash of row i's coordinates and law columns (a node's entry holds while they do)."""
+    cells = [f"{data[c][i]:.10g}" for c in (*record.AXIS_NAMES, *law_columns())]
+    return hashlib.sha256(",".join(cells).encode()).hexdigest()[:16]
+
+
+def prepare(directory: str | Path) -> int:
+    """Write fits.json: per point, the law of record at the point itself (the interpolation is
+    exact there): its saturating fits (the warm starts of ``record_params`` near it) and its
+    cyclic extension's parameters and state. Returns the number of points fitted."""
+    from dataclasses import asdict
+
+    from ..files import write_json_atomic
+    from .design import material_at
+
+    surfaces, data = read_surfaces(directory)
+    nodes = {}
+    for i in range(data["index"].size):
+        material = material_at([float(data[n][i]) for n in record.AXIS_NAMES])
+        entry: dict[str, Any] = {"row": row_key(data, i)}
+        try:
+            p = record_params(material, directory, surfaces=surfaces, starts=None)
+        except InputError as exc:  # recorded; such a node gives no warm start
+            entry["error"] = str(exc)
+        else:
+            entry["residual"] = list(p.residual_closed_form("the law of record's warm starts"))
+            entry["plastic_work"] = [p.plastic_work_limit, p.plastic_work_power,
+                                     p.plastic_work_transition, p.plastic_work_log_power]
+            entry["cyclic"] = {**asdict(p.cyclic), "status": p.provenance["cyclic"]["status"],
+                               "state": p.provenance["cyclic"]["state"]}
+        nodes[str(int(data["index"][i]))] = entry
+    write_json_atomic(Path(directory) / FITS_FILE, {
+        "format": "geocontact.universal-record-fits/1",
+        "what": "per point of the campaign of record, the law of record at the point itself: "
+                "its saturating fits (calibrate.fit.fit_law, 30-start grid), the warm starts of "
+                "the law at a material near it, and its cyclic extension (calibrate's fit of "
+                "the point's repeated history)",
+        "command": "python -m geocontact.universal.campaign --design record (after each point)",
+        "dataset_sha256": surfaces.dataset_sha256, "nodes": nodes})
+    return len(nodes)
+
+
+def warm_starts(directory: str | Path, data: dict[str, np.ndarray], u: np.ndarray
+                ) -> dict[str, list] | None:
+    """The saturating fits of the ``WARM_STARTS`` points nearest to ``u`` (unit box) whose
+    fits.json entry matches their row; None without any (then the fit's full grid)."""
+    import json
+
+    path = Path(directory) / FITS_FILE
+    if not path.is_file():
+        return None
+    fits = json.loads(path.read_text()).get("nodes", {})
+    nodes = record.unit(np.column_stack([data[n] for n in record.AXIS_NAMES]))
+    chosen = []
+    for i in np.argsort(np.sum((nodes - u) ** 2, axis=1)):
+        entry = fits.get(str(int(data["index"][i])))
+        if entry is not None and "residual" in entry and entry.get("row") == row_key(data, i):
+            chosen.append(entry)
+        if len(chosen) == WARM_STARTS:
+            break
+    return ({"residual": [e["residual"] for e in chosen],
+             "plastic_work": [e["plastic_work"] for e in chosen]} if chosen else None)
+
+
 def record_params(material: Material, directory: str | Path, *, extrapolate: bool = False,
-                  surfaces: RecordSurfaces | None = None):
+                  surfaces: RecordSurfaces | None = None, starts: Any = "fits.json"):
     """The universal law of ``material`` from the dataset of record in ``directory``: its
     envelope, its cyclic extension and its calibrated range (module docstring)."""
     from ..calibrate.campaign import fit_cyclic_analysis
@@ -162,8 +230,10 @@ def record_params(material: Material, directory: str | Path, *, extrapolate: boo
     if problems and not extrapolate:
         raise InputError(problems[0] + " (pass --extrapolate / extrapolate=True to accept "
                                        "it with a larger error)")
-    table = surfaces if surfaces is not None else read_surfaces(directory)[0]
+    table, nodes = (surfaces, None) if surfaces is not None else read_surfaces(directory)
     coords = coordinates_of(material)
+    if starts == FITS_FILE:
+        starts = None if nodes is None else warm_starts(directory, nodes, record.unit(coords))
     values = table(coords)
     data = normalised_data(values)
     yield_approach, d_virgin, f_virgin, levels, data, analytic = rebuild_from(material, data)
@@ -184,10 +254,12 @@ def record_params(material: Material, directory: str | Path, *, extrapolate: boo
             "levels_force_over_yield": [lv["force"] for lv in data["levels_used"]],
             "levels_contact_over_radius": [float(10.0 ** values[f"contact_{k}"])
                                            for k in range(record.LEVELS)],
+            "saturating_fit_start": ("the fits of the nearest campaign points (fits.json)"
+                                     if starts else "the fit's full start grid"),
         },
     }
     params = _fit_within_energy(material, yield_approach, d_virgin, f_virgin, levels,
-                                provenance, None)
+                                provenance, starts)
     params = with_record_range(params, values)
     analysis = analyse(rebuild_cycles(values, analytic.force, analytic.approach),
                        source="the universal law's interpolated repeated history")
