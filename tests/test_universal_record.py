@@ -271,10 +271,42 @@ def test_pilot_law_file_carries_its_range_and_the_cyclic_extension():
     from geocontact.law import load_params
 
     data = record_dataset.read_points(PILOT)
-    for path in sorted(PILOT.glob("law-point-*.json")):
+    laws = sorted(PILOT.glob("law-point-*.json"))
+    assert data["index"].size < 2 or len(laws) == data["index"].size
+    for path in laws:
         params = load_params(path)
         index = int(path.stem.rpartition("-")[2])
         row = int(np.flatnonzero(data["index"] == index)[0])
         top = 10 ** data[f"contact_{record.LEVELS - 1}"][row]
         assert params.calibrated_range["contact_radius_ratio"] <= top * (1 + 1e-6)
         assert "cyclic" in params.provenance
+
+
+@pilot
+def test_pilot_law_at_a_node_is_its_own_data(tmp_path):
+    """At a pilot point the interpolation is exact: the law's calibrated range ends at the
+    point's own top level (force and a/R), its levels are the point's, its cyclic extension is
+    the one fits.json records for the point; the stored LOO selection equals a recomputed one."""
+    import shutil
+
+    from geocontact.universal.design import material_at
+
+    shutil.copy(PILOT / "points.csv", tmp_path / "points.csv")
+    assert record_law.prepare(tmp_path) >= 2
+    data = record_dataset.read_points(tmp_path)
+    fits = json.loads((tmp_path / "fits.json").read_text())
+    cached, _ = record_law.read_surfaces(tmp_path)
+    fresh = record_law.build_surfaces(data, cached.dataset_sha256)
+    assert cached.kernels == fresh.kernels and np.allclose(cached.loo_error, fresh.loo_error)
+    for i in range(data["index"].size):
+        material = material_at([data[n][i] for n in record.AXIS_NAMES])
+        p = record_law.record_params(material, tmp_path)
+        fy = incipient_yield(material).force
+        top = record.LEVELS - 1
+        assert math.isclose(p.calibrated_range["contact_radius_ratio"],
+                            10 ** data[f"contact_{top}"][i], rel_tol=1e-6)
+        assert math.isclose(p.calibrated_range["max_force_N"], 10 ** data[f"logf_{top}"][i] * fy,
+                            rel_tol=1e-6)
+        node = fits["nodes"][str(int(data["index"][i]))]
+        assert p.cyclic.enabled == node["cyclic"]["enabled"]
+        assert p.provenance["universal"]["saturating_fit_start"].startswith("the fits of")

@@ -57,11 +57,12 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
         probes.append(record.probe_job(point, settings, force, attempt))
         probe_results.append(run_campaign([probes[-1]], cache, workers=1,
                                           progress=progress)[0])
-        force = record.next_probe_force(material,
-                                        *record.contact_curve(probe_results[-1].curve))
+        force = record.next_probe_force(material, *record.contact_curve(
+            *[r.curve for r in probe_results]))
         if force is None:
             break
-    levels = record.level_forces(material, *record.contact_curve(probe_results[-1].curve))
+    levels = record.level_forces(material, *record.contact_curve(
+        *[r.curve for r in probe_results]))
     jobs, cyclic = record.point_jobs(point, settings, levels)
     results = run_campaign([*jobs, cyclic], cache, workers=1, progress=progress)
     runs = [extract_run(j, r) for j, r in zip(jobs, results[:-1], strict=True)]

@@ -95,8 +95,11 @@ class RecordSurfaces:
                 for group, prefixes in GROUPS.items()}
 
 
-def build_surfaces(data: dict[str, np.ndarray], sha256: str = "") -> RecordSurfaces:
-    """The surfaces of a dataset of record (``record_dataset.read_points``)."""
+def build_surfaces(data: dict[str, np.ndarray], sha256: str = "",
+                   stored: dict[str, Any] | None = None) -> RecordSurfaces:
+    """The surfaces of a dataset of record (``record_dataset.read_points``); ``stored``: the
+    kernels and LOO errors ``prepare`` wrote to fits.json, used when they are of this dataset
+    (its SHA-256) instead of recomputing the leave-one-out selection."""
     n = data["index"].size
     if n < 2:
         raise InputError(f"universal law (record): the dataset has {n} points; at least 2 "
@@ -109,12 +112,17 @@ def build_surfaces(data: dict[str, np.ndarray], sha256: str = "") -> RecordSurfa
         raise InputError(f"universal law (record): the dataset has empty values in "
                          f"{', '.join(bad[:3])}")
     degree, kernels_tried = (1, KERNELS) if n >= MIN_POINTS else (0, ("linear",))
-    errors = {k: _loo(nodes, values, k, degree) for k in kernels_tried}
-    rms = np.array([np.sqrt(np.mean(errors[k] ** 2, axis=0)) for k in kernels_tried])
-    rms[~np.all(np.isfinite(rms), axis=1)] = np.inf
-    best = np.argmin(rms, axis=0)
-    kernels = [kernels_tried[b] for b in best]
-    error = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
+    if stored and sha256 and stored.get("dataset_sha256") == sha256 \
+            and stored.get("columns") == columns:
+        kernels = list(stored["kernels"])
+        error = np.array(stored["loo_error"], dtype=float)
+    else:
+        errors = {k: _loo(nodes, values, k, degree) for k in kernels_tried}
+        rms = np.array([np.sqrt(np.mean(errors[k] ** 2, axis=0)) for k in kernels_tried])
+        rms[~np.all(np.isfinite(rms), axis=1)] = np.inf
+        best = np.argmin(rms, axis=0)
+        kernels = [kernels_tried[b] for b in best]
+        error = np.column_stack([errors[kernels[j]][:, j] for j in range(len(columns))])
     interpolators = {}
     for kernel in kernels_tried:
         index = np.array([j for j, k in enumerate(kernels) if k == kernel], dtype=int)
@@ -131,7 +139,14 @@ def read_surfaces(directory: str | Path) -> tuple[RecordSurfaces, dict[str, np.n
                          "geocontact.universal.campaign --design record)")
     text = path.read_bytes()
     data = parse_points_text(text.decode(), str(path))
-    return build_surfaces(data, hashlib.sha256(text).hexdigest()), data
+    return build_surfaces(data, hashlib.sha256(text).hexdigest(), _stored(directory)), data
+
+
+def _stored(directory: str | Path) -> dict[str, Any] | None:
+    import json
+
+    path = Path(directory) / FITS_FILE
+    return json.loads(path.read_text()).get("surfaces") if path.is_file() else None
 
 
 def normalised_data(values: dict[str, float]) -> dict[str, Any]:
@@ -189,7 +204,9 @@ def prepare(directory: str | Path) -> int:
                 "the law at a material near it, and its cyclic extension (calibrate's fit of "
                 "the point's repeated history)",
         "command": "python -m geocontact.universal.campaign --design record (after each point)",
-        "dataset_sha256": surfaces.dataset_sha256, "nodes": nodes})
+        "dataset_sha256": surfaces.dataset_sha256, "nodes": nodes,
+        "surfaces": {"dataset_sha256": surfaces.dataset_sha256, "columns": surfaces.columns,
+                     "kernels": surfaces.kernels, "loo_error": surfaces.loo_error}})
     return len(nodes)
 
 
