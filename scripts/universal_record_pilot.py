@@ -5,12 +5,15 @@ whole pipeline to a law file, and its cost and levels as tables.
         --mesh coarse --dataset datasets/universal/record-pilot \\
         --cache datasets/fe-runs/universal-record-pilot          # the FE work (resumable)
     PYTHONPATH=src .venv/bin/python scripts/universal_record_pilot.py [--laws] [--json]
+    nice -n 10 .venv/bin/python scripts/universal_record_pilot.py --mesh-ratio 0
 
 ``--laws``: for every pilot point, its material as ``material-point-I.toml`` and the universal law
 of record at it, ``law-point-I.json``, written by ``geocontact params --design record`` (the
 interpolation is exact at a node, so the file is the law of that point's own FE data). Without
 it: the tables only (per point: CPU and wall time, FE runs, solves, Newton iterations, elements;
-per level: target and achieved a/R).
+per level: target and achieved a/R). ``--mesh-ratio I``: the cost of the default mesh against the
+coarse one on point I's last probe and top level (what the cost of the campaign of record on the
+default mesh is estimated from, docs/universal.md).
 """
 
 from __future__ import annotations
@@ -52,6 +55,46 @@ def write_laws(provenance: dict) -> None:
             raise SystemExit(code)
 
 
+def mesh_ratio(provenance: dict, index: int, cache: Path) -> dict:
+    """The point's last probe and its top level rerun on the default mesh (same forces, mesh
+    sized for the same top) in this process, one after the other, against the pilot's coarse
+    runs: CPU time (this process, resource.getrusage), solves, Newton iterations, elements."""
+    import resource
+
+    from geocontact.fem.campaign import run_campaign
+    from geocontact.fem.identity import load_result
+    from geocontact.universal import record
+
+    info = provenance["points"][str(index)]
+    point = record.design_points(index + 1)[index]
+    material = point.material()
+    coarse, default = record.fe_settings(mesh="coarse"), record.fe_settings(mesh="default")
+    top = max(info["levels"]["forces_N"])
+    probe_forces = info["probes"][-1]["forces_N"]
+    shape = [0.0, 1.0, 0.0, 1.0, 0.0]
+    rows = []
+    for name, forces, mesh_force in (("probe", probe_forces, None),
+                                     ("top level", [s * top for s in shape], top)):
+        row = {"run": name}
+        for label, settings in (("coarse", coarse), ("default", default)):
+            job = record.job(material, forces, settings, f"{name} {label}", mesh_force)
+            usage = resource.getrusage(resource.RUSAGE_SELF)
+            before = usage.ru_utime + usage.ru_stime
+            if label == "coarse":  # the pilot's own run, from its committed cache
+                result = load_result(ROOT / "datasets/fe-runs/universal-record-pilot" / job.key())
+                cpu = None
+            else:
+                result = run_campaign([job], cache, workers=1, progress=False)[0]
+                usage = resource.getrusage(resource.RUSAGE_SELF)
+                cpu = usage.ru_utime + usage.ru_stime - before
+            row[label] = {"cpu_s": cpu, "wall_s": result.summary["wall_time_s"],
+                          "solves": (result.summary.get("step_control") or {}).get("solves"),
+                          "newton": result.summary["newton_iterations"],
+                          "elements": result.summary["mesh"]["elements"]}
+        rows.append(row)
+    return {"point": index, "runs": rows}
+
+
 def tables(provenance: dict) -> dict:
     points = []
     for index, info in sorted(provenance["points"].items(), key=lambda kv: int(kv[0])):
@@ -75,8 +118,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--laws", action="store_true")
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--mesh-ratio", type=int, metavar="POINT", default=None,
+                        help="rerun the point's last probe and top level on the default mesh "
+                             "(cache: --cache) and print their cost beside the coarse runs'")
+    parser.add_argument("--cache", default="out/cache/universal-record-default",
+                        help="FE cache of the --mesh-ratio runs (not committed)")
     args = parser.parse_args(argv)
     provenance = json.loads((PILOT / "provenance.json").read_text())
+    if args.mesh_ratio is not None:
+        print(json.dumps(mesh_ratio(provenance, args.mesh_ratio, Path(args.cache)), indent=2))
+        return 0
     if args.laws:
         write_laws(provenance)
     out = tables(provenance)
