@@ -310,3 +310,21 @@ def test_pilot_law_at_a_node_is_its_own_data(tmp_path):
         node = fits["nodes"][str(int(data["index"][i]))]
         assert p.cyclic.enabled == node["cyclic"]["enabled"]
         assert p.provenance["universal"]["saturating_fit_start"].startswith("the fits of")
+
+
+@pilot
+def test_pilot_law_warns_beyond_its_top_level():
+    """The law of record says when a contact goes beyond the campaign's top level (the
+    calibrated range every law file carries), as any law file does."""
+    from geocontact.law import BeyondCalibratedRangeWarning, Contact, load_params
+
+    params = load_params(PILOT / "law-point-0.json")
+    top = params.calibrated_range["max_approach_m"]
+    import warnings
+
+    contact = Contact(params)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BeyondCalibratedRangeWarning)
+        contact.update(0.9 * top)  # inside: silent
+    with pytest.warns(BeyondCalibratedRangeWarning, match="beyond the calibrated range"):
+        contact.update(1.2 * top)
