@@ -76,34 +76,20 @@ MIN_SPAN = 2.0
 TOP_CAP = 0.45
 
 
-@dataclass(frozen=True)
-class RecordJob(FemJob):
-    """A ``FemJob`` that also carries ``FeSettings.kernels`` (FemJob has no such field yet: its
-    ``settings()`` takes every FeSettings field the job has, so the compiled kernels reach
-    ``run_history`` and the run's identity through ``run_campaign`` unchanged)."""
-
-    kernels: str = "numpy"
-
-
 def fe_settings(mesh: str = "default", kinematics: str = "finite", **changes) -> FeSettings:
     """The FE of record: ``mesh`` (default mesh), ``kinematics`` (finite strain), the compiled
-    kernels where the FE has them for that kinematics (else its numpy path), every other
-    setting the FE's default; ``changes``: any other FeSettings field. One-line InputError on a
-    setting the FE refuses."""
-    if "kernels" in changes:
-        return FeSettings(mesh=mesh, kinematics=kinematics, **changes)
-    try:
-        return FeSettings(mesh=mesh, kinematics=kinematics, kernels="compiled", **changes)
-    except InputError:  # an FE without compiled small-strain kernels: its numpy path
-        return FeSettings(mesh=mesh, kinematics=kinematics, kernels="numpy", **changes)
+    kernels (small or finite strain), every other setting the FE's default; ``changes``: any
+    other FeSettings field. One-line InputError on a setting the FE refuses."""
+    changes.setdefault("kernels", "compiled")
+    return FeSettings(mesh=mesh, kinematics=kinematics, **changes)
 
 
 def job(material: Material, forces, settings: FeSettings, label: str,
-        mesh_force: float | None = None) -> RecordJob:
+        mesh_force: float | None = None) -> FemJob:
     """One FE run of a point with ``settings`` (``mesh_force`` sizes the mesh, None: its own)."""
     fields = {name: getattr(settings, name) for name in FeSettings.names()}
     fields["mesh_force"] = mesh_force
-    return RecordJob(material, tuple(float(f) for f in forces), label=label, **fields)
+    return FemJob(material, tuple(float(f) for f in forces), label=label, **fields)
 
 
 @dataclass(frozen=True)
@@ -183,7 +169,7 @@ def validity_force(material: Material) -> float:
 
 
 def probe_job(point: RecordPoint, settings: FeSettings, force: float | None = None,
-              attempt: int = 0) -> RecordJob:
+              attempt: int = 0) -> FemJob:
     """A probe of the point: one monotonic loading to ``force`` (default the first probe's, the
     FE's validity force ``validity_force``), whose contact radius curve places the levels."""
     material = point.material()
@@ -277,7 +263,7 @@ def level_forces(material: Material, force, radius) -> dict[str, Any]:
 
 
 def point_jobs(point: RecordPoint, settings: FeSettings, levels: dict[str, Any]
-               ) -> tuple[list[RecordJob], RecordJob]:
+               ) -> tuple[list[FemJob], FemJob]:
     """The calibration runs at the levels' forces (calibrate's history shape, one mesh sized for
     the top) and the repeated-history run at ``cyclic_peak_over_max`` x the top."""
     from ..calibrate.campaign import settings as calibration_settings
