@@ -273,12 +273,21 @@ def fit_cyclic(params: LawParams, job: FemJob, result: FemResult) -> LawParams:
     When the run does not support a decaying power law (the residual increments do not fall
     with N: the history ratchets, or too few cycles), the cyclic extension stays disabled and
     the provenance says why; the analysis is recorded either way."""
-    from .cyclic_fit import analyse, ratchetting_cycles, with_cyclic
+    from .cyclic_fit import analyse
 
     analysis = analyse(result.summary["cycles"], source=f"FE {job.label}")
-    info = {"history_forces_N": list(job.forces), "mesh": job.mesh,
-            "cache_key": run_key(result, job.identity()),
-            "state": analysis.state, "critical_cycles": analysis.critical_cycles}
+    return fit_cyclic_analysis(params, analysis, {
+        "history_forces_N": list(job.forces), "mesh": job.mesh,
+        "cache_key": run_key(result, job.identity())})
+
+
+def fit_cyclic_analysis(params: LawParams, analysis, info: dict[str, Any]) -> LawParams:
+    """``fit_cyclic`` on an analysis of repeated loading (``cyclic_fit.analyse``) from any
+    source (an FE run, or the universal law's interpolated cycles); ``info`` goes into
+    ``provenance.cyclic``."""
+    from .cyclic_fit import ratchetting_cycles, with_cyclic
+
+    info = {**info, "state": analysis.state, "critical_cycles": analysis.critical_cycles}
     if len(analysis.cycles) > 1 and ratchetting_cycles(analysis) == 0:
         second = analysis.cycles[1]["residual_increment_ratio"]
         no_ratchet = (f"the residual approach stops at cycle 1 (cycle-2 residual increment "

@@ -30,6 +30,9 @@ def register(sub) -> None:
                         "says so)")
     p.add_argument("--dataset", default=None, metavar="DIR",
                    help="universal dataset folder (default: the one shipped with the package)")
+    p.add_argument("--design", default="v1", choices=["v1", "record"],
+                   help="the dataset's design version: v1 (the shipped one) or record (the "
+                        "campaign of record, issue 37: needs --dataset; docs/universal.md)")
     add_force_flag(p, "file")
     p.add_argument("--json", action="store_true", help="print a summary as JSON")
     p.set_defaults(run=run)
@@ -43,6 +46,9 @@ def run(args) -> int:
         raise InputError(f"--out: expected a .json file name, got {args.out!r}")
     check_file_replaceable(out, overwrite=args.force, field="--out")
     material = load_material(args.material)
+    if args.design == "record" and args.dataset is None:
+        raise InputError("--design record: needs --dataset DIR (no dataset of record is shipped "
+                         "yet; the pilot's is datasets/universal/record-pilot)")
     if args.dataset is not None and not Path(args.dataset, "points.csv").is_file():
         raise InputError(f"--dataset: no points.csv in {args.dataset}")
     with claim([Output(out, "file", "--out")], "params", overwrite=args.force):
@@ -52,7 +58,11 @@ def run(args) -> int:
 def _write(args, out: Path, material, started: float) -> int:
     from ..universal import for_material
 
-    if args.dataset is not None:
+    if args.design == "record":
+        from ..universal.record_law import record_params
+
+        params = record_params(material, args.dataset, extrapolate=args.extrapolate)
+    elif args.dataset is not None:
         from ..universal.interpolate import universal_params
 
         params = universal_params(material, extrapolate=args.extrapolate,
@@ -61,7 +71,8 @@ def _write(args, out: Path, material, started: float) -> int:
         params = for_material(material, extrapolate=args.extrapolate)
 
     record = provenance("params", {"material": args.material, "extrapolate": args.extrapolate,
-                                   "dataset": args.dataset})
+                                   "dataset": args.dataset,
+                                   **({"design": args.design} if args.design != "v1" else {})})
     record.pop("geocontact_version")
     from dataclasses import replace
 

@@ -250,24 +250,64 @@ def main(argv: list[str] | None = None) -> int:
         description="Run the universal law's FE campaign: the first --points points of the "
                     "design not yet in the dataset, each appended when it finishes.")
     parser.add_argument("--points", type=int, required=True, help="design points to reach")
+    parser.add_argument("--design", default="v1", choices=["v1", "record"],
+                        help="design version: v1 (today's shipped dataset: 4 axes, levels in "
+                             "Fy, coarse mesh, small strain) or record (issue 37: the widened "
+                             "box, levels by contact size, the repeated history, the FE of "
+                             "record; geocontact.universal.record)")
     parser.add_argument("--dataset", default=None,
-                        help="dataset folder (default: the package's data/universal)")
-    parser.add_argument("--cache", default=str(DEFAULT_CACHE), help="FE result cache")
+                        help="dataset folder (default: the package's data/universal; record: "
+                             "datasets/universal/record)")
+    parser.add_argument("--cache", default=None,
+                        help=f"FE result cache (default {DEFAULT_CACHE}; record: "
+                             "datasets/fe-runs/universal-record)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                        help="Dask scheduler address (default: a local cluster)")
-    parser.add_argument("--workers", type=int, default=2, help="local Dask workers (default 2)")
+                        help="Dask scheduler address (default: a local cluster; v1 only)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="local Dask workers (default 2; record: one, in this process)")
+    parser.add_argument("--mesh", default=None, choices=["coarse", "default", "fine"],
+                        help="record only: the FE mesh (default: default; coarse for pilots)")
+    parser.add_argument("--kinematics", default=None, choices=["small", "finite"],
+                        help="record only: the FE kinematics (default: finite)")
+    parser.add_argument("--only", type=int, nargs="+", default=None, metavar="INDEX",
+                        help="record only: run just these points of the first --points")
     args = parser.parse_args(argv)
 
     def run() -> int:
         from ..fem.limits import check_workers
 
+        if args.design == "record":
+            return _run_record(args)
+        for flag in ("mesh", "kinematics", "only"):
+            if getattr(args, flag) is not None:
+                raise InputError(f"--{flag}: only with --design record (v1 is coarse, small "
+                                 "strain, every point)")
         check_workers(args.workers)
-        added = run_points(args.points, args.dataset, args.cache, scheduler=args.scheduler,
+        added = run_points(args.points, args.dataset, args.cache or DEFAULT_CACHE,
+                           scheduler=args.scheduler,
                            workers=args.workers)
         print(f"universal campaign: {len(added)} points added")
         return 0
 
     return run_reporting_errors(run)
+
+
+def _run_record(args) -> int:
+    """``--design record``: the campaign of record (``record_campaign.run_points``)."""
+    from . import record, record_campaign
+
+    if args.scheduler is not None:
+        raise InputError("--scheduler: the record campaign runs one worker in this process "
+                         "(resumable point by point); run several processes with --only")
+    record.design_points(args.points)  # one-line error on a bad count, before any work
+    settings = record.fe_settings(**{k: v for k, v in (("mesh", args.mesh),
+                                                        ("kinematics", args.kinematics))
+                                     if v is not None})
+    added = record_campaign.run_points(
+        args.points, args.dataset or record_campaign.DEFAULT_DATASET,
+        args.cache or record_campaign.DEFAULT_CACHE, settings, only=args.only)
+    print(f"universal campaign (record): {len(added)} points added")
+    return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -84,23 +84,27 @@ def read_points(directory: str | Path | None = None) -> dict[str, np.ndarray]:
     return parse_points(path.read_text(), str(path))
 
 
-def parse_points(text: str, where: str = "points.csv") -> dict[str, np.ndarray]:
+def parse_points(text: str, where: str = "points.csv", expected: list[str] | None = None,
+                 layout: str = DATASET_FORMAT) -> dict[str, np.ndarray]:
+    """Columns of a points.csv text; ``expected``/``layout``: another design version's
+    columns and format name (default today's)."""
     rows = list(csv.DictReader(io.StringIO(text)))
-    expected = columns()
+    expected = columns() if expected is None else expected
     if rows and list(rows[0].keys()) != expected:
         raise InputError(f"{where}: columns differ from this version's dataset layout "
-                         f"({DATASET_FORMAT}); rebuild it with the campaign command")
+                         f"({layout}); rebuild it with the campaign command")
     data = {c: np.array([float(r[c]) if r[c] != "" else np.nan for r in rows], dtype=float)
             for c in expected}
     order = np.argsort(data["index"], kind="stable")
     return {c: v[order] for c, v in data.items()}
 
 
-def format_points(rows: list[dict[str, Any]]) -> str:
-    """CSV text of ``rows`` (dicts keyed by ``columns()``), 10 significant digits, by index."""
+def format_points(rows: list[dict[str, Any]], cols: list[str] | None = None) -> str:
+    """CSV text of ``rows`` (dicts keyed by ``cols``, default ``columns()``), 10 significant
+    digits, by index."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    cols = columns()
+    cols = columns() if cols is None else cols
     writer.writerow(cols)
     for row in sorted(rows, key=lambda r: int(r["index"])):
         writer.writerow([_cell(row.get(c)) for c in cols])

@@ -132,18 +132,20 @@ def outside_range(material: Material) -> list[str]:
     return out
 
 
-def _unit_sequence(count: int) -> np.ndarray:
+def unit_sequence(count: int, dimensions: int = len(AXES)) -> np.ndarray:
+    """The first ``count`` points of the campaign's sequence in the unit box (shared by every
+    design version: ``record`` uses it on its own box)."""
     from scipy.stats import qmc
 
     # the 16 corners, the half fraction x4 = x1 x2 x3 (in +-1) first: its 8 corners span
     # every axis already, so a campaign stopped after 9 points still has a full-rank design
-    corners = [np.array(c) for c in itertools.product((-1.0, 1.0), repeat=len(AXES))]
+    corners = [np.array(c) for c in itertools.product((-1.0, 1.0), repeat=dimensions)]
     corners.sort(key=lambda c: c[3] != c[0] * c[1] * c[2])  # stable: product order within
     corners = [(c + 1.0) / 2.0 for c in corners]
-    sobol = list(qmc.Sobol(d=len(AXES), scramble=True, seed=SOBOL_SEED).random_base2(12))
+    sobol = list(qmc.Sobol(d=dimensions, scramble=True, seed=SOBOL_SEED).random_base2(12))
     # centre, half-fraction corners, 8 interior Sobol points (the curvature a random material
     # inside the box needs), the other 8 corners (the interactions), then Sobol on
-    sequence = [np.full(len(AXES), 0.5), *corners[:8], *sobol[:8], *corners[8:], *sobol[8:]]
+    sequence = [np.full(dimensions, 0.5), *corners[:8], *sobol[:8], *corners[8:], *sobol[8:]]
     return np.array(sequence[:count])
 
 
@@ -151,7 +153,7 @@ def design_points(count: int) -> list[DesignPoint]:
     """The first ``count`` points of the campaign's sequence (centre, corners, Sobol)."""
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 4096:
         raise InputError(f"points: need an integer in [1, 4096], got {count!r}")
-    coords = from_unit(_unit_sequence(count))
+    coords = from_unit(unit_sequence(count))
     return [DesignPoint(i, *(float(v) for v in c)) for i, c in enumerate(coords)]
 
 

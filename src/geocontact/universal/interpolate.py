@@ -164,20 +164,20 @@ def baseline_slope(columns: list[str], values: np.ndarray, s: np.ndarray) -> flo
     return float(np.sum(lf[above] * values[above]) / np.sum(lf[above] ** 2))
 
 
-def _rbf(nodes, values, kernel):
+def _rbf(nodes, values, kernel, degree: int = 1):
     from scipy.interpolate import RBFInterpolator
 
-    return RBFInterpolator(nodes, values, kernel=kernel, degree=1)
+    return RBFInterpolator(nodes, values, kernel=kernel, degree=degree)
 
 
-def _loo(nodes: np.ndarray, values: np.ndarray, kernel: str) -> np.ndarray:
+def _loo(nodes: np.ndarray, values: np.ndarray, kernel: str, degree: int = 1) -> np.ndarray:
     """|prediction - value| at each node from the surface of the others, all columns."""
     n = nodes.shape[0]
     error = np.empty_like(values)
     for i in range(n):
         keep = np.arange(n) != i
         try:
-            rbf = _rbf(nodes[keep], values[keep], kernel)
+            rbf = _rbf(nodes[keep], values[keep], kernel, degree)
         except np.linalg.LinAlgError:  # the other nodes do not span the box (too few)
             error[i] = np.inf
             continue
@@ -286,9 +286,14 @@ def normalised_data(values: dict[str, float], s: float) -> dict[str, Any]:
 def rebuild(material: Material, values: dict[str, float]):
     """FE-like data of ``material`` from normalised quantities (a row of the dataset, or the
     interpolated one): yield approach, virgin curve and per-level ``calibrate.fit.LevelData``."""
+    return rebuild_from(material, normalised_data(values, float(coordinates_of(material)[3])))
+
+
+def rebuild_from(material: Material, data: dict[str, Any]):
+    """``rebuild`` of normalised data (``normalised_data``'s dict: virgin force and approach in
+    Fy and delta_y, levels with their force in Fy, the yield ratio), any design version's."""
     from ..calibrate.fit import LevelData
 
-    data = normalised_data(values, float(coordinates_of(material)[3]))
     analytic = incipient_yield(material)
     fy, dy = analytic.force, analytic.approach
     kh = hertz_coefficient(material)

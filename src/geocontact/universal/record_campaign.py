@@ -1,0 +1,179 @@
+"""The campaign of record (``record``): per point the probe, the levels by contact size and the
+repeated history on the FE of record, appended to the dataset point by point.
+
+    python -m geocontact.universal.campaign --design record --points 64 \\
+        [--dataset datasets/universal/record] [--cache datasets/fe-runs/universal-record] \\
+        [--mesh default] [--kinematics finite]
+
+Resumable and committed point by point, as the committed FE datasets are (datasets/fe-runs/
+README.md): the FE cache is a folder of the repository, a point already in points.csv is skipped,
+its finished runs come from the cache and an interrupted run goes on from its checkpoint. Each
+finished point lands in points.csv and provenance.json by atomic rewrites (provenance first),
+with its cost: the process CPU time (one worker runs the FE in this process), the solves and
+Newton iterations of every run.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..fem.settings import FeSettings
+from ..files import provenance as provenance_record
+from ..files import write_json_atomic, write_text_atomic
+from . import record
+from .record_dataset import RECORD_FORMAT, format_rows, point_row, read_points
+
+DEFAULT_DATASET = Path("datasets/universal/record")
+DEFAULT_CACHE = Path("datasets/fe-runs/universal-record")
+
+
+def _cpu() -> float:
+    """CPU time of this process and its finished children (gmsh runs in-process)."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
+              progress: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The probe, the levels and the repeated history of one point (one worker, in this
+    process); returns the dataset row and the point's provenance record."""
+    from ..calibrate.campaign import extract_run
+    from ..fem.campaign import run_campaign
+
+    material = point.material()
+    cpu0, wall0 = _cpu(), time.perf_counter()
+    probes, probe_results = [], []
+    force = None
+    for attempt in range(record.MAX_PROBES):
+        probes.append(record.probe_job(point, settings, force, attempt))
+        probe_results.append(run_campaign([probes[-1]], cache, workers=1,
+                                          progress=progress)[0])
+        force = record.next_probe_force(material, *record.contact_curve(
+            *[r.curve for r in probe_results]))
+        if force is None:
+            break
+    levels = record.level_forces(material, *record.contact_curve(
+        *[r.curve for r in probe_results]))
+    jobs, cyclic = record.point_jobs(point, settings, levels)
+    results = run_campaign([*jobs, cyclic], cache, workers=1, progress=progress)
+    runs = [extract_run(j, r) for j, r in zip(jobs, results[:-1], strict=True)]
+    row = point_row(point, runs, results[-1])
+    every = [*probe_results, *results]
+    info = {
+        "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
+        "material": {k: getattr(material, k) for k in (
+            "youngs_modulus", "poissons_ratio", "compressive_yield_stress",
+            "friction_angle_deg", "hardening_ratio", "radius")},
+        "fe_settings": settings.as_dict(),
+        "probes": [{"forces_N": list(p.forces), "cache_key": p.key(),
+                    "contact_over_radius_reached": float(
+                        record.contact_curve(r.curve)[1][-1] / material.radius)}
+                   for p, r in zip(probes, probe_results, strict=True)],
+        "levels": {**levels, "achieved_contact_over_radius": [
+            float(10.0 ** row[f"contact_{k}"]) for k in range(record.LEVELS)]},
+        "repeated_history_forces_N": list(cyclic.forces),
+        "cache_keys": [j.key() for j in [*probes, *jobs, cyclic]],
+        "fe_code_hash": every[0].summary["identity"]["fe_code"],
+        "elements": [r.summary["mesh"]["elements"] for r in every],
+        "solves": [(r.summary.get("step_control") or {}).get("solves") for r in every],
+        "newton_iterations": [r.summary.get("newton_iterations") for r in every],
+        "run_wall_time_s": [r.summary["wall_time_s"] for r in every],
+        "point_wall_time_s": time.perf_counter() - wall0,
+        # CPU of this process over the point: the FE runs it computed (cached runs cost ~0)
+        "point_cpu_time_s": _cpu() - cpu0,
+        "warnings": sorted({w for r in every for w in r.summary.get("warnings", [])}),
+    }
+    return row, info
+
+
+def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
+               cache_dir: str | Path = DEFAULT_CACHE, settings: FeSettings | None = None,
+               progress: bool = True, only: list[int] | None = None) -> list[int]:
+    """Run the first ``count`` points of the design of record not yet in the dataset (or the
+    points ``only`` of them); returns the indices added. A point whose FE fails is recorded
+    under ``failed`` and retried by the next call."""
+    from ..fem.campaign import CampaignError
+    from ..fem.identity import fe_code_hash
+
+    settings = settings or record.fe_settings()
+    directory, cache = Path(directory), Path(cache_dir)
+    directory.mkdir(parents=True, exist_ok=True)
+    done = {int(i) for i in read_points(directory)["index"]}
+    todo = [p for p in record.design_points(count)
+            if p.index not in done and (only is None or p.index in only)]
+    if progress:
+        print(f"record campaign: {len(todo)} points to run ({settings.mesh} mesh, "
+              f"{settings.kinematics} strain, {settings.kernels} kernels)", file=sys.stderr)
+    added = []
+    for point in todo:
+        try:
+            row, info = run_point(point, settings, cache, progress)
+        except (CampaignError, InputError) as exc:
+            provenance = _provenance(directory)
+            provenance.setdefault("failed", {})[str(point.index)] = {
+                "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
+                "error": str(exc)}
+            write_json_atomic(directory / "provenance.json", provenance)
+            if progress:
+                print(f"record campaign: point {point.index} FAILED: {exc}", file=sys.stderr)
+            continue
+        provenance = _provenance(directory)
+        provenance.update(_header(settings, fe_code_hash()))
+        provenance.setdefault("failed", {}).pop(str(point.index), None)
+        provenance["points"][str(point.index)] = info
+        write_json_atomic(directory / "provenance.json", provenance)
+        rows = [r for r in _rows(directory) if int(r["index"]) != point.index] + [row]
+        write_text_atomic(directory / "points.csv", format_rows(rows))
+        added.append(point.index)
+        _prepare(directory, progress)
+        if progress:
+            print(f"record campaign: point {point.index} done ({info['point_cpu_time_s']:.0f} "
+                  f"s CPU, {info['point_wall_time_s']:.0f} s wall; top a/R "
+                  f"{info['levels']['achieved_contact_over_radius'][-1]:.3f})", file=sys.stderr)
+    return added
+
+
+def _prepare(directory: Path, progress: bool) -> None:
+    """fits.json brought up to date (``record_law.prepare``) once there are 2 points."""
+    from .record_law import prepare
+
+    if read_points(directory)["index"].size < 2:
+        return
+    try:
+        prepare(directory)
+    except InputError as exc:
+        if progress:
+            print(f"record campaign: fits.json not updated ({exc})", file=sys.stderr)
+
+
+def _rows(directory: Path) -> list[dict[str, Any]]:
+    data = read_points(directory)
+    return [{c: (int(data[c][i]) if c == "index" else
+                 (None if not np.isfinite(data[c][i]) else data[c][i])) for c in data}
+            for i in range(data["index"].size)]
+
+
+def _provenance(directory: Path) -> dict[str, Any]:
+    import json
+
+    path = directory / "provenance.json"
+    return json.loads(path.read_text()) if path.exists() else {"format": RECORD_FORMAT,
+                                                                "points": {}}
+
+
+def _header(settings: FeSettings, code_hash: str) -> dict[str, Any]:
+    return {"format": RECORD_FORMAT, "design": record.describe(),
+            "fe": {**settings.as_dict(), "fe_code_hash": code_hash,
+                   "history_shape": "0 -> F -> 0 -> F -> 0 (data/calibration.toml)",
+                   "shared_mesh": "the levels share one mesh sized for the top level"},
+            "command": "python -m geocontact.universal.campaign --design record",
+            "last_update": provenance_record("universal record campaign", {})["created_utc"]}

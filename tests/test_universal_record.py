@@ -1,0 +1,330 @@
+"""The design of record of the universal law (issue 37): coverage and determinism of the point
+list, the level rule by contact size, the FE settings, the dataset row and the interpolation on a
+tiny synthetic set, the pilot's achieved levels, and one-line errors."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geocontact.errors import InputError
+from geocontact.fem.run import largest_contact_radius_estimate
+from geocontact.grain.hertz import incipient_yield
+from geocontact.universal import record, record_dataset, record_law
+from geocontact.universal.design import design_points as v1_points
+
+ROOT = Path(__file__).resolve().parents[1]
+PILOT = ROOT / "datasets" / "universal" / "record-pilot"
+
+
+# --- the design ------------------------------------------------------------------------------
+def test_design_spans_the_widened_box_and_is_deterministic():
+    points = record.design_points(64)
+    assert points == record.design_points(64)  # the same list every time
+    assert [p.index for p in points] == list(range(64))
+    coords = np.array([p.coordinates for p in points])
+    low = np.array([a[1] for a in record.AXES])
+    high = np.array([a[2] for a in record.AXES])
+    assert np.allclose(coords[0], (low + high) / 2)  # the centre first
+    # the half fraction: the first 9 points reach both ends of every axis
+    assert np.allclose(coords[:9].min(axis=0), low) and np.allclose(coords[:9].max(axis=0), high)
+    assert np.all(coords >= low - 1e-12) and np.all(coords <= high + 1e-12)
+    # the issue's box: E/sigma_c 30 .. 1e5, beta 0-60, nu 0.1-0.4, m 0-0.3
+    assert math.isclose(10 ** low[3], 30.0) and math.isclose(10 ** high[3], 1e5)
+    assert tuple(low[:3]) == (0.0, 0.1, 0.0) and tuple(high[:3]) == (60.0, 0.4, 0.3)
+    # a 64-point campaign fills each axis: no gap wider than a sixth of its range
+    for k in range(4):
+        u = np.sort(record.unit(coords)[:, k])
+        assert np.max(np.diff(u)) < 1.0 / 6.0
+    # extending continues the same list
+    assert record.design_points(70)[:64] == points
+
+
+def test_today_design_is_unchanged():
+    """v1 keeps its box and its sequence (the shipped dataset's indices)."""
+    first = v1_points(3)
+    assert first[0].coordinates == (27.5, 0.25, 0.15, 3.0)
+    assert first[1].coordinates == (0.0, 0.15, 0.0, 2.0)
+
+
+def test_fe_settings_of_record_and_pilot_overrides():
+    s = record.fe_settings()
+    assert (s.mesh, s.kinematics, s.kernels) == ("default", "finite", "compiled")
+    pilot = record.fe_settings(mesh="coarse")
+    assert (pilot.mesh, pilot.kinematics, pilot.kernels) == ("coarse", "finite", "compiled")
+    job = record.job(record.design_points(1)[0].material(), (0.0, 1.0, 0.0), s, "x", 2.0)
+    assert job.settings() == record.fe_settings().__class__(**{**s.as_dict(), "mesh_force": 2.0})
+    assert job.identity().to_dict()["inputs"]["kernels"] == "compiled"
+
+
+def test_validity_force_is_the_fe_bound():
+    for point in record.design_points(17):
+        m = point.material()
+        f = record.validity_force(m)
+        assert largest_contact_radius_estimate(m, f) <= 0.5 * m.radius
+        assert largest_contact_radius_estimate(m, f * (1 + 1e-6)) > 0.5 * m.radius * (1 - 1e-6)
+        assert f > 2 * incipient_yield(m).force  # above the lowest level
+
+
+# --- the level rule --------------------------------------------------------------------------
+def _plastic_curve(material, pressure, top):
+    """A probe-like loading whose contact carries a constant mean pressure (a = sqrt(F/pi p))."""
+    force = np.geomspace(0.3 * incipient_yield(material).force, top, 40)
+    return force, np.sqrt(force / (math.pi * pressure))
+
+
+def test_level_rule_places_the_levels_by_contact_radius():
+    m = record.design_points(1)[0].material()
+    p = 5.0 * m.compressive_yield_stress
+    force, radius = _plastic_curve(m, p, math.pi * p * (0.35 * m.radius) ** 2)
+    assert record.next_probe_force(m, force, radius) is None  # beyond 0.3 R: no more probes
+    levels = record.level_forces(m, force, radius)
+    targets = np.array(levels["target_contact_over_radius"])
+    assert math.isclose(targets[-1], record.TOP_CONTACT_OVER_RADIUS)
+    assert np.allclose(np.diff(np.log(targets)), np.log(targets[1] / targets[0]))
+    assert math.isclose(levels["forces_N"][0], 2.0 * incipient_yield(m).force)
+    # above the lowest level, each force gives its target radius on this curve
+    a = np.sqrt(np.array(levels["forces_N"][1:]) / (math.pi * p)) / m.radius
+    assert np.allclose(a, targets[1:], rtol=1e-6)
+    assert levels["top"] == "0.3 R"
+
+
+def test_level_rule_stops_at_what_the_probe_reached():
+    m = record.design_points(1)[0].material()
+    p = 5.0 * m.compressive_yield_stress
+    top = math.pi * p * (0.2 * m.radius) ** 2  # the probe reaches a = 0.2 R only
+    force, radius = _plastic_curve(m, p, top)
+    levels = record.level_forces(m, force, radius)
+    assert math.isclose(levels["target_contact_over_radius"][-1], 0.2, rel_tol=1e-9)
+    assert "the last probe's largest contact" in levels["top"]
+    # the next probe aims at 1.1 x 0.3 R at the mean pressure reached
+    nxt = record.next_probe_force(m, force, radius)
+    assert math.isclose(nxt, math.pi * p * (0.33 * m.radius) ** 2, rel_tol=1e-9)
+
+
+def test_top_spans_a_doubling_where_yield_is_late():
+    """E/sigma_c = 30, beta = 60: first yield at a/R ~ 0.16; the top is twice the lowest level's
+    contact radius, below 0.45 R."""
+    from geocontact.grain.material import Material
+
+    m = Material(youngs_modulus=1e10, poissons_ratio=0.4, compressive_yield_stress=1e10 / 30,
+                 friction_angle_deg=60.0, hardening_ratio=0.0, radius=0.1)
+    p = 3.0 * m.compressive_yield_stress
+    force = np.geomspace(0.5 * incipient_yield(m).force, math.pi * p * (0.5 * m.radius) ** 2, 40)
+    radius = np.maximum(np.sqrt(force / (math.pi * p)), incipient_yield(m).contact_radius)
+    low = record.lowest_contact(m, force, radius)[1]
+    assert low > 0.15 * m.radius
+    top = record.top_target(m, force, radius)
+    assert math.isclose(top, min(2.0 * low, 0.45 * m.radius))
+
+
+def test_level_rule_refuses_a_probe_without_contact_growth():
+    m = record.design_points(1)[0].material()
+    fy = incipient_yield(m).force
+    with pytest.raises(InputError, match="record levels: the probe spans"):
+        record.level_forces(m, [3 * fy, 4 * fy], [1e-3, 1.1e-3])
+    with pytest.raises(InputError, match="fewer than 2"):
+        record.level_forces(m, [3 * fy], [1e-3])
+
+
+# --- the dataset row, the cycles and the interpolation ---------------------------------------
+def _synthetic_rows(n: int, coefficients: np.ndarray) -> list[dict]:
+    """Rows whose every law column is linear in the unit coordinates (an RBF with a degree-1
+    polynomial reproduces a linear function exactly, anywhere)."""
+    cols = record_dataset.columns()
+    law = record_dataset.law_columns()
+    rows = []
+    for point in record.design_points(n):
+        u = record.unit(point.coordinates)
+        row = {c: None for c in cols}
+        row["index"] = point.index
+        row.update(zip(record.AXIS_NAMES, point.coordinates, strict=True))
+        for j, c in enumerate(law):
+            row[c] = float(coefficients[j, 0] + coefficients[j, 1:] @ u)
+        rows.append(row)
+    return rows
+
+
+def test_rows_round_trip_and_interpolate_exactly_on_a_linear_set(tmp_path):
+    law = record_dataset.law_columns()
+    rng = np.random.default_rng(3)
+    coefficients = rng.uniform(-1.0, 1.0, (len(law), 5))
+    rows = _synthetic_rows(12, coefficients)
+    (tmp_path / "points.csv").write_text(record_dataset.format_rows(rows))
+    data = record_dataset.read_points(tmp_path)
+    assert data["index"].tolist() == list(range(12))
+    assert np.isnan(data["second_increment_0"]).all()  # empty cells read back as empty
+    surfaces, _ = record_law.read_surfaces(tmp_path)
+    assert surfaces.degree == 1
+    x = np.array([17.0, 0.31, 0.07, 3.9])  # not a node
+    got = surfaces(x)
+    want = coefficients[:, 0] + coefficients[:, 1:] @ record.unit(x)
+    assert np.allclose([got[c] for c in law], want, atol=1e-8)
+    assert max(surfaces.expected_error(x).values()) < 1e-6  # the LOO of a linear set is exact
+
+
+def test_a_pilot_size_set_interpolates_its_nodes(tmp_path):
+    rows = _synthetic_rows(3, np.random.default_rng(4).uniform(
+        -1.0, 1.0, (len(record_dataset.law_columns()), 5)))
+    (tmp_path / "points.csv").write_text(record_dataset.format_rows(rows))
+    surfaces, _ = record_law.read_surfaces(tmp_path)
+    assert surfaces.degree == 0 and set(surfaces.kernels) == {"linear"}
+    for row in rows:
+        got = surfaces([row[name] for name in record.AXIS_NAMES])
+        assert all(math.isclose(got[c], row[c], abs_tol=1e-9)
+                   for c in record_dataset.law_columns())
+
+
+def test_cycles_round_trip_through_the_row_columns():
+    m = record.design_points(1)[0].material()
+    y = incipient_yield(m)
+    increments = [2e-6 * 0.2 ** (n - 1) for n in range(1, 11)]
+    works = [3e-3 * n ** -1.2 for n in range(1, 11)]
+    residual, cycles = 0.0, []
+    for inc, w in zip(increments, works, strict=True):
+        residual += inc
+        cycles.append({"max_force_N": 50.0, "max_approach_m": 1e-4 + residual - increments[0],
+                       "residual_approach_m": residual, "plastic_work_J": w})
+    values = record_dataset.cyclic_columns(cycles, y.force, y.approach)
+    assert math.isclose(values["cyclic_residual_08"], 7 * math.log10(0.2))  # 1.3e-5
+    assert values["cyclic_residual_09"] == values["cyclic_residual_10"] == -5.0  # the floor
+    back = record_dataset.rebuild_cycles(values, y.force, y.approach)
+    assert record_dataset.cyclic_columns(back, y.force, y.approach) == pytest.approx(values)
+    for n in (2, 3, 5):
+        assert math.isclose(back[n - 1]["plastic_work_J"], works[n - 1], rel_tol=1e-9)
+
+
+def test_a_row_with_too_few_cycles_is_refused():
+    cycles = [{"max_force_N": 1.0, "max_approach_m": 1.0, "residual_approach_m": 0.1,
+               "plastic_work_J": 0.1}]
+    with pytest.raises(InputError, match="has 1 cycles, expected 10"):
+        record_dataset.cyclic_columns(cycles, 1.0, 1.0)
+
+
+# --- one-line errors -------------------------------------------------------------------------
+@pytest.mark.parametrize("count", [0, 5000, 2.5, True])
+def test_bad_point_counts_are_one_line(count):
+    with pytest.raises(InputError, match=r"points: need an integer in \[1, 4096\]"):
+        record.design_points(count)
+
+
+def test_bad_settings_and_flags_are_one_line(capsys):
+    from geocontact.universal.campaign import main
+
+    with pytest.raises(InputError, match="mesh"):
+        record.fe_settings(mesh="huge")
+    assert main(["--points", "3", "--mesh", "coarse"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--mesh: only with --design record" in err
+    assert main(["--points", "3", "--design", "record", "--scheduler", "tcp://x:1"]) == 2
+    assert "--scheduler" in capsys.readouterr().err
+
+
+def test_record_law_refuses_outside_the_box_and_an_empty_dataset(tmp_path):
+    from geocontact.grain.material import Material
+
+    outside = Material(youngs_modulus=1e10, poissons_ratio=0.25, compressive_yield_stress=1e10 / 10,
+                       friction_angle_deg=30.0, hardening_ratio=0.1, radius=0.01)
+    with pytest.raises(InputError, match=r"outside the universal law's range \[30, 1e\+05\]"):
+        record_law.record_params(outside, tmp_path)
+    inside = Material(youngs_modulus=1e10, poissons_ratio=0.25, compressive_yield_stress=1e7,
+                      friction_angle_deg=30.0, hardening_ratio=0.1, radius=0.01)
+    with pytest.raises(InputError, match="no points.csv"):
+        record_law.record_params(inside, tmp_path)
+
+
+def test_params_design_record_needs_a_dataset(tmp_path, capsys):
+    from geocontact.cli import main
+
+    code = main(["params", "--material", "reference", "--design", "record",
+                 "--out", str(tmp_path / "P.json")])
+    assert code == 2
+    assert "--design record: needs --dataset" in capsys.readouterr().err
+    assert not (tmp_path / "P.json").exists()
+
+
+# --- the pilot ---------------------------------------------------------------------------------
+pilot = pytest.mark.skipif(not (PILOT / "provenance.json").exists(),
+                           reason="the pilot's dataset is not committed")
+
+
+@pilot
+def test_pilot_levels_reach_their_target_contact_radius():
+    """The level rule on the FE: each level's achieved a/R within 10 % of its target (the probe's
+    curve and the level's own run differ by their meshes and load steps), the top near 0.3 R or
+    the validity limit."""
+    provenance = json.loads((PILOT / "provenance.json").read_text())
+    assert provenance["points"]
+    for info in provenance["points"].values():
+        target = np.array(info["levels"]["target_contact_over_radius"])
+        achieved = np.array(info["levels"]["achieved_contact_over_radius"])
+        assert np.all(np.abs(achieved / target - 1.0) < 0.10), (target, achieved)
+        assert 0.2 <= achieved[-1] <= 0.35
+
+
+@pilot
+def test_pilot_law_file_carries_its_range_and_the_cyclic_extension():
+    from geocontact.law import load_params
+
+    data = record_dataset.read_points(PILOT)
+    laws = sorted(PILOT.glob("law-point-*.json"))
+    assert data["index"].size < 2 or len(laws) == data["index"].size
+    for path in laws:
+        params = load_params(path)
+        index = int(path.stem.rpartition("-")[2])
+        row = int(np.flatnonzero(data["index"] == index)[0])
+        top = 10 ** data[f"contact_{record.LEVELS - 1}"][row]
+        assert params.calibrated_range["contact_radius_ratio"] <= top * (1 + 1e-6)
+        assert "cyclic" in params.provenance
+
+
+@pilot
+def test_pilot_law_at_a_node_is_its_own_data(tmp_path):
+    """At a pilot point the interpolation is exact: the law's calibrated range ends at the
+    point's own top level (force and a/R), its levels are the point's, its cyclic extension is
+    the one fits.json records for the point; the stored LOO selection equals a recomputed one."""
+    import shutil
+
+    from geocontact.universal.design import material_at
+
+    shutil.copy(PILOT / "points.csv", tmp_path / "points.csv")
+    assert record_law.prepare(tmp_path) >= 2
+    data = record_dataset.read_points(tmp_path)
+    fits = json.loads((tmp_path / "fits.json").read_text())
+    cached, _ = record_law.read_surfaces(tmp_path)
+    fresh = record_law.build_surfaces(data, cached.dataset_sha256)
+    assert cached.kernels == fresh.kernels and np.allclose(cached.loo_error, fresh.loo_error)
+    for i in range(data["index"].size):
+        material = material_at([data[n][i] for n in record.AXIS_NAMES])
+        p = record_law.record_params(material, tmp_path)
+        fy = incipient_yield(material).force
+        top = record.LEVELS - 1
+        assert math.isclose(p.calibrated_range["contact_radius_ratio"],
+                            10 ** data[f"contact_{top}"][i], rel_tol=1e-6)
+        assert math.isclose(p.calibrated_range["max_force_N"], 10 ** data[f"logf_{top}"][i] * fy,
+                            rel_tol=1e-6)
+        node = fits["nodes"][str(int(data["index"][i]))]
+        assert p.cyclic.enabled == node["cyclic"]["enabled"]
+        assert p.provenance["universal"]["saturating_fit_start"].startswith("the fits of")
+
+
+@pilot
+def test_pilot_law_warns_beyond_its_top_level():
+    """The law of record says when a contact goes beyond the campaign's top level (the
+    calibrated range every law file carries), as any law file does."""
+    from geocontact.law import BeyondCalibratedRangeWarning, Contact, load_params
+
+    params = load_params(PILOT / "law-point-0.json")
+    top = params.calibrated_range["max_approach_m"]
+    import warnings
+
+    contact = Contact(params)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BeyondCalibratedRangeWarning)
+        contact.update(0.9 * top)  # inside: silent
+    with pytest.warns(BeyondCalibratedRangeWarning, match="beyond the calibrated range"):
+        contact.update(1.2 * top)
