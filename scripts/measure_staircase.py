@@ -117,6 +117,11 @@ def main() -> None:
     ap.add_argument("--max-step-ratio", type=_ratio, nargs="+", default=[None],
                     help="cap(s) on the loading force ratio of one solve (run_history "
                          "max_step_ratio); every --steps is run with every cap; none: no cap")
+    ap.add_argument("--step-control", nargs="+", default=["fixed"],
+                    help="fem step control(s): fixed | adaptive (run_history); every one is run "
+                         "with every --steps and cap (with adaptive the cap is its largest "
+                         "step), all compared pairwise")
+    ap.add_argument("--kernels", default="numpy", help="fem kernels: numpy | compiled")
     ap.add_argument("--force", type=float, default=FORCE)
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
     ap.add_argument("--out", required=True)
@@ -139,8 +144,8 @@ def main() -> None:
     curves, runs = {}, {}
     fy = None
     under_way = {}
-    for rule, contact, ratio, n in itertools.product(args.mesh_rule, args.contact,
-                                                     args.max_step_ratio, args.steps):
+    for rule, contact, control, ratio, n in itertools.product(
+            args.mesh_rule, args.contact, args.step_control, args.max_step_ratio, args.steps):
         name = f"{args.mesh}-{rule}-{args.step_rule}-{n}"
         if contact != "node":
             name = f"{args.mesh}-{rule}-{contact}-{args.step_rule}-{n}"
@@ -152,12 +157,20 @@ def main() -> None:
         if ratio is not None:
             name += f"-cap{ratio:g}"
             label += f", cap {ratio:g}"
+        if control != "fixed":
+            name += f"-{control}"
+            label += f", {control}"
+        if args.kernels != "numpy":
+            name += f"-{args.kernels}"
+        model = {"contact": contact, "kinematics": args.kinematics}
+        model.update({"step_control": control} if control != "fixed" else {})
+        model.update({"kernels": args.kernels} if args.kernels != "numpy" else {})
         started = time.perf_counter()
+        cpu_started = time.process_time()
         if args.finished_only or args.under_way:
             identity = FeRunIdentity.of(
                 material, [0.0, args.force], args.mesh, steps_per_segment=n,
-                mesh_rule=rule, step_rule=args.step_rule, max_step_ratio=ratio,
-                contact=contact, kinematics=args.kinematics)
+                mesh_rule=rule, step_rule=args.step_rule, max_step_ratio=ratio, **model)
             result = finished_run(out / name, identity)
             if result is None and (out / name / "summary.json").exists():
                 earlier = load_result(out / name)  # made by FE code the current one reproduces?
@@ -183,13 +196,13 @@ def main() -> None:
             result = run_history(material, [0.0, args.force], args.mesh, out / name,
                                  steps_per_segment=n, resume=True, write_fields=False,
                                  mesh_rule=rule, step_rule=args.step_rule,
-                                 max_step_ratio=ratio, progress=args.progress,
-                                 contact=contact, kinematics=args.kinematics)
+                                 max_step_ratio=ratio, progress=args.progress, **model)
         curves[label] = result.curve
         fy = fy or result.summary["first_yield_force_N"]
         runs[label] = {"elements": result.summary["mesh"]["elements"],
                        "wall_time_s": result.summary["wall_time_s"],
                        "this_call_s": time.perf_counter() - started,
+                       "this_call_cpu_s": time.process_time() - cpu_started,
                        "steps": result.summary["steps"],
                        "step_control": result.summary["step_control"],
                        "newton_iterations": result.summary["newton_iterations"],

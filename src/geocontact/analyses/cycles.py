@@ -167,7 +167,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                kinematics: str = "small", mesh_rule: str = "yield",
                step_rule: str = "segment",
                max_step_ratio: float | None = None, contact: str = "node",
-               kernels: str = "numpy") -> dict[str, Any]:
+               kernels: str = "numpy", step_control: str = "fixed") -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With
@@ -193,8 +193,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                                 steps_per_segment=steps_per_segment, tolerance=tolerance,
                                 kinematics=kinematics, mesh_rule=mesh_rule,
                                 step_rule=step_rule, max_step_ratio=max_step_ratio,
-                                contact=contact, kernels=kernels, resume=resume,
-                                fit_params=fit_params, progress=progress,
+                                contact=contact, kernels=kernels, step_control=step_control,
+                                resume=resume, fit_params=fit_params, progress=progress,
                                 inputs=inputs, previous_fe=out / "fe", checkpoint=checkpoint)
     from ..fem.checkpoint import remove_checkpoint
 
@@ -203,8 +203,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 
 def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segment, tolerance,
-                  kinematics, mesh_rule, step_rule, max_step_ratio, contact, kernels, resume,
-                  fit_params, progress, inputs, previous_fe: Path,
+                  kinematics, mesh_rule, step_rule, max_step_ratio, contact, kernels,
+                  step_control, resume, fit_params, progress, inputs, previous_fe: Path,
                   checkpoint: Path) -> dict[str, Any]:
     """The body of ``run_cycles``, writing into the (temporary) folder ``out``."""
     from ..fem.run import run_history  # the FE is an optional extra: imported when used
@@ -219,7 +219,8 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
         identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
                                     kinematics=kinematics, mesh_rule=mesh_rule,
                                     step_rule=step_rule, max_step_ratio=max_step_ratio,
-                                    contact=contact, kernels=kernels)
+                                    contact=contact, kernels=kernels,
+                                    step_control=step_control)
         why: list[str] = []
         result = finished_run(previous_fe, identity, fields=True, why=why)
         if why:
@@ -231,7 +232,7 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
                              progress=progress, write_fields=True, checkpoint=checkpoint,
                              kinematics=kinematics, mesh_rule=mesh_rule,
                              step_rule=step_rule, max_step_ratio=max_step_ratio,
-                             contact=contact, kernels=kernels)
+                             contact=contact, kernels=kernels, step_control=step_control)
     else:
         shutil.copytree(previous_fe, fe_dir)
         if progress:

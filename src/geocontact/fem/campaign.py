@@ -74,6 +74,7 @@ class FemJob:
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
     kernels: str = "numpy"  # "numpy" | "compiled" (fem.compiled)
+    step_control: str = "fixed"  # "fixed" | "adaptive" (fem.run.AdaptiveSteps)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
@@ -91,7 +92,8 @@ class FemJob:
                   step_rule=inputs.get("step_rule", "segment"),
                   max_step_ratio=inputs.get("max_step_ratio"),
                   contact=inputs.get("contact", "node"),
-                  kernels=inputs.get("kernels", "numpy"))
+                  kernels=inputs.get("kernels", "numpy"),
+                  step_control=inputs.get("step_control", "fixed"))
         return replace(job, **changes) if changes else job
 
     def settings(self) -> FeSettings:

@@ -85,7 +85,8 @@ class Checkpoint:
     state: State
     rows: list[list[float]]  # curve.csv rows of steps 0 ... done
     detector: dict[str, Any]  # first_yield, fully_plastic, last_elastic (run._Run), and
-    # rescued_steps (run._advance; absent from checkpoints written before it: none)
+    # rescued_steps (run._advance; absent from checkpoints written before it: none), and
+    # adaptive_steps (run.AdaptiveSteps.record, only for step_control="adaptive")
     yield_force: float  # the yield probe's prediction, which placed the load steps
     mesh: Any  # the skfem mesh the run was on
     fields: bool  # the pending folder holds the ParaView files of the waypoints passed
@@ -170,7 +171,9 @@ def _parse(path: Path, identity, columns: int) -> tuple[Checkpoint | None, str |
         state=State.from_arrays({k[6:]: v for k, v in saved.items() if k.startswith("state_")}),
         rows=[list(r) for r in rows],
         detector={**{k: detector[k] for k in ("first_yield", "fully_plastic", "last_elastic")},
-                  "rescued_steps": detector.get("rescued_steps", [])},
+                  "rescued_steps": detector.get("rescued_steps", []),
+                  **({"adaptive_steps": detector["adaptive_steps"]}
+                     if "adaptive_steps" in detector else {})},
         yield_force=float(saved["yield_force_estimate"]),
         mesh=MeshTri2(np.ascontiguousarray(saved["mesh_doflocs"]),
                       np.ascontiguousarray(saved["mesh_t"])),

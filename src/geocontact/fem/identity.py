@@ -201,6 +201,16 @@ REPRODUCED_FE_CODE["82eb800afc111cfd"] = {
 }
 
 
+_ADAPTIVE_STEPS = ("the opt-in adaptive load-step control added (step_control='adaptive', "
+                   "fem.run.AdaptiveSteps; recorded in the identity as step_control when not "
+                   "'fixed'): the fixed control's solves, summary and checkpoint are as before")
+REPRODUCED_FE_CODE["a96dc9b1776d119a"] = {
+    "82eb800afc111cfd": _ADAPTIVE_STEPS,
+    **{older: _ADAPTIVE_STEPS + "; " + why
+       for older, why in REPRODUCED_FE_CODE["82eb800afc111cfd"].items()},
+}
+
+
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
     sources (``REPRODUCED_FE_CODE``), or None."""

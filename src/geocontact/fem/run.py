@@ -316,6 +316,147 @@ def sub_step_record(targets: list[float], yield_force: float,
             "requested_steps": len(targets), "largest_loading_ratio_above_yield": largest}
 
 
+# --- adaptive load steps (step_control="adaptive") ------------------------------------------
+# What makes a force-controlled answer depend on the load step, each bounded per solve (docs/fem.md,
+# "Adaptive load steps"):
+# - the contact edge's advance. A backward-Euler step flattens a perfectly plastic contact too
+#   far and pushes the contact edge a node further, which the next steps keep (the probe of
+#   docs/fem.md "The staircase of a growing contact": 13-17 % in approach for one step of x1.26
+#   in force): the edge may advance at most ADAPTIVE_EDGE_ADVANCE of the surface element it is
+#   in per solve, so each engagement of a node is met by a few solves. Only a solve with plastic
+#   flow counts it: an elastic solution does not depend on the path to it.
+# - the plastic increment. The return mapping integrates the flow over the step (backward
+#   Euler, first order in the increment): the largest equivalent plastic strain increment of
+#   one solve is held to ADAPTIVE_PLASTIC_INCREMENT of the largest plastic strain already there
+#   (at least ADAPTIVE_PLASTIC_FLOOR yield strains sigma_c / E, for the first plastic solves): a
+#   solve adds at most a tenth of the plastic deformation of the contact. Measured on the weak
+#   grain at 100 N (coarse contact-dense mesh, one solve from the same state): x1.005 / 1.01 /
+#   1.02 / 1.04 in force add 0.7 / 3.2 / 11 / 45 % of the largest eqps, and advance the edge
+#   0.02 / 0.07 / 0.33 / 1.34 surface elements: both grow faster than the step (the overshoot of
+#   a large backward-Euler step), so the bounds mark where a step stops being small.
+# - Newton's effort. A solve that converges in few iterations is far from the limits of the
+#   linearisation and the next may be larger; many iterations, or none converging, mean the step
+#   crosses contact or yield changes the iteration barely follows: cut.
+# The step is a force ratio (the loading of a contact is close to a power law in F, so equal
+# ratios are equal changes of state); a requested step is cut into equal ratios no larger than
+# the controller's, so the recorded forces are the requested ones whatever the control.
+ADAPTIVE_EDGE_ADVANCE = 0.5  # surface elements the contact edge may advance per plastic solve
+ADAPTIVE_PLASTIC_INCREMENT = 0.1  # largest eqps increment of one solve / largest eqps ...
+ADAPTIVE_PLASTIC_FLOOR = 10.0  # ... or these many yield strains, if more
+# Newton: a node-contact solve takes 6-8 iterations at any small step (the contact set settles
+# in the first ones; 8 at x1.0025 and 11 at x1.04 on the weak grain at 100 N, coarse
+# contact-dense mesh), so effort is counted above that.
+ADAPTIVE_EASY_ITERATIONS = 8  # a solve within this many Newton iterations may be followed by ...
+ADAPTIVE_GROWTH = 1.5  # ... one this much larger in ln F (also the most any solve grows by)
+ADAPTIVE_HARD_ITERATIONS = 15  # above this, the next step is cut in proportion
+ADAPTIVE_SAFETY = 0.9  # the next step aims at this fraction of the measured bound
+ADAPTIVE_REJECT = 0.5  # a solve past its bound by more than 1 / this is solved again smaller
+ADAPTIVE_CUT = 0.5  # a failed solve (no convergence) is tried again at this fraction
+ADAPTIVE_FIRST_RATIO = 1.02  # the first plastic solve, from the first-yield force
+ADAPTIVE_MAX_RATIO = 1.25  # the largest step without max_step_ratio (the fixed cap's range)
+ADAPTIVE_MIN_RATIO = 1.0 + 1e-6  # a step that must be smaller than this fails the run
+
+
+@dataclasses.dataclass
+class AdaptiveSteps:
+    """The adaptive load-step control of one run (``step_control="adaptive"``): the next
+    loading step above the first-yield force as ln F_next / F (``log_ratio``), sized after each
+    solve by ``judge``; its counters go to summary.json ``step_control`` and, with
+    ``log_ratio``, into the checkpoint (a resumed run takes the same steps)."""
+
+    yield_force: float
+    yield_strain: float  # sigma_c / E, the unit of the plastic increment
+    surface_ends: np.ndarray  # radii of the surface element ends (mesh.surface_vertex_radii)
+    max_log_ratio: float
+    log_ratio: float = math.log(ADAPTIVE_FIRST_RATIO)
+    solves: int = 0
+    rejected: int = 0
+    failed: int = 0
+    limited_by: dict[str, int] = dataclasses.field(default_factory=lambda: dict.fromkeys(
+        ("edge", "plastic", "newton", "growth", "largest"), 0))
+    smallest_ratio: float = math.inf
+    largest_ratio: float = 1.0
+
+    @classmethod
+    def of_run(cls, material: Material, fe_mesh, yield_force: float,
+               max_step_ratio: float | None, saved: dict[str, Any] | None = None
+               ) -> AdaptiveSteps:
+        from .mesh import surface_vertex_radii
+
+        control = cls(yield_force, material.compressive_yield_stress / material.youngs_modulus,
+                      surface_vertex_radii(fe_mesh, material.radius),
+                      math.log(ADAPTIVE_MAX_RATIO if max_step_ratio is None else max_step_ratio))
+        if saved:
+            for name in ("log_ratio", "solves", "rejected", "failed", "smallest_ratio",
+                         "largest_ratio"):
+                setattr(control, name, saved[name])
+            control.limited_by = dict(saved["limited_by"])
+        return control
+
+    def element_at(self, radius: float) -> float:
+        """Length of the surface element (in r) the contact edge at ``radius`` is in."""
+        ends = self.surface_ends
+        k = int(np.clip(np.searchsorted(ends, radius, side="right") - 1, 0, len(ends) - 2))
+        return float(ends[k + 1] - ends[k])
+
+    def judge(self, used: float, edge_advance: float, element: float,
+              plastic_increment: float, plastic_strain: float, iterations: int
+              ) -> tuple[bool, str]:
+        """After a converged solve of ln F ratio ``used``: whether to keep it, and the next step
+        (``log_ratio``, set here) from the edge's advance in that solve against the surface
+        ``element`` there, the largest eqps increment against the largest eqps before the solve
+        (``plastic_strain``) and the Newton ``iterations``. Returns (accepted, the criterion
+        that set the next step: edge, plastic, newton, growth or largest)."""
+        allowed = ADAPTIVE_PLASTIC_INCREMENT * max(plastic_strain,
+                                                   ADAPTIVE_PLASTIC_FLOOR * self.yield_strain)
+        plastic = plastic_increment > 1e-6 * allowed  # any plastic flow, not round-off
+        bounds = {
+            "edge": (ADAPTIVE_EDGE_ADVANCE * element / edge_advance
+                     if plastic and edge_advance > 0.0 else math.inf),
+            "plastic": allowed / plastic_increment if plastic else math.inf,
+        }
+        accepted = min(bounds.values()) >= ADAPTIVE_REJECT
+        factors = {name: ADAPTIVE_SAFETY * b for name, b in bounds.items()}
+        factors["newton"] = (ADAPTIVE_GROWTH if iterations <= ADAPTIVE_EASY_ITERATIONS else
+                             min(1.0, ADAPTIVE_HARD_ITERATIONS / max(iterations, 1)))
+        reason = min(factors, key=factors.get)
+        scale = min(max(factors[reason], ADAPTIVE_CUT * ADAPTIVE_REJECT), ADAPTIVE_GROWTH)
+        if factors[reason] >= ADAPTIVE_GROWTH:
+            reason = "growth"
+        proposed = used * scale
+        if accepted and scale >= 1.0:
+            # a step cut short by a requested force keeps the size the control had
+            proposed = max(proposed, self.log_ratio)
+        if proposed >= self.max_log_ratio:
+            proposed, reason = self.max_log_ratio, "largest"
+        self.log_ratio = proposed
+        return accepted, reason
+
+    def record(self) -> dict[str, Any]:
+        """The state to carry over a checkpoint."""
+        return {"log_ratio": self.log_ratio, "solves": self.solves, "rejected": self.rejected,
+                "failed": self.failed, "smallest_ratio": self.smallest_ratio,
+                "largest_ratio": self.largest_ratio, "limited_by": dict(self.limited_by)}
+
+    def summary(self, requested_steps: int) -> dict[str, Any]:
+        """summary.json ``step_control`` of an adaptive run."""
+        return {"control": "adaptive", "max_ratio": math.exp(self.max_log_ratio),
+                "from_force_N": self.yield_force, "solves": self.solves,
+                "rejected_solves": self.rejected, "failed_solves": self.failed,
+                "requested_steps": requested_steps,
+                "largest_loading_ratio_above_yield": self.largest_ratio,
+                "smallest_loading_ratio_above_yield": (None if math.isinf(self.smallest_ratio)
+                                                       else self.smallest_ratio),
+                "next_step_set_by": dict(self.limited_by),
+                "criteria": {"edge_advance_elements": ADAPTIVE_EDGE_ADVANCE,
+                             "plastic_increment_of_largest": ADAPTIVE_PLASTIC_INCREMENT,
+                             "plastic_floor_yield_strains": ADAPTIVE_PLASTIC_FLOOR,
+                             "yield_strain": self.yield_strain,
+                             "easy_iterations": ADAPTIVE_EASY_ITERATIONS,
+                             "hard_iterations": ADAPTIVE_HARD_ITERATIONS,
+                             "growth": ADAPTIVE_GROWTH, "first_ratio": ADAPTIVE_FIRST_RATIO}}
+
+
 def fully_plastic_onset(force, approach, fraction,
                         threshold: float = FULLY_PLASTIC_FRACTION) -> dict[str, Any] | None:
     """Fp (docs/model.md §4): the first loading step on which the yielded fraction reaches
@@ -648,6 +789,7 @@ class PreparedRun:
     pending: Path | None
     write_fields: bool
     elapsed_before: float  # wall time of the checkpointed part
+    control: AdaptiveSteps | None = None  # step_control="adaptive"
 
 
 def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
@@ -702,8 +844,13 @@ def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
     targets, marks = load_schedule(forces, steps, yield_force, identity.step_rule)
     # ParaView files of the waypoints, written to the pending folder as the run passes them
     field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
+    control = None
+    if identity.step_control == "adaptive":
+        control = AdaptiveSteps.of_run(material, solver.mesh, yield_force,
+                                       identity.max_step_ratio,
+                                       saved.detector.get("adaptive_steps") if saved else None)
     return PreparedRun(identity, material, solver, run, state, done, yield_force, targets,
-                       marks, field_steps, ckpt, pending, write_fields, elapsed_before)
+                       marks, field_steps, ckpt, pending, write_fields, elapsed_before, control)
 
 
 def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
@@ -723,7 +870,9 @@ def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
     try:
         for k in range(p.done, len(p.targets)):
             step = k + 1
-            if p.identity.max_step_ratio is None:
+            if p.control is not None:
+                state = _advance_adaptive(solver, state, p.targets[k], step, p.control)
+            elif p.identity.max_step_ratio is None:
                 state = _advance(solver, state, p.targets[k], step)
             else:
                 state = _advance(solver, state, p.targets[k], step,
@@ -741,7 +890,9 @@ def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
                                 first_yield=run.first_yield, fully_plastic=run.fully_plastic,
                                 last_elastic=run.last_elastic,
                                 **({"rescued_steps": solver.rescued_steps}
-                                   if solver.rescued_steps else {}))
+                                   if solver.rescued_steps else {}),
+                                **({"adaptive_steps": p.control.record()}
+                                   if p.control is not None else {}))
             if bar is not None:
                 bar.update(1)
     finally:
@@ -787,7 +938,8 @@ def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], wall: float,
         "contact_resolution": contact,
         "warnings": warnings,
         "steps": int(len(p.targets)),
-        "step_control": sub_step_record(p.targets, p.yield_force, identity.max_step_ratio),
+        "step_control": (p.control.summary(len(p.targets)) if p.control is not None else
+                         sub_step_record(p.targets, p.yield_force, identity.max_step_ratio)),
         **({"rescued_steps": solver.rescued_steps} if solver.rescued_steps else {}),
         **({"first_yield_search": {"elastic_solves": first["solves"],
                                    "force_rtol": FIRST_YIELD_FORCE_RTOL}}
@@ -847,6 +999,79 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int,
                                  "line_search_halvings": solver.line_search_halvings - halvings,
                                  "failure": first_failure})
     return current
+
+
+def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: int,
+                      control: AdaptiveSteps) -> State:
+    """One requested load step with the adaptive control: unloading and loading below the
+    first-yield force in one solve (``_advance``, elastic: path independent), loading above it
+    through solves sized by ``control`` (``AdaptiveSteps.judge``). A requested step is cut into
+    equal force ratios no larger than the control's, so it ends on ``target`` exactly. A solve
+    that does not converge is tried again at ``ADAPTIVE_CUT`` of its step; after
+    ``MAX_CUTBACKS`` such cuts in a row the rest of the step is solved in rescue mode
+    (``_advance``). The state returned counts the Newton iterations of all the step's converged
+    solves, the rejected ones too."""
+    if target <= state.force or target <= control.yield_force:
+        control.solves += 1
+        return _advance(solver, state, target, step)
+    current, iterations = state, 0
+    if current.force < control.yield_force:  # elastic to the first-yield force in one solve
+        current = _advance(solver, current, control.yield_force, step)
+        control.solves += 1
+        iterations += current.iterations
+    cuts, edge = 0, solver.contact_radius(current)
+    while current.force < target:
+        remaining = math.log(target / current.force)
+        parts = max(1, math.ceil(remaining / control.log_ratio - 1e-9))
+        goal = target if parts == 1 else current.force * math.exp(remaining / parts)
+        used = math.log(goal / current.force)
+        try:
+            trial = solver.solve_step(current, goal)
+        except ConvergenceError as exc:
+            control.failed += 1
+            cuts += 1
+            if cuts > MAX_CUTBACKS:
+                return _rescue_rest(solver, current, target, step, iterations, str(exc))
+            control.log_ratio = used * ADAPTIVE_CUT
+            if control.log_ratio < math.log(ADAPTIVE_MIN_RATIO):
+                raise ConvergenceError(
+                    f"step {step}: no convergence towards F = {target:.6g} N with load steps "
+                    f"down to x{math.exp(used):.7g} (last converged F = {current.force:.6g} N): "
+                    f"{exc}") from None
+            continue
+        cuts = 0
+        control.solves += 1
+        iterations += trial.iterations
+        trial_edge = solver.contact_radius(trial)
+        accepted, reason = control.judge(
+            used, abs(trial_edge - edge), control.element_at(max(edge, trial_edge)),
+            float(np.max(trial.eqps - current.eqps, initial=0.0)),
+            float(np.max(current.eqps, initial=0.0)), trial.iterations)
+        control.limited_by[reason] += 1
+        if not accepted:
+            control.rejected += 1
+            continue
+        ratio = goal / current.force
+        control.smallest_ratio = min(control.smallest_ratio, ratio)
+        control.largest_ratio = max(control.largest_ratio, ratio)
+        current, edge = trial, trial_edge
+    return dataclasses.replace(current, iterations=iterations)
+
+
+def _rescue_rest(solver: ContactSolver, current: State, target: float, step: int,
+                 iterations: int, failure: str) -> State:
+    """The rest of an adaptive step that failed ``MAX_CUTBACKS`` times in a row, solved in
+    rescue mode (``_advance``'s, noted in ``solver.rescued_steps``)."""
+    solver.line_search = True
+    halvings = solver.line_search_halvings
+    try:
+        done = _solve_step_goals(solver, current, target, step, None, rescue=True)
+    finally:
+        solver.line_search = False
+    solver.rescued_steps.append({"step": step, "force_N": target,
+                                 "line_search_halvings": solver.line_search_halvings - halvings,
+                                 "failure": failure})
+    return dataclasses.replace(done, iterations=iterations + done.iterations)
 
 
 def _solve_step_goals(solver: ContactSolver, state: State, target: float, step: int,
@@ -940,7 +1165,8 @@ def write_fields(solver: ContactSolver, state: State, path: Path) -> None:
 
 
 __all__ = [
-    "CURVE_COLUMNS", "FULLY_PLASTIC_CORE", "FULLY_PLASTIC_FRACTION", "FemResult", "PRESETS",
+    "AdaptiveSteps", "CURVE_COLUMNS", "FULLY_PLASTIC_CORE", "FULLY_PLASTIC_FRACTION", "FemResult",
+    "PRESETS",
     "contact_resolution", "fully_plastic_onset", "history_from_dict", "history_mesh",
     "load_history",
     "load_schedule", "preset_history", "run_history", "sub_step_record", "sub_steps",

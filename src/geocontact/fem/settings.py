@@ -29,10 +29,15 @@ from .result import (
 
 # The settings the FE model flags set (``add_model_flags``; FemJob / run_history keywords).
 MODEL_FLAGS = ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")
+# How each requested load step is solved (fem.run.step_loop): "fixed" (the requested steps,
+# each cut into geometric sub-steps of at most max_step_ratio above the first-yield force when a
+# cap is given) or "adaptive" (sub-steps sized solve by solve from the contact edge's advance,
+# the plastic increment and Newton's effort: fem.run.AdaptiveSteps, docs/fem.md).
+STEP_CONTROLS = ("fixed", "adaptive")
 # The settings added after the first identity record: recorded only when not at their default,
 # so the keys (cache entries, checkpoints) of earlier runs stay valid.
 RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "contact",
-                     "kernels")
+                     "kernels", "step_control")
 
 
 @dataclass(frozen=True)
@@ -46,7 +51,9 @@ class FeSettings:
     ``mesh_rule``: "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES). ``kinematics``:
     "small" | "finite". ``step_rule``: "segment" | "decade" (fem.run.load_schedule).
     ``max_step_ratio``: None or a cap in (1, 2] on the loading force ratio of one solve above
-    the first-yield force (fem.run.sub_steps). ``contact``: "node" | "facet". ``kernels``:
+    the first-yield force (fem.run.sub_steps; with the adaptive control its largest step,
+    default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "fixed" | "adaptive"
+    (``STEP_CONTROLS``, fem.run.AdaptiveSteps). ``contact``: "node" | "facet". ``kernels``:
     "numpy" | "compiled" (small or finite strain, node contact; fem.compiled).
     """
 
@@ -61,6 +68,7 @@ class FeSettings:
     max_step_ratio: float | None = None
     contact: str = "node"
     kernels: str = "numpy"
+    step_control: str = "fixed"
 
     def __post_init__(self) -> None:
         from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
@@ -75,7 +83,8 @@ class FeSettings:
             raise InputError(f"tolerance: must be a positive number, got {self.tolerance!r}")
         for name, allowed in (("volumetric", VOLUMETRIC), ("mesh_rule", MESH_RULES),
                               ("kinematics", KINEMATICS), ("step_rule", STEP_RULES),
-                              ("contact", CONTACTS), ("kernels", KERNELS)):
+                              ("contact", CONTACTS), ("kernels", KERNELS),
+                              ("step_control", STEP_CONTROLS)):
             value = getattr(self, name)
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
@@ -147,6 +156,8 @@ class FeSettings:
             words.append(f"{self.contact} contact")
         if self.kernels != "numpy":
             words.append(f"{self.kernels} kernels")
+        if self.step_control != "fixed":
+            words.append(f"{self.step_control} step control")
         return words
 
     def as_dict(self) -> dict[str, Any]:
@@ -159,8 +170,8 @@ class FeSettings:
     # --- the command line ----------------------------------------------------------------
     @staticmethod
     def add_model_flags(p) -> None:
-        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --contact and --kernels of
-        the FE engine (docs/fem.md); their defaults are the settings'."""
+        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --step-control, --contact and
+        --kernels of the FE engine (docs/fem.md); their defaults are the settings'."""
         default = FeSettings.__dataclass_fields__
         p.add_argument("--kinematics", default=default["kinematics"].default,
                        choices=list(KINEMATICS),
@@ -184,6 +195,14 @@ class FeSettings:
                             "force (e.g. 1.01; the requested steps are still the recorded "
                             "ones): a weak grain's perfectly plastic flattening is step "
                             "dependent (docs/fem.md)")
+        p.add_argument("--step-control", default=default["step_control"].default,
+                       choices=list(STEP_CONTROLS),
+                       help="FE load-step control: 'fixed' (default: the requested steps, cut "
+                            "by --max-step-ratio when given) or 'adaptive' (each solve's load "
+                            "increment sized by the contact edge's advance against the surface "
+                            "element there, the plastic strain increment and Newton's effort; "
+                            "--max-step-ratio is then its largest step; the recorded steps are "
+                            "unchanged; docs/fem.md)")
         p.add_argument("--contact", default=default["contact"].default,
                        choices=["node", "facet"],
                        help="FE contact with the flat: 'node' (default, exact node-to-flat "
@@ -199,10 +218,10 @@ class FeSettings:
     @staticmethod
     def model_of(args) -> dict[str, Any]:
         """The FE model the flags of ``add_model_flags`` chose, as settings keywords
-        (``contact`` and ``kernels`` only when not the default, so the records of default runs
-        are unchanged)."""
+        (``contact``, ``kernels`` and ``step_control`` only when not the default, so the records
+        of default runs are unchanged)."""
         model = {key: getattr(args, key) for key in MODEL_FLAGS}
-        for name in ("contact", "kernels"):
+        for name in ("contact", "kernels", "step_control"):
             if getattr(args, name) != FeSettings.__dataclass_fields__[name].default:
                 model[name] = getattr(args, name)
         return model
