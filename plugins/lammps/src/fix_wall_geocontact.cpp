@@ -476,9 +476,10 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   }
   // the contact is on the wall's surface, r - w from the centre (contact_frame)
   const double arm = radius[i] - interference;
-  const ContactGeometry geometry{interference, sim, n, atom->v[i], contact.velocity,
-                                 atom->omega[i], no_spin, arm, 0.0, contact.effective_radius,
-                                 atom->rmass[i]};
+  const ContactGeometry geometry{interference,   sim,     n,   atom->v[i],
+                                 contact.velocity, atom->omega[i], no_spin, arm,
+                                 0.0,            contact.effective_radius, 0.0,
+                                 atom->rmass[i], 0.0,     true};
   const ContactCoeffs cc{friction_, damping_, &resistance_};
   const ContactResult res = contact_step(law_, c, cc, rec, geometry, update->dt, commit);
   const double fn = res.fn;

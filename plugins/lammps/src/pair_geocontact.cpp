@@ -565,9 +565,10 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double rinv = 1.0 / r;
       const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
       const double half = 0.5 * overlap;  // the contact plane halves the overlap
-      const ContactGeometry geometry{overlap, sim, n, v[i], v[j], omega[i], omega[j],
-                                     radi - half, radius[j] - half, radi * radius[j] / radsum,
-                                     reduced_mass(rmass[i], rmass[j])};
+      const ContactGeometry geometry{overlap,     sim,         n,        v[i],
+                                     v[j],        omega[i],    omega[j], radi - half,
+                                     radius[j] - half, radi, radius[j], rmass[i],
+                                     rmass[j],    false};
       const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
       if (commit && known && place_memory_) {
         double rate_i = 0.0, rate_j = 0.0;
