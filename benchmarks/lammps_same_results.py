@@ -97,7 +97,7 @@ def walls(lmp) -> dict:
                  f"displace_atoms all move {0.5 * spacing!r} {0.5 * spacing!r} {RADIUS!r} "
                  "units box",
                  f"set type 1 diameter {2 * RADIUS}", f"set type 1 density {scenarios.DENSITY}",
-                 "velocity all set 0.02 0.01 0", "neighbor 0.002 bin",
+                 "velocity all set 0.5 0.2 0", "neighbor 0.002 bin",
                  "neigh_modify every 1 delay 0 check yes",
                  f"timestep {scenarios.TIMESTEP}", "fix integrate all nve/sphere",
                  f"fix floor all {model} zplane 0.0 NULL shear x 0.3",
@@ -127,9 +127,10 @@ def walls(lmp) -> dict:
 def region(lmp) -> dict:
     for line in ("units si", "atom_style sphere", "atom_modify map array", "boundary f f f",
                  "comm_modify vel yes", "region box block -1 1 -1 1 -1 1", "create_box 1 box",
-                 "region fill block -0.3 0.3 -0.3 0.3 -0.45 0.2 units box",
+                 "region fill block -0.25 0.25 -0.25 0.25 -0.44 0.2 units box",
                  "lattice sc 0.15", "create_atoms 1 region fill",
                  "set type 1 diameter 0.12", f"set type 1 density {scenarios.DENSITY}",
+                 "displace_atoms all move 0 0 -0.13 units box", "velocity all set 3.0 1.5 -1.0",
                  "variable theta equal 2.0*time",
                  "region drum cylinder z 0 0 0.45 -0.5 0.5 side in units box "
                  "rotate v_theta 0 0 0 0 0 1",
@@ -137,12 +138,12 @@ def region(lmp) -> dict:
                  f"fix wall all wall/geocontact/region {G} friction 0.5 damping 0.3 "
                  f"{ROLLING} drum",
                  "fix g all gravity 9.81 vector 0 0 -1", "neighbor 0.01 bin",
-                 "neigh_modify every 1 delay 0 check yes", "timestep 2e-5",
+                 "neigh_modify every 1 delay 0 check yes", "timestep 5e-5",
                  "fix nve all nve/sphere", "compute e all pair geocontact", "run 0"):
         lmp.command(line)
     columns = ([f"f_wall[{k}]" for k in range(1, 21)]
                + [f"c_e[{k}]" for k in range(1, 19)])
-    thermo_rows(lmp, columns, 600, 20)
+    thermo_rows(lmp, columns, 2400, 60)
     return gathered(lmp)
 
 

@@ -144,6 +144,24 @@ class FixWallGeocontact : public Fix {
                   double *out);
   void forget_contact(WallRecord &stored, const geocontact::Similarity &sim);
   void begin_tally();
+  void tally_contact(const WallRecord &rec, const WallRecord *springs_from,
+                     const geocontact::Similarity &sim);
+  void finish_tally();
+
+  // The global tallies of a committed step are summed when they are read (compute_vector,
+  // post_run), or before the records move (copy_arrays, pack_exchange), from the contacts the
+  // step touched, in the step's order: the same sums to the bit as summing them contact by
+  // contact during the step, and a run that reads them seldom does not pay for the energies,
+  // the springs and the ledger of every contact at every step. One entry per contact of the
+  // step (its record's index and the radius its similarity was taken at) or per contact the
+  // step forgot (record < 0: -(k + 1), its dissipated energies at forgotten_step_[k]).
+  struct TallyEntry {
+    long record;
+    double effective_radius;
+  };
+  std::vector<TallyEntry> tallied_;
+  std::vector<double> forgotten_step_;  // 1 + kLedgerSlots per forgotten contact of the step
+  bool tally_pending_ = false;
   void register_storage();
   void pack_global(double *data);
   int unpack_global(const char *buf);

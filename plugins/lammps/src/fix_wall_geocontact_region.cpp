@@ -208,6 +208,7 @@ void FixWallGeocontactRegion::post_force(int /*vflag*/)
       touch_wall(i, records_[base + slot], contact, commit, slot_out + 1);
     }
   }
+  tally_pending_ = commit;
 }
 
 // --- per-atom storage: exchange, sorting, restart ---------------------------------------------
@@ -235,6 +236,7 @@ void FixWallGeocontactRegion::grow_arrays(int nmax)
 
 void FixWallGeocontactRegion::copy_arrays(int i, int j, int /*delflag*/)
 {
+  finish_tally();  // before the records move
   const size_t from = static_cast<size_t>(i) * slots_, to = static_cast<size_t>(j) * slots_;
   std::copy_n(records_.begin() + from, slots_, records_.begin() + to);
   std::copy_n(walls_.begin() + from, slots_, walls_.begin() + to);
@@ -287,6 +289,7 @@ int FixWallGeocontactRegion::unpack_slots(int i, const double *buf, int record_v
 
 int FixWallGeocontactRegion::pack_exchange(int i, double *buf)
 {
+  finish_tally();  // before the records move
   return pack_slots(i, buf);
 }
 
