@@ -283,8 +283,7 @@ void PairGeocontact::index_contacts()
   first_pair_.resize(inum + 1);
   first_pair_[0] = 0;
   for (int ii = 0; ii < inum; ++ii) first_pair_[ii + 1] = first_pair_[ii] + numneigh[ilist[ii]];
-  pair_records_.resize(first_pair_[inum]);
-  has_record_.assign(first_pair_[inum], 0);
+  record_of_.assign(first_pair_[inum], -1);
 
   std::vector<int> first_record(nlocal + 1, 0);
   for (int i = 0; i < nlocal; ++i)
@@ -331,19 +330,21 @@ void PairGeocontact::index_contacts()
   departed_reset_ += departed_all[1 + kLedgerSlots];
   departed_dissipation_ += departed_all[0];
   for (int c = 0; c < kLedgerSlots; ++c) departed_ledger_[c] += departed_all[1 + c];
+  pair_records_.clear();
   for (int ii = 0; ii < inum; ++ii) {
     const int i = ilist[ii];
     const int *jlist = firstneigh[i];
     for (int jj = 0; jj < numneigh[i]; ++jj) {
       const int j = jlist[jj] & NEIGHMASK;
-      const int k = first_pair_[ii] + jj;
       const int si = FixGeocontactHistory::find(tables[i], tag[j]);
       if (si >= 0) {
-        pair_records_[k] = tables[i][si];
-        has_record_[k] = 1;
+        record_of_[first_pair_[ii] + jj] = static_cast<int>(pair_records_.size());
+        pair_records_.push_back(tables[i][si]);
       }
     }
   }
+  // room for the contacts the next steps make without moving the records each time
+  pair_records_.reserve(pair_records_.size() + pair_records_.size() / 4 + 16);
 }
 
 // Write the records of the neighbor-list pairs back to the tables of both grains (mirrored on
@@ -370,12 +371,12 @@ void PairGeocontact::sync_mirrors()
     const int *jlist = list->firstneigh[i];
     const int jnum = first_pair_[ii + 1] - first_pair_[ii];
     for (int jj = 0; jj < jnum; ++jj) {
-      const int k = first_pair_[ii] + jj;
-      if (!has_record_[k]) continue;
+      const int r = record_of_[first_pair_[ii] + jj];
+      if (r < 0) continue;
       const int j = jlist[jj] & NEIGHMASK;
-      store(i, pair_records_[k]);
+      store(i, pair_records_[r]);
       if (j < nlocal) {
-        ContactRecord mirror = pair_records_[k];
+        ContactRecord mirror = pair_records_[r];
         mirror.partner = tag[i];
         for (int c = 0; c < 3; ++c) mirror.tangential[c] = -mirror.tangential[c];
         std::swap(mirror.travel[0], mirror.travel[1]);
@@ -538,7 +539,8 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
       const double rsq = dot3(del, del);
       const double radsum = radi + radius[j];
-      const bool known = has_record_[k];
+      int slot = record_of_[k];
+      const bool known = slot >= 0;
       if (rsq >= radsum * radsum && !known) continue;  // apart, never touched
 
       const int jtype = type[j];
@@ -550,7 +552,12 @@ void PairGeocontact::compute(int eflag, int vflag)
 
       // the record itself when the step commits (most calls), a scratch copy in setup
       ContactRecord scratch;
-      ContactRecord &rec = commit ? pair_records_[k] : (scratch = pair_records_[k]);
+      if (commit && !known) {  // a new contact: a record of its own from this step on
+        slot = record_of_[k] = static_cast<int>(pair_records_.size());
+        pair_records_.emplace_back();
+      }
+      ContactRecord &rec = commit ? pair_records_[slot] : (known ? scratch = pair_records_[slot]
+                                                                 : scratch);
       if (!known) {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
@@ -588,14 +595,11 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double fn = res.fn;
       const double *ft = res.ft;
 
-      if (commit) {
-        has_record_[k] = 1;
-        history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
-      }
+      if (commit) history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       // setup: the springs the next step starts from are the record's, not the scratch copy's
       // (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
       if (eflag_global)
-        tally_contact(law, constants, rec, commit || known ? &pair_records_[k] : nullptr, sim,
+        tally_contact(law, constants, rec, commit || known ? &pair_records_[slot] : nullptr, sim,
                       tp.resistance, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
       const double energy =
@@ -757,6 +761,6 @@ double PairGeocontact::memory_usage()
 {
   double bytes = Pair::memory_usage();
   bytes += static_cast<double>(pair_records_.capacity()) * sizeof(ContactRecord);
-  bytes += static_cast<double>(has_record_.capacity() + first_pair_.capacity() * sizeof(int));
+  bytes += static_cast<double>((record_of_.capacity() + first_pair_.capacity()) * sizeof(int));
   return bytes;
 }

@@ -107,11 +107,14 @@ class PairGeocontact : public Pair {
   TypePairLaw **coeffs_;
   double *type_max_radius_;             // largest radius of each type's atoms (m): cutoffs
 
-  // Between neighbor-list rebuilds the records live here, one per neighbor-list pair in list
-  // order (read and written sequentially each step); sync_mirrors() writes them back to the
-  // per-atom tables of both grains before the tables are moved, saved or read.
+  // Between neighbor-list rebuilds the records live here, one per contact, dense: those of the
+  // last rebuild in list order, then the contacts made since in the order they were made (read
+  // and written nearly sequentially each step, in a fraction of the memory one record per
+  // neighbor-list pair took: most pairs of a list never touch); record_of_ gives each
+  // neighbor-list pair its record (-1: none). sync_mirrors() writes them back to the per-atom
+  // tables of both grains before the tables are moved, saved or read.
   std::vector<ContactRecord> pair_records_;
-  std::vector<char> has_record_;
+  std::vector<int> record_of_;
   std::vector<int> first_pair_;
   // The law's dissipation (J) carried away by contacts whose records were dropped (pairs that
   // separated beyond the neighbor skin), summed over all ranks: compute pair geocontact's [1]
