@@ -34,7 +34,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
 constexpr const char *kUsage =
     "fix ID group wall/geocontact P.json [friction mu] [damping beta | restitution e] "
-    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] "
+    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error] "
     "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
     "position v_name | shear dim V|v_name]";
 
@@ -63,6 +63,7 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
   char damping_given = 0;
   while (iarg < narg) {
     if (parse_resistance(lmp, iarg, narg, arg, resistance_, "Fix wall/geocontact")) continue;
+    if (parse_range(lmp, iarg, narg, arg, range_error_, "Fix wall/geocontact")) continue;
     if (parse_damping(lmp, iarg, narg, arg, damping_, damping_given, "Fix wall/geocontact"))
       continue;
     if (strcmp(arg[iarg], "friction") != 0) break;
@@ -534,6 +535,15 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
                                  atom->rmass[i], 0.0,     true};
   const ContactCoeffs cc{friction_, damping_, &resistance_};
   const ContactResult res = contact_step(law_, c, cc, rec, geometry, update->dt, commit);
+  if (range_error_ && commit) {
+    const double depth = depth_beyond_range(law_, rec.law);
+    if (depth > 0.0)
+      error->one(FLERR, "Fix {} {}: the wall contact of atom {} is loaded to delta_max/delta_y "
+                        "{:.6g}, beyond the law file's calibrated range (calibrated_range."
+                        "max_depth {:.6g}); range error stops the run there (range warn "
+                        "extrapolates and says so once)",
+                 style, id, atom->tag[i], depth, law_.calibrated_depth);
+  }
   const double fn = res.fn;
   const double *ft = res.ft;
   double *torque = atom->torque[i];

@@ -3,7 +3,10 @@
 // (fix_wall_geocontact_region.h) and shares its per-contact step, touch_wall.
 //
 //   fix ID group wall/geocontact P.json [friction mu] [damping beta]
-//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] wallstyle args [motion]
+//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error]
+//       wallstyle args [motion]
+//     range: a contact loaded beyond the law file's calibrated range is counted and said once
+//       (warn, the default) or stops the run with one line (error)
 //     wallstyle: xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
 //     motion:    wiggle dim A period | velocity v | position v_name | shear dim V
 //       shear: the wall slides in its own plane (along the axis of a zcylinder) at the velocity V
@@ -203,6 +206,7 @@ class FixWallGeocontact : public Fix {
   double boundary_work_ = 0.0;       // this rank's share of the wall's work on the grains
   double deepest_beyond_ = 0.0;      // this rank's deepest contact beyond the calibrated range
   bool range_warned_ = false;        // the run was told of contacts beyond it
+  bool range_error_ = false;         // range error: stop at the first contact beyond it
   double tally_[G_COUNT];            // this rank's sums at the last post_force
   double totals_[G_COUNT];
   bool totals_current_;

@@ -37,8 +37,9 @@ constexpr double kDefaultFriction = 0.5;
 constexpr int kRestartTag = 0x53504347;
 // Version 2 adds the rolling and twisting coefficients of each type pair, version 3 the law's
 // dissipation of the dropped contacts, version 4 their other ledger channels, version 5 the
-// memory keyword and the dropped contacts' memory-reset energy; older versions are read without them (at zero; memory: place, the default).
-constexpr int kRestartLayoutVersion = 5;
+// memory keyword and the dropped contacts' memory-reset energy, version 6 the range keyword;
+// older versions are read without them (at zero; memory pair and range warn, the defaults).
+constexpr int kRestartLayoutVersion = 6;
 
 }  // namespace
 
@@ -103,16 +104,21 @@ static void require_sphere(Atom *atom, Error *error)
                atom->atom_style);
 }
 
-// pair_style geocontact [memory pair|place]: pair (the default) keeps a contact's dent however far
-// its point moves; place forgets it past the contact diameter, an instantaneous reset that can
-// store more normal energy than the dent held (docs/dem.md, "Memory with a place")
+// pair_style geocontact [memory pair|place] [range warn|error]: memory pair (the default) keeps
+// a contact's dent however far its point moves; place forgets it past the contact diameter, an
+// instantaneous reset that can store more normal energy than the dent held (docs/dem.md,
+// "Memory with a place"); range error stops the run at the first contact loaded beyond the
+// law file's calibrated range (warn, the default: counted, said once)
 void PairGeocontact::settings(int narg, char **arg)
 {
   place_memory_ = false;
-  for (int iarg = 0; iarg < narg; iarg += 2) {
+  range_error_ = false;
+  for (int iarg = 0; iarg < narg;) {
+    if (parse_range(lmp, iarg, narg, arg, range_error_, "pair_style geocontact")) continue;
     if (strcmp(arg[iarg], "memory") != 0)
       error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (allowed: "
-                        "memory place|pair; the parameters go in pair_coeff * * P.json)",
+                        "memory place|pair, range warn|error; the parameters go in pair_coeff "
+                        "* * P.json)",
                  arg[iarg]);
     if (iarg + 1 >= narg)
       error->all(FLERR, "pair_style geocontact: keyword 'memory' needs a value (place or pair)");
@@ -121,6 +127,7 @@ void PairGeocontact::settings(int narg, char **arg)
     else
       error->all(FLERR, "pair_style geocontact: memory must be place or pair, got '{}'",
                  arg[iarg + 1]);
+    iarg += 2;
   }
 }
 
@@ -421,6 +428,20 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   pvector[GV_STORED_TWISTING] += w * springs.twisting;
 }
 
+// pair_style geocontact range error: the first contact loaded beyond its law file's calibrated
+// range stops the run (on the rank that has it: one line).
+void PairGeocontact::stop_beyond_range(const geocontact::LawParams &law,
+                                       const geocontact::ContactState &state, tagint i, tagint j)
+{
+  const double depth = depth_beyond_range(law, state);
+  if (depth > 0.0)
+    error->one(FLERR, "Pair geocontact: the contact of atoms {} and {} is loaded to "
+                      "delta_max/delta_y {:.6g}, beyond the law file's calibrated range "
+                      "(calibrated_range.max_depth {:.6g}); range error stops the run there "
+                      "(pair_style geocontact range warn extrapolates and says so once)",
+               i, j, depth, law.calibrated_depth);
+}
+
 // The stiffest contact of this step (energy steps only, as the other global outputs).
 void PairGeocontact::note_stiffness(double normal_stiffness)
 {
@@ -591,6 +612,7 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.travel[0] = rec.travel[1] = 0.0;
       rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
+      if (range_error_ && commit) stop_beyond_range(law, rec.law, tag[i], tag[j]);
       if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
       const double fn = res.fn;
       const double *ft = res.ft;
@@ -650,7 +672,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 // a restart is self-contained, then per type pair the law index, friction and damping, and
 // (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, (version 3)
 // the law's dissipation of the contacts already dropped, (version 4) their ledger channels and
-// (version 5) the memory keyword and their memory resets' change of stored energy.
+// (version 5) the memory keyword and their memory resets' change of stored energy, (version 6)
+// the range keyword.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -681,6 +704,8 @@ void PairGeocontact::write_restart(FILE *fp)
   const int memory = place_memory_ ? 1 : 0;  // version 5
   fwrite(&memory, sizeof(int), 1, fp);
   fwrite(&departed_reset_, sizeof(double), 1, fp);
+  const int range = range_error_ ? 1 : 0;  // version 6
+  fwrite(&range, sizeof(int), 1, fp);
 }
 
 void PairGeocontact::read_restart(FILE *fp)
@@ -755,6 +780,10 @@ void PairGeocontact::read_restart(FILE *fp)
   if (layout[1] >= 5 && me == 0)
     utils::sfread(FLERR, &departed_reset_, sizeof(double), 1, fp, nullptr, error);
   MPI_Bcast(&departed_reset_, 1, MPI_DOUBLE, 0, world);
+  int range = 0;  // versions 1-5: not recorded, the behaviour they had (warn)
+  if (layout[1] >= 6 && me == 0) utils::sfread(FLERR, &range, sizeof(int), 1, fp, nullptr, error);
+  MPI_Bcast(&range, 1, MPI_INT, 0, world);
+  range_error_ = range != 0;
 }
 
 double PairGeocontact::memory_usage()
