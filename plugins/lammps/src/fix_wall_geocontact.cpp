@@ -722,15 +722,33 @@ int FixWallGeocontact::unpack_exchange(int nlocal, double *buf)
   return m;
 }
 
-// Per atom: [length, layout tag, walls, records]; buf[0] counts itself.
+// Per atom: [length, layout tag, walls, records].
 int FixWallGeocontact::pack_restart(int i, double *buf)
 {
-  buf[1] = ubuf(kAtomTag).d;
-  buf[2] = static_cast<double>(sides_.size());
-  int m = kAtomHeader;
-  m += pack_exchange(i, buf + m);
-  buf[0] = m;
-  return m;
+  return restart_record_head(buf, kAtomTag, static_cast<double>(sides_.size()),
+                             pack_exchange(i, buf + kAtomHeader));
+}
+
+// The head of a per-atom restart record of the wall fixes, [length, layout tag, value, body]
+// (the body, `body` doubles, already at buf + 3; buf[0] counts itself): its length.
+int FixWallGeocontact::restart_record_head(double *buf, int64_t tag, double value, int body)
+{
+  buf[0] = 3 + body;
+  buf[1] = ubuf(tag).d;
+  buf[2] = value;
+  return 3 + body;
+}
+
+// This fix's per-atom restart record of atom nlocal (the nth of the fixes' records), the atom's
+// records sized and cleared first (a record not read leaves the atom without wall contacts).
+const double *FixWallGeocontact::restart_record(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
+  grow_arrays(nlocal + 1);
+  set_arrays(nlocal);
+  return &extra[nlocal][m];
 }
 
 // A record of another layout or wall count is never unpacked: the atom is left without wall
@@ -739,12 +757,7 @@ int FixWallGeocontact::pack_restart(int i, double *buf)
 // law state at the record's next step, versions 1-3 (no ledger) with the ledger at zero.
 void FixWallGeocontact::unpack_restart(int nlocal, int nth)
 {
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
-  grow_arrays(nlocal + 1);
-  set_arrays(nlocal);
-  const double *record = &extra[nlocal][m];
+  const double *record = restart_record(nlocal, nth);
   const int64_t tag = ubuf(record[1]).i;
   const int version = (tag & ~int64_t(0xffffffff)) == kAtomTagBase
                           ? static_cast<int>(tag & 0xffffffff) : 0;

@@ -175,6 +175,8 @@ class FixWallGeocontact : public Fix {
   double wall_displacement(double &velocity);
   void check_atoms();
   static int pack_record(const WallRecord &r, double *buf);
+  static int restart_record_head(double *buf, int64_t tag, double value, int body);
+  const double *restart_record(int nlocal, int nth);
   static int record_size(int layout_version);
   static int unpack_record(WallRecord &r, const double *buf,
                            int layout_version = kRestartLayoutVersion);

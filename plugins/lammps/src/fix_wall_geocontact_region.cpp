@@ -303,12 +303,8 @@ int FixWallGeocontactRegion::unpack_exchange(int nlocal, double *buf)
 // Per atom: [length, layout tag, wall record layout version, slots]; buf[0] counts itself.
 int FixWallGeocontactRegion::pack_restart(int i, double *buf)
 {
-  buf[1] = ubuf(kRegionAtomTag).d;
-  buf[2] = kRestartLayoutVersion;
-  int m = kRegionAtomHeader - 1;
-  m += pack_slots(i, buf + m);
-  buf[0] = m;
-  return m;
+  return restart_record_head(buf, kRegionAtomTag, kRestartLayoutVersion,
+                             pack_slots(i, buf + kRegionAtomHeader - 1));
 }
 
 // A record of another layout, or with more records than the region has walls per grain, is
@@ -316,12 +312,7 @@ int FixWallGeocontactRegion::pack_restart(int i, double *buf)
 // rank.
 void FixWallGeocontactRegion::unpack_restart(int nlocal, int nth)
 {
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
-  grow_arrays(nlocal + 1);
-  set_arrays(nlocal);
-  const double *record = &extra[nlocal][m];
+  const double *record = restart_record(nlocal, nth);
   const int64_t tag = ubuf(record[1]).i;
   const int version = static_cast<int>(record[2]);
   const int n = tag == kRegionAtomTag ? static_cast<int>(record[3]) : -1;
