@@ -522,6 +522,7 @@ void PairGeocontact::compute(int eflag, int vflag)
   // During setup forces are evaluated but the history is not advanced (as pair granular):
   // the first step of the run then moves from the stored state.
   const bool commit = !update->setupflag;
+  const bool stop_beyond = range_error_ && commit;  // read once, not per contact
   const double dt = update->dt;
   if (eflag_global) {
     for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
@@ -612,7 +613,7 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.travel[0] = rec.travel[1] = 0.0;
       rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
-      if (range_error_ && commit) stop_beyond_range(law, rec.law, tag[i], tag[j]);
+      if (stop_beyond) stop_beyond_range(law, rec.law, tag[i], tag[j]);
       if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
       const double fn = res.fn;
       const double *ft = res.ft;
