@@ -238,6 +238,70 @@ def test_a_law_within_its_calibrated_range_counts_none():
     assert values[2] == 1.0 and beyond == 0.0
 
 
+def test_range_error_stops_the_run_at_the_first_contact_beyond_the_calibrated_range(tmp_path):
+    """`pair_style geocontact range error`: a contact within examples/params-illustrative.json's
+    calibrated range (max_depth 1) runs; the step that loads it to 2 delta_y stops the run with
+    one line naming the two atoms, the depth and the file's max_depth. The keyword survives a
+    restart (pair layout version 6). The default (range warn) runs on (the test above)."""
+    lmp = two_spheres(gap=0.0, extra=["pair_style geocontact range error", "timestep 1e-7"])
+    dy = PARAMS.yield_approach
+    lmp.command(f"set atom 2 x {2 * RADIUS - 0.5 * dy!r}")
+    lmp.command("run 1")
+    restart = tmp_path / "within.restart"
+    lmp.command(f"write_restart {restart}")
+    lmp.command(f"set atom 2 x {2 * RADIUS - 2.0 * dy!r}")
+    with pytest.raises(Exception) as stopped:
+        lmp.command("run 1")
+    message = str(stopped.value)
+    assert "the contact of atoms 1 and 2 is loaded to delta_max/delta_y 2," in message
+    assert "(calibrated_range.max_depth 1)" in message and "\n" not in message.strip()
+    lmp.close()
+    from geocontact.analyses.lammps_plugin import open_lammps
+
+    resumed = open_lammps()
+    for line in (f"read_restart {restart}", "comm_modify vel yes", "neighbor 0.01 bin",
+                 f"set atom 2 x {2 * RADIUS - 2.0 * dy!r}"):
+        resumed.command(line)
+    with pytest.raises(Exception, match="beyond the law file's calibrated range"):
+        resumed.command("run 1")
+    resumed.close()
+
+
+def test_a_wall_with_range_error_stops_at_its_first_contact_beyond_the_range():
+    """fix wall/geocontact ... range error: a grain pressed 2 wall yield interferences into the
+    wall (beyond max_depth 1) stops the run with one line naming the fix, the atom and the
+    depth; the same grain at half a yield interference runs."""
+    from test_lammps_plugin import PARAMS_FILE
+
+    lmp = two_spheres(gap=0.0, extra=["timestep 1e-7"])
+    radius = 0.5 * RADIUS
+    w_y = 0.5 * PARAMS.yield_approach * radius / RADIUS
+    lmp.command("delete_atoms group all")
+    lmp.command("create_atoms 1 single 0 0 0")
+    lmp.command(f"set atom 1 diameter {2 * radius} density {DENSITY}")
+    lmp.command(f"fix floor all wall/geocontact {PARAMS_FILE} friction 0 range error "
+                f"xplane {-radius!r} NULL")
+    lmp.command(f"set atom 1 x {-0.5 * w_y!r}")
+    lmp.command("run 1")
+    lmp.command(f"set atom 1 x {-2.0 * w_y!r}")
+    with pytest.raises(Exception, match=r"Fix wall/geocontact floor: the wall contact of atom 1 "
+                                        r"is loaded to delta_max/delta_y 2,"):
+        lmp.command("run 1")
+    lmp.close()
+
+
+@pytest.mark.parametrize("command, message", [
+    ("pair_style geocontact range never", "pair_style geocontact: range must be warn or error, "
+                                          "got 'never'"),
+    ("pair_style geocontact range", "keyword 'range' needs a value"),
+])
+def test_a_bad_range_keyword_is_one_line(command, message):
+    lmp = two_spheres(gap=0.01)
+    with pytest.raises(Exception, match=message):
+        lmp.command(command)
+    lmp.close()
+
+
 def test_a_rotating_drum_region_wall_tallies_its_work_into_the_contact_ledger():
     """fix wall/geocontact/region shares the wall's contact step: a grain held against the side
     of a cylinder region rotating about z (its wall moving at Omega R_c at the contact) is loaded

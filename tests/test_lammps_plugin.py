@@ -740,7 +740,7 @@ def test_one_restart_carries_several_parameter_files(cycled_runs):
 # keep the file's length except for one: the pair section has no length prefix in the restart
 # format, so removing its 8 tag bytes leaves exactly an older plugin's pair section, which
 # began with the number of parameter documents.
-PAIR_TAG = b"GCPS" + struct.pack("<i", 5)
+PAIR_TAG = b"GCPS" + struct.pack("<i", 6)
 HISTORY_TAG = struct.pack("<q", (int.from_bytes(b"GCHS", "little") << 32) | 6)
 
 
@@ -755,8 +755,8 @@ def _replace(old: bytes, new: bytes, expected: int):
     (None, None),
     (_replace(PAIR_TAG, b"", 1), "pair section has no geocontact layout tag \\(0x00000001 "
                                  "where the tag 0x53504347 belongs"),
-    (_replace(PAIR_TAG, b"GCPS" + struct.pack("<i", 6), 1),
-     "pair section has layout version 6; this plugin reads pair layout versions 1 to 5 only"),
+    (_replace(PAIR_TAG, b"GCPS" + struct.pack("<i", 7), 1),
+     "pair section has layout version 7; this plugin reads pair layout versions 1 to 6 only"),
     (_replace(HISTORY_TAG, HISTORY_TAG[:4].replace(b"\x06", b"\x07") + HISTORY_TAG[4:], 2),
      "per-atom contact history has contact-history layout version 7; this plugin reads "
      "contact-history layout versions 1 to 6 only"),

@@ -184,19 +184,22 @@ inline double damped_normal_force(double law_force, double damping, double vn)
 // spring keeps an angle phi with k_tw = k_t a^2 / 2, proportional to a^3, energy k_tw phi^2 / 2:
 // when a falls phi is kept (its energy falls as (a / a_prev)^3), when a rises phi is scaled by
 // (a_prev / a)^3, which keeps its torque (its energy falls). a_prev <= 0: a new contact.
-struct RadiusChange {
-  double tangential;  // factor on the stored tangential force
-  double twist;       // factor on the stored twist angle
-};
-
-inline RadiusChange radius_change(double a_prev, double a)
+//
+// The factor on the stored tangential force (a / a_prev when a falls, else 1).
+inline double tangential_rescale(double a_prev, double a)
 {
-  if (a < a_prev) return {a / a_prev, 1.0};
+  return a < a_prev ? a / a_prev : 1.0;
+}
+
+// The factor on the stored twist angle ((a_prev / a)^3 when a rises on a contact that had a
+// radius, else 1): asked only where twisting is on, so a rising a costs no division otherwise.
+inline double twist_rescale(double a_prev, double a)
+{
   if (a > a_prev && a_prev > 0.0) {
     const double r = a_prev / a;
-    return {1.0, r * r * r};
+    return r * r * r;
   }
-  return {1.0, 1.0};
+  return 1.0;
 }
 
 // Incremental Mindlin-Coulomb tangential force. The stored force fs (not a displacement) is
@@ -243,9 +246,11 @@ inline TangentialEnergy tangential_force(double *fs, double *ft, const ContactFr
     }
   }
   const double held = dot3(fs, fs);
-  if (rescale != 1.0)
+  double rescaled = held;  // fs unchanged unless rescaled
+  if (rescale != 1.0) {
     for (int k = 0; k < 3; ++k) fs[k] *= rescale;
-  const double rescaled = dot3(fs, fs);
+    rescaled = dot3(fs, fs);
+  }
   if (kt_prev > 0.0 && kt > 0.0) e.radius_change = 0.5 * (held / kt_prev - rescaled / kt);
   for (int k = 0; k < 3; ++k) fs[k] -= kt * c.vt[k] * dt;
   const double limit = friction * fn;
@@ -406,9 +411,24 @@ struct ContactGeometry {
   const double *n;     // unit normal towards i (read only when touching)
   const double *vi, *vj, *wi, *wj;
   double armi, armj;   // centre to contact point (contact_frame)
-  double reff;         // rolling radius R*
-  double meff;         // reduced mass (a grain on a wall: its mass)
+  // the radii and masses of the bodies: the rolling radius R* = ri rj / (ri + rj) and the
+  // reduced mass, computed only where rolling and damping ask for them (a division each); on a
+  // wall (on_wall) R* = ri, the grain's radius or its effective one, and the mass is mi
+  double ri, rj;
+  double mi, mj;
+  bool on_wall;
 };
+
+// R* and m_eff of the geometry (ContactGeometry).
+inline double rolling_radius(const ContactGeometry &g)
+{
+  return g.on_wall ? g.ri : g.ri * g.rj / (g.ri + g.rj);
+}
+
+inline double effective_mass(const ContactGeometry &g)
+{
+  return g.on_wall ? g.mi : reduced_mass(g.mi, g.mj);
+}
 
 struct ContactResult {
   double law_force;    // the law's normal force (run units), before damping
@@ -416,7 +436,6 @@ struct ContactResult {
   double ft[3];        // tangential force on i
   double torque[3];    // rolling and twisting torque on i (the tangential force's: the caller's)
   double stiffness;    // normal stiffness (0 apart)
-  ContactFrame frame;
 };
 
 // --- the energy ledger -----------------------------------------------------------------------
@@ -453,10 +472,13 @@ struct SpringEnergy {
 };
 
 // Mindlin's k_t = 8 G* a of the contact (twice on a wall), for a contact radius a.
+// sim.stiffness / sim.scale is exactly 1 for two grains (s / s) and 2 on a wall (2 s / s; law.hpp
+// pair_similarity, wall_similarity): a compare gives the quotient's bits without the division.
 inline double mindlin_stiffness(const StiffnessConstants &c, const geocontact::Similarity &sim,
                                 double a)
 {
-  return sim.stiffness / sim.scale * c.mindlin_modulus * a;
+  const double per_scale = sim.stiffness == sim.scale ? 1.0 : 2.0;
+  return per_scale * c.mindlin_modulus * a;
 }
 
 // What the record's springs hold at the end of its last step: fs^2 / (2 k_t), k_roll xi^2 / 2
@@ -512,7 +534,9 @@ inline ContactResult contact_step(const geocontact::LawParams &law, const Stiffn
                                   const ContactCoeffs &coeffs, Record &rec,
                                   const ContactGeometry &g, double dt, bool commit)
 {
-  ContactResult out{};
+  ContactResult out;
+  out.fn = out.stiffness = 0.0;
+  for (int k = 0; k < 3; ++k) out.ft[k] = out.torque[k] = 0.0;
   const RollingCoeffs &rc = *coeffs.resistance;
   const geocontact::StepResult res =
       geocontact::step(law, rec.law, g.overlap * (g.sim.approach * c.approach_to_law));
@@ -522,22 +546,24 @@ inline ContactResult contact_step(const geocontact::LawParams &law, const Stiffn
     clear_springs(rec);
     return out;
   }
-  out.frame = contact_frame(g.n, g.vi, g.vj, g.wi, g.wj, g.armi, g.armj);
+  const ContactFrame frame = contact_frame(g.n, g.vi, g.vj, g.wi, g.wj, g.armi, g.armj);
   const ContactStiffness k = contact_stiffness(law, c, rec.law, g.sim);
   out.stiffness = k.normal;
   const double a_prev = rec.contact_radius;
   const double kt_prev = a_prev > 0.0 ? mindlin_stiffness(c, g.sim, a_prev) : 0.0;
-  const RadiusChange change = radius_change(a_prev, k.radius);
   rec.contact_radius = k.radius;
-  const Damping damping = damping_coefficients(coeffs.damping, c.damping_mass * g.meff, k);
-  out.fn = damped_normal_force(out.law_force, damping.normal, out.frame.vn);
+  const Damping damping =
+      coeffs.damping > 0.0
+          ? damping_coefficients(coeffs.damping, c.damping_mass * effective_mass(g), k)
+          : Damping{0.0, 0.0};
+  out.fn = damped_normal_force(out.law_force, damping.normal, frame.vn);
   const double step = commit ? dt : 0.0;
   double *ledger = rec.dissipated;
-  if (commit) ledger[LEDGER_NORMAL_DAMPING] -= (out.fn - out.law_force) * out.frame.vn * dt;
+  if (commit) ledger[LEDGER_NORMAL_DAMPING] -= (out.fn - out.law_force) * frame.vn * dt;
   if (coeffs.friction > 0.0) {
-    const TangentialEnergy e =
-        tangential_force(rec.tangential, out.ft, out.frame, k.tangential, kt_prev,
-                         damping.tangential, coeffs.friction, out.fn, step, change.tangential);
+    const TangentialEnergy e = tangential_force(
+        rec.tangential, out.ft, frame, k.tangential, kt_prev, damping.tangential,
+        coeffs.friction, out.fn, step, tangential_rescale(a_prev, k.radius));
     if (commit) {
       ledger[LEDGER_SLIDING] += e.sliding + e.radius_change;
       ledger[LEDGER_TANGENTIAL_DAMPING] += e.damping;
@@ -545,14 +571,14 @@ inline ContactResult contact_step(const geocontact::LawParams &law, const Stiffn
     }
   }
   if (rc.rolling)
-    ledger[LEDGER_ROLLING] +=
-        rolling_torque(rec.rolling, out.torque, rc, g.n, g.wi, g.wj, g.reff, out.fn, dt, commit);
+    ledger[LEDGER_ROLLING] += rolling_torque(rec.rolling, out.torque, rc, g.n, g.wi, g.wj,
+                                             rolling_radius(g), out.fn, dt, commit);
   if (rc.twisting) {
     double twist[3], radius_part = 0.0;
     const double k_prev = 0.5 * kt_prev * a_prev * a_prev;
     ledger[LEDGER_TWISTING] += twisting_torque(
         rec.twist, twist, g.n, g.wi, g.wj, k.tangential, damping.tangential, coeffs.friction,
-        k.radius, out.fn, dt, commit, change.twist, k_prev, radius_part);
+        k.radius, out.fn, dt, commit, twist_rescale(a_prev, k.radius), k_prev, radius_part);
     ledger[LEDGER_RADIUS_CHANGE] += radius_part;
     for (int m = 0; m < 3; ++m) out.torque[m] += twist[m];
   }

@@ -153,6 +153,32 @@ inline bool parse_damping(LAMMPS *lmp, int &iarg, int narg, char **arg, double &
   return true;
 }
 
+// `range warn|error` (issue 37): what a contact loaded beyond the law file's calibrated range
+// (delta_max / delta_y > calibrated_range.max_depth, where the law extrapolates) does: `warn`
+// (the default) counts it and says so once; `error` stops the run there (range_error below).
+// Returns true (and moves iarg past it) when arg[iarg] is the keyword.
+inline bool parse_range(LAMMPS *lmp, int &iarg, int narg, char **arg, bool &stop,
+                        const char *who)
+{
+  if (std::strcmp(arg[iarg], "range") != 0) return false;
+  if (iarg + 1 >= narg)
+    lmp->error->all(FLERR, "{}: keyword 'range' needs a value (warn or error)", who);
+  if (std::strcmp(arg[iarg + 1], "error") == 0) stop = true;
+  else if (std::strcmp(arg[iarg + 1], "warn") == 0) stop = false;
+  else lmp->error->all(FLERR, "{}: range must be warn or error, got '{}'", who, arg[iarg + 1]);
+  iarg += 2;
+  return true;
+}
+
+// The depth delta_max / delta_y of a contact state when it is beyond the law file's calibrated
+// range, else 0 (the same test as the count of compute pair geocontact [16] and the walls' [19]).
+inline double depth_beyond_range(const geocontact::LawParams &law,
+                                 const geocontact::ContactState &state)
+{
+  const double depth = state.max_approach / law.yield_approach;
+  return depth > law.calibrated_depth ? depth : 0.0;
+}
+
 }  // namespace geocontact_forces
 }  // namespace LAMMPS_NS
 

@@ -34,7 +34,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"};
 constexpr const char *kUsage =
     "fix ID group wall/geocontact P.json [friction mu] [damping beta | restitution e] "
-    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] "
+    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error] "
     "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
     "position v_name | shear dim V|v_name]";
 
@@ -63,6 +63,7 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
   char damping_given = 0;
   while (iarg < narg) {
     if (parse_resistance(lmp, iarg, narg, arg, resistance_, "Fix wall/geocontact")) continue;
+    if (parse_range(lmp, iarg, narg, arg, range_error_, "Fix wall/geocontact")) continue;
     if (parse_damping(lmp, iarg, narg, arg, damping_, damping_given, "Fix wall/geocontact"))
       continue;
     if (strcmp(arg[iarg], "friction") != 0) break;
@@ -385,9 +386,10 @@ void FixWallGeocontact::post_force(int /*vflag*/)
 
   for (int i = 0; i < nlocal; ++i) {
     double *out = array_atom[i];
-    for (int c = 0; c < size_peratom_cols; ++c) out[c] = 0.0;
-    if (!(mask[i] & groupbit)) continue;
+    const bool member = mask[i] & groupbit;
     for (int w = 0; w < nwalls; ++w, out += kOutputColumns) {
+      for (int c = 0; c < kOutputColumns; ++c) out[c] = 0.0;
+      if (!member) continue;
       // distance from the wall to the centre, and the unit normal from the wall to the grain
       double distance;
       WallContact contact{0.0, {0.0, 0.0, 0.0}, {vwall[0], vwall[1], vwall[2]}, radius[i]};
@@ -411,6 +413,7 @@ void FixWallGeocontact::post_force(int /*vflag*/)
       touch_wall(i, records_[static_cast<size_t>(i) * nwalls + w], contact, commit, out);
     }
   }
+  tally_pending_ = commit;
 }
 
 // The tallies of this rank start from the dissipation of the contacts already forgotten.
@@ -422,24 +425,75 @@ void FixWallGeocontact::begin_tally()
   totals_current_ = false;
   max_stiffness_ = 0.0;
   deepest_beyond_ = 0.0;
+  tally_pending_ = false;
+  tallied_.clear();
+  forgotten_step_.clear();
 }
 
 // A contact left beyond the skin is forgotten, as a pair leaving the neighbor list; the energy
-// it dissipated stays in the tally.
+// it dissipated stays in the tally (when the step's tallies are summed: finish_tally).
 void FixWallGeocontact::forget_contact(WallRecord &stored, const geocontact::Similarity &sim)
 {
   const double dissipated = sim.energy * constants_.energy_to_run *
                             geocontact::dissipated_energy(law_, stored.law);
   forgotten_dissipated_ += dissipated;
-  tally_[G_DISSIPATED] += dissipated;
+  tallied_.push_back({-static_cast<long>(forgotten_step_.size() / (1 + kLedgerSlots)) - 1, 0.0});
+  forgotten_step_.push_back(dissipated);
   for (int k = 0; k < kLedgerSlots; ++k) {
     forgotten_ledger_[k] += stored.dissipated[k];
-    tally_[G_SLIDING + k] += stored.dissipated[k];
+    forgotten_step_.push_back(stored.dissipated[k]);
   }
   stored.law = geocontact::ContactState();
   clear_springs(stored);
   clear_ledger(stored);
   stored.active = 0;
+}
+
+// One contact's share of the tallies: its law state (`rec`, after the step) and the springs and
+// ledger of `springs_from` (the stored record; none for a contact not yet recorded in setup).
+void FixWallGeocontact::tally_contact(const WallRecord &rec, const WallRecord *springs_from,
+                                      const geocontact::Similarity &sim)
+{
+  const double energy_scale = sim.energy * constants_.energy_to_run;
+  const geocontact::ContactState &st = rec.law;
+  const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
+  tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
+  tally_[G_ELASTIC] += stored_energy;
+  if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
+  if (springs_from) {
+    for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] += springs_from->dissipated[k];
+    const SpringEnergy springs = spring_energy(*springs_from, constants_, sim, resistance_);
+    tally_[G_STORED_TANGENTIAL] += springs.tangential;
+    tally_[G_STORED_ROLLING] += springs.rolling;
+    tally_[G_STORED_TWISTING] += springs.twisting;
+  }
+  const double depth = st.max_approach / law_.yield_approach;
+  if (depth > law_.calibrated_depth) {  // calibrated_range.max_depth (infinite: none)
+    tally_[G_BEYOND_RANGE] += 1.0;
+    deepest_beyond_ = std::max(deepest_beyond_, depth);
+  }
+}
+
+// The committed step's tallies, in its order (tallied_), from the records as the step left
+// them.
+void FixWallGeocontact::finish_tally()
+{
+  if (!tally_pending_) return;
+  tally_pending_ = false;
+  for (const TallyEntry &entry : tallied_) {
+    if (entry.record < 0) {
+      const double *gone = &forgotten_step_[(-entry.record - 1) * (1 + kLedgerSlots)];
+      tally_[G_DISSIPATED] += gone[0];
+      for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] += gone[1 + k];
+      continue;
+    }
+    const WallRecord &rec = records_[entry.record];
+    tally_contact(rec, &rec,
+                  geocontact::wall_similarity(entry.effective_radius,
+                                              constants_.calibrated_radius));
+  }
+  tallied_.clear();
+  forgotten_step_.clear();
 }
 
 // One grain on one wall: the law's step and the contact forces (contact_forces.h contact_step),
@@ -454,7 +508,6 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   // the FE half model: F(w) = F_pair(2 w), energies half the pair's (law.hpp)
   const geocontact::Similarity sim =
       geocontact::wall_similarity(contact.effective_radius, c.calibrated_radius);
-  const double energy_scale = sim.energy * c.energy_to_run;
   if (stored.active && interference < -neighbor->skin) {
     if (commit) forget_contact(stored, sim);
     return;
@@ -476,11 +529,21 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   }
   // the contact is on the wall's surface, r - w from the centre (contact_frame)
   const double arm = radius[i] - interference;
-  const ContactGeometry geometry{interference, sim, n, atom->v[i], contact.velocity,
-                                 atom->omega[i], no_spin, arm, 0.0, contact.effective_radius,
-                                 atom->rmass[i]};
+  const ContactGeometry geometry{interference,   sim,     n,   atom->v[i],
+                                 contact.velocity, atom->omega[i], no_spin, arm,
+                                 0.0,            contact.effective_radius, 0.0,
+                                 atom->rmass[i], 0.0,     true};
   const ContactCoeffs cc{friction_, damping_, &resistance_};
   const ContactResult res = contact_step(law_, c, cc, rec, geometry, update->dt, commit);
+  if (range_error_ && commit) {
+    const double depth = depth_beyond_range(law_, rec.law);
+    if (depth > 0.0)
+      error->one(FLERR, "Fix {} {}: the wall contact of atom {} is loaded to delta_max/delta_y "
+                        "{:.6g}, beyond the law file's calibrated range (calibrated_range."
+                        "max_depth {:.6g}); range error stops the run there (range warn "
+                        "extrapolates and says so once)",
+                 style, id, atom->tag[i], depth, law_.calibrated_depth);
+  }
   const double fn = res.fn;
   const double *ft = res.ft;
   double *torque = atom->torque[i];
@@ -500,25 +563,15 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   // the wall's work on the grain: the contact force times the wall's velocity at the contact
   // (the rest of the contact force's work on the grain is the contact's, in its ledger)
   if (commit) boundary_work_ += dot3(fc, contact.velocity) * update->dt;
+  // the tallies: summed when read (finish_tally) after a committed step; in setup now, from the
+  // scratch copy's law state and the stored record's springs (the scratch copy's Coulomb reset
+  // at dt = 0 may differ from what the next step starts from; a contact not yet recorded has
+  // none)
+  if (commit)
+    tallied_.push_back({static_cast<long>(&stored - records_.data()), contact.effective_radius});
+  else
+    tally_contact(rec, stored.active ? &stored : nullptr, sim);
   const geocontact::ContactState &st = rec.law;
-  const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
-  tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
-  tally_[G_ELASTIC] += stored_energy;
-  if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
-  // setup: the springs the next step starts from are the stored record's, not the scratch
-  // copy's (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
-  if (commit || stored.active) {
-    for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] += stored.dissipated[k];
-    const SpringEnergy springs = spring_energy(stored, c, sim, resistance_);
-    tally_[G_STORED_TANGENTIAL] += springs.tangential;
-    tally_[G_STORED_ROLLING] += springs.rolling;
-    tally_[G_STORED_TWISTING] += springs.twisting;
-  }
-  const double depth = st.max_approach / law_.yield_approach;
-  if (depth > law_.calibrated_depth) {  // calibrated_range.max_depth (infinite: none)
-    tally_[G_BEYOND_RANGE] += 1.0;
-    deepest_beyond_ = std::max(deepest_beyond_, depth);
-  }
   // the state's approaches are the pair's in the calibrated units: w = d / approach
   const double half_scale = c.length_to_run / sim.approach;
   out[0] = interference;
@@ -536,6 +589,7 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
 // touches.
 double FixWallGeocontact::compute_vector(int n)
 {
+  finish_tally();
   if (!totals_current_) {
     tally_[G_BOUNDARY_WORK] = boundary_work_;
     MPI_Allreduce(tally_, totals_, G_MAX_STIFFNESS, MPI_DOUBLE, MPI_SUM, world);
@@ -560,6 +614,7 @@ double FixWallGeocontact::compute_vector(int n)
 // time wall contacts are beyond the law's calibrated range; [19-20] count them at any step.
 void FixWallGeocontact::post_run()
 {
+  finish_tally();
   if (range_warned_) return;
   double all[2] = {0.0, 0.0};
   MPI_Allreduce(&tally_[G_BEYOND_RANGE], &all[0], 1, MPI_DOUBLE, MPI_SUM, world);
@@ -591,6 +646,7 @@ void FixWallGeocontact::grow_arrays(int nmax)
 
 void FixWallGeocontact::copy_arrays(int i, int j, int /*delflag*/)
 {
+  finish_tally();  // before the records move
   const size_t nwalls = sides_.size();
   std::copy_n(records_.begin() + i * nwalls, nwalls, records_.begin() + j * nwalls);
   for (int c = 0; c < size_peratom_cols; ++c) array_atom[j][c] = array_atom[i][c];
@@ -650,6 +706,7 @@ int FixWallGeocontact::record_size(int layout_version)
 
 int FixWallGeocontact::pack_exchange(int i, double *buf)
 {
+  finish_tally();  // before the records move
   const size_t nwalls = sides_.size();
   int m = 0;
   for (size_t w = 0; w < nwalls; ++w) m += pack_record(records_[i * nwalls + w], buf + m);
@@ -665,15 +722,33 @@ int FixWallGeocontact::unpack_exchange(int nlocal, double *buf)
   return m;
 }
 
-// Per atom: [length, layout tag, walls, records]; buf[0] counts itself.
+// Per atom: [length, layout tag, walls, records].
 int FixWallGeocontact::pack_restart(int i, double *buf)
 {
-  buf[1] = ubuf(kAtomTag).d;
-  buf[2] = static_cast<double>(sides_.size());
-  int m = kAtomHeader;
-  m += pack_exchange(i, buf + m);
-  buf[0] = m;
-  return m;
+  return restart_record_head(buf, kAtomTag, static_cast<double>(sides_.size()),
+                             pack_exchange(i, buf + kAtomHeader));
+}
+
+// The head of a per-atom restart record of the wall fixes, [length, layout tag, value, body]
+// (the body, `body` doubles, already at buf + 3; buf[0] counts itself): its length.
+int FixWallGeocontact::restart_record_head(double *buf, int64_t tag, double value, int body)
+{
+  buf[0] = 3 + body;
+  buf[1] = ubuf(tag).d;
+  buf[2] = value;
+  return 3 + body;
+}
+
+// This fix's per-atom restart record of atom nlocal (the nth of the fixes' records), the atom's
+// records sized and cleared first (a record not read leaves the atom without wall contacts).
+const double *FixWallGeocontact::restart_record(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
+  grow_arrays(nlocal + 1);
+  set_arrays(nlocal);
+  return &extra[nlocal][m];
 }
 
 // A record of another layout or wall count is never unpacked: the atom is left without wall
@@ -682,12 +757,7 @@ int FixWallGeocontact::pack_restart(int i, double *buf)
 // law state at the record's next step, versions 1-3 (no ledger) with the ledger at zero.
 void FixWallGeocontact::unpack_restart(int nlocal, int nth)
 {
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
-  grow_arrays(nlocal + 1);
-  set_arrays(nlocal);
-  const double *record = &extra[nlocal][m];
+  const double *record = restart_record(nlocal, nth);
   const int64_t tag = ubuf(record[1]).i;
   const int version = (tag & ~int64_t(0xffffffff)) == kAtomTagBase
                           ? static_cast<int>(tag & 0xffffffff) : 0;

@@ -3,7 +3,10 @@
 // (fix_wall_geocontact_region.h) and shares its per-contact step, touch_wall.
 //
 //   fix ID group wall/geocontact P.json [friction mu] [damping beta]
-//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] wallstyle args [motion]
+//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error]
+//       wallstyle args [motion]
+//     range: a contact loaded beyond the law file's calibrated range is counted and said once
+//       (warn, the default) or stops the run with one line (error)
 //     wallstyle: xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
 //     motion:    wiggle dim A period | velocity v | position v_name | shear dim V
 //       shear: the wall slides in its own plane (along the axis of a zcylinder) at the velocity V
@@ -144,6 +147,24 @@ class FixWallGeocontact : public Fix {
                   double *out);
   void forget_contact(WallRecord &stored, const geocontact::Similarity &sim);
   void begin_tally();
+  void tally_contact(const WallRecord &rec, const WallRecord *springs_from,
+                     const geocontact::Similarity &sim);
+  void finish_tally();
+
+  // The global tallies of a committed step are summed when they are read (compute_vector,
+  // post_run), or before the records move (copy_arrays, pack_exchange), from the contacts the
+  // step touched, in the step's order: the same sums to the bit as summing them contact by
+  // contact during the step, and a run that reads them seldom does not pay for the energies,
+  // the springs and the ledger of every contact at every step. One entry per contact of the
+  // step (its record's index and the radius its similarity was taken at) or per contact the
+  // step forgot (record < 0: -(k + 1), its dissipated energies at forgotten_step_[k]).
+  struct TallyEntry {
+    long record;
+    double effective_radius;
+  };
+  std::vector<TallyEntry> tallied_;
+  std::vector<double> forgotten_step_;  // 1 + kLedgerSlots per forgotten contact of the step
+  bool tally_pending_ = false;
   void register_storage();
   void pack_global(double *data);
   int unpack_global(const char *buf);
@@ -154,6 +175,8 @@ class FixWallGeocontact : public Fix {
   double wall_displacement(double &velocity);
   void check_atoms();
   static int pack_record(const WallRecord &r, double *buf);
+  static int restart_record_head(double *buf, int64_t tag, double value, int body);
+  const double *restart_record(int nlocal, int nth);
   static int record_size(int layout_version);
   static int unpack_record(WallRecord &r, const double *buf,
                            int layout_version = kRestartLayoutVersion);
@@ -185,6 +208,7 @@ class FixWallGeocontact : public Fix {
   double boundary_work_ = 0.0;       // this rank's share of the wall's work on the grains
   double deepest_beyond_ = 0.0;      // this rank's deepest contact beyond the calibrated range
   bool range_warned_ = false;        // the run was told of contacts beyond it
+  bool range_error_ = false;         // range error: stop at the first contact beyond it
   double tally_[G_COUNT];            // this rank's sums at the last post_force
   double totals_[G_COUNT];
   bool totals_current_;

@@ -27,7 +27,7 @@ namespace {
 constexpr const char *kWho = "Fix wall/geocontact/region";
 constexpr const char *kUsage =
     "fix ID group wall/geocontact/region P.json [friction mu] [damping beta | restitution e] "
-    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] region-ID";
+    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error] region-ID";
 constexpr int kSlotHeader = 2;  // per record in a buffer: wall id, effective radius
 
 }  // namespace
@@ -43,7 +43,7 @@ FixWallGeocontactRegion::FixWallGeocontactRegion(LAMMPS *lmp, int narg, char **a
   if (!region_) {
     if (iarg + 1 < narg)
       error->all(FLERR, "{}: unknown keyword '{}' (allowed: friction, damping, restitution, "
-                        "rolling, twisting, then a region ID)", kWho, region_id_);
+                        "rolling, twisting, range, then a region ID)", kWho, region_id_);
     error->all(FLERR, "{}: region '{}' does not exist (define it with the region command "
                       "first)", kWho, region_id_);
   }
@@ -208,6 +208,7 @@ void FixWallGeocontactRegion::post_force(int /*vflag*/)
       touch_wall(i, records_[base + slot], contact, commit, slot_out + 1);
     }
   }
+  tally_pending_ = commit;
 }
 
 // --- per-atom storage: exchange, sorting, restart ---------------------------------------------
@@ -235,6 +236,7 @@ void FixWallGeocontactRegion::grow_arrays(int nmax)
 
 void FixWallGeocontactRegion::copy_arrays(int i, int j, int /*delflag*/)
 {
+  finish_tally();  // before the records move
   const size_t from = static_cast<size_t>(i) * slots_, to = static_cast<size_t>(j) * slots_;
   std::copy_n(records_.begin() + from, slots_, records_.begin() + to);
   std::copy_n(walls_.begin() + from, slots_, walls_.begin() + to);
@@ -287,6 +289,7 @@ int FixWallGeocontactRegion::unpack_slots(int i, const double *buf, int record_v
 
 int FixWallGeocontactRegion::pack_exchange(int i, double *buf)
 {
+  finish_tally();  // before the records move
   return pack_slots(i, buf);
 }
 
@@ -300,12 +303,8 @@ int FixWallGeocontactRegion::unpack_exchange(int nlocal, double *buf)
 // Per atom: [length, layout tag, wall record layout version, slots]; buf[0] counts itself.
 int FixWallGeocontactRegion::pack_restart(int i, double *buf)
 {
-  buf[1] = ubuf(kRegionAtomTag).d;
-  buf[2] = kRestartLayoutVersion;
-  int m = kRegionAtomHeader - 1;
-  m += pack_slots(i, buf + m);
-  buf[0] = m;
-  return m;
+  return restart_record_head(buf, kRegionAtomTag, kRestartLayoutVersion,
+                             pack_slots(i, buf + kRegionAtomHeader - 1));
 }
 
 // A record of another layout, or with more records than the region has walls per grain, is
@@ -313,12 +312,7 @@ int FixWallGeocontactRegion::pack_restart(int i, double *buf)
 // rank.
 void FixWallGeocontactRegion::unpack_restart(int nlocal, int nth)
 {
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
-  grow_arrays(nlocal + 1);
-  set_arrays(nlocal);
-  const double *record = &extra[nlocal][m];
+  const double *record = restart_record(nlocal, nth);
   const int64_t tag = ubuf(record[1]).i;
   const int version = static_cast<int>(record[2]);
   const int n = tag == kRegionAtomTag ? static_cast<int>(record[3]) : -1;

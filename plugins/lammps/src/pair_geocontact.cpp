@@ -37,8 +37,9 @@ constexpr double kDefaultFriction = 0.5;
 constexpr int kRestartTag = 0x53504347;
 // Version 2 adds the rolling and twisting coefficients of each type pair, version 3 the law's
 // dissipation of the dropped contacts, version 4 their other ledger channels, version 5 the
-// memory keyword and the dropped contacts' memory-reset energy; older versions are read without them (at zero; memory: place, the default).
-constexpr int kRestartLayoutVersion = 5;
+// memory keyword and the dropped contacts' memory-reset energy, version 6 the range keyword;
+// older versions are read without them (at zero; memory pair and range warn, the defaults).
+constexpr int kRestartLayoutVersion = 6;
 
 }  // namespace
 
@@ -103,16 +104,21 @@ static void require_sphere(Atom *atom, Error *error)
                atom->atom_style);
 }
 
-// pair_style geocontact [memory pair|place]: pair (the default) keeps a contact's dent however far
-// its point moves; place forgets it past the contact diameter, an instantaneous reset that can
-// store more normal energy than the dent held (docs/dem.md, "Memory with a place")
+// pair_style geocontact [memory pair|place] [range warn|error]: memory pair (the default) keeps
+// a contact's dent however far its point moves; place forgets it past the contact diameter, an
+// instantaneous reset that can store more normal energy than the dent held (docs/dem.md,
+// "Memory with a place"); range error stops the run at the first contact loaded beyond the
+// law file's calibrated range (warn, the default: counted, said once)
 void PairGeocontact::settings(int narg, char **arg)
 {
   place_memory_ = false;
-  for (int iarg = 0; iarg < narg; iarg += 2) {
+  range_error_ = false;
+  for (int iarg = 0; iarg < narg;) {
+    if (parse_range(lmp, iarg, narg, arg, range_error_, "pair_style geocontact")) continue;
     if (strcmp(arg[iarg], "memory") != 0)
       error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (allowed: "
-                        "memory place|pair; the parameters go in pair_coeff * * P.json)",
+                        "memory place|pair, range warn|error; the parameters go in pair_coeff "
+                        "* * P.json)",
                  arg[iarg]);
     if (iarg + 1 >= narg)
       error->all(FLERR, "pair_style geocontact: keyword 'memory' needs a value (place or pair)");
@@ -121,6 +127,7 @@ void PairGeocontact::settings(int narg, char **arg)
     else
       error->all(FLERR, "pair_style geocontact: memory must be place or pair, got '{}'",
                  arg[iarg + 1]);
+    iarg += 2;
   }
 }
 
@@ -283,8 +290,7 @@ void PairGeocontact::index_contacts()
   first_pair_.resize(inum + 1);
   first_pair_[0] = 0;
   for (int ii = 0; ii < inum; ++ii) first_pair_[ii + 1] = first_pair_[ii] + numneigh[ilist[ii]];
-  pair_records_.resize(first_pair_[inum]);
-  has_record_.assign(first_pair_[inum], 0);
+  record_of_.assign(first_pair_[inum], -1);
 
   std::vector<int> first_record(nlocal + 1, 0);
   for (int i = 0; i < nlocal; ++i)
@@ -331,19 +337,21 @@ void PairGeocontact::index_contacts()
   departed_reset_ += departed_all[1 + kLedgerSlots];
   departed_dissipation_ += departed_all[0];
   for (int c = 0; c < kLedgerSlots; ++c) departed_ledger_[c] += departed_all[1 + c];
+  pair_records_.clear();
   for (int ii = 0; ii < inum; ++ii) {
     const int i = ilist[ii];
     const int *jlist = firstneigh[i];
     for (int jj = 0; jj < numneigh[i]; ++jj) {
       const int j = jlist[jj] & NEIGHMASK;
-      const int k = first_pair_[ii] + jj;
       const int si = FixGeocontactHistory::find(tables[i], tag[j]);
       if (si >= 0) {
-        pair_records_[k] = tables[i][si];
-        has_record_[k] = 1;
+        record_of_[first_pair_[ii] + jj] = static_cast<int>(pair_records_.size());
+        pair_records_.push_back(tables[i][si]);
       }
     }
   }
+  // room for the contacts the next steps make without moving the records each time
+  pair_records_.reserve(pair_records_.size() + pair_records_.size() / 4 + 16);
 }
 
 // Write the records of the neighbor-list pairs back to the tables of both grains (mirrored on
@@ -370,12 +378,12 @@ void PairGeocontact::sync_mirrors()
     const int *jlist = list->firstneigh[i];
     const int jnum = first_pair_[ii + 1] - first_pair_[ii];
     for (int jj = 0; jj < jnum; ++jj) {
-      const int k = first_pair_[ii] + jj;
-      if (!has_record_[k]) continue;
+      const int r = record_of_[first_pair_[ii] + jj];
+      if (r < 0) continue;
       const int j = jlist[jj] & NEIGHMASK;
-      store(i, pair_records_[k]);
+      store(i, pair_records_[r]);
       if (j < nlocal) {
-        ContactRecord mirror = pair_records_[k];
+        ContactRecord mirror = pair_records_[r];
         mirror.partner = tag[i];
         for (int c = 0; c < 3; ++c) mirror.tangential[c] = -mirror.tangential[c];
         std::swap(mirror.travel[0], mirror.travel[1]);
@@ -418,6 +426,20 @@ void PairGeocontact::tally_contact(const geocontact::LawParams &law,
   pvector[GV_STORED_TANGENTIAL] += w * springs.tangential;
   pvector[GV_STORED_ROLLING] += w * springs.rolling;
   pvector[GV_STORED_TWISTING] += w * springs.twisting;
+}
+
+// pair_style geocontact range error: the first contact loaded beyond its law file's calibrated
+// range stops the run (on the rank that has it: one line).
+void PairGeocontact::stop_beyond_range(const geocontact::LawParams &law,
+                                       const geocontact::ContactState &state, tagint i, tagint j)
+{
+  const double depth = depth_beyond_range(law, state);
+  if (depth > 0.0)
+    error->one(FLERR, "Pair geocontact: the contact of atoms {} and {} is loaded to "
+                      "delta_max/delta_y {:.6g}, beyond the law file's calibrated range "
+                      "(calibrated_range.max_depth {:.6g}); range error stops the run there "
+                      "(pair_style geocontact range warn extrapolates and says so once)",
+               i, j, depth, law.calibrated_depth);
 }
 
 // The stiffest contact of this step (energy steps only, as the other global outputs).
@@ -500,6 +522,7 @@ void PairGeocontact::compute(int eflag, int vflag)
   // During setup forces are evaluated but the history is not advanced (as pair granular):
   // the first step of the run then moves from the stored state.
   const bool commit = !update->setupflag;
+  const bool stop_beyond = range_error_ && commit;  // read once, not per contact
   const double dt = update->dt;
   if (eflag_global) {
     for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
@@ -538,7 +561,8 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
       const double rsq = dot3(del, del);
       const double radsum = radi + radius[j];
-      const bool known = has_record_[k];
+      int slot = record_of_[k];
+      const bool known = slot >= 0;
       if (rsq >= radsum * radsum && !known) continue;  // apart, never touched
 
       const int jtype = type[j];
@@ -550,7 +574,12 @@ void PairGeocontact::compute(int eflag, int vflag)
 
       // the record itself when the step commits (most calls), a scratch copy in setup
       ContactRecord scratch;
-      ContactRecord &rec = commit ? pair_records_[k] : (scratch = pair_records_[k]);
+      if (commit && !known) {  // a new contact: a record of its own from this step on
+        slot = record_of_[k] = static_cast<int>(pair_records_.size());
+        pair_records_.emplace_back();
+      }
+      ContactRecord &rec = commit ? pair_records_[slot] : (known ? scratch = pair_records_[slot]
+                                                                 : scratch);
       if (!known) {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();
@@ -565,9 +594,10 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double rinv = 1.0 / r;
       const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
       const double half = 0.5 * overlap;  // the contact plane halves the overlap
-      const ContactGeometry geometry{overlap, sim, n, v[i], v[j], omega[i], omega[j],
-                                     radi - half, radius[j] - half, radi * radius[j] / radsum,
-                                     reduced_mass(rmass[i], rmass[j])};
+      const ContactGeometry geometry{overlap,     sim,         n,        v[i],
+                                     v[j],        omega[i],    omega[j], radi - half,
+                                     radius[j] - half, radi, radius[j], rmass[i],
+                                     rmass[j],    false};
       const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
       if (commit && known && place_memory_) {
         double rate_i = 0.0, rate_j = 0.0;
@@ -583,18 +613,16 @@ void PairGeocontact::compute(int eflag, int vflag)
         rec.travel[0] = rec.travel[1] = 0.0;
       rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
+      if (stop_beyond) stop_beyond_range(law, rec.law, tag[i], tag[j]);
       if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
       const double fn = res.fn;
       const double *ft = res.ft;
 
-      if (commit) {
-        has_record_[k] = 1;
-        history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
-      }
+      if (commit) history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
       // setup: the springs the next step starts from are the record's, not the scratch copy's
       // (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
       if (eflag_global)
-        tally_contact(law, constants, rec, commit || known ? &pair_records_[k] : nullptr, sim,
+        tally_contact(law, constants, rec, commit || known ? &pair_records_[slot] : nullptr, sim,
                       tp.resistance, j < nlocal);
       if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
       const double energy =
@@ -645,7 +673,8 @@ double PairGeocontact::single(int i, int j, int itype, int jtype, double rsq,
 // a restart is self-contained, then per type pair the law index, friction and damping, and
 // (version 2) the rolling flag, k_roll, gamma_roll, mu_roll and the twisting flag, (version 3)
 // the law's dissipation of the contacts already dropped, (version 4) their ledger channels and
-// (version 5) the memory keyword and their memory resets' change of stored energy.
+// (version 5) the memory keyword and their memory resets' change of stored energy, (version 6)
+// the range keyword.
 void PairGeocontact::write_restart(FILE *fp)
 {
   if (comm->me != 0) return;
@@ -676,6 +705,8 @@ void PairGeocontact::write_restart(FILE *fp)
   const int memory = place_memory_ ? 1 : 0;  // version 5
   fwrite(&memory, sizeof(int), 1, fp);
   fwrite(&departed_reset_, sizeof(double), 1, fp);
+  const int range = range_error_ ? 1 : 0;  // version 6
+  fwrite(&range, sizeof(int), 1, fp);
 }
 
 void PairGeocontact::read_restart(FILE *fp)
@@ -750,12 +781,16 @@ void PairGeocontact::read_restart(FILE *fp)
   if (layout[1] >= 5 && me == 0)
     utils::sfread(FLERR, &departed_reset_, sizeof(double), 1, fp, nullptr, error);
   MPI_Bcast(&departed_reset_, 1, MPI_DOUBLE, 0, world);
+  int range = 0;  // versions 1-5: not recorded, the behaviour they had (warn)
+  if (layout[1] >= 6 && me == 0) utils::sfread(FLERR, &range, sizeof(int), 1, fp, nullptr, error);
+  MPI_Bcast(&range, 1, MPI_INT, 0, world);
+  range_error_ = range != 0;
 }
 
 double PairGeocontact::memory_usage()
 {
   double bytes = Pair::memory_usage();
   bytes += static_cast<double>(pair_records_.capacity()) * sizeof(ContactRecord);
-  bytes += static_cast<double>(has_record_.capacity() + first_pair_.capacity() * sizeof(int));
+  bytes += static_cast<double>((record_of_.capacity() + first_pair_.capacity()) * sizeof(int));
   return bytes;
 }

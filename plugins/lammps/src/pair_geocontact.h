@@ -1,7 +1,7 @@
 // pair_style geocontact: the hysteretic elastic-plastic normal law of geocontact
 // (docs/law.md) with a Mindlin-Coulomb tangential force, for atom style sphere.
 //
-//   pair_style geocontact
+//   pair_style geocontact [memory pair|place] [range warn|error]
 //   pair_coeff * * P.json [friction mu] [damping beta] [rolling sds k g mu_r]
 //              [twisting marshall]
 //
@@ -94,6 +94,8 @@ class PairGeocontact : public Pair {
                      const geocontact::Similarity &sim, const RollingCoeffs &resistance,
                      bool owned_pair);
   void note_stiffness(double normal_stiffness);
+  void stop_beyond_range(const geocontact::LawParams &law, const geocontact::ContactState &state,
+                         tagint i, tagint j);
   void finish_stiffness_outputs();
   void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
                            const double *del, double energy, const double *extra_torque,
@@ -107,11 +109,14 @@ class PairGeocontact : public Pair {
   TypePairLaw **coeffs_;
   double *type_max_radius_;             // largest radius of each type's atoms (m): cutoffs
 
-  // Between neighbor-list rebuilds the records live here, one per neighbor-list pair in list
-  // order (read and written sequentially each step); sync_mirrors() writes them back to the
-  // per-atom tables of both grains before the tables are moved, saved or read.
+  // Between neighbor-list rebuilds the records live here, one per contact, dense: those of the
+  // last rebuild in list order, then the contacts made since in the order they were made (read
+  // and written nearly sequentially each step, in a fraction of the memory one record per
+  // neighbor-list pair took: most pairs of a list never touch); record_of_ gives each
+  // neighbor-list pair its record (-1: none). sync_mirrors() writes them back to the per-atom
+  // tables of both grains before the tables are moved, saved or read.
   std::vector<ContactRecord> pair_records_;
-  std::vector<char> has_record_;
+  std::vector<int> record_of_;
   std::vector<int> first_pair_;
   // The law's dissipation (J) carried away by contacts whose records were dropped (pairs that
   // separated beyond the neighbor skin), summed over all ranks: compute pair geocontact's [1]
@@ -130,6 +135,9 @@ class PairGeocontact : public Pair {
   // travelled 2 a_max on either grain (place, the default), or kept for as long as the pair
   // stays in the neighbor list (pair, the behaviour before; docs/dem.md "Memory with a place")
   bool place_memory_ = true;
+  // pair_style geocontact range error: stop at the first contact beyond the law file's
+  // calibrated range (range warn, the default: count it, say so once)
+  bool range_error_ = false;
 };
 
 }  // namespace LAMMPS_NS
