@@ -35,6 +35,7 @@ from .identity import (
     fe_code_hash,
     finished_run,
     recorded_identities,
+    reused_message,
 )
 from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC_DEFAULT, FemResult
 from .run import load_schedule, run_history, sub_step_record, write_result
@@ -284,7 +285,10 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
             found = equivalent_run(cache, job.identity(), recorded)
             if found is not None:
                 results[i] = found[0]
-                if progress:
+                if progress and "reused" in found[0].summary:  # within a tolerance
+                    print(f"campaign: {job.name()}: "
+                          f"{reused_message(found[0].summary['reused'])}", file=sys.stderr)
+                elif progress:
                     made_by = found[0].summary["identity"]["fe_code"]
                     why = ("inputs equal to rounding (computed on another machine)"
                            if made_by == fe_code_hash() else

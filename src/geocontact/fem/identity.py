@@ -22,6 +22,7 @@ import functools
 import hashlib
 import json
 import math
+import sys
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -35,6 +36,7 @@ from ..grain.hertz import incipient_yield
 from ..grain.material import Material
 from .result import (
     CURVE_COLUMNS,
+    TOLERANCE,
     FemResult,
 )
 from .settings import FeSettings
@@ -210,6 +212,54 @@ REPRODUCED_FE_CODE["a96dc9b1776d119a"] = {
        for older, why in REPRODUCED_FE_CODE["82eb800afc111cfd"].items()},
 }
 
+# Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
+# agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
+# (fem.compiled) against the numpy path they were written after, whose round-off differs
+# (another order of the sums, fused multiply-adds). A job on such code may reuse a finished numpy
+# run of an FE code listed here, with every other input equal (``equivalent_run``), as the same
+# run within ``tolerance``: relative, in every curve value (to its column's largest magnitude)
+# and every number of summary.json (to its own), stated below the Newton tolerance (TOLERANCE,
+# 1e-8, the accuracy of any run) and above the measured differences with a wide margin
+# (AGREEMENT_TOLERANCE, 1e-10, for round-off). The reused run keeps its record; the result says
+# it was reused under this rule (``summary["reused"]``). Keyed by the engine's code, (FE code,
+# compiled code: ``compiled_code_hash``), then by the FE code of the numpy runs it agrees with.
+# An entry is made only with its evidence: committed runs, a finite-strain one among them,
+# rerun on the kernels by ``scripts/reproduce_fe_runs.py --kernels compiled`` under that code,
+# every one within the tolerance with the same Newton iterations.
+#
+# No entry today: the compiled kernels as merged with fe-solver's factoriser (compiled code
+# 61cf57a372a3c19d, reuse_factor on) rerun the committed finite-strain weak run
+# (weak-finite-coarse bcc780a) with the same Newton iterations but up to 7.4e-9 apart in plastic
+# dissipation, 5.4e-7 in a cycle's loop work and 0.17 of the largest count of plastic points at
+# one step (reuse_factor's inexact CG solves, not round-off; fe-kernels-agreement.json). The
+# kernels with direct solves (before that merge) agreed within 3.6e-12.
+@dataclass(frozen=True)
+class Agreement:
+    """Why the runs of a code agree with older ones, within what, and the record showing it."""
+
+    why: str
+    tolerance: float  # relative, in every curve value and summary number
+    evidence: str  # the reruns' record, a path in the repository
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.tolerance, float) and 0.0 < self.tolerance < TOLERANCE):
+            raise ValueError(f"Agreement.tolerance: must be a float in (0, {TOLERANCE:g}) "
+                             f"(below the Newton tolerance), got {self.tolerance!r}")
+        if not (isinstance(self.evidence, str) and self.evidence.endswith(".json")):
+            raise ValueError(f"Agreement.evidence: must be the path of the reruns' JSON record, "
+                             f"got {self.evidence!r}")
+
+
+AGREEMENT_TOLERANCE = 1e-10
+AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {}
+
+
+def agreed_code(recorded: Any, compiled_code: Any) -> Agreement | None:
+    """The agreement under which a numpy run recorded with the FE source hash ``recorded``
+    stands in for a run of the current FE code on the compiled kernels ``compiled_code``
+    (``AGREED_FE_CODE``), or None."""
+    return AGREED_FE_CODE.get((fe_code_hash(), compiled_code), {}).get(recorded)
+
 
 def reproduced_code(recorded: Any) -> str | None:
     """Why a run recorded with the FE source hash ``recorded`` is reproduced by the current
@@ -366,25 +416,66 @@ def same_to_rounding(recorded: Any, current: Any) -> bool:
     return type(recorded) is type(current) and recorded == current
 
 
-def difference(recorded: Any, identity: FeRunIdentity, *,
-               rounding: bool = False) -> str | None:
+def recorded_kernels(record: dict[str, Any]) -> str:
+    """The element kernels an identity record's run was made on: its inputs' ``kernels`` where
+    recorded (not at the default), else compiled if it records ``compiled_code`` (a run at a
+    compiled default, should the default change), else numpy (the default)."""
+    inputs = record.get("inputs")
+    if isinstance(inputs, dict) and "kernels" in inputs:
+        return inputs["kernels"]
+    return "compiled" if "compiled_code" in record else "numpy"
+
+
+def _without_engine(record: dict[str, Any]) -> tuple[dict[str, Any], Any]:
+    """An identity record without what names its engine (key, FE code, kernels, compiled
+    code), and its inputs without ``kernels``: what two runs of the same job share."""
+    rest = {name: value for name, value in record.items()
+            if name not in ("key", "fe_code", "compiled_code", "inputs")}
+    inputs = record.get("inputs")
+    if isinstance(inputs, dict):
+        inputs = {name: value for name, value in inputs.items() if name != "kernels"}
+    return rest, inputs
+
+
+def reuse_rule(recorded: dict[str, Any], current: dict[str, Any], *,
+               agreement: bool = False) -> str | None:
+    """Under which rule the run of the identity record ``recorded`` stands in for the run of
+    ``current`` (``to_dict()`` of both), their numeric inputs equal to ``ROUNDING``:
+    "reproduced" (the same kernels and compiled code, and the current FE code or one whose
+    runs it reproduces bit for bit, ``REPRODUCED_FE_CODE``), with ``agreement`` also "agreed"
+    (a numpy run of FE code whose runs the current compiled kernels reproduce within a stated
+    tolerance, ``AGREED_FE_CODE``); None if neither."""
+    rest, inputs = _without_engine(recorded)
+    current_rest, current_inputs = _without_engine(current)
+    if rest != current_rest or not same_to_rounding(inputs, current_inputs):
+        return None
+    kernels = recorded_kernels(recorded)
+    if (kernels == recorded_kernels(current)
+            and recorded.get("compiled_code") == current.get("compiled_code")
+            and (recorded.get("fe_code") == current["fe_code"]
+                 or reproduced_code(recorded.get("fe_code")) is not None)):
+        return "reproduced"
+    if (agreement and kernels == "numpy" and recorded_kernels(current) == "compiled"
+            and agreed_code(recorded.get("fe_code"), current.get("compiled_code")) is not None):
+        return "agreed"
+    return None
+
+
+def difference(recorded: Any, identity: FeRunIdentity, *, rounding: bool = False,
+               agreement: bool = False) -> str | None:
     """What differs between a recorded identity (``to_dict()`` of an earlier run) and
     ``identity``, in a few words; None when they are the same. With ``rounding``, numeric
     inputs that agree to ``ROUNDING`` count as the same, and so does FE code whose runs the
-    current code reproduces (``REPRODUCED_FE_CODE``); the record must still be intact (its key
-    the hash of the rest)."""
+    current code reproduces (``REPRODUCED_FE_CODE``); with ``agreement`` also a numpy run that
+    the current compiled kernels reproduce within a stated tolerance (``AGREED_FE_CODE``). The
+    record must still be intact (its key the hash of the rest)."""
     current = identity.to_dict()
     if not isinstance(recorded, dict) or recorded.get("schema") != SCHEMA:
         return "made by an older FE (no identity record)"
     if all(recorded.get(name) == value for name, value in current.items()):
         return None  # the whole record, not only its key: a hand-edited record is not trusted
     if (rounding and recorded.get("key") == identity_key(recorded)
-            and recorded.keys() == current.keys()
-            and all(recorded[name] == value for name, value in current.items()
-                    if name not in ("key", "inputs", "fe_code"))
-            and (recorded["fe_code"] == current["fe_code"]
-                 or reproduced_code(recorded["fe_code"]) is not None)
-            and same_to_rounding(recorded["inputs"], current["inputs"])):
+            and reuse_rule(recorded, current, agreement=agreement) is not None):
         return None
     if recorded.get("fe_code") != current["fe_code"]:
         return "made by other FE code"
@@ -423,11 +514,13 @@ def load_result(directory: str | Path) -> FemResult:
 
 
 def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool = False,
-                 why: list[str] | None = None, rounding: bool = False) -> FemResult | None:
+                 why: list[str] | None = None, rounding: bool = False,
+                 agreement: bool = False) -> FemResult | None:
     """The finished FE run in ``directory`` if it may stand in for a run of ``identity`` (same
     key: same inputs, FE code and libraries; with ``fields`` also its ParaView files), else
     None. ``why``: a list that receives the reason a run that is there is not reused.
-    ``rounding``: numeric inputs equal to ``ROUNDING`` will do (``equivalent_run``)."""
+    ``rounding``: numeric inputs equal to ``ROUNDING`` will do (``equivalent_run``);
+    ``agreement``: so will a numpy run the compiled kernels agree with (``AGREED_FE_CODE``)."""
     directory = Path(directory)
     if not (directory / "summary.json").exists():
         return None
@@ -436,7 +529,8 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
     except InputError as exc:
         reason = str(exc)
     else:
-        reason = difference(result.summary.get("identity"), identity, rounding=rounding)
+        reason = difference(result.summary.get("identity"), identity, rounding=rounding,
+                            agreement=agreement)
         if reason is None and rounding and directory.name != result.summary["identity"]["key"]:
             reason = "not in the folder of its key"
         if reason is None and fields:
@@ -472,16 +566,39 @@ def equivalent_run(cache: str | Path, identity: FeRunIdentity,
     current FE code or one it reproduces (``REPRODUCED_FE_CODE``), with the same libraries and
     every other input, with its key; None if there is none. For when the exact key is not
     there: the same campaign's inputs computed on another CPU, or its runs made before a change
-    of the FE code that leaves finished runs as they were. ``recorded``: the cache's
-    ``recorded_identities``, when already read."""
-    for directory, record in (recorded_identities(cache) if recorded is None else recorded):
-        # the identity first (cheap), the whole result only for a candidate
-        if record is None or difference(record, identity, rounding=True) is not None:
-            continue
-        result = finished_run(directory, identity, rounding=True)
-        if result is not None:
+    of the FE code that leaves finished runs as they were. A run of the same identity but made
+    by the numpy path is found too when the current compiled kernels agree with that FE code's
+    runs within a stated tolerance (``AGREED_FE_CODE``); a run reproduced bit for bit is
+    preferred to it. Such a result's summary says so (``reused``, ``agreement_record``), the
+    folder on disk is left as it is. ``recorded``: the cache's ``recorded_identities``, when
+    already read."""
+    records = recorded_identities(cache) if recorded is None else recorded
+    current = identity.to_dict()
+    for agreement in (False, True):
+        for directory, record in records:
+            # the identity first (cheap), the whole result only for a candidate
+            if record is None or difference(record, identity, rounding=True,
+                                            agreement=agreement) is not None:
+                continue
+            result = finished_run(directory, identity, rounding=True, agreement=agreement)
+            if result is None:
+                continue
+            if reuse_rule(record, current) is None:  # agreed, not reproduced
+                result.summary["reused"] = agreement_record(record, current)
             return result, directory.name
     return None
+
+
+def agreement_record(recorded: dict[str, Any], current: dict[str, Any]) -> dict[str, Any]:
+    """What a result reused under the agreement rule says of it (``summary["reused"]``): the
+    rule, the run's engine and the job's, the tolerance and the evidence."""
+    rule = agreed_code(recorded.get("fe_code"), current.get("compiled_code"))
+    assert rule is not None  # reuse_rule(..., agreement=True) == "agreed"
+    return {"rule": "agreement (fem.identity.AGREED_FE_CODE)", "key": recorded["key"],
+            "made_by": {"fe_code": recorded.get("fe_code"), "kernels": "numpy"},
+            "for": {"key": current["key"], "fe_code": current["fe_code"],
+                    "kernels": "compiled", "compiled_code": current.get("compiled_code")},
+            "tolerance": rule.tolerance, "evidence": rule.evidence, "why": rule.why}
 
 
 def run_key(result: FemResult, identity: FeRunIdentity) -> str:
@@ -499,11 +616,22 @@ def cached_run(cache: str | Path, identity: FeRunIdentity) -> FemResult | None:
     if found is None:
         equivalent = equivalent_run(cache, identity)
         found = equivalent[0] if equivalent is not None else None
+        if found is not None and "reused" in found.summary:
+            print(f"fem: {reused_message(found.summary['reused'])}", file=sys.stderr)
     return found
 
 
-__all__ = ["FE_SOURCES", "LIBRARIES", "REPRODUCED_FE_CODE", "ROUNDING", "FeRunIdentity",
-           "cached_run", "compiled_code_hash", "difference", "distribution_version",
-           "equivalent_run", "fe_code_hash", "finished_run", "identity_key", "library_versions",
-           "load_result", "recorded_identities", "reproduced_code", "run_key",
-           "same_to_rounding"]
+def reused_message(reused: dict[str, Any]) -> str:
+    """One line on a run reused under the agreement rule (``agreement_record``)."""
+    return (f"reusing {reused['key']}, made by the numpy path of FE code "
+            f"{reused['made_by']['fe_code']}: the compiled kernels reproduce its runs within "
+            f"{reused['tolerance']:g} relative (fem.identity.AGREED_FE_CODE, "
+            f"{reused['evidence']})")
+
+
+__all__ = ["AGREED_FE_CODE", "FE_SOURCES", "LIBRARIES", "REPRODUCED_FE_CODE", "ROUNDING",
+           "Agreement", "FeRunIdentity", "agreed_code", "agreement_record", "cached_run",
+           "compiled_code_hash", "difference", "distribution_version", "equivalent_run",
+           "fe_code_hash", "finished_run", "identity_key", "library_versions", "load_result",
+           "recorded_identities", "recorded_kernels", "reproduced_code", "reuse_rule",
+           "reused_message", "run_key", "same_to_rounding"]
