@@ -38,6 +38,8 @@ def _tangents(material, mesh):
     """The solver, two plastic tangents of one contact set at neighbouring iterates (as two
     Newton iterations give them) and the contact set's index maps."""
     solver = compiled_solver(material, mesh)
+    assert not solver.reuse_factor  # an option: off by default (direct solves reproduce)
+    solver.reuse_factor = True
     old = solver.initial_state()
     u = 0.01 * _large_deformation(solver)
     first = solver._evaluate(old, u, elastic=False)

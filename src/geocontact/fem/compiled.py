@@ -246,7 +246,11 @@ class CompiledFiniteStrainSolver(FiniteStrainSolver):
     is set after construction (``solver.factoriser = "klu"``) or by :func:`compiled_solver`."""
 
     factoriser: str = "cholmod"
-    reuse_factor: bool = True  # CHOLMOD: Krylov solves preconditioned with the last LDL^T
+    # CHOLMOD: Krylov solves preconditioned with the last factorisation. Off by default: its
+    # inexact solves move a finite-strain run by more than round-off (a cycle's loop work by
+    # 5.4e-7 on weak-finite-coarse bcc780a, docs/fem.md "The agreement rule"), so a run with it
+    # does not reproduce the direct solves' committed runs, for 2-7 % of a run's time
+    reuse_factor: bool = False
 
     def __post_init__(self) -> None:
         super().__post_init__()
