@@ -54,6 +54,17 @@ def test_the_default_mesh_ratchets_in_proportion_to_the_unloading_depth():
     assert fe[1.0]["second_valley_rise_m"] > 2e-6  # the paper's repeated history, 2.4 um
 
 
+def test_the_fine_mesh_keeps_the_small_unloadings_ratchet():
+    """The fine mesh (d = 0.05 and 1 only): the full cycle's ratchet is not mesh-converged
+    (coarse 0.58, default 2.40, fine 1.68 um at the first reload), but the partial reload's
+    share stays a sizeable part of d (0.58 d), not the coarse mesh's vanishing one."""
+    fine, default = committed("fine"), committed("default")
+    assert set(fine) == {0.05, 1.0}
+    assert 0.4 * 0.05 < fine[0.05]["first_reload_share"] < 1.1 * 0.05
+    ratio = fine[1.0]["second_valley_rise_m"] / default[1.0]["second_valley_rise_m"]
+    assert 0.5 < ratio < 0.9  # default to fine: -30 % (the cyclic numbers' mesh error)
+
+
 def test_the_coarse_mesh_loses_the_small_unloadings_ratchet():
     """The coarse mesh under-estimates the full cycle's ratchet 4x (docs/cycles.md) and all but
     loses the small unloadings' (a mesh artefact, not a threshold of the physics)."""
