@@ -98,9 +98,9 @@ def point_row(point: DesignPoint, jobs, results) -> dict[str, Any]:
     return row
 
 
-def virgin_samples(runs, fy: float, dy: float, s: float) -> dict[str, float]:
-    """log10(delta/delta_y) of the stitched virgin curve at F/Fy = ``virgin_force_grid(s)``;
-    below the FE's first loaded step the curve is Hertz's (elastic, x = (F/Fy)^(2/3))."""
+def sample_virgin_curve(runs, fy: float, dy: float, force_grid) -> tuple[np.ndarray, float]:
+    """log10(delta/delta_y) of the stitched virgin curve at F/Fy = ``force_grid`` (below the
+    FE's first loaded step Hertz's, x = (F/Fy)^(2/3)), and the curve's top log10(F/Fy)."""
     from ..calibrate.campaign import virgin_curve
 
     d, f, _ = virgin_curve(runs)
@@ -108,13 +108,22 @@ def virgin_samples(runs, fy: float, dy: float, s: float) -> dict[str, float]:
     logf, logd = np.log10(f[keep] / fy), np.log10(d[keep] / dy)
     order = np.argsort(logf, kind="stable")
     logf, logd = logf[order], np.maximum.accumulate(logd[order])
-    grid = np.log10(virgin_force_grid(s))
+    grid = np.log10(force_grid)
     values = np.interp(grid, logf, logd)
     below = grid < logf[0]
     values[below] = (2.0 / 3.0) * grid[below]
-    if grid[-1] > logf[-1] + 1e-6:
+    return values, float(logf[-1])
+
+
+def virgin_samples(runs, fy: float, dy: float, s: float) -> dict[str, float]:
+    """log10(delta/delta_y) of the stitched virgin curve at F/Fy = ``virgin_force_grid(s)``;
+    below the FE's first loaded step the curve is Hertz's (elastic, x = (F/Fy)^(2/3))."""
+    force_grid = virgin_force_grid(s)
+    values, top = sample_virgin_curve(runs, fy, dy, force_grid)
+    grid = np.log10(force_grid)
+    if grid[-1] > top + 1e-6:
         raise InputError(f"universal campaign: the virgin curve stops at F/Fy = "
-                         f"{10 ** logf[-1]:.4g}, below the grid's top {10 ** grid[-1]:.4g}")
+                         f"{10 ** top:.4g}, below the grid's top {10 ** grid[-1]:.4g}")
     return {f"virgin_logx_{k:02d}": float(v) for k, v in enumerate(values)}
 
 

@@ -43,7 +43,6 @@ no repeated history), which keeps the shipped dataset working. Select it with
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -53,7 +52,13 @@ from ..fem.campaign import FemJob
 from ..fem.settings import FeSettings
 from ..grain.hertz import incipient_yield
 from ..grain.material import Material
-from .design import CAMPAIGN_MODULUS, CAMPAIGN_RADIUS, SOBOL_SEED, material_at, unit_sequence
+from .design import (
+    CAMPAIGN_MODULUS,
+    CAMPAIGN_RADIUS,
+    SOBOL_SEED,
+    DesignPoint,
+    unit_sequence,
+)
 
 NAME = "record"
 AXES = (
@@ -92,22 +97,9 @@ def job(material: Material, forces, settings: FeSettings, label: str,
     return FemJob(material, tuple(float(f) for f in forces), label=label, **fields)
 
 
-@dataclass(frozen=True)
-class RecordPoint:
-    """One point of the design of record: its index in the sequence and its coordinates."""
-
-    index: int
-    friction_angle_deg: float
-    poissons_ratio: float
-    hardening_ratio: float
-    log10_modulus_over_strength: float
-
-    @property
-    def coordinates(self) -> tuple[float, float, float, float]:
-        return tuple(float(getattr(self, name)) for name in AXIS_NAMES)  # type: ignore
-
-    def material(self) -> Material:
-        return material_at(self.coordinates)
+# A point of the design of record has today's four coordinates (the same names, the same
+# material at them); only the box they are drawn from differs.
+RecordPoint = DesignPoint
 
 
 def from_unit(u) -> np.ndarray:

@@ -143,18 +143,10 @@ def peak_contact_radius(run) -> float:
 
 def virgin_samples(runs, fy: float, dy: float, top_logf: float) -> dict[str, float]:
     """log10(delta/delta_y) of the stitched virgin curve on ``virgin_force_grid``; Hertz below
-    the FE's first loaded step (as today's ``campaign.virgin_samples``)."""
-    from ..calibrate.campaign import virgin_curve
+    the FE's first loaded step (``campaign.sample_virgin_curve``, as today's design samples)."""
+    from .campaign import sample_virgin_curve
 
-    d, f, _ = virgin_curve(runs)
-    keep = (f > 0.0) & (d > 0.0)
-    logf, logd = np.log10(f[keep] / fy), np.log10(d[keep] / dy)
-    order = np.argsort(logf, kind="stable")
-    logf, logd = logf[order], np.maximum.accumulate(logd[order])
-    grid = np.log10(virgin_force_grid(top_logf))
-    values = np.interp(grid, logf, logd)
-    below = grid < logf[0]
-    values[below] = (2.0 / 3.0) * grid[below]
+    values, _ = sample_virgin_curve(runs, fy, dy, virgin_force_grid(top_logf))
     return {f"virgin_logx_{k:02d}": float(v) for k, v in enumerate(values)}
 
 
