@@ -198,8 +198,9 @@ $(STAIRCASE_RUNS): staircase-%: $(STAMP)
 # quartz-like grain (the universal law), each at a stress where few contacts yield and one where
 # most do, the law and its elastic law (same pair style), 3 samples of 1000 grains; then the
 # reference at 100 kPa with 2000 grains (the curves at twice the grains). Hours: `make -j2 sample-study` runs the two
-# materials at once; each finished run is kept, so an interrupted study resumes on the next call.
-SAMPLE_STUDY ?= out/sample-study
+# materials at once; each finished run is kept (committed in datasets/sample-study), so an
+# interrupted study resumes on the next call and a finished one only redraws its report.
+SAMPLE_STUDY ?= datasets/sample-study
 SAMPLE_STUDY_GRAINS ?= 1000
 sample-study: sample-study-reference sample-study-quartz-like
 	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json --stress 1e5 \

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -213,6 +214,17 @@ def test_rerun_reuses_finished_runs_and_checks_their_inputs(study, capsys):
     other.write_text(LAW.read_text())
     with pytest.raises(InputError, match="made with other inputs"):
         run_cyclic_shear(other, CyclicSettings(**off), out=out)
+    # a committed study is reused from another checkout: the study and the law file moved
+    moved, elsewhere = out.parent / "moved", out.parent / "elsewhere" / LAW.name
+    shutil.copytree(out, moved)
+    elsewhere.parent.mkdir()
+    elsewhere.write_bytes(LAW.read_bytes())
+    lines = []
+    run_cyclic_shear(elsewhere, CyclicSettings(**off), out=moved, progress=lines.append)
+    assert sum("finished before, reused" in line for line in lines) == 4
+    elsewhere.write_text(LAW.read_text().replace('"label": "', '"label": "edited ', 1))
+    with pytest.raises(InputError, match="made with other inputs"):  # same name, other content
+        run_cyclic_shear(elsewhere, CyclicSettings(**off), out=moved)
 
 
 def test_report_section(study):

@@ -15,6 +15,7 @@ change: the sample's tendency to contract or dilate shows as a fall or rise of m
 
 from __future__ import annotations
 
+import hashlib
 import math
 import shutil
 from collections.abc import Callable
@@ -149,7 +150,10 @@ def run_inputs(run: Run, settings: CyclicSettings, law: Path) -> dict:
         s.pop(key)
     if run.law != "geocontact":  # the baselines have no cyclic extension
         s.pop("cyclic_extension")
-    return {"law_file": str(law), "contact": run.law, "stress": run.stress, "seed": run.seed,
+    # the file by name and content, not by its place: a study committed in the repository is
+    # reused from any checkout (the quartz-like file is made into the study's own folder)
+    return {"law_file": law.name, "law_sha256": hashlib.sha256(law.read_bytes()).hexdigest(),
+            "contact": run.law, "stress": run.stress, "seed": run.seed,
             **s, "amplitudes": list(settings.amplitudes)}
 
 
@@ -361,6 +365,7 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
     if not 1 <= ranks <= MAX_RANKS:
         raise InputError(f"ranks: must be in [1, {MAX_RANKS}], got {ranks}")
     settings.check()
+    given = str(law)  # recorded as the user gave it (relative paths stay relative)
     law = Path(law).resolve()
     try:
         params = load_params(law)
@@ -372,7 +377,7 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
     out = Path(out)
     check_replaceable(out, COMMAND, overwrite=overwrite)  # a partial study of ours resumes
     runs = plan(settings)
-    inputs = {"law": str(law), "ranks": ranks, **asdict(settings)}
+    inputs = {"law": given, "ranks": ranks, **asdict(settings)}
     stale = [r for r in runs
              if _finished(out / "runs" / r.name, run_inputs(r, settings, law)) is None]
     if stale and not overwrite:
@@ -400,7 +405,7 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
         documents.append(_write_loops(out, folder, run, settings, material))
     curves = [c for d in documents for c in d["curves"]]
     write_csv(out / "curves.csv", {k: np.array([c[k] for c in curves]) for k in CURVE_COLUMNS})
-    document = {"schema": SCHEMA, "test": "cyclic-shear", "law": str(law),
+    document = {"schema": SCHEMA, "test": "cyclic-shear", "law": given,
                 "law_label": params.label, "material": material, "ranks": ranks,
                 "calibrated_max_depth": params.calibrated_depth,
                 "runs": [d["summary"] for d in documents], "curves": curves,
