@@ -64,13 +64,19 @@ def test_demo_writes_a_complete_report(tmp_path):
     html = (out / "report.html").read_text()
     for heading in ("Incipient yield", "Law parameters calibration/P.json",
                     "Calibration acceptance", "Cyclic history", "FE run fe-reference",
-                    "Influence of material properties", "Seismic run", "Quick mode"):
+                    "Influence of material properties", "Seismic run", "Quick mode",
+                    "DEM cyclic simple shear dem-cyclic-shear"):
         assert heading in html
     assert html.count("data:image/png;base64") >= 15
     params = json.loads((out / "calibration" / "P.json").read_text())
     assert params["schema"] == "geocontact.law/1"
     assert params["provenance"]["inputs"]["levels"] == 3
     assert (out / "fe-reference" / "fields").is_dir()
+    # the sample study's small version: the calibrated law beside its elastic law, both with a
+    # small-strain modulus
+    shear = summary["dem_cyclic_shear"]["runs"]
+    assert [r["law"] for r in shear] == ["geocontact", "elastic"]
+    assert all(r["Gmax_Pa"] > 0 for r in shear)
     # the instant route beside the FE calibration: the universal law of the same grain, no FE
     # run, follows the FE reference cycle as the calibrated law does (both within 3 % RMS)
     universal = json.loads((out / "calibration" / "P-universal.json").read_text())

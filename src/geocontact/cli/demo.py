@@ -12,7 +12,10 @@
 8. a small DEM oedometer in LAMMPS (``geocontact dem``: 2000 grains, three repeated cycles, the
    calibrated law beside its grain's elastic law through the same pair style and LAMMPS's
    granular Hertz-Mindlin, all damped to one restitution; needs ``make plugin``);
-9. ``geocontact report`` of the whole directory -> ``report.html``.
+9. a small cyclic simple shear in LAMMPS (``geocontact dem cyclic-shear``: G/Gmax and D of the
+   calibrated law, its cyclic extension off, beside its grain's elastic law, against Darendeli's
+   curves; the study of docs/sample-study.md on one small sample);
+10. ``geocontact report`` of the whole directory -> ``report.html``.
 
 Every FE run goes through the cached campaign (``fem.campaign``) or, for the reference cycle and
 the cyclic history (which keep their ParaView fields), is carried over from the previous demo in
@@ -75,13 +78,18 @@ class Plan:
     dem_grains: int = 2000
     dem_inertia: float = 3e-3
     dem_targets: tuple[float, ...] = (1.5, 0.5, 1.5, 0.5, 1.5, 0.5)
+    # the cyclic simple shear (examples/lammps/in.cyclicshear): one sample at 100 kPa
+    shear_grains: int = 300
+    shear_amplitudes: tuple[float, ...] = (1e-6, 1e-5, 1e-4, 1e-3)
+    shear_cycles: int = 2
 
 
 FULL = Plan()
 QUICK = Plan(calibration_levels=3, calibration_max_force=300.0, steps=4, reference_force=100.0,
              reference_mesh="coarse", cyclic_peak=100.0, cyclic_count=3, paper_runs=(),
              sweeps=("m",),
-             sweep_force=60.0, dem_grains=300, dem_inertia=1e-2, dem_targets=(1.5, 0.5))
+             sweep_force=60.0, dem_grains=300, dem_inertia=1e-2, dem_targets=(1.5, 0.5),
+             shear_grains=100, shear_amplitudes=(1e-6, 1e-5))
 
 
 def run_demo(out: str | Path, progress=print, *, quick: bool = False,
@@ -179,6 +187,10 @@ def _write_demo(work: Path, out: Path, plan: Plan, cache: Path, progress) -> Non
 
     _dem(work / "calibration" / "P.json", work / "dem-oedometer", plan, progress)
     done("DEM oedometer")
+
+    summary["dem_cyclic_shear"] = _shear(work / "calibration" / "P.json",
+                                         work / "dem-cyclic-shear", plan, progress)
+    done("DEM cyclic shear")
 
     summary["timings_s"] = timings
     write_json_atomic(work / "summary.json", {**summary, "provenance": provenance(
@@ -298,6 +310,19 @@ def _dem(law: Path, directory: Path, plan: Plan, progress) -> None:
                         targets=plan.dem_targets)
     run_dem("oedometer", law, settings, contacts=CONTACTS, ranks=1, out=directory,
             progress=lambda m: progress(f"dem: {m}"))
+
+
+def _shear(law: Path, directory: Path, plan: Plan, progress) -> dict:
+    """A small cyclic simple shear (``geocontact dem cyclic-shear``) with the calibrated law,
+    its cyclic extension off as in the study (docs/sample-study.md), beside its elastic law."""
+    from ..analyses.dem_cyclic import CyclicSettings, run_cyclic_shear
+
+    settings = CyclicSettings(grains=plan.shear_grains, amplitudes=plan.shear_amplitudes,
+                              cycles=plan.shear_cycles, seeds=1, cyclic_extension="off")
+    document = run_cyclic_shear(law, settings, out=directory,
+                                progress=lambda m: progress(f"cyclic shear: {m}"))
+    return {"runs": [{k: r.get(k) for k in ("run", "law", "Gmax_Pa")}
+                     for r in document["runs"]]}
 
 
 def register(sub) -> None:
