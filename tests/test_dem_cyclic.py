@@ -129,6 +129,14 @@ def test_the_ledger_closes_the_loops_energy(study):
             assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio_ledger"]
         else:  # the elastic law dissipates nothing itself: friction and damping do
             assert abs(c["damping_ratio_normal_law"]) < 1e-9
+        # the ledger split by channel: the law, Coulomb sliding and the dashpots are every
+        # channel these contacts have (no rolling or twisting resistance), each non-negative;
+        # to the 12 digits the script writes the running totals with (a cycle's change is a
+        # small difference of large totals)
+        parts = (c["damping_ratio_normal_law"], c["damping_ratio_sliding"],
+                 c["damping_ratio_viscous"])
+        assert min(parts) > -1e-9
+        assert sum(parts) == pytest.approx(c["damping_ratio_ledger"], rel=1e-4, abs=1e-9)
 
 
 @pytest.mark.xfail(strict=True, reason="a known limit of the law's cyclic extension: under "

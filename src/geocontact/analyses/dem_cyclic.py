@@ -266,7 +266,9 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
                              ("ledger_dissipated_J", series["ledger_dissipated_J"]),
                              ("ledger_stored_J", series["ledger_stored_J"]),
                              ("kinetic_J", series["kinetic_J"]),
-                             ("contacts_per_grain", series["contacts_per_grain"])):
+                             ("contacts_per_grain", series["contacts_per_grain"]),
+                             ("sliding_dissipated_J", series["sliding_dissipated_J"]),
+                             ("viscous_dissipated_J", series["viscous_dissipated_J"])):
             loops[name] += values[keep].tolist()
         last = cycle == settings.cycles
         # the row before the measured cycle: the end of the previous cycle's drainage; the last
@@ -281,7 +283,7 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
         scale = 4 * math.pi * m["peak_energy_J_m3"] * mean_volume
         change = {k: (series[k][last][-1] - series[k][before]) / scale
                   for k in ("law_dissipated_J", "ledger_dissipated_J", "ledger_stored_J",
-                            "kinetic_J")}
+                            "kinetic_J", "sliding_dissipated_J", "viscous_dissipated_J")}
         ledger = run.law != "granular"  # pair granular has no ledger
         curves.append({
             "law": run.law, "material": material, "seed": run.seed,
@@ -295,6 +297,11 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
             # normal law's own share, and the stored and kinetic energies' changes
             "damping_ratio_ledger": change["ledger_dissipated_J"] if ledger else math.nan,
             "damping_ratio_normal_law": change["law_dissipated_J"] if ledger else math.nan,
+            # Coulomb sliding [7] and the normal and tangential dashpots [8] + [9]: with the
+            # law's share, every dissipated channel the study's contacts have (no rolling or
+            # twisting resistance)
+            "damping_ratio_sliding": change["sliding_dissipated_J"] if ledger else math.nan,
+            "damping_ratio_viscous": change["viscous_dissipated_J"] if ledger else math.nan,
             "stored_energy_change_ratio": change["ledger_stored_J"] if ledger else math.nan,
             "kinetic_energy_change_ratio": change["kinetic_J"],
             "strain_rate_1_s": rate, "steps_per_cycle": int(4 * nq),
@@ -333,14 +340,16 @@ def _finite(value: float) -> float | None:
 LOOP_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "cycle",
                 "step", "time_s", "shear_strain", "shear_stress_Pa", "mean_stress_Pa",
                 "vertical_stress_Pa", "volumetric_strain", "law_dissipated_J",
-                "ledger_dissipated_J", "ledger_stored_J", "kinetic_J", "contacts_per_grain")
+                "ledger_dissipated_J", "ledger_stored_J", "kinetic_J", "contacts_per_grain",
+                "sliding_dissipated_J", "viscous_dissipated_J")
 CURVE_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "G_Pa",
                  "G_over_Gmax", "damping_ratio", "damping_ratio_ledger",
                  "volumetric_strain_per_cycle", "mean_stress_change_per_cycle_Pa",
-                 "damping_ratio_normal_law", "stored_energy_change_ratio",
-                 "kinetic_energy_change_ratio", "strain_amplitude", "loop_work_J_m3",
-                 "peak_energy_J_m3", "mean_stress_Pa", "strain_rate_1_s", "inertia_number",
-                 "steps_per_cycle", "period_over_wave_crossing", "contacts_per_grain")
+                 "damping_ratio_normal_law", "damping_ratio_sliding", "damping_ratio_viscous",
+                 "stored_energy_change_ratio", "kinetic_energy_change_ratio", "strain_amplitude",
+                 "loop_work_J_m3", "peak_energy_J_m3", "mean_stress_Pa", "strain_rate_1_s",
+                 "inertia_number", "steps_per_cycle", "period_over_wave_crossing",
+                 "contacts_per_grain")
 
 
 # --- the command -------------------------------------------------------------------------------
