@@ -35,7 +35,7 @@ from ..files import (
     write_json_atomic,
     write_manifest,
 )
-from .dem import MAX_RANKS, check_sample, read_run, read_table, run_lammps
+from .dem import MAX_RANKS, check_sample, find_script, read_run, read_table, run_lammps
 from .restitution import restitution_of_damping
 
 SCHEMA = "geocontact.dem-cyclic/1"
@@ -152,7 +152,10 @@ def run_inputs(run: Run, settings: CyclicSettings, law: Path) -> dict:
         s.pop("cyclic_extension")
     # the file by name and content, not by its place: a study committed in the repository is
     # reused from any checkout (the quartz-like file is made into the study's own folder)
+    # and the LAMMPS script by content: a finished run of another script is not reused
+    script = find_script(TEST)
     return {"law_file": law.name, "law_sha256": hashlib.sha256(law.read_bytes()).hexdigest(),
+            "script_sha256": hashlib.sha256(script.read_bytes()).hexdigest(),
             "contact": run.law, "stress": run.stress, "seed": run.seed,
             **s, "amplitudes": list(settings.amplitudes)}
 
