@@ -23,7 +23,7 @@ from geocontact.analyses.dem_cyclic import (
 )
 from geocontact.analyses.empirical_curves import darendeli, hardin_drnevich
 from geocontact.cli import main
-from geocontact.errors import InputError
+from geocontact.errors import GeocontactError, InputError
 from geocontact.files import verify_manifest
 
 LAW = Path("examples/params-reference.json")
@@ -369,3 +369,26 @@ def test_small_closed_cycles_of_the_ratchet_law_release_stored_energy_but_create
     assert min(cycle_work) < -1e-8  # the relaxation gives energy back in some cycles ...
     assert np.all(np.diff(dissipated) >= -1e-12 * stored_at_start)  # ... but creates none
     assert contact.state.work - work_at_start >= -stored_at_start
+
+
+def test_a_sample_that_misses_its_mean_stress_is_refused(tmp_path):
+    """A consolidation cut short (one block, a few servo steps, no squeeze) leaves the sample
+    far from its mean stress: the run is refused in one line, nothing is kept as finished."""
+    settings = CyclicSettings(grains=100, amplitudes=(1e-6, 1e-5), cycles=2, seeds=1,
+                              baseline="none", cyclic_extension="off",
+                              extra={"cblocks": "1", "nservo": "10", "squeezemax": "1e-9",
+                                     "ngen": "200"})
+    with pytest.raises(GeocontactError, match="did not consolidate to its mean stress"):
+        run_cyclic_shear(LAW, settings, out=tmp_path / "study")
+    assert not list((tmp_path / "study" / "runs").glob("*/run.json"))
+
+
+def test_low_stress_samples_consolidate(tmp_path):
+    """100 Pa (the reference grain's few-yield stress): generated at 10 kPa, unloaded with
+    friction to the target, then consolidated with the test's law (in.cyclicshear `pgenmin`)."""
+    doc = run_cyclic_shear(LAW, CyclicSettings(grains=100, stresses=(1e2,), amplitudes=(1e-6, 1e-5),
+                                               cycles=2, seeds=1, baseline="none",
+                                               cyclic_extension="off"), out=tmp_path / "s")
+    run = doc["runs"][0]
+    assert run["consolidated_mean_stress_Pa"] == pytest.approx(100.0, rel=0.02)
+    assert run["Gmax_Pa"] > 0

@@ -235,6 +235,12 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
     schedule = {r[0]: [float(v) for v in r[1:]] for r in run_rows if r[0].startswith("amplit")}
     if info.get("done") is None:
         raise GeocontactError(f"{folder}: the LAMMPS run did not finish (no 'done' in run.txt)")
+    reached = float(info["consolidated_mean_stress_Pa"])
+    if not abs(reached / run.stress - 1) <= CONSOLIDATION_TOLERANCE:
+        raise GeocontactError(
+            f"{run.name}: the sample did not consolidate to its mean stress ({reached:.4g} Pa "
+            f"of {run.stress:.4g} Pa, more than {CONSOLIDATION_TOLERANCE:.0%} off); its moduli "
+            "would be those of a loose heap, not of the sample asked for")
     _, seg_rows = read_table(folder / "segments.txt")
     segments = [[int(r[0]), int(r[1]), int(r[2]), float(r[3]), int(r[4]), int(r[5]), int(r[6])]
                 for r in seg_rows]
@@ -313,6 +319,9 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
             "contacts_per_grain": float(np.mean(series["contacts_per_grain"][last])),
         })
     gmax = curves[0]["G_Pa"]
+    if not gmax > 0:
+        raise GeocontactError(f"{run.name}: no shear modulus at the smallest amplitude "
+                              f"(G = {gmax:.4g} Pa): the sample carries no shear")
     for c in curves:
         c["G_over_Gmax"] = c["G_Pa"] / gmax
     summary = {"run": run.name, "law": run.law, "seed": run.seed,
@@ -339,6 +348,10 @@ def parse_run(folder: Path, run: Run, settings: CyclicSettings, material: str) -
 def _finite(value: float) -> float | None:
     return value if value < 1e300 else None
 
+
+# the script consolidates to 1 % (in.cyclicshear `ctol`); the hold and the settling at fixed box
+# move it a little (measured: within 0.01 %); beyond this the run is refused
+CONSOLIDATION_TOLERANCE = 0.05
 
 LOOP_COLUMNS = ("law", "material", "seed", "consolidation_stress_Pa", "amplitude", "cycle",
                 "step", "time_s", "shear_strain", "shear_stress_Pa", "mean_stress_Pa",
