@@ -12,16 +12,18 @@ committed at the end of a session), and the next session's run goes on from it.
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py --compare DIR_A DIR_B [--json]
     PYTHONPATH=src .venv/bin/python scripts/fe_dataset.py --law P.json CAMPAIGN_DIR [--json]
 
-For each campaign folder (default: every folder under datasets/fe-runs): the finished runs (peak
-force, load-step solves, Newton iterations, wall time) and whether each was computed by the current
-FE sources (or older ones whose runs they reproduce bit for bit: ``fem.reuse.REPRODUCED_FE_CODE``)
-and libraries (``current``) or not (``stale``: a calibration with this cache would recompute it),
-and the kernels that made it (a compiled run is current only under the compiled code that made it),
-with, for a numpy run, whether a job on the compiled kernels reuses it within the agreement rule's
-tolerance (``fem.identity.AGREED_FE_CODE``); the runs under way (from their checkpoint: steps and
-solves done of those requested, force reached, FE time and its cost per solve so far); entries that
-are neither (reported, never touched). Exit status 0, or 1 if a run folder is not a complete,
-self-consistent result (its key is not the hash of its identity, its manifest or curve is missing).
+For each campaign folder (default: every folder under datasets/fe-runs): the finished runs
+(peak force, load-step solves, Newton iterations, wall time) and whether each was computed by
+the current FE sources (or older ones whose runs they reproduce bit for bit:
+``fem.reuse.REPRODUCED_FE_CODE``) and libraries (``current``) or not (``stale``: a calibration
+with this cache would recompute it), and the kernels that made it with how a job at today's
+defaults (the compiled kernels with the node contact) reuses it: bit for bit, or a numpy run
+within the agreement rule's tolerance (``fem.identity.AGREED_FE_CODE``; ``--kernels numpy``
+reuses it bit for bit); the runs under way (from their checkpoint: steps and solves
+done of those requested, force reached, FE time and its cost per solve so far); entries
+that are neither (reported, never touched). Exit status 0, or 1 if a run folder is not a
+complete, self-consistent result (its key is not the hash of its identity, its manifest or curve
+is missing).
 
 ``--law P.json``: the law file driven along every finished run of the campaign, as the
 calibration's acceptance does (``calibrate.acceptance.compare``: force RMS over the path as % of
@@ -81,14 +83,16 @@ def check_run(folder: Path) -> dict:
     # a compiled run is current only under the compiled code that made it (compiled_code)
     current = current and (kernels == "numpy"
                            or identity.get("compiled_code") == compiled_code_hash())
-    agreed = (agreed_code(identity.get("fe_code"), compiled_code_hash())
-              if kernels == "numpy" and identity["inputs"].get("contact", "node") == "node"
-              else None)
-    return {**entry, "kernels": kernels,
-            "compiled_reuse": None if agreed is None else f"within {agreed.tolerance:g}",
+    reuse = "bit for bit"  # the job's kernels: compiled, or numpy with the facet contact
+    if kernels == "numpy" and identity["inputs"].get("contact", "node") == "node":
+        agreed = agreed_code(identity.get("fe_code"), compiled_code_hash())
+        reuse = (f"within {agreed.tolerance:g}" if agreed is not None
+                 else "only with --kernels numpy (no agreement entry)")
+    return {**entry, "kernels": kernels, "default_reuse": reuse,
             "peak_force_N": max(forces), "history_points": len(forces),
             "solves": control.get("solves"), "newton_iterations": summary.get("newton_iterations"),
-            "wall_time_s": summary.get("wall_time_s"), "fe_code": identity.get("fe_code"),
+            "wall_time_s": summary.get("wall_time_s"), "cpu_time_s": summary.get("cpu_time_s"),
+            "fe_code": identity.get("fe_code"),
             "state": "current" if current else "stale"}
 
 
@@ -141,8 +145,8 @@ def _print(status: dict) -> None:
         print(f"  {run['key']}  peak {run['peak_force_N']:.4g} N, {run['history_points']} points,"
               f" {run['solves']} solves, {run['newton_iterations']} iterations, "
               f"{wall:.0f} s, {run['state']} ({run['kernels']}"
-              + (f"; a compiled job reuses it {run['compiled_reuse']})"
-                 if run["state"] == "current" and run["compiled_reuse"] else ")"))
+              + (f"; a default job reuses it {run['default_reuse']})" if run["state"] == "current"
+                 else ")"))
     for run in status["pending"]:
         if "problem" in run:
             print(f"  {run['key']}  under way, {run['problem']}")

@@ -7,7 +7,7 @@ committed campaign folder (``datasets/fe-runs/<campaign>``; the cheapest first, 
 named), runs each again from its recorded inputs with the current code into ``--out``, and
 compares the new result with the committed one: curve.csv value for value (exactly) and
 summary.json field for field, except what must differ (``identity``: the FE code hash and key;
-``wall_time_s``).
+``wall_time_s``, ``cpu_time_s``).
 
     PYTHONPATH=src .venv/bin/python scripts/reproduce_fe_runs.py \\
         datasets/fe-runs/weak-finite-coarse --runs 2 --out out/reproduce \\
@@ -57,7 +57,7 @@ from geocontact.fem.run import run_history  # noqa: E402
 from geocontact.grain.material import Material  # noqa: E402
 
 # summary.json fields that differ between two runs of the same arithmetic
-EXPECTED_TO_DIFFER = ("identity", "wall_time_s")
+EXPECTED_TO_DIFFER = ("identity", "wall_time_s", "cpu_time_s")
 
 
 def committed_runs(campaign: Path) -> list[Path]:
@@ -102,6 +102,7 @@ def compare(committed: Path, again) -> dict:
             "summary_fields_differing": summary_differs,
             "wall_time_s": {"committed": old.summary.get("wall_time_s"),
                             "again": again.summary.get("wall_time_s")},
+            "cpu_time_s_again": again.summary.get("cpu_time_s"),
             "equal": not curve_differs and not summary_differs}
 
 
@@ -132,7 +133,7 @@ def _numbers(value, path=()):
 def agreement(old, again) -> dict:
     """How far the run ``again`` (a FemResult) made on other kernels is from ``old``: the
     largest difference of each curve column relative to the column's largest magnitude, and of
-    each number of summary.json (but its identity and wall time) relative to its magnitude
+    each number of summary.json (but its identity, wall and CPU time) relative to its magnitude
     (the 8 largest); the Newton iterations of both (old, again)."""
     columns = {}
     for name, values in old.curve.items():

@@ -39,6 +39,15 @@ def test_committed_run_is_a_complete_result(folder):
     run = fe_dataset.check_run(folder)
     assert "problem" not in run, run.get("problem")
     assert run["newton_iterations"] > 0 and run["peak_force_N"] > 0
+    # current, and reused by a job at today's defaults (the compiled kernels with the node
+    # contact): bit for bit, or a numpy run within the agreement's tolerance; stale only a
+    # compiled run made before compiled_code was recorded (stale before the default too)
+    identity = json.loads((folder / "summary.json").read_text())["identity"]
+    if run["kernels"] == "compiled" and "compiled_code" not in identity:
+        assert run["state"] == "stale"
+    else:
+        assert run["state"] == "current"
+        assert run["default_reuse"] in ("bit for bit", "within 1e-10"), run["default_reuse"]
 
 
 CHECKPOINTS = sorted(fe_dataset.DATASETS.glob("*/*.checkpoint.npz"))

@@ -1,8 +1,7 @@
-"""The agreement rule (fem.identity.AGREED_FE_CODE): a job on the compiled kernels reuses a
-committed run made by the numpy path of an FE code the compiled kernels are shown to reproduce
-within a stated tolerance, and says so; nothing else is reused under it (another input, a code
-not in the table, a checkpoint, a numpy job). The default kernels stay numpy: the committed runs
-are found by their jobs at today's defaults bit for bit."""
+"""The agreement rule (fem.identity.AGREED_FE_CODE): a job on the compiled kernels, the node
+contact's default, reuses a committed run made by the numpy path of an FE code the compiled
+kernels are shown to reproduce within a stated tolerance, and says so; nothing else is reused
+under it (another input, a code not in the table, a checkpoint, the numpy path's own jobs)."""
 
 import json
 import shutil
@@ -23,7 +22,8 @@ from geocontact.fem.result import TOLERANCE
 
 ROOT = Path(__file__).resolve().parent.parent
 DATASETS = ROOT / "datasets" / "fe-runs"
-# the cheapest committed run, made by the numpy path of FE code 209c6c5f6f7c038c (small strain)
+# the cheapest committed runs, made by the numpy path of FE code 209c6c5f6f7c038c: a small-strain
+# run of the paper's histories and the finite-strain weak pilot's level 1
 COMMITTED = DATASETS / "paper-histories-finite" / "90e8165604bc6e8dfa7c"
 COMMITTED_CODE = "209c6c5f6f7c038c"
 EVIDENCE = "docs/verification/fe-kernels-agreement.json"
@@ -50,6 +50,14 @@ def evidence_problems(engine: tuple[str, str], rule: Agreement, runs: list[dict]
 
 ENTRIES = [(engine, older, rule) for engine, olders in AGREED_FE_CODE.items()
            for older, rule in olders.items()]
+
+
+def test_the_current_engine_agrees_with_the_committed_runs():
+    """The compiled kernels are the node contact's default, so the engine of today (FE code,
+    compiled code) has its entry, covering the numpy runs of its own FE code and of the FE code
+    that made the committed runs (each entry checked below)."""
+    olders = AGREED_FE_CODE.get((fe_code_hash(), compiled_code_hash()))
+    assert olders is not None and fe_code_hash() in olders and COMMITTED_CODE in olders
 
 
 @pytest.mark.parametrize("engine, older, rule", ENTRIES,
@@ -101,26 +109,18 @@ def cache(tmp_path):
     return folder
 
 
-@pytest.fixture()
-def agreed(monkeypatch):
-    """An agreement entry for today's compiled kernels and the committed run's FE code (today's
-    table has none: docs/fem.md "The agreement rule")."""
-    rule = Agreement(why="a test", tolerance=1e-10, evidence=EVIDENCE)
-    monkeypatch.setattr(reuse, "AGREED_FE_CODE",
-                        {(fe_code_hash(), compiled_code_hash()): {COMMITTED_CODE: rule}})
-    return rule
-
-
 def _committed_job(**changes) -> FemJob:
     return FemJob.of_inputs(load_result(COMMITTED).summary["identity"]["inputs"], **changes)
 
 
-def test_a_compiled_job_reuses_a_committed_numpy_run_under_an_agreement(cache, agreed,
-                                                                        monkeypatch, capsys):
-    """The committed run's job on the compiled kernels is not run again: the campaign and
-    cached_run find the numpy run, say so on stderr, and the result records the rule; the run's
-    folder stays as it was made. The job at today's defaults (numpy) finds it bit for bit."""
-    job = _committed_job(kernels="compiled")
+def test_a_default_job_reuses_a_committed_numpy_run_under_the_agreement(cache, monkeypatch,
+                                                                        capsys):
+    """The committed run's job at today's defaults (the compiled kernels) is not run again: the
+    campaign and cached_run find the numpy run, say so on stderr, and the result records the
+    rule; the run's folder stays as it was made. The same job with --kernels numpy finds it
+    as the same run, bit for bit."""
+    job = _committed_job()
+    assert job.settings().kernels == "compiled" and "kernels" not in job.inputs()["inputs"]
     assert job.key() != COMMITTED.name
     before = (cache / COMMITTED.name / "summary.json").read_bytes()
     monkeypatch.setattr("geocontact.fem.campaign._run_job", _must_not_run)
@@ -137,8 +137,10 @@ def test_a_compiled_job_reuses_a_committed_numpy_run_under_an_agreement(cache, a
     assert (cache / COMMITTED.name / "summary.json").read_bytes() == before
     assert reuse.cached_run(cache, job.identity()).summary["reused"]["key"] == COMMITTED.name
     assert "made by the numpy path" in capsys.readouterr().err
-    # the default (numpy) job finds the same run bit for bit: no agreement involved
-    found, key = reuse.equivalent_run(cache, _committed_job().identity())
+    # the override finds the same run bit for bit: no agreement involved
+    numpy_job = _committed_job(kernels="numpy")
+    assert numpy_job.inputs()["inputs"]["kernels"] == "numpy"
+    found, key = reuse.equivalent_run(cache, numpy_job.identity())
     assert key == COMMITTED.name and "reused" not in found.summary
 
 
@@ -150,38 +152,38 @@ def _must_not_run(*args, **kwargs):
     {"mesh_rule": "contact"}, {"tolerance": 2e-8}, {"steps_per_segment": 13},
     {"kinematics": "finite"}, {"max_step_ratio": 1.5},
 ])
-def test_no_agreement_when_another_input_differs(cache, agreed, changes):
-    job = _committed_job(kernels="compiled", **changes)
-    assert reuse.equivalent_run(cache, job.identity()) is None
+def test_no_agreement_when_another_input_differs(cache, changes):
+    assert reuse.equivalent_run(cache, _committed_job(**changes).identity()) is None
 
 
-def test_no_agreement_for_a_code_not_in_the_table(cache, agreed, monkeypatch):
-    """Without an entry for the committed code (today's empty table among them), or with an
-    entry for another engine only, the compiled job is a new run; the numpy job still finds the
-    run bit for bit."""
-    job = _committed_job(kernels="compiled")
-    assert reuse.equivalent_run(cache, job.identity()) is not None  # with the entry
+def test_no_agreement_for_a_code_not_in_the_table(cache, monkeypatch):
+    """Without the committed code's entry, or with an entry for another engine only, the
+    default job is a new run; the bit-for-bit rule still finds the run for --kernels numpy."""
+    job = _committed_job()
     current = (fe_code_hash(), compiled_code_hash())
-    for table in ({}, {current: {"0123456789abcdef": agreed}},
-                  {(fe_code_hash(), "0" * 16): {COMMITTED_CODE: agreed}},
-                  {("f" * 16, compiled_code_hash()): {COMMITTED_CODE: agreed}}):
+    without = {current: {code: rule for code, rule in AGREED_FE_CODE[current].items()
+                         if code != COMMITTED_CODE}}
+    other_engine = {(fe_code_hash(), "0" * 16): AGREED_FE_CODE[current]}
+    for table in ({}, without, other_engine):
         monkeypatch.setattr(reuse, "AGREED_FE_CODE", table)
         assert reuse.equivalent_run(cache, job.identity()) is None
-        assert reuse.equivalent_run(cache, _committed_job().identity()) is not None
-    monkeypatch.setattr(reuse, "AGREED_FE_CODE", AGREED_FE_CODE)  # today's
+        assert reuse.equivalent_run(cache, _committed_job(kernels="numpy").identity())
+    # nor under another compiled code (an edit of the kernels)
+    monkeypatch.undo()
+    monkeypatch.setattr(reuse, "compiled_code_hash", lambda: "1" * 16)
     assert reuse.equivalent_run(cache, job.identity()) is None
 
 
-def test_the_agreement_is_one_way_and_not_for_checkpoints(agreed):
+def test_the_agreement_is_one_way_and_not_for_checkpoints():
     """A numpy job does not take a compiled run under the rule (the evidence is of compiled
-    reruns of numpy runs); a checkpoint (the campaign's ``difference(..., rounding=True)``) is
-    never adopted under it."""
+    reruns of numpy runs, and --kernels numpy asks for the numpy path); a checkpoint (the
+    campaign's ``difference(..., rounding=True)``) is never adopted under it."""
     numpy_record = load_result(COMMITTED).summary["identity"]
-    job = _committed_job(kernels="compiled")
+    job = _committed_job()
     compiled_record = job.inputs()
     assert reuse.reuse_rule(numpy_record, compiled_record, agreement=True) == "agreed"
     assert reuse.reuse_rule(numpy_record, compiled_record) is None
-    numpy_job = _committed_job().inputs()
+    numpy_job = _committed_job(kernels="numpy").inputs()
     assert reuse.reuse_rule(compiled_record, numpy_job, agreement=True) is None
     assert reuse.reuse_rule(numpy_record, numpy_job) == "reproduced"
     assert reuse.difference(numpy_record, job.identity(), rounding=True) is not None
@@ -189,11 +191,13 @@ def test_the_agreement_is_one_way_and_not_for_checkpoints(agreed):
 
 
 def test_a_record_says_which_kernels_made_it():
-    """``recorded_kernels``: the inputs' kernels where recorded, else compiled with a
-    compiled_code, else numpy (every default run)."""
+    """``recorded_kernels``: the inputs' kernels where recorded (numpy with the node contact,
+    since the compiled default), else compiled with a compiled_code (a default node-contact
+    run), else numpy (every run before the compiled default, and the facet contact's)."""
     numpy_record = load_result(COMMITTED).summary["identity"]
     assert reuse.recorded_kernels(numpy_record) == "numpy"
-    assert reuse.recorded_kernels(_committed_job(kernels="compiled").inputs()) == "compiled"
+    assert reuse.recorded_kernels(_committed_job().inputs()) == "compiled"
+    assert reuse.recorded_kernels(_committed_job(kernels="numpy").inputs()) == "numpy"
     bare = {**numpy_record, "compiled_code": compiled_code_hash()}
     assert reuse.recorded_kernels(bare) == "compiled"
 
@@ -204,8 +208,8 @@ CAMPAIGNS = sorted(p for p in DATASETS.iterdir() if p.is_dir())
 @pytest.mark.parametrize("campaign", CAMPAIGNS, ids=[p.name for p in CAMPAIGNS])
 def test_every_committed_run_is_found_by_its_job_at_todays_defaults(campaign):
     """The job of each committed run's recorded inputs, with today's defaults for what the
-    record leaves out, finds a committed run of the same inputs in its campaign: nothing is
-    recomputed."""
+    record leaves out (the compiled kernels with the node contact, numpy with the facet
+    contact), finds a committed run of the same inputs in its campaign: nothing is recomputed."""
     recorded = reuse.recorded_identities(campaign)
     assert recorded
     for folder, record in recorded:

@@ -32,8 +32,9 @@ def test_cli_writes_curve_summary_and_fields(tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary == json.loads((out / "summary.json").read_text())
     for key in ("first_yield_force_N", "first_yield_approach_m", "fully_plastic_force_N",
-                "cycles", "mesh", "wall_time_s", "version", "inputs"):
+                "cycles", "mesh", "wall_time_s", "cpu_time_s", "version", "inputs"):
         assert key in summary
+    assert summary["cpu_time_s"] > 0.0
     assert set(summary["mesh"]) >= {"elements", "nodes"}
     (cycle,) = summary["cycles"]
     assert set(cycle) >= {"max_force_N", "max_approach_m", "residual_approach_m",
@@ -99,6 +100,48 @@ def test_interrupted_run_keeps_checkpoint_and_resumes(tmp_path, monkeypatch):
     assert resumed.summary["first_yield_force_N"] == pytest.approx(
         full.summary["first_yield_force_N"])
     assert (out / "summary.json").exists() and not checkpoint_path(out).exists()
+
+
+def _interrupted(material, out, monkeypatch, after: int = 5) -> None:
+    """A run of FORCES into ``out`` that fails after ``after`` load steps, its checkpoint kept."""
+    real_advance = fem_run._advance
+
+    def failing_advance(solver, state, target, step):
+        if step > after:
+            raise ConvergenceError(f"step {step}: simulated failure at F = {target:.6g} N")
+        return real_advance(solver, state, target, step)
+
+    monkeypatch.setattr(fem_run, "_advance", failing_advance)
+    with pytest.raises(ConvergenceError):
+        run_history(material, FORCES, mesh="coarse", steps_per_segment=6, out=out,
+                    write_fields=False)
+    monkeypatch.setattr(fem_run, "_advance", real_advance)
+
+
+def test_cpu_time_is_carried_through_a_checkpoint(tmp_path, monkeypatch):
+    """``cpu_time_s``: the process CPU time of the run, the checkpointed part included (the
+    resumed run reports at least what its checkpoint recorded); a checkpoint written before it
+    was recorded gives null, not this session's time alone."""
+    material = preset("reference")
+    for old_checkpoint in (False, True):
+        out = tmp_path / f"run-{old_checkpoint}"
+        _interrupted(material, out, monkeypatch)
+        ckpt = checkpoint_path(out)
+        with np.load(ckpt) as data:
+            saved = {k: data[k] for k in data.files}
+        assert float(saved["cpu_time_s"]) > 0.0
+        if old_checkpoint:
+            del saved["cpu_time_s"]
+            with open(ckpt, "wb") as fh:
+                np.savez(fh, **saved)
+        resumed = run_history(material, FORCES, mesh="coarse", steps_per_segment=6, out=out,
+                              resume=True, write_fields=False)
+        cpu = resumed.summary["cpu_time_s"]
+        if old_checkpoint:
+            assert cpu is None
+        else:
+            assert cpu > float(saved["cpu_time_s"])
+        assert json.loads((out / "summary.json").read_text())["cpu_time_s"] == cpu
 
 
 def test_elastic_run_reports_round_off_plastic_work_as_zero(tmp_path, capsys):

@@ -194,13 +194,16 @@ def test_load_steps_equal_the_numpy_path(name):
 def test_identity_of_the_compiled_kernels(material):
     from geocontact.fem import identity
 
-    numpy_path = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite")
-    compiled = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="compiled")
+    numpy_path = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="numpy")
+    compiled = FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite")
     assert numpy_path.key() != compiled.key()
-    # the default is not written, so the keys of earlier runs stay as they were
-    assert "kernels" not in numpy_path.inputs()
-    assert compiled.inputs()["kernels"] == "compiled"
-    assert "compiled kernels" in compiled.describe()
+    # the default (compiled, with the node contact) is not written, numpy is
+    assert "kernels" not in compiled.inputs()
+    assert numpy_path.inputs()["kernels"] == "numpy"
+    assert "numpy kernels" in numpy_path.describe()
+    assert "kernels" not in compiled.describe()
+    assert (identity.recorded_kernels(compiled.to_dict()),
+            identity.recorded_kernels(numpy_path.to_dict())) == ("compiled", "numpy")
     with pytest.raises(InputError, match="^kernels: unknown 'fortran'"):
         FeRunIdentity.of(material, [0.0, 10.0], kinematics="finite", kernels="fortran")
     # the compiled code (fem/compiled.py and the C++ the module was built from) is part of a
@@ -209,8 +212,8 @@ def test_identity_of_the_compiled_kernels(material):
     assert compiled.to_dict()["compiled_code"] == compiled_code_hash()
     assert kernels().SOURCE_HASH == hashlib.sha256(
         (Path(identity.__file__).parent / "_kernels.cpp").read_bytes()).hexdigest()
-    small = FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
-    assert small.inputs()["kernels"] == "compiled"
+    small = FeRunIdentity.of(material, [0.0, 10.0], kernels="numpy")
+    assert small.inputs()["kernels"] == "numpy"
     assert small.key() != FeRunIdentity.of(material, [0.0, 10.0]).key()
     for kinematics in ("small", "finite"):
         with pytest.raises(InputError, match="^kernels: 'compiled' is the engine with the node "
@@ -228,7 +231,8 @@ def test_run_history_with_compiled_kernels_equals_the_numpy_path(material):
                            write_fields=False, kinematics="finite", kernels=k)
             for k in ("numpy", "compiled")}
     a, b = runs["numpy"], runs["compiled"]
-    assert b.summary["identity"]["inputs"]["kernels"] == "compiled"
+    assert "compiled_code" in b.summary["identity"] and "kernels" not in b.summary["identity"][
+        "inputs"]  # the default
     # the same schedule (its steps near Fy follow the probed yield force, equal to round-off)
     assert np.allclose(a.curve["force_N"], b.curve["force_N"], rtol=1e-9, atol=0.0)
     approach = np.max(np.abs(b.curve["approach_m"] - a.curve["approach_m"]))
@@ -361,8 +365,8 @@ def test_small_strain_run_with_compiled_kernels_equals_the_numpy_path():
                            write_fields=False, kernels=k)
             for k in ("numpy", "compiled")}
     a, b = runs["numpy"], runs["compiled"]
-    assert b.summary["identity"]["inputs"]["kernels"] == "compiled"
-    assert "kernels" not in a.summary["identity"]["inputs"]
+    assert a.summary["identity"]["inputs"]["kernels"] == "numpy"
+    assert "kernels" not in b.summary["identity"]["inputs"]  # the default
     assert np.allclose(a.curve["force_N"], b.curve["force_N"], rtol=1e-9, atol=0.0)
     assert np.max(a.curve["plastic_points"]) > 100
     assert np.array_equal(a.curve["iterations"], b.curve["iterations"])
@@ -378,8 +382,8 @@ def test_a_compiled_run_of_other_kernels_is_not_reused(material, monkeypatch):
     is then told apart (``difference``), while the numpy path's key stays."""
     from geocontact.fem import identity
 
-    compiled = FeRunIdentity.of(material, [0.0, 10.0], kernels="compiled")
-    numpy_path = FeRunIdentity.of(material, [0.0, 10.0])
+    compiled = FeRunIdentity.of(material, [0.0, 10.0])
+    numpy_path = FeRunIdentity.of(material, [0.0, 10.0], kernels="numpy")
     recorded, numpy_key = compiled.to_dict(), numpy_path.key()
     monkeypatch.setattr(identity, "compiled_code_hash", lambda: "0" * 16)
     assert compiled.key() != recorded["key"]
@@ -389,7 +393,7 @@ def test_a_compiled_run_of_other_kernels_is_not_reused(material, monkeypatch):
 
 
 def test_kernels_flag_reaches_the_runs(tmp_path, monkeypatch, capsys):
-    """``--kernels compiled`` of ``geocontact fem`` and ``cycles`` reaches the FE run (captured
+    """``--kernels numpy`` of ``geocontact fem`` and ``cycles`` reaches the FE run (captured
     here), ``calibrate``'s jobs through ``FeSettings.model_of`` (only when not the default, so
     the records of default runs are unchanged) and ``FemJob``; with the facet contact it is
     refused in one line before any work."""
@@ -415,15 +419,16 @@ def test_kernels_flag_reaches_the_runs(tmp_path, monkeypatch, capsys):
     for command in ("fem", "cycles"):
         with pytest.raises(Stop):
             main([command, "--material", "reference", "--history", str(history), "--mesh",
-                  "coarse", "--out", str(tmp_path / command), "--kernels", "compiled"])
-    assert seen == ["compiled", "compiled"]
+                  "coarse", "--out", str(tmp_path / command), "--kernels", "numpy"])
+    assert seen == ["numpy", "numpy"]
     parser = argparse.ArgumentParser()
     FeSettings.add_model_flags(parser)
     assert "kernels" not in FeSettings.model_of(parser.parse_args([]))
-    model = FeSettings.model_of(parser.parse_args(["--kernels", "compiled"]))
-    assert model["kernels"] == "compiled"
+    model = FeSettings.model_of(parser.parse_args(["--kernels", "numpy"]))
+    assert model["kernels"] == "numpy"
     job = FemJob(preset("reference"), (0.0, 10.0), **model)
-    assert job.identity().inputs()["kernels"] == "compiled"
+    assert job.identity().inputs()["kernels"] == "numpy"
+    assert FemJob(preset("reference"), (0.0, 10.0)).settings().kernels == "compiled"
     assert FemJob.of_inputs(job.identity().inputs()).key() == job.key()
     monkeypatch.undo()
     code = main(["fem", "--material", "reference", "--history", str(history), "--out",

@@ -23,7 +23,10 @@ def test_defaults_are_the_verified_settings_and_resolve_per_history():
     assert (s.mesh, s.tolerance, s.volumetric, s.mesh_rule, s.kinematics, s.step_rule,
             s.max_step_ratio, s.contact, s.kernels) == (
         "coarse", TOLERANCE, VOLUMETRIC_DEFAULT, "yield", "small", "segment", None, "node",
-        "numpy")
+        "compiled")
+    # the kernels' default is the contact's: the facet contact has no compiled path
+    assert FeSettings(contact="facet").kernels == "numpy"
+    assert FeSettings(kernels=None) == FeSettings(kernels="compiled")
     resolved = FeSettings(mesh="default").resolved(FORCES)
     assert resolved.steps_per_segment == STEPS_PER_SEGMENT["default"]
     assert resolved.mesh_force == 60.0
@@ -62,15 +65,22 @@ def test_the_identity_records_the_settings_as_before_and_round_trips():
     plain = FeRunIdentity.of(REFERENCE, FORCES).inputs()
     assert set(plain) == {"material", "forces_N", "mesh", "steps_per_segment", "tolerance",
                           "mesh_force_N", "volumetric"}
-    finite = FeSettings(kinematics="finite", max_step_ratio=1.01, kernels="compiled")
+    finite = FeSettings(kinematics="finite", max_step_ratio=1.01, kernels="numpy")
     identity = FeRunIdentity.of_settings(REFERENCE, FORCES, finite)
     inputs = identity.inputs()
     assert (inputs["kinematics"], inputs["max_step_ratio"], inputs["kernels"]) == (
-        "finite", 1.01, "compiled")
+        "finite", 1.01, "numpy")
     assert identity.kinematics == "finite" and identity.steps_per_segment == 12
     assert FeSettings.of_record(inputs) == identity.settings
     assert FeRunIdentity.of(REFERENCE, FORCES, kinematics="finite", max_step_ratio=1.01,
-                            kernels="compiled").key() == identity.key()
+                            kernels="numpy").key() == identity.key()
+    # the kernels at the contact's default are not recorded (compiled, node; numpy, facet)
+    assert "kernels" not in FeRunIdentity.of(REFERENCE, FORCES, kernels="compiled").inputs()
+    facet = FeRunIdentity.of(REFERENCE, FORCES, contact="facet", kernels="numpy")
+    assert "kernels" not in facet.inputs() and "compiled_code" not in facet.to_dict()
+    assert facet.inputs()["contact"] == "facet"
+    node_numpy = FeRunIdentity.of(REFERENCE, FORCES, kernels="numpy").inputs()
+    assert node_numpy["kernels"] == "numpy" and "contact" not in node_numpy
     job = FemJob(REFERENCE, tuple(FORCES), kinematics="finite", max_step_ratio=1.01)
     assert job.settings() == FeSettings(kinematics="finite", max_step_ratio=1.01)
     assert job.key() == FeRunIdentity.of(REFERENCE, FORCES, kinematics="finite",

@@ -369,10 +369,39 @@ void add_point_matrix(const double (&g)[COMPS][LOCAL], const double (&shift)[LOC
   }
 }
 
-void require(bool ok, const char *what)
+void require(bool ok, const char *kernel, const char *what)
 {
   if (!ok)
-    throw std::invalid_argument(std::string("fem._kernels.finite_strain: ") + what);
+    throw std::invalid_argument(std::string("fem._kernels.") + kernel + ": " + what);
+}
+
+// The arguments both kernels assemble with, checked (element dofs (e, 12) within the
+// displacement, force (ndofs,), element matrices (e, 12, 12) or empty), and the force zeroed.
+// Returns whether the element matrices are asked for.
+bool prepare_assembly(const char *kernel, Array<const int64_t, 2> element_dofs, std::size_t ne,
+                      std::size_t ndofs, Array<double, 1> force, Array<double, 3> local)
+{
+  require(element_dofs.shape(0) == ne && element_dofs.shape(1) == LOCAL, kernel,
+          "element_dofs (e, 12)");
+  require(force.shape(0) == ndofs, kernel, "force (ndofs,)");
+  const bool tangent = local.size() > 0;
+  require(!tangent || (local.shape(0) == ne && local.shape(1) == LOCAL &&
+                       local.shape(2) == LOCAL), kernel, "local (e, 12, 12)");
+  const int64_t *dofs = element_dofs.data();
+  for (std::size_t i = 0; i < ne * LOCAL; ++i)
+    require(dofs[i] >= 0 && static_cast<std::size_t>(dofs[i]) < ndofs, kernel,
+            "dof out of range");
+  double *f = force.data();
+  for (std::size_t i = 0; i < ndofs; ++i)
+    f[i] = 0.0;
+  return tangent;
+}
+
+// The element's displacements u_e from the global vector.
+void gather(const double *u, const int64_t *edofs, double (&ue)[LOCAL])
+{
+  for (int j = 0; j < LOCAL; ++j)
+    ue[j] = u[edofs[j]];
 }
 
 // One Newton iterate of the finite-strain solver (FiniteStrainSolver._evaluate): every output
@@ -387,24 +416,21 @@ void finite_strain(Array<const double, 4> grad0, Array<const int64_t, 2> element
                    Array<double, 1> force, Array<double, 3> local)
 {
   const std::size_t ne = grad0.shape(0), nq = grad0.shape(1), ndofs = displacement.shape(0);
-  require(grad0.shape(2) == COMPS && grad0.shape(3) == LOCAL, "grad0 must be (e, q, 5, 12)");
-  require(nq <= MAX_POINTS, "too many quadrature points");
-  require(element_dofs.shape(0) == ne && element_dofs.shape(1) == LOCAL, "element_dofs (e, 12)");
+  const char *kernel = "finite_strain";
+  require(grad0.shape(2) == COMPS && grad0.shape(3) == LOCAL, kernel,
+          "grad0 must be (e, q, 5, 12)");
+  require(nq <= MAX_POINTS, kernel, "too many quadrature points");
   require(projection.shape(0) == ne && projection.shape(1) == nq && projection.shape(2) == nq,
-          "projection (e, q, q)");
-  require(dvolume.shape(0) == ne && dvolume.shape(1) == nq, "dvolume (e, q)");
+          kernel, "projection (e, q, q)");
+  require(dvolume.shape(0) == ne && dvolume.shape(1) == nq, kernel, "dvolume (e, q)");
   for (auto shape : {cp_old.shape(0), stress.shape(0), cp.shape(0), plastic_strain.shape(0)})
-    require(shape == 4, "point tensors (4, e, q)");
+    require(shape == 4, kernel, "point tensors (4, e, q)");
   for (auto shape : {cp_old.shape(1), stress.shape(1), cp.shape(1), plastic_strain.shape(1)})
-    require(shape == ne, "point tensors (4, e, q)");
-  require(eqps_old.shape(0) == ne && eqps.shape(0) == ne && status.shape(0) == ne, "(e, q)");
-  require(force.shape(0) == ndofs, "force (ndofs,)");
-  const bool tangent = local.size() > 0;
-  require(!tangent || (local.shape(0) == ne && local.shape(1) == LOCAL &&
-                       local.shape(2) == LOCAL), "local (e, 12, 12)");
+    require(shape == ne, kernel, "point tensors (4, e, q)");
+  require(eqps_old.shape(0) == ne && eqps.shape(0) == ne && status.shape(0) == ne, kernel,
+          "(e, q)");
+  const bool tangent = prepare_assembly(kernel, element_dofs, ne, ndofs, force, local);
   const int64_t *dofs = element_dofs.data();
-  for (std::size_t i = 0; i < ne * LOCAL; ++i)
-    require(dofs[i] >= 0 && static_cast<std::size_t>(dofs[i]) < ndofs, "dof out of range");
 
   const DruckerPrager model{shear, bulk, tan_beta, yield_stress, hardening};
   double d_el[4][4];
@@ -412,8 +438,6 @@ void finite_strain(Array<const double, 4> grad0, Array<const int64_t, 2> element
   const double *u = displacement.data();
   const std::size_t field = ne * nq;  // stride of a component of a (4, e, q) field
   double *f = force.data();
-  for (std::size_t i = 0; i < ndofs; ++i)
-    f[i] = 0.0;
 
   double h[MAX_POINTS][COMPS], log_j[MAX_POINTS], hoop[MAX_POINTS];
   double g[MAX_POINTS][COMPS][LOCAL], trace[MAX_POINTS][LOCAL];
@@ -423,8 +447,7 @@ void finite_strain(Array<const double, 4> grad0, Array<const int64_t, 2> element
   for (std::size_t e = 0; e < ne; ++e) {
     const int64_t *edofs = dofs + e * LOCAL;
     double ue[LOCAL];
-    for (int j = 0; j < LOCAL; ++j)
-      ue[j] = u[edofs[j]];
+    gather(u, edofs, ue);
     const double *proj = projection.data() + e * nq * nq;
     const double *dv = dvolume.data() + e * nq;
     // kinematics: H = F - I, ln J, spatial gradients g = Grad N F^-1 (hoop N / r)
@@ -530,12 +553,6 @@ void finite_strain(Array<const double, 4> grad0, Array<const int64_t, 2> element
 // force sum B^T sigma dV and, if `local` is not empty, the element matrices sum B^T D_ep B dV.
 // Layouts: strain matrices (elements, points, 4, 12); point fields (4, elements, points).
 
-void require_small(bool ok, const char *what)
-{
-  if (!ok)
-    throw std::invalid_argument(std::string("fem._kernels.small_strain: ") + what);
-}
-
 // K_e += B^T (D dv) B, upper triangle only (D symmetric: associated flow; mirrored by the caller).
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 __attribute__((target_clones("arch=x86-64-v3", "default")))
@@ -567,28 +584,21 @@ void small_strain(Array<const double, 4> strain_matrices, Array<const int64_t, 2
 {
   const std::size_t ne = strain_matrices.shape(0), nq = strain_matrices.shape(1);
   const std::size_t ndofs = displacement.shape(0);
-  require_small(strain_matrices.shape(2) == 4 && strain_matrices.shape(3) == LOCAL,
-                "strain_matrices must be (e, q, 4, 12)");
-  require_small(element_dofs.shape(0) == ne && element_dofs.shape(1) == LOCAL,
-                "element_dofs (e, 12)");
-  require_small(dvolume.shape(0) == ne && dvolume.shape(1) == nq, "dvolume (e, q)");
+  const char *kernel = "small_strain";
+  require(strain_matrices.shape(2) == 4 && strain_matrices.shape(3) == LOCAL, kernel,
+          "strain_matrices must be (e, q, 4, 12)");
+  require(dvolume.shape(0) == ne && dvolume.shape(1) == nq, kernel, "dvolume (e, q)");
   for (auto *field : {&stress_old, &strain_old})
-    require_small(field->shape(0) == 4 && field->shape(1) == ne && field->shape(2) == nq,
-                  "point tensors (4, e, q)");
+    require(field->shape(0) == 4 && field->shape(1) == ne && field->shape(2) == nq, kernel,
+            "point tensors (4, e, q)");
   for (auto *field : {&stress, &strain})
-    require_small(field->shape(0) == 4 && field->shape(1) == ne && field->shape(2) == nq,
-                  "point tensors (4, e, q)");
-  require_small(eqps_old.shape(0) == ne && eqps_old.shape(1) == nq && eqps.shape(0) == ne &&
-                eqps.shape(1) == nq && status.shape(0) == ne && status.shape(1) == nq,
-                "(e, q)");
-  require_small(force.shape(0) == ndofs, "force (ndofs,)");
-  const bool tangent = local.size() > 0;
-  require_small(!tangent || (local.shape(0) == ne && local.shape(1) == LOCAL &&
-                             local.shape(2) == LOCAL), "local (e, 12, 12)");
+    require(field->shape(0) == 4 && field->shape(1) == ne && field->shape(2) == nq, kernel,
+            "point tensors (4, e, q)");
+  require(eqps_old.shape(0) == ne && eqps_old.shape(1) == nq && eqps.shape(0) == ne &&
+          eqps.shape(1) == nq && status.shape(0) == ne && status.shape(1) == nq, kernel,
+          "(e, q)");
+  const bool tangent = prepare_assembly(kernel, element_dofs, ne, ndofs, force, local);
   const int64_t *dofs = element_dofs.data();
-  for (std::size_t i = 0; i < ne * LOCAL; ++i)
-    require_small(dofs[i] >= 0 && static_cast<std::size_t>(dofs[i]) < ndofs,
-                  "dof out of range");
 
   const DruckerPrager model{shear, bulk, tan_beta, yield_stress, hardening};
   double d_el[4][4];
@@ -596,13 +606,10 @@ void small_strain(Array<const double, 4> strain_matrices, Array<const int64_t, 2
   const double *u = displacement.data();
   const std::size_t field = ne * nq;  // stride of a component of a (4, e, q) field
   double *f = force.data();
-  for (std::size_t i = 0; i < ndofs; ++i)
-    f[i] = 0.0;
   for (std::size_t e = 0; e < ne; ++e) {
     const int64_t *edofs = dofs + e * LOCAL;
     double ue[LOCAL];
-    for (int j = 0; j < LOCAL; ++j)
-      ue[j] = u[edofs[j]];
+    gather(u, edofs, ue);
     const double *dv = dvolume.data() + e * nq;
     double *ke = tangent ? local.data() + e * LOCAL * LOCAL : nullptr;
     if (tangent)
@@ -662,12 +669,11 @@ void scatter(Array<const double, 1> values, Array<const int64_t, 1> slot,
              Array<const double, 1> weight, Array<double, 1> out)
 {
   const std::size_t n = values.shape(0), m = out.shape(0);
-  if (slot.shape(0) != n || (weight.size() > 0 && weight.shape(0) != n))
-    throw std::invalid_argument("fem._kernels.scatter: values, slot and weight differ in size");
+  require(slot.shape(0) == n && (weight.size() == 0 || weight.shape(0) == n), "scatter",
+          "values, slot and weight differ in size");
   const int64_t *s = slot.data();
   for (std::size_t i = 0; i < n; ++i)
-    if (s[i] >= static_cast<int64_t>(m))
-      throw std::invalid_argument("fem._kernels.scatter: slot out of range");
+    require(s[i] < static_cast<int64_t>(m), "scatter", "slot out of range");
   double *o = out.data();
   for (std::size_t i = 0; i < m; ++i)
     o[i] = 0.0;

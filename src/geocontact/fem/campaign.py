@@ -74,7 +74,7 @@ class FemJob:
     step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
-    kernels: str = "numpy"  # "numpy" | "compiled" (fem.compiled)
+    kernels: str | None = None  # "numpy" | "compiled" | None: the contact's default
     step_control: str = "fixed"  # "fixed" | "adaptive" (fem.run.AdaptiveSteps)
 
     def __post_init__(self) -> None:
@@ -93,7 +93,7 @@ class FemJob:
                   step_rule=inputs.get("step_rule", "segment"),
                   max_step_ratio=inputs.get("max_step_ratio"),
                   contact=inputs.get("contact", "node"),
-                  kernels=inputs.get("kernels", "numpy"),
+                  kernels=inputs.get("kernels"),
                   step_control=inputs.get("step_control", "fixed"))
         return replace(job, **changes) if changes else job
 

@@ -91,6 +91,7 @@ class Checkpoint:
     mesh: Any  # the skfem mesh the run was on
     fields: bool  # the pending folder holds the ParaView files of the waypoints passed
     wall_time_s: float
+    cpu_time_s: float | None  # None: written before the CPU time was recorded
 
     def problem(self, initial: State, steps: int, marks: list[int], pending: Path | None,
                 write_fields: bool) -> str | None:
@@ -112,7 +113,7 @@ class Checkpoint:
 
 def save_checkpoint(path: Path, identity_record: str, rows: list[list[float]], state: State,
                     mesh, *, yield_force: float, fields: bool, wall_time_s: float,
-                    **detector) -> None:
+                    cpu_time_s: float | None, **detector) -> None:
     """Write the checkpoint atomically (a reader never sees half a file)."""
     with atomic_path(path) as tmp:
         np.savez(tmp, format=np.array(FORMAT), identity=np.array(identity_record),
@@ -120,6 +121,7 @@ def save_checkpoint(path: Path, identity_record: str, rows: list[list[float]], s
                  yield_force_estimate=np.array(yield_force), fields=np.array(fields),
                  mesh_doflocs=mesh.doflocs, mesh_t=mesh.t,
                  meta=np.array(json.dumps(detector)), wall_time_s=np.array(wall_time_s),
+                 **({} if cpu_time_s is None else {"cpu_time_s": np.array(cpu_time_s)}),
                  **{f"state_{name}": value for name, value in state.arrays().items()})
 
 
@@ -179,4 +181,5 @@ def _parse(path: Path, identity, columns: int) -> tuple[Checkpoint | None, str |
                       np.ascontiguousarray(saved["mesh_t"])),
         fields=bool(saved["fields"]),
         wall_time_s=float(saved["wall_time_s"]),
+        cpu_time_s=float(saved["cpu_time_s"]) if "cpu_time_s" in saved else None,
     ), None

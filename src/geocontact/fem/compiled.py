@@ -24,12 +24,13 @@ with two of its pieces replaced, the equations unchanged:
 
 Everything else (contact, load control, the predictor with its cached CHOLMOD factorisation,
 outputs) is the engine's own. :class:`CompiledSmallStrainSolver` (below) is the small-strain
-engine on the same route. The results equal the numpy paths' within the Newton tolerance, not
-bit for bit, so they are an opt-in (``run_history(kernels="compiled")``, ``--kernels compiled``,
-recorded in the run's identity with ``compiled_code``): the committed datasets rerun on them
-agree to ~1e-13 (docs/verification/fe-kernels-agreement.json), but a committed run is reused
-only by code that reproduces it bit for bit (docs/fem.md, "Why kernels="compiled" is not the
-default").
+engine on the same route. They are the node contact's default kernels
+(``fem.settings.default_kernels``; ``kernels="numpy"``, ``--kernels numpy`` for the numpy path),
+recorded in the run's identity with ``compiled_code``. Their results equal the numpy paths'
+within round-off, not bit for bit: the committed datasets rerun on them agree to ~1e-13
+(docs/verification/fe-kernels-agreement.json), and a job on them reuses a committed numpy run
+under the agreement rule (``fem.identity.AGREED_FE_CODE``, within 1e-10; docs/fem.md, "The
+compiled default and the agreement rule").
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ from .solver import ContactSolver, State, _cholmod, _lu, _Reduced
 
 FACTORISERS = ("cholmod", "cholmod-simplicial", "umfpack", "klu", "pardiso", "pardiso-sym",
                "superlu")
-# run_history(kernels=...): the numpy path of fem/finite_strain.py (default) or this module's
+# run_history(kernels=...): the numpy path of fem/finite_strain.py and fem/solver.py, or this
+# module's (the node contact's default: fem.settings.default_kernels)
 KERNELS = ("numpy", "compiled")
 # The factoriser of kernels="compiled", the first available: CHOLMOD's supernodal LL^T of the
 # symmetric tangent on OpenBLAS (what `make` installs). Measured on the 22 624-unknown tangent

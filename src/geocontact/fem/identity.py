@@ -164,53 +164,54 @@ REPRODUCED_FE_CODE: dict[str, dict[str, str]] = {
 }
 
 
-REPRODUCED_FE_CODE["ce4ea917d58ececb"] = {
-    "07275231518417f5": _EDGE_YIELD,
-    **{older: _EDGE_YIELD + "; " + why
-       for older, why in REPRODUCED_FE_CODE["07275231518417f5"].items()},
-}
+def _reproduces(code: str, previous: str, why: str) -> None:
+    """Enter the FE code ``code`` in ``REPRODUCED_FE_CODE``: it reproduces the runs of the code
+    ``previous`` by the change ``why`` says, and through it the runs of every code ``previous``
+    reproduces (each with the reasons of the chain)."""
+    REPRODUCED_FE_CODE[code] = {
+        previous: why,
+        **{older: why + "; " + reason for older, reason in REPRODUCED_FE_CODE[previous].items()},
+    }
+
+
+_reproduces("ce4ea917d58ececb", "07275231518417f5", _EDGE_YIELD)
 
 _SETTINGS_OBJECT = ("the FE settings in one object (fem.settings.FeSettings, added to the sources: "
                     "defaults, validation and identity record as before, the recorded inputs "
                     "equal for every setting); run_history split into prepare_run, step_loop "
                     "and run_summary with the same arithmetic in the same order, its messages "
                     "through notify")
-REPRODUCED_FE_CODE["163d9399ec173f3c"] = {
-    "ce4ea917d58ececb": _SETTINGS_OBJECT,
-    **{older: _SETTINGS_OBJECT + "; " + why
-       for older, why in REPRODUCED_FE_CODE["ce4ea917d58ececb"].items()},
-}
+_reproduces("163d9399ec173f3c", "ce4ea917d58ececb", _SETTINGS_OBJECT)
 
 
 _EDGE_SURFACE = ("the first-yield search of a grain whose analytic first yield is at the contact "
                  "edge also evaluates the yield ratio on the surface at the edge "
                  "(ContactSolver.edge_surface_ratio; the identity's first_yield entry renamed): "
                  "the runs of every other grain are computed and summarised as before")
-REPRODUCED_FE_CODE["3399407d181157cd"] = {
-    "163d9399ec173f3c": _EDGE_SURFACE,
-    **{older: _EDGE_SURFACE + "; " + why
-       for older, why in REPRODUCED_FE_CODE["163d9399ec173f3c"].items()},
-}
+_reproduces("3399407d181157cd", "163d9399ec173f3c", _EDGE_SURFACE)
 
 _COMPILED_SMALL_STRAIN = ("the opt-in compiled small-strain kernels added (kernels='compiled' "
                           "with kinematics='small', refused before; recorded in the identity as "
                           "kernels) and the --kernels flag (passed on only when not at its "
                           "default): fem.run._solver builds the numpy path's solvers as before")
-REPRODUCED_FE_CODE["82eb800afc111cfd"] = {
-    "3399407d181157cd": _COMPILED_SMALL_STRAIN,
-    **{older: _COMPILED_SMALL_STRAIN + "; " + why
-       for older, why in REPRODUCED_FE_CODE["3399407d181157cd"].items()},
-}
+_reproduces("82eb800afc111cfd", "3399407d181157cd", _COMPILED_SMALL_STRAIN)
 
 
 _ADAPTIVE_STEPS = ("the opt-in adaptive load-step control added (step_control='adaptive', "
                    "fem.run.AdaptiveSteps; recorded in the identity as step_control when not "
                    "'fixed'): the fixed control's solves, summary and checkpoint are as before")
-REPRODUCED_FE_CODE["a96dc9b1776d119a"] = {
-    "82eb800afc111cfd": _ADAPTIVE_STEPS,
-    **{older: _ADAPTIVE_STEPS + "; " + why
-       for older, why in REPRODUCED_FE_CODE["82eb800afc111cfd"].items()},
-}
+_reproduces("a96dc9b1776d119a", "82eb800afc111cfd", _ADAPTIVE_STEPS)
+
+# The FE code of the compiled default (issue 36) and the compiled code it was shown with.
+_DEFAULT_FE_CODE, _DEFAULT_COMPILED_CODE = "a8b8a85c2abfc49d", "cb2fe24353811668"
+_KERNELS_DEFAULT = ("the element kernels' default resolved per run (fem.settings.default_kernels: "
+                    "compiled with the node contact, numpy with the facet contact; kernels "
+                    "recorded where not at that default, fem.identity.recorded_kernels reading "
+                    "every older record as made), the process CPU time of the run in "
+                    "summary.json and its checkpoint (cpu_time_s, compared nowhere) and one "
+                    "rescue-mode solve (run._rescue) for the fixed and adaptive steps, the same "
+                    "calls in the same order: a run on the numpy path computes as before")
+_reproduces(_DEFAULT_FE_CODE, "a96dc9b1776d119a", _KERNELS_DEFAULT)
 
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
@@ -227,12 +228,13 @@ REPRODUCED_FE_CODE["a96dc9b1776d119a"] = {
 # rerun on the kernels by ``scripts/reproduce_fe_runs.py --kernels compiled`` under that code,
 # every one within the tolerance with the same Newton iterations.
 #
-# No entry today: the compiled kernels as merged with fe-solver's factoriser (compiled code
-# 61cf57a372a3c19d, reuse_factor on) rerun the committed finite-strain weak run
+# The compiled kernels as merged with fe-solver's factoriser (compiled code 61cf57a372a3c19d,
+# reuse_factor on) took no entry: they rerun the committed finite-strain weak run
 # (weak-finite-coarse bcc780a) with the same Newton iterations but up to 7.4e-9 apart in plastic
 # dissipation, 5.4e-7 in a cycle's loop work and 0.17 of the largest count of plastic points at
-# one step (reuse_factor's inexact CG solves, not round-off; fe-kernels-agreement.json). The
-# kernels with direct solves (before that merge) agreed within 3.6e-12.
+# one step (reuse_factor's inexact CG solves, not round-off; fe-kernels-agreement.json). With
+# reuse_factor off (its default since) the solves are direct again, and the reruns agree to
+# round-off: the entry below, which makes the compiled kernels the node contact's default.
 @dataclass(frozen=True)
 class Agreement:
     """Why the runs of a code agree with older ones, within what, and the record showing it."""
@@ -251,7 +253,19 @@ class Agreement:
 
 
 AGREEMENT_TOLERANCE = 1e-10
-AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {}
+_KERNELS_AGREE = Agreement(
+    why=("the compiled element kernels (fem.compiled: small and finite strain, node contact, "
+         "direct solves), the node contact's default, against the numpy path: the same "
+         "equations in another order of round-off; reruns of committed runs took the same "
+         "steps and Newton iterations and agreed within 3.4e-12"),
+    tolerance=AGREEMENT_TOLERANCE, evidence="docs/verification/fe-kernels-agreement.json")
+AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
+    # the compiled default's engine against the numpy runs of its own FE code and of every code
+    # whose runs it reproduces bit for bit (the committed runs' among them)
+    (_DEFAULT_FE_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_DEFAULT_FE_CODE, *REPRODUCED_FE_CODE[_DEFAULT_FE_CODE])},
+}
 
 
 def agreed_code(recorded: Any, compiled_code: Any) -> Agreement | None:
@@ -418,8 +432,9 @@ def same_to_rounding(recorded: Any, current: Any) -> bool:
 
 def recorded_kernels(record: dict[str, Any]) -> str:
     """The element kernels an identity record's run was made on: its inputs' ``kernels`` where
-    recorded (not at the default), else compiled if it records ``compiled_code`` (a run at a
-    compiled default, should the default change), else numpy (the default)."""
+    recorded (not at the contact's default), else compiled if it records ``compiled_code``
+    (a node-contact run at its default, since the compiled default), else numpy (the facet
+    contact's default, and every default run before the compiled default)."""
     inputs = record.get("inputs")
     if isinstance(inputs, dict) and "kernels" in inputs:
         return inputs["kernels"]

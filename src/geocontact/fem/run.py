@@ -656,7 +656,7 @@ def _cycles(curve: dict[str, np.ndarray], forces: list[float], marks: list[int])
 def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> ContactSolver:
     bbar, order = VOLUMETRIC[identity.volumetric]
     kind = ContactSolver
-    if identity.kernels == "compiled":  # opt-in (fem/compiled.py); the defaults' path unchanged
+    if identity.kernels == "compiled":  # the node contact's default (fem.settings.default_kernels)
         from .compiled import CompiledSmallStrainSolver, compiled_solver
 
         kind = compiled_solver if identity.kinematics == "finite" else CompiledSmallStrainSolver
@@ -719,7 +719,7 @@ def run_history(
     """
     from .identity import FeRunIdentity
 
-    started = time.perf_counter()
+    started = RunClock.start()
     if settings is None:
         settings = FeSettings("coarse" if mesh is None else mesh, **model)
     elif mesh is not None or model:
@@ -737,8 +737,7 @@ def run_history(
                            shared_mesh=settings.mesh_force is not None, notify=notify)
     states = step_loop(prepared, started, keep_states=keep_states, progress=progress)
     curve = prepared.run.curve()
-    wall = prepared.elapsed_before + time.perf_counter() - started
-    summary = run_summary(prepared, curve, wall, notify)
+    summary = run_summary(prepared, curve, started, notify)
     result = FemResult(curve=curve, summary=summary, states=states, solver=prepared.solver)
     if out is not None:
         write_result(result, Path(out), prepared.solver, {},
@@ -790,6 +789,28 @@ class PreparedRun:
     write_fields: bool
     elapsed_before: float  # wall time of the checkpointed part
     control: AdaptiveSteps | None = None  # step_control="adaptive"
+    cpu_before: float | None = 0.0  # CPU time of the checkpointed part (None: not recorded)
+
+
+@dataclasses.dataclass(frozen=True)
+class RunClock:
+    """When this session of a run started, by the wall clock and by the process's CPU time (all
+    its threads: the FE's and the BLAS's); what a run reports adds the checkpointed part's."""
+
+    wall_started: float
+    cpu_started: float
+
+    @classmethod
+    def start(cls) -> RunClock:
+        return cls(time.perf_counter(), time.process_time())
+
+    def wall(self, before: float) -> float:
+        return before + time.perf_counter() - self.wall_started
+
+    def cpu(self, before: float | None) -> float | None:
+        """The CPU time of the run so far; None when a checkpoint it went on from did not record
+        its own (written before cpu_time_s was)."""
+        return None if before is None else before + time.process_time() - self.cpu_started
 
 
 def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
@@ -833,14 +854,14 @@ def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
         run.fully_plastic = saved.detector["fully_plastic"]
         run.last_elastic = saved.detector["last_elastic"]
         done = saved.done
-        elapsed_before = saved.wall_time_s
+        elapsed_before, cpu_before = saved.wall_time_s, saved.cpu_time_s
         solver.rescued_steps = list(saved.detector.get("rescued_steps", []))
     else:
         yield_force = _probe_yield_force(solver, material)
         state = solver.initial_state()
         run.record(0, state)
         done = 0
-        elapsed_before = 0.0
+        elapsed_before, cpu_before = 0.0, 0.0
     targets, marks = load_schedule(forces, steps, yield_force, identity.step_rule)
     # ParaView files of the waypoints, written to the pending folder as the run passes them
     field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
@@ -850,10 +871,11 @@ def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
                                        identity.max_step_ratio,
                                        saved.detector.get("adaptive_steps") if saved else None)
     return PreparedRun(identity, material, solver, run, state, done, yield_force, targets,
-                       marks, field_steps, ckpt, pending, write_fields, elapsed_before, control)
+                       marks, field_steps, ckpt, pending, write_fields, elapsed_before, control,
+                       cpu_before)
 
 
-def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
+def step_loop(p: PreparedRun, started: RunClock, *, keep_states: bool = False,
               progress: bool = False) -> list[State]:
     """The load steps of the prepared run ``p`` from where it stands, a checkpoint after each
     (``started``: the wall clock of this session, for the checkpoint's time). Returns the
@@ -886,7 +908,8 @@ def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
             if p.ckpt is not None:
                 save_checkpoint(p.ckpt, record, run.rows, state, solver.mesh,
                                 yield_force=p.yield_force, fields=p.write_fields,
-                                wall_time_s=p.elapsed_before + time.perf_counter() - started,
+                                wall_time_s=started.wall(p.elapsed_before),
+                                cpu_time_s=started.cpu(p.cpu_before),
                                 first_yield=run.first_yield, fully_plastic=run.fully_plastic,
                                 last_elastic=run.last_elastic,
                                 **({"rescued_steps": solver.rescued_steps}
@@ -902,10 +925,11 @@ def step_loop(p: PreparedRun, started: float, *, keep_states: bool = False,
     return states
 
 
-def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], wall: float,
+def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], started: RunClock,
                 notify: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """summary.json of the finished run ``p`` with its ``curve`` (``notify``: each warning,
-    which the summary also lists)."""
+    """summary.json of the finished run ``p`` with its ``curve`` (``started``: when this session
+    began, for the run's wall and CPU times; ``notify``: each warning, which the summary also
+    lists)."""
     identity, run, solver, material = p.identity, p.run, p.solver, p.material
     forces, fe_mesh = list(identity.forces), solver.mesh
     first = run.first_yield or {}
@@ -945,7 +969,9 @@ def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], wall: float,
                                    "force_rtol": FIRST_YIELD_FORCE_RTOL}}
            if "solves" in first else {}),
         "newton_iterations": int(np.sum(curve["iterations"])),
-        "wall_time_s": wall,
+        "wall_time_s": started.wall(p.elapsed_before),
+        # the process CPU time of the run (the same span): a cost, compared nowhere
+        "cpu_time_s": started.cpu(p.cpu_before),
         "version": __version__,
         "inputs": identity.inputs(),
         "conventions": "approach is ball-ball (2 x ball-wall); energies are for the pair",
@@ -989,16 +1015,24 @@ def _advance(solver: ContactSolver, state: State, target: float, step: int,
         return _solve_step_goals(solver, state, target, step, goals, rescue=False)
     except ConvergenceError as exc:
         first_failure = str(exc)
+    return _rescue(solver, state, target, step, goals, first_failure)
+
+
+def _rescue(solver: ContactSolver, state: State, target: float, step: int,
+            goals: list[float] | None, failure: str) -> State:
+    """The load step from ``state`` to ``target`` (through ``goals``) solved in rescue mode
+    (``ContactSolver.line_search``), noted in ``solver.rescued_steps`` with the halvings it
+    took and ``failure``, the error that sent it there."""
     solver.line_search = True
     halvings = solver.line_search_halvings
     try:
-        current = _solve_step_goals(solver, state, target, step, goals, rescue=True)
+        done = _solve_step_goals(solver, state, target, step, goals, rescue=True)
     finally:
         solver.line_search = False
     solver.rescued_steps.append({"step": step, "force_N": target,
                                  "line_search_halvings": solver.line_search_halvings - halvings,
-                                 "failure": first_failure})
-    return current
+                                 "failure": failure})
+    return done
 
 
 def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: int,
@@ -1061,16 +1095,8 @@ def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: 
 def _rescue_rest(solver: ContactSolver, current: State, target: float, step: int,
                  iterations: int, failure: str) -> State:
     """The rest of an adaptive step that failed ``MAX_CUTBACKS`` times in a row, solved in
-    rescue mode (``_advance``'s, noted in ``solver.rescued_steps``)."""
-    solver.line_search = True
-    halvings = solver.line_search_halvings
-    try:
-        done = _solve_step_goals(solver, current, target, step, None, rescue=True)
-    finally:
-        solver.line_search = False
-    solver.rescued_steps.append({"step": step, "force_N": target,
-                                 "line_search_halvings": solver.line_search_halvings - halvings,
-                                 "failure": failure})
+    rescue mode (``_rescue``, as ``_advance`` does)."""
+    done = _rescue(solver, current, target, step, None, failure)
     return dataclasses.replace(done, iterations=iterations + done.iterations)
 
 

@@ -40,6 +40,14 @@ RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "
                      "kernels", "step_control")
 
 
+def default_kernels(contact: str) -> str:
+    """The element kernels of a run with the contact ``contact`` when none are asked for: the
+    compiled ones (fem.compiled) for the node contact, whose runs agree with the numpy path's to
+    ~1e-13 (fem.identity.AGREED_FE_CODE); numpy for the facet contact, which has no compiled
+    path."""
+    return "compiled" if contact == "node" else "numpy"
+
+
 @dataclass(frozen=True)
 class FeSettings:
     """How an FE run is made (everything but the material and the force history).
@@ -54,7 +62,9 @@ class FeSettings:
     the first-yield force (fem.run.sub_steps; with the adaptive control its largest step,
     default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "fixed" | "adaptive"
     (``STEP_CONTROLS``, fem.run.AdaptiveSteps). ``contact``: "node" | "facet". ``kernels``:
-    "numpy" | "compiled" (small or finite strain, node contact; fem.compiled).
+    "numpy" | "compiled" (small or finite strain, node contact; fem.compiled) | None, the
+    contact's default (``default_kernels``: compiled with the node contact, numpy with the
+    facet contact), which the object holds in its place once made.
     """
 
     mesh: str = "coarse"
@@ -67,13 +77,15 @@ class FeSettings:
     step_rule: str = "segment"
     max_step_ratio: float | None = None
     contact: str = "node"
-    kernels: str = "numpy"
+    kernels: str | None = None
     step_control: str = "fixed"
 
     def __post_init__(self) -> None:
         from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
         from .solver import CONTACTS
 
+        if self.kernels is None and self.contact in CONTACTS:
+            object.__setattr__(self, "kernels", default_kernels(self.contact))
         mesh_preset(self.mesh)
         steps = self.steps_per_segment
         if steps is not None and (isinstance(steps, bool) or not _is_integer(steps)
@@ -121,7 +133,7 @@ class FeSettings:
         record = {"mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
                   "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
                   "volumetric": self.volumetric}
-        defaults = FeSettings()
+        defaults = replace(FeSettings(), kernels=default_kernels(self.contact))
         record.update({name: getattr(self, name) for name in RECORDED_WHEN_SET
                        if getattr(self, name) != getattr(defaults, name)})
         return record
@@ -154,7 +166,7 @@ class FeSettings:
             words.append(f"loading sub-steps <= x{self.max_step_ratio:g} in force")
         if self.contact != "node":
             words.append(f"{self.contact} contact")
-        if self.kernels != "numpy":
+        if self.kernels != default_kernels(self.contact):
             words.append(f"{self.kernels} kernels")
         if self.step_control != "fixed":
             words.append(f"{self.step_control} step control")
@@ -211,9 +223,10 @@ class FeSettings:
                             "loading curve as a node engages)")
         p.add_argument("--kernels", default=default["kernels"].default,
                        choices=["numpy", "compiled"],
-                       help="FE element kernels: 'numpy' (default) or 'compiled' (C++, small "
-                            "and finite strain, node contact: the same results within the "
-                            "Newton tolerance, not bit for bit, in less time; docs/fem.md)")
+                       help="FE element kernels: 'compiled' (C++, small and finite strain; "
+                            "the default with the node contact) or 'numpy' (the default with "
+                            "--contact facet): the same results within 1e-10, not bit for "
+                            "bit (docs/fem.md)")
 
     @staticmethod
     def model_of(args) -> dict[str, Any]:
