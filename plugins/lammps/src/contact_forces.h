@@ -630,24 +630,47 @@ inline double dent_radius(const geocontact::LawParams &law, const geocontact::Co
   return geocontact::contact_radius(law, top);
 }
 
+// Forget the dent of a contact that is due (its point has travelled past the dent): the law
+// restarts untouched at the approach of its last step, but only where the fresh state stores no
+// more normal elastic energy than the dent at that approach, so that forgetting never creates
+// energy (a contact law must create none); at the latest when the grains part (approach <= 0),
+// where neither stores any. Until then the contact keeps its dent and stays due. `forgotten`
+// takes the old state's work less the fresh state's at the same approach, so the law's tally
+// (work - elastic energy) rises by what the reset released, old elastic energy less fresh,
+// which is >= 0 and also kept in `reset_stored` (compute pair geocontact [18]): physically the
+// sliding or rolling that carried the contact onto fresh material pays for it (ploughing, which
+// the model does not resolve). The tangential, rolling and twisting springs are kept: they are
+// the elastic shear and bending of the grains round the contact, which the contact carries with
+// it as it moves (a steadily sliding contact keeps its Coulomb force), not a property of the
+// material under it; the change of the contact radius at the reset rescales the tangential and
+// twisting springs as any change of a does (radius_change), so none is created. Returns true
+// when the dent was forgotten.
+template <class Record>
+inline bool forget_if_safe(const geocontact::LawParams &law, const StiffnessConstants &c,
+                           const geocontact::Similarity &sim, Record &rec)
+{
+  geocontact::ContactState fresh;
+  if (rec.law.approach > 0.0) geocontact::step(law, fresh, rec.law.approach);
+  const double held = geocontact::elastic_energy(law, rec.law);
+  const double fresh_stored = geocontact::elastic_energy(law, fresh);
+  if (fresh_stored > held) return false;
+  const double energy = sim.energy * c.energy_to_run;
+  rec.forgotten += energy * (rec.law.work - fresh.work);
+  rec.reset_stored += energy * (held - fresh_stored);
+  rec.law = fresh;
+  rec.travel[0] = rec.travel[1] = 0.0;
+  rec.due = 0;
+  return true;
+}
+
 // Advance the distances the contact point travelled on each grain over the step (`Record`: the
-// pair's, with travel[2] and forgotten) and forget the dent once either passes 2 a_max: the law
-// restarts untouched at the approach of its last step, and `forgotten` keeps the law's work.
-// Only a contact that yielded has a dent; an elastic one has nothing to forget. The law's tally
-// is work - elastic energy, so the old state's work less the fresh state's work at the same
-// approach keeps the total (law tally + stored normal energy) unchanged at the reset: the
-// elastic energy the fresh virgin state holds differs from the old dent's, and that difference
-// is booked in the law's channel (it can lower it), which keeps the ledger closed; physically
-// the sliding or rolling that carried the contact onto fresh material pays for it (ploughing,
-// which the model does not resolve). The tangential, rolling and twisting springs are kept:
-// they are the elastic shear and bending of the grains round the contact, which the contact
-// carries with it as it moves (a steadily sliding contact keeps its Coulomb force), not a
-// property of the material under it; the change of the contact radius at the reset rescales the
-// tangential and twisting springs as any change of a does (radius_change), so none is created.
-// `reset_stored` keeps the stored normal energy the resets changed, the old state's elastic
-// energy less the fresh one's (negative: energy the reset created), which is part of
-// `forgotten`. Returns true when the dent was forgotten. Call before the step's law update, with
-// commit only.
+// pair's or a wall's, with travel[2], due, forgotten and reset_stored; a wall's travel[1] stays
+// 0, the wall being rigid) and, once either passes 2 a_max, mark the contact due and forget its
+// dent as soon as that creates no energy (forget_if_safe). Only a contact that yielded has a
+// dent; an elastic one has nothing to forget. The envelope set anew (virgin loading) puts the
+// dent where the contact is: the caller then zeroes the distances and the due flag
+// (envelope_moved). Returns true when the dent was forgotten. Call before the step's law
+// update, with commit only.
 template <class Record>
 inline bool track_place(const geocontact::LawParams &law, const StiffnessConstants &c,
                         const geocontact::Similarity &sim, Record &rec, double rate_i,
@@ -655,18 +678,23 @@ inline bool track_place(const geocontact::LawParams &law, const StiffnessConstan
 {
   rec.travel[0] += rate_i * dt;
   rec.travel[1] += rate_j * dt;
-  if (!(rec.law.max_approach > law.yield_approach)) return false;
-  const double a_max = sim.scale * c.length_to_run * dent_radius(law, rec.law);
-  if (!(a_max > 0.0) || std::max(rec.travel[0], rec.travel[1]) <= 2.0 * a_max) return false;
-  geocontact::ContactState fresh;
-  geocontact::step(law, fresh, rec.law.approach);
-  const double energy = sim.energy * c.energy_to_run;
-  rec.forgotten += energy * (rec.law.work - fresh.work);
-  rec.reset_stored +=
-      energy * (geocontact::elastic_energy(law, rec.law) - geocontact::elastic_energy(law, fresh));
-  rec.law = fresh;
-  rec.travel[0] = rec.travel[1] = 0.0;
-  return true;
+  if (!rec.due) {
+    if (!(rec.law.max_approach > law.yield_approach)) return false;
+    const double a_max = sim.scale * c.length_to_run * dent_radius(law, rec.law);
+    if (!(a_max > 0.0) || std::max(rec.travel[0], rec.travel[1]) <= 2.0 * a_max) return false;
+    rec.due = 1;
+  }
+  return forget_if_safe(law, c, sim, rec);
+}
+
+// The law's envelope was set anew over the step (virgin loading beyond `envelope`, the
+// max_approach before it): the dent is where the contact is now, nothing travelled, nothing due.
+template <class Record> inline void envelope_moved(Record &rec, double envelope)
+{
+  if (rec.law.max_approach > envelope) {
+    rec.travel[0] = rec.travel[1] = 0.0;
+    rec.due = 0;
+  }
 }
 
 }  // namespace geocontact_forces

@@ -170,6 +170,23 @@ inline bool parse_range(LAMMPS *lmp, int &iarg, int narg, char **arg, bool &stop
   return true;
 }
 
+// `memory place|pair` (pair_style geocontact and the wall fixes; docs/dem.md "Memory with a
+// place"): place forgets a contact's dent once its point has travelled past it (energy-safe,
+// contact_forces.h track_place), pair keeps it while the contact record lives. Returns false
+// when arg[iarg] is another keyword; else sets `place` and moves iarg past the keyword.
+inline bool parse_memory(LAMMPS *lmp, int &iarg, int narg, char **arg, bool &place,
+                         const char *who)
+{
+  if (std::strcmp(arg[iarg], "memory") != 0) return false;
+  if (iarg + 1 >= narg)
+    lmp->error->all(FLERR, "{}: keyword 'memory' needs a value (place or pair)", who);
+  if (std::strcmp(arg[iarg + 1], "place") == 0) place = true;
+  else if (std::strcmp(arg[iarg + 1], "pair") == 0) place = false;
+  else lmp->error->all(FLERR, "{}: memory must be place or pair, got '{}'", who, arg[iarg + 1]);
+  iarg += 2;
+  return true;
+}
+
 // The depth delta_max / delta_y of a contact state when it is beyond the law file's calibrated
 // range, else 0 (the same test as the count of compute pair geocontact [16] and the walls' [19]).
 inline double depth_beyond_range(const geocontact::LawParams &law,

@@ -84,7 +84,8 @@ void FixGeocontactHistory::set_arrays(int i)
 }
 
 // Layout: [count, (partner, 13 law slots, 3 tangential, 3 rolling, twist, energy scale, law
-// index, contact radius, ledger channels) x count]
+// index, contact radius, ledger channels, 2 travelled distances, forgotten work, its change of
+// stored energy, due) x count]
 int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, double *buf)
 {
   int m = 0;
@@ -105,6 +106,7 @@ int FixGeocontactHistory::pack_table(const std::vector<ContactRecord> &table, do
     buf[m++] = r.travel[1];
     buf[m++] = r.forgotten;
     buf[m++] = r.reset_stored;
+    buf[m++] = r.due;
   }
   return m;
 }
@@ -114,7 +116,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
 {
   const bool with_rolling = layout_version >= 2, with_scale = layout_version >= 3;
   const bool with_radius = layout_version >= 4, with_ledger = layout_version >= 5;
-  const bool with_travel = layout_version >= 6;
+  const bool with_travel = layout_version >= 6, with_due = layout_version >= 7;
   int m = 0;
   const int n = static_cast<int>(buf[m++]);
   table.resize(n);
@@ -133,6 +135,7 @@ int FixGeocontactHistory::unpack_table(std::vector<ContactRecord> &table, const 
     for (double &t : r.travel) t = with_travel ? buf[m++] : 0.0;
     r.forgotten = with_travel ? buf[m++] : 0.0;
     r.reset_stored = with_travel ? buf[m++] : 0.0;
+    r.due = with_due ? static_cast<int>(buf[m++]) : 0;
   }
   return m;
 }
@@ -166,7 +169,7 @@ int FixGeocontactHistory::pack_restart(int i, double *buf)
 // energy scale) with the scale unknown until the record's next step, version 3 (no contact
 // radius) with the radius taken from the law state at the record's next step, version 4 (no
 // ledger) with the ledger at zero, version 5 (no travelled distances) with travel 0 and nothing
-// forgotten.
+// forgotten, version 6 (no due flag) not due.
 void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
 {
   double **extra = atom->extra;
@@ -183,6 +186,7 @@ void FixGeocontactHistory::unpack_restart(int nlocal, int nth)
                    : version == 3 ? kRecordSizeV3
                    : version == 4 ? kRecordSizeV4
                    : version == 5 ? kRecordSizeV5
+                   : version == 6 ? kRecordSizeV6
                                   : kRecordSize;
   const int count =
       version >= 1 && version <= kRestartLayoutVersion ? static_cast<int>(record[2]) : -1;

@@ -60,6 +60,10 @@ struct ContactRecord {
   // of which: the stored normal energy the resets changed, old less fresh (negative: the fresh
   // virgin state holds more than the dent did at the same approach, energy the reset created)
   double reset_stored = 0.0;
+  // the point has travelled past the dent (2 a_max) but forgetting it would have stored more
+  // normal energy than the dent holds: forgotten at the first step where it does not
+  // (contact_forces.h forget_if_safe)
+  int due = 0;
 };
 
 class FixGeocontactHistory : public Fix {
@@ -67,22 +71,25 @@ class FixGeocontactHistory : public Fix {
   // doubles per record when packed: partner ID, 13 law slots, 3 tangential components, 3
   // rolling components, the twist angle, the energy scale, the law index, the contact radius
   // and the ledger's channels, the two travelled distances, the forgotten law work and its
-  // change of stored energy
-  static constexpr int kRecordSize = 28 + geocontact_forces::kLedgerSlots;
+  // change of stored energy, the due flag
+  static constexpr int kRecordSize = 29 + geocontact_forces::kLedgerSlots;
   // Per-atom restart layout: bumped whenever the packed record changes. Versions 1 (records
   // without rolling and twist, kRecordSizeV1 doubles), 2 (without the energy scale and law
   // index, kRecordSizeV2), 3 (without the contact radius, kRecordSizeV3) and 4 (without the
-  // energy ledger, kRecordSizeV4) and 5 (without the travelled distances and the forgotten law
-  // work, kRecordSizeV5) are still read: contacts that have not rolled or twisted yet, whose
-  // energy scale the next step sets, whose contact radius is taken from their law state, whose
-  // ledger starts at zero (what they dissipated before is not known) and whose contact point
-  // has not travelled yet (travel 0, nothing forgotten).
-  static constexpr int kRestartLayoutVersion = 6;
+  // energy ledger, kRecordSizeV4), 5 (without the travelled distances and the forgotten law
+  // work, kRecordSizeV5) and 6 (without the due flag, kRecordSizeV6) are still read: contacts
+  // that have not rolled or twisted yet, whose energy scale the next step sets, whose contact
+  // radius is taken from their law state, whose ledger starts at zero (what they dissipated
+  // before is not known), whose contact point has not travelled yet (travel 0, nothing
+  // forgotten) and that are not due (layout 6 forgot a dent at once: none was due; one that has
+  // travelled past its dent becomes due at its next step).
+  static constexpr int kRestartLayoutVersion = 7;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
   static constexpr int kRecordSizeV3 = 23;
   static constexpr int kRecordSizeV4 = 24;
   static constexpr int kRecordSizeV5 = 24 + geocontact_forces::kLedgerSlots;
+  static constexpr int kRecordSizeV6 = 28 + geocontact_forces::kLedgerSlots;
   // The layout tag as 64 bits: "GCHS" in the high half, the layout version in the low half
   // (in the file, little-endian: the version, then the bytes G C H S). Stored with ubuf, so
   // it travels as the bit pattern of a (normal, finite) double.

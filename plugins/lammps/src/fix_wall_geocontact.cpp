@@ -35,7 +35,7 @@ constexpr const char *kWallNames[] = {"xplane", "yplane", "zplane", "zcylinder"}
 constexpr const char *kUsage =
     "fix ID group wall/geocontact P.json [friction mu] [damping beta | restitution e] "
     "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error] "
-    "xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
+    "[memory pair|place] xplane|yplane|zplane lo hi | zcylinder R [wiggle dim A period | velocity v | "
     "position v_name | shear dim V|v_name]";
 
 }  // namespace
@@ -64,6 +64,7 @@ FixWallGeocontact::FixWallGeocontact(LAMMPS *lmp, int narg, char **arg) :
   while (iarg < narg) {
     if (parse_resistance(lmp, iarg, narg, arg, resistance_, "Fix wall/geocontact")) continue;
     if (parse_range(lmp, iarg, narg, arg, range_error_, "Fix wall/geocontact")) continue;
+    if (parse_memory(lmp, iarg, narg, arg, place_memory_, "Fix wall/geocontact")) continue;
     if (parse_damping(lmp, iarg, narg, arg, damping_, damping_given, "Fix wall/geocontact"))
       continue;
     if (strcmp(arg[iarg], "friction") != 0) break;
@@ -422,6 +423,7 @@ void FixWallGeocontact::begin_tally()
   for (int k = 0; k < G_COUNT; ++k) tally_[k] = 0.0;
   tally_[G_DISSIPATED] = forgotten_dissipated_;
   for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] = forgotten_ledger_[k];
+  tally_[G_MEMORY_RESET] = forgotten_reset_;
   totals_current_ = false;
   max_stiffness_ = 0.0;
   deepest_beyond_ = 0.0;
@@ -434,19 +436,53 @@ void FixWallGeocontact::begin_tally()
 // it dissipated stays in the tally (when the step's tallies are summed: finish_tally).
 void FixWallGeocontact::forget_contact(WallRecord &stored, const geocontact::Similarity &sim)
 {
-  const double dissipated = sim.energy * constants_.energy_to_run *
-                            geocontact::dissipated_energy(law_, stored.law);
+  double dissipated = sim.energy * constants_.energy_to_run *
+                      geocontact::dissipated_energy(law_, stored.law);
+  if (place_memory_) dissipated += stored.forgotten;  // the law's work over forgotten dents
   forgotten_dissipated_ += dissipated;
-  tallied_.push_back({-static_cast<long>(forgotten_step_.size() / (1 + kLedgerSlots)) - 1, 0.0});
+  tallied_.push_back({-static_cast<long>(forgotten_step_.size() / kForgottenStride) - 1, 0.0});
   forgotten_step_.push_back(dissipated);
   for (int k = 0; k < kLedgerSlots; ++k) {
     forgotten_ledger_[k] += stored.dissipated[k];
     forgotten_step_.push_back(stored.dissipated[k]);
   }
+  forgotten_reset_ += stored.reset_stored;
+  forgotten_step_.push_back(stored.reset_stored);
   stored.law = geocontact::ContactState();
   clear_springs(stored);
   clear_ledger(stored);
+  clear_place(stored);
   stored.active = 0;
+}
+
+// No travel, nothing due or forgotten, no normal yet (a new or forgotten contact).
+void FixWallGeocontact::clear_place(WallRecord &rec)
+{
+  rec.travel[0] = rec.travel[1] = 0.0;
+  rec.due = 0;
+  rec.forgotten = rec.reset_stored = 0.0;
+  rec.normal[0] = rec.normal[1] = rec.normal[2] = 0.0;
+}
+
+// memory place, one committed step of a known contact before its law step: the contact point
+// moves over the grain at b |dn/dt - w x n| (contact_forces.h travel_rates, with the wall as the
+// rigid body j: only the grain's side has a dent), b = r - w the arm. dn/dt is taken from the
+// last step's normal, (n - n_prev) / dt, which holds for any wall: 0 on a fixed plane, the turn
+// of the normal as the grain moves along a curved wall (its motion relative to the wall's
+// surface) or as a rotating region turns under it. The dent is forgotten by the same
+// energy-safe rule as the pair's (track_place).
+void FixWallGeocontact::track_wall_place(WallRecord &rec, const WallContact &contact,
+                                         const geocontact::Similarity &sim, double arm,
+                                         const double *omega)
+{
+  const double dt = update->dt;
+  const double *n = contact.n, *before = rec.normal;
+  const bool turned = before[0] != 0.0 || before[1] != 0.0 || before[2] != 0.0;
+  double spin[3];
+  cross3(omega, n, spin);
+  double slip[3];
+  for (int k = 0; k < 3; ++k) slip[k] = (turned ? (n[k] - before[k]) / dt : 0.0) - spin[k];
+  track_place(law_, constants_, sim, rec, arm * std::sqrt(dot3(slip, slip)), 0.0, dt);
 }
 
 // One contact's share of the tallies: its law state (`rec`, after the step) and the springs and
@@ -457,7 +493,12 @@ void FixWallGeocontact::tally_contact(const WallRecord &rec, const WallRecord *s
   const double energy_scale = sim.energy * constants_.energy_to_run;
   const geocontact::ContactState &st = rec.law;
   const double stored_energy = energy_scale * geocontact::elastic_energy(law_, st);
-  tally_[G_DISSIPATED] += energy_scale * st.work - stored_energy;
+  double law_dissipated = energy_scale * st.work - stored_energy;
+  if (place_memory_) {
+    law_dissipated += rec.forgotten;  // the law's work over the dents it forgot
+    tally_[G_MEMORY_RESET] += rec.reset_stored;
+  }
+  tally_[G_DISSIPATED] += law_dissipated;
   tally_[G_ELASTIC] += stored_energy;
   if (st.force > 0.0) tally_[G_CONTACTS] += 1.0;
   if (springs_from) {
@@ -482,9 +523,10 @@ void FixWallGeocontact::finish_tally()
   tally_pending_ = false;
   for (const TallyEntry &entry : tallied_) {
     if (entry.record < 0) {
-      const double *gone = &forgotten_step_[(-entry.record - 1) * (1 + kLedgerSlots)];
+      const double *gone = &forgotten_step_[(-entry.record - 1) * kForgottenStride];
       tally_[G_DISSIPATED] += gone[0];
       for (int k = 0; k < kLedgerSlots; ++k) tally_[G_SLIDING + k] += gone[1 + k];
+      tally_[G_MEMORY_RESET] += gone[1 + kLedgerSlots];
       continue;
     }
     const WallRecord &rec = records_[entry.record];
@@ -519,22 +561,31 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   // the stored record itself when the step commits (most calls), a scratch copy in setup
   WallRecord scratch;
   WallRecord &rec = commit ? stored : (scratch = stored);
+  const bool known = rec.active;
   if (!rec.active) {
     rec.law = geocontact::ContactState();
     clear_springs(rec);
     clear_ledger(rec);
+    clear_place(rec);
     rec.active = 1;
   } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
     rec.contact_radius = contact_stiffness(law_, c, rec.law, sim).radius;
   }
   // the contact is on the wall's surface, r - w from the centre (contact_frame)
   const double arm = radius[i] - interference;
+  const bool place = place_memory_ && commit;
+  if (place && known) track_wall_place(rec, contact, sim, arm, atom->omega[i]);
+  const double envelope = rec.law.max_approach;
   const ContactGeometry geometry{interference,   sim,     n,   atom->v[i],
                                  contact.velocity, atom->omega[i], no_spin, arm,
                                  0.0,            contact.effective_radius, 0.0,
                                  atom->rmass[i], 0.0,     true};
   const ContactCoeffs cc{friction_, damping_, &resistance_};
   const ContactResult res = contact_step(law_, c, cc, rec, geometry, update->dt, commit);
+  if (place) {
+    envelope_moved(rec, envelope);  // virgin loading: the dent is where the contact is now
+    for (int k = 0; k < 3; ++k) rec.normal[k] = n[k];
+  }
   if (range_error_ && commit) {
     const double depth = depth_beyond_range(law_, rec.law);
     if (depth > 0.0)
@@ -595,6 +646,8 @@ double FixWallGeocontact::compute_vector(int n)
     MPI_Allreduce(tally_, totals_, G_MAX_STIFFNESS, MPI_DOUBLE, MPI_SUM, world);
     MPI_Allreduce(tally_ + G_SLIDING, totals_ + G_SLIDING, G_BEYOND_RANGE + 1 - G_SLIDING,
                   MPI_DOUBLE, MPI_SUM, world);
+    MPI_Allreduce(tally_ + G_MEMORY_RESET, totals_ + G_MEMORY_RESET, 1, MPI_DOUBLE, MPI_SUM,
+                  world);
     double lightest = INFINITY;
     for (int i = 0; i < atom->nlocal; ++i)
       if (atom->mask[i] & groupbit) lightest = std::min(lightest, atom->rmass[i]);
@@ -660,6 +713,7 @@ void FixWallGeocontact::set_arrays(int i)
     r.law = geocontact::ContactState();
     clear_springs(r);
     clear_ledger(r);
+    clear_place(r);
     r.active = 0;
   }
   for (int c = 0; c < size_peratom_cols; ++c) array_atom[i][c] = 0.0;
@@ -676,13 +730,19 @@ int FixWallGeocontact::pack_record(const WallRecord &r, double *buf)
   buf[m++] = r.twist;
   buf[m++] = r.contact_radius;
   for (double d : r.dissipated) buf[m++] = d;
+  buf[m++] = r.travel[0];  // version 5
+  buf[m++] = r.travel[1];
+  buf[m++] = r.due;
+  buf[m++] = r.forgotten;
+  buf[m++] = r.reset_stored;
+  for (int k = 0; k < 3; ++k) buf[m++] = r.normal[k];
   return m;
 }
 
 int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layout_version)
 {
   const bool with_rolling = layout_version >= 2, with_radius = layout_version >= 3;
-  const bool with_ledger = layout_version >= 4;
+  const bool with_ledger = layout_version >= 4, with_place = layout_version >= 5;
   int m = unpack_state(r.law, buf);
   r.tangential[0] = buf[m++];
   r.tangential[1] = buf[m++];
@@ -692,6 +752,15 @@ int FixWallGeocontact::unpack_record(WallRecord &r, const double *buf, int layou
   r.twist = with_rolling ? buf[m++] : 0.0;
   r.contact_radius = with_radius ? buf[m++] : -1.0;
   for (double &d : r.dissipated) d = with_ledger ? buf[m++] : 0.0;
+  clear_place(r);
+  if (with_place) {
+    r.travel[0] = buf[m++];
+    r.travel[1] = buf[m++];
+    r.due = static_cast<int>(buf[m++]);
+    r.forgotten = buf[m++];
+    r.reset_stored = buf[m++];
+    for (int k = 0; k < 3; ++k) r.normal[k] = buf[m++];
+  }
   return m;
 }
 
@@ -701,6 +770,7 @@ int FixWallGeocontact::record_size(int layout_version)
   return layout_version == 1   ? kRecordSizeV1
          : layout_version == 2 ? kRecordSizeV2
          : layout_version == 3 ? kRecordSizeV3
+         : layout_version == 4 ? kRecordSizeV4
                                : kRecordSize;
 }
 
@@ -806,10 +876,11 @@ void FixWallGeocontact::write_restart(FILE *fp)
 // fix wall/geocontact/region, which writes its region's record after it.
 void FixWallGeocontact::pack_global(double *data)
 {
-  double mine[2 + kLedgerSlots] = {forgotten_dissipated_, boundary_work_};
+  double mine[3 + kLedgerSlots] = {forgotten_dissipated_, boundary_work_};
   for (int k = 0; k < kLedgerSlots; ++k) mine[2 + k] = forgotten_ledger_[k];
-  double all[2 + kLedgerSlots] = {};
-  MPI_Allreduce(mine, all, 2 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
+  mine[2 + kLedgerSlots] = forgotten_reset_;
+  double all[3 + kLedgerSlots] = {};
+  MPI_Allreduce(mine, all, 3 + kLedgerSlots, MPI_DOUBLE, MPI_SUM, world);
   double values[kGlobalSize] = {ubuf(kGlobalTag).d,
                                 static_cast<double>(time_origin_),
                                 last_position_,
@@ -819,6 +890,7 @@ void FixWallGeocontact::pack_global(double *data)
                                 static_cast<double>(sides_.size())};
   for (int k = 0; k < kLedgerSlots; ++k) values[kGlobalSizeV3 + k] = all[2 + k];
   values[kGlobalSizeV3 + kLedgerSlots] = all[1];
+  values[kGlobalSizeV4] = all[2 + kLedgerSlots];  // version 5
   std::copy_n(values, kGlobalSize, data);
 }
 
@@ -841,7 +913,7 @@ int FixWallGeocontact::unpack_global(const char *buf)
                (tag & ~int64_t(0xffffffff)) == (kGlobalTag & ~int64_t(0xffffffff))
                    ? "another layout version" : "no wall/geocontact layout tag",
                static_cast<uint64_t>(tag), kRestartLayoutVersion);
-  const int size = version >= 4 ? kGlobalSize : kGlobalSizeV3;
+  const int size = version >= 5 ? kGlobalSize : version == 4 ? kGlobalSizeV4 : kGlobalSizeV3;
   memcpy(data, buf, size * sizeof(double));
   time_origin_ = static_cast<bigint>(data[1]);
   last_position_ = data[2];
@@ -852,6 +924,8 @@ int FixWallGeocontact::unpack_global(const char *buf)
   for (int k = 0; k < kLedgerSlots; ++k)
     forgotten_ledger_[k] = comm->me == 0 ? data[kGlobalSizeV3 + k] : 0.0;
   boundary_work_ = comm->me == 0 ? data[kGlobalSizeV3 + kLedgerSlots] : 0.0;
+  // version 5: the forgotten contacts' change of stored energy at memory resets (before: none)
+  forgotten_reset_ = comm->me == 0 ? data[kGlobalSizeV4] : 0.0;
   return size * static_cast<int>(sizeof(double));
 }
 

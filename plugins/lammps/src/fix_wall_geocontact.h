@@ -4,9 +4,12 @@
 //
 //   fix ID group wall/geocontact P.json [friction mu] [damping beta]
 //       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error]
-//       wallstyle args [motion]
+//       [memory pair|place] wallstyle args [motion]
 //     range: a contact loaded beyond the law file's calibrated range is counted and said once
 //       (warn, the default) or stops the run with one line (error)
+//     memory: pair (the default) keeps a wall contact's dent while its record lives; place
+//       forgets it once the contact point has travelled past it over the grain's surface (the
+//       wall is rigid: the grain's side only), as pair_style geocontact memory place does
 //     wallstyle: xplane|yplane|zplane lo hi (NULL: no wall on that side) | zcylinder R
 //     motion:    wiggle dim A period | velocity v | position v_name | shear dim V
 //       shear: the wall slides in its own plane (along the axis of a zcylinder) at the velocity V
@@ -36,7 +39,9 @@
 // over steps of F . v_wall dt (F the contact force on the grain); [19] the wall contacts loaded
 // beyond the law file's calibrated range (delta_max / delta_y > calibrated_range.max_depth,
 // where the law extrapolates; warned once, at the end of the first run that has any) and [20]
-// the largest delta_max / delta_y among them (0: none); per-atom array,
+// the largest delta_max / delta_y among them (0: none), [21] memory place: the normal elastic
+// energy the forgotten dents held less what the fresh states took over (>= 0, of which in [4]);
+// per-atom array,
 // kOutputColumns per wall (lo wall first): interference w, normal force, |tangential force|,
 // max interference, residual interference, branch of the law.
 #ifdef FIX_CLASS
@@ -61,12 +66,15 @@ namespace LAMMPS_NS {
 class FixWallGeocontact : public Fix {
  public:
   // doubles per wall record: 13 law slots, 3 tangential components, the active flag, 3 rolling
-  // components, the twist angle, the contact radius, the ledger's channels (layout version 1:
-  // the first 17 of them, version 2: the first 21, version 3: the first 22)
-  static constexpr int kRecordSize = 22 + geocontact_forces::kLedgerSlots;
+  // components, the twist angle, the contact radius, the ledger's channels, the 2 travelled
+  // distances, the due flag, the forgotten law work and its change of stored energy, the last
+  // step's normal (layout version 1: the first 17 of them, version 2: the first 21, version 3:
+  // the first 22, version 4: up to the ledger's)
+  static constexpr int kRecordSize = 31 + geocontact_forces::kLedgerSlots;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
   static constexpr int kRecordSizeV3 = 22;
+  static constexpr int kRecordSizeV4 = 22 + geocontact_forces::kLedgerSlots;
   static constexpr int kOutputColumns = 6;
   // Restart layouts, bumped whenever a packed record changes: per atom [length, tag, walls,
   // records], the tag "GCWA" in the high and the version in the low 32 bits; global [tag
@@ -74,9 +82,12 @@ class FixWallGeocontact : public Fix {
   // step, dissipated energy of forgotten contacts, walls, (version 4) the ledger's channels of
   // forgotten contacts and the wall's work]. Version 2 adds rolling and twist to the per-atom
   // records, version 3 the contact radius (the global layout is unchanged), version 4 the
-  // ledger (per atom and global); versions 1 to 3 are still read, with what they lack at zero
-  // (the contact radius: from the law state).
-  static constexpr int kRestartLayoutVersion = 4;
+  // ledger (per atom and global), version 5 memory with a place (per atom: the travelled
+  // distances, the due flag, the forgotten work and its change of stored energy, the last
+  // normal; global: the forgotten contacts' change of stored energy); versions 1 to 4 are still
+  // read, with what they lack at zero (the contact radius: from the law state; the normal: from
+  // the next step).
+  static constexpr int kRestartLayoutVersion = 5;
   static constexpr int64_t kAtomTagBase = static_cast<int64_t>(0x41574347) << 32;
   static constexpr int64_t kAtomTag = kAtomTagBase | kRestartLayoutVersion;
   static constexpr int64_t kAtomTagV1 = kAtomTagBase | 1;
@@ -84,7 +95,8 @@ class FixWallGeocontact : public Fix {
   static constexpr int64_t kGlobalTag = kGlobalTagBase | kRestartLayoutVersion;
   static constexpr int kAtomHeader = 3;
   static constexpr int kGlobalSizeV3 = 7;
-  static constexpr int kGlobalSize = kGlobalSizeV3 + geocontact_forces::kLedgerSlots + 1;
+  static constexpr int kGlobalSizeV4 = kGlobalSizeV3 + geocontact_forces::kLedgerSlots + 1;
+  static constexpr int kGlobalSize = kGlobalSizeV4 + 1;
 
   FixWallGeocontact(class LAMMPS *, int, char **);
   ~FixWallGeocontact() override;
@@ -118,7 +130,7 @@ class FixWallGeocontact : public Fix {
     GF_X, GF_Y, GF_Z, G_DISSIPATED, G_ELASTIC, G_CONTACTS, G_MAX_STIFFNESS, G_CRITICAL_DT,
     G_SLIDING, G_NORMAL_DAMPING, G_TANGENTIAL_DAMPING, G_ROLLING, G_TWISTING, G_RADIUS_CHANGE,
     G_STORED_TANGENTIAL, G_STORED_ROLLING, G_STORED_TWISTING, G_BOUNDARY_WORK, G_BEYOND_RANGE,
-    G_DEEPEST_BEYOND, G_COUNT
+    G_DEEPEST_BEYOND, G_MEMORY_RESET, G_COUNT
   };
   static_assert(G_RADIUS_CHANGE - G_SLIDING + 1 == geocontact_forces::kLedgerSlots,
                 "the vector's ledger indices follow LedgerChannel");
@@ -131,6 +143,16 @@ class FixWallGeocontact : public Fix {
     double twist;                  // twist angle (rad)
     double contact_radius;         // a of the last step (run lengths); < 0: not known
     double dissipated[geocontact_forces::kLedgerSlots];  // the contact's ledger (run energy)
+    // memory place (contact_forces.h track_place): how far the contact point has moved over
+    // the grain's surface [0] since the envelope was set ([1] the wall's: 0, it is rigid; run
+    // lengths), the due flag, the law's work carried over forgotten dents and, of it, the
+    // change of stored energy (run energy units), the unit normal of the last committed step
+    // (its change turns the contact point over the grain; all 0: none yet)
+    double travel[2];
+    int due;
+    double forgotten;
+    double reset_stored;
+    double normal[3];
   };
 
   // One grain on one wall at this step, whatever the wall's shape: the planes and the cylinder
@@ -146,6 +168,9 @@ class FixWallGeocontact : public Fix {
   void touch_wall(int i, WallRecord &stored, const WallContact &contact, bool commit,
                   double *out);
   void forget_contact(WallRecord &stored, const geocontact::Similarity &sim);
+  static void clear_place(WallRecord &rec);
+  void track_wall_place(WallRecord &rec, const WallContact &contact,
+                        const geocontact::Similarity &sim, double arm, const double *omega);
   void begin_tally();
   void tally_contact(const WallRecord &rec, const WallRecord *springs_from,
                      const geocontact::Similarity &sim);
@@ -157,13 +182,15 @@ class FixWallGeocontact : public Fix {
   // contact during the step, and a run that reads them seldom does not pay for the energies,
   // the springs and the ledger of every contact at every step. One entry per contact of the
   // step (its record's index and the radius its similarity was taken at) or per contact the
-  // step forgot (record < 0: -(k + 1), its dissipated energies at forgotten_step_[k]).
+  // step forgot (record < 0: -(k + 1), its dissipated energies at forgotten_step_[k]: the law's,
+  // the ledger's channels, its memory resets' change of stored energy, kForgottenStride).
   struct TallyEntry {
     long record;
     double effective_radius;
   };
   std::vector<TallyEntry> tallied_;
-  std::vector<double> forgotten_step_;  // 1 + kLedgerSlots per forgotten contact of the step
+  static constexpr int kForgottenStride = 2 + geocontact_forces::kLedgerSlots;
+  std::vector<double> forgotten_step_;  // kForgottenStride per forgotten contact of the step
   bool tally_pending_ = false;
   void register_storage();
   void pack_global(double *data);
@@ -205,10 +232,12 @@ class FixWallGeocontact : public Fix {
   int capacity_ = 0;                  // atoms array_atom and records_ are sized for
   double forgotten_dissipated_;      // this rank's share: contacts dropped beyond the skin
   double forgotten_ledger_[geocontact_forces::kLedgerSlots] = {};  // the same, other channels
+  double forgotten_reset_ = 0.0;     // the same, memory place's change of stored energy
   double boundary_work_ = 0.0;       // this rank's share of the wall's work on the grains
   double deepest_beyond_ = 0.0;      // this rank's deepest contact beyond the calibrated range
   bool range_warned_ = false;        // the run was told of contacts beyond it
   bool range_error_ = false;         // range error: stop at the first contact beyond it
+  bool place_memory_ = false;        // memory place: dents forgotten past 2 a_max of travel
   double tally_[G_COUNT];            // this rank's sums at the last post_force
   double totals_[G_COUNT];
   bool totals_current_;

@@ -27,7 +27,7 @@ namespace {
 constexpr const char *kWho = "Fix wall/geocontact/region";
 constexpr const char *kUsage =
     "fix ID group wall/geocontact/region P.json [friction mu] [damping beta | restitution e] "
-    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error] region-ID";
+    "[rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error] [memory pair|place] region-ID";
 constexpr int kSlotHeader = 2;  // per record in a buffer: wall id, effective radius
 
 }  // namespace
@@ -43,13 +43,13 @@ FixWallGeocontactRegion::FixWallGeocontactRegion(LAMMPS *lmp, int narg, char **a
   if (!region_) {
     if (iarg + 1 < narg)
       error->all(FLERR, "{}: unknown keyword '{}' (allowed: friction, damping, restitution, "
-                        "rolling, twisting, range, then a region ID)", kWho, region_id_);
+                        "rolling, twisting, range, memory, then a region ID)", kWho, region_id_);
     error->all(FLERR, "{}: region '{}' does not exist (define it with the region command "
                       "first)", kWho, region_id_);
   }
   if (iarg + 1 < narg)
     error->all(FLERR, "{}: unknown keyword '{}' after the region ID {} (friction, damping, "
-                      "restitution, rolling and twisting come before it)", kWho, arg[iarg + 1],
+                      "restitution, rolling, twisting, range and memory come before it)", kWho, arg[iarg + 1],
                region_id_);
   region_style_ = region_->style;
   nregion_ = region_->nregion;

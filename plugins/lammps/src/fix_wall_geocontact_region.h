@@ -2,7 +2,8 @@
 // in the manner of LAMMPS's fix wall/gran/region (examples/lammps/README.md "Walls").
 //
 //   fix ID group wall/geocontact/region P.json [friction mu] [damping beta]
-//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] region-ID
+//       [rolling sds k_roll gamma_roll mu_roll] [twisting marshall] [range warn|error]
+//       [memory pair|place] region-ID
 //
 // The same contact as fix wall/geocontact (it is derived from it and calls its per-contact step,
 // FixWallGeocontact::touch_wall): the ball-wall law of the FE half model, the Mindlin-Coulomb
@@ -12,6 +13,9 @@
 // (geocontact::wall_effective_radius; docs/dem.md "Region walls"); R_eff is also the rolling
 // radius. The wall's velocity at the contact point (Region::velocity_contact: translation,
 // rotation about the region's axis, a changing radius) enters the relative velocity.
+// memory place: the contact point's travel over the grain (contact_forces.h track_place) takes
+// the turn of the contact normal from step to step, which the region's curvature and its
+// rotation give (FixWallGeocontact::track_wall_place).
 //
 // One contact record per (atom, region wall): a region reports each of its walls with an id
 // (Region::Contact::iwall; a block's six faces, a cylinder's side and caps, the members of a

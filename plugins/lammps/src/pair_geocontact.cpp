@@ -105,9 +105,9 @@ static void require_sphere(Atom *atom, Error *error)
 }
 
 // pair_style geocontact [memory pair|place] [range warn|error]: memory pair (the default) keeps
-// a contact's dent however far its point moves; place forgets it past the contact diameter, an
-// instantaneous reset that can store more normal energy than the dent held (docs/dem.md,
-// "Memory with a place"); range error stops the run at the first contact loaded beyond the
+// a contact's dent however far its point moves; place forgets it once its point has travelled
+// past the dent's diameter, at the first step where that stores no more normal energy than the
+// dent held (docs/dem.md, "Memory with a place"); range error stops the run at the first contact loaded beyond the
 // law file's calibrated range (warn, the default: counted, said once)
 void PairGeocontact::settings(int narg, char **arg)
 {
@@ -115,19 +115,11 @@ void PairGeocontact::settings(int narg, char **arg)
   range_error_ = false;
   for (int iarg = 0; iarg < narg;) {
     if (parse_range(lmp, iarg, narg, arg, range_error_, "pair_style geocontact")) continue;
-    if (strcmp(arg[iarg], "memory") != 0)
-      error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (allowed: "
-                        "memory place|pair, range warn|error; the parameters go in pair_coeff "
-                        "* * P.json)",
-                 arg[iarg]);
-    if (iarg + 1 >= narg)
-      error->all(FLERR, "pair_style geocontact: keyword 'memory' needs a value (place or pair)");
-    if (strcmp(arg[iarg + 1], "place") == 0) place_memory_ = true;
-    else if (strcmp(arg[iarg + 1], "pair") == 0) place_memory_ = false;
-    else
-      error->all(FLERR, "pair_style geocontact: memory must be place or pair, got '{}'",
-                 arg[iarg + 1]);
-    iarg += 2;
+    if (parse_memory(lmp, iarg, narg, arg, place_memory_, "pair_style geocontact")) continue;
+    error->all(FLERR, "Illegal pair_style geocontact command: unexpected argument '{}' (allowed: "
+                      "memory place|pair, range warn|error; the parameters go in pair_coeff "
+                      "* * P.json)",
+               arg[iarg]);
   }
 }
 
@@ -586,6 +578,7 @@ void PairGeocontact::compute(int eflag, int vflag)
         clear_springs(rec);
         clear_ledger(rec);
         rec.travel[0] = rec.travel[1] = rec.forgotten = rec.reset_stored = 0.0;
+        rec.due = 0;
       } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
         rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
       }
@@ -608,9 +601,7 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double envelope = rec.law.max_approach;
       const ContactResult res =
           contact_step(law, constants, cc, rec, geometry, dt, commit);
-      // the envelope set anew (virgin loading): the dent is where the contact is now
-      if (rec.law.max_approach > envelope)
-        rec.travel[0] = rec.travel[1] = 0.0;
+      envelope_moved(rec, envelope);  // virgin loading: the dent is where the contact is now
       rec.energy_scale = sim.energy;
       rec.law_index = tp.law;
       if (stop_beyond) stop_beyond_range(law, rec.law, tag[i], tag[j]);

@@ -66,6 +66,9 @@ class PairGeocontact : public Pair {
   // [16] the contacts loaded beyond their law file's calibrated range (delta_max / delta_y >
   // calibrated_range.max_depth: the law extrapolates there) and [17] the largest
   // delta_max / delta_y among them (0: none; finish_stiffness_outputs, which warns once).
+  // [18] memory place: the normal elastic energy the forgotten dents held less what the fresh
+  // states took over at the same approach, >= 0 (of which in [1]: the reset never creates
+  // energy; contact_forces.h forget_if_safe).
   enum GlobalValue {
     GV_DISSIPATED, GV_ELASTIC, GV_CONTACTS, GV_PLASTIC_CONTACTS, GV_MAX_STIFFNESS,
     GV_CRITICAL_DT, GV_SLIDING, GV_NORMAL_DAMPING, GV_TANGENTIAL_DAMPING, GV_ROLLING,
@@ -132,9 +135,10 @@ class PairGeocontact : public Pair {
   double beyond_range_ = 0.0, deepest_beyond_ = 0.0;
   bool range_warned_ = false;
   // pair_style geocontact memory place|pair: the dent forgotten once the contact point has
-  // travelled 2 a_max on either grain (place, the default), or kept for as long as the pair
-  // stays in the neighbor list (pair, the behaviour before; docs/dem.md "Memory with a place")
-  bool place_memory_ = true;
+  // travelled 2 a_max on either grain and forgetting creates no energy (place), or kept for as
+  // long as the pair stays in the neighbor list (pair, the default; docs/dem.md "Memory with a
+  // place")
+  bool place_memory_ = false;
   // pair_style geocontact range error: stop at the first contact beyond the law file's
   // calibrated range (range warn, the default: count it, say so once)
   bool range_error_ = false;

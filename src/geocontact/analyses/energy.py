@@ -35,6 +35,7 @@ PAIR_INDEX = {
                    "rolling": 9, "twisting": 10},
     "stored": {"normal": 1, "tangential": 12, "rolling": 13, "twisting": 14},
     "of_which_contact_radius": 11,
+    "of_which_memory_reset": 17,
 }
 # fix wall/geocontact: 0-based indices of its global vector (fix_wall_geocontact.h Global)
 WALL_INDEX = {
@@ -43,6 +44,7 @@ WALL_INDEX = {
     "stored": {"normal": 4, "tangential": 14, "rolling": 15, "twisting": 16},
     "of_which_contact_radius": 13,
     "boundary_work": 17,
+    "of_which_memory_reset": 20,
 }
 STORED = tuple(PAIR_INDEX["stored"])
 DISSIPATED = tuple(PAIR_INDEX["dissipated"])
@@ -76,7 +78,7 @@ def energy_ledger(lmp, pair: str | None = "law", walls: tuple[str, ...] = (),
 
     stored = dict.fromkeys(STORED, 0.0)
     dissipated = dict.fromkeys(DISSIPATED, 0.0)
-    radius_part = 0.0
+    radius_part = reset_part = 0.0
     work = 0.0
     sources = []
     if pair is not None:
@@ -91,10 +93,12 @@ def energy_ledger(lmp, pair: str | None = "law", walls: tuple[str, ...] = (),
         for name, k in index["dissipated"].items():
             dissipated[name] += value(k)
         radius_part += value(index["of_which_contact_radius"])
+        reset_part += value(index["of_which_memory_reset"])
         if "boundary_work" in index:
             work += value(index["boundary_work"])
     return {"boundary_work": work, "gravity_work": gravity_work, "kinetic": kinetic_energy(lmp),
-            "stored": stored, "dissipated": dissipated, "of_which_contact_radius": radius_part}
+            "stored": stored, "dissipated": dissipated, "of_which_contact_radius": radius_part,
+            "of_which_memory_reset": reset_part}
 
 
 def ledger_change(start: dict, end: dict) -> dict:
@@ -118,6 +122,11 @@ def ledger_change(start: dict, end: dict) -> dict:
         # contact radius (contact_forces.h LedgerChannel)
         "of_which_contact_radius_change_J":
             end["of_which_contact_radius"] - start["of_which_contact_radius"],
+        # part of the law's: the normal elastic energy the dents `memory place` forgot held
+        # less what the fresh states took over (>= 0: forgetting never creates energy;
+        # docs/dem.md "Memory with a place"); 0 under memory pair
+        "of_which_memory_reset_J":
+            end.get("of_which_memory_reset", 0.0) - start.get("of_which_memory_reset", 0.0),
         # the tangential contact's whole dissipation: where the dashpot's force alone exceeds
         # the Coulomb limit, the slip reset stores the spring along the sliding velocity (as
         # LAMMPS's granular models do) and the split between the two is the model's, with
@@ -147,5 +156,7 @@ def read_ledger_table(path: Path) -> dict[str, dict]:
             "stored": {k: value[f"stored_{k}_J"] for k in STORED},
             "dissipated": {k: value[f"dissipated_{k}_J"] for k in DISSIPATED},
             "of_which_contact_radius": value["of_which_contact_radius_J"],
+            # a ledger.txt written before the column: no memory resets counted
+            "of_which_memory_reset": value.get("of_which_memory_reset_J", 0.0),
         }
     return rows
