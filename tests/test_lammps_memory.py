@@ -322,22 +322,27 @@ def test_bad_memory_arguments_are_one_line_lammps_errors(argument, message):
 # started fresh; w_max at the reload's top), a kept one on the dent's (the Python law carried
 # on; w_max at PEAK / 2).
 DRUM = 0.9
+WALL_REGIONS = ("region floor plane 0 0 0 0 0 1 side in",
+                f"region drum cylinder z 0 0 {DRUM} -1 1 side in")
 WALL_VECTOR = {"law": 3, "stored": 4, "reset": 20}
+
+
+def wall_fix(kind: str, memory: str | None, friction: float = 0.5) -> str:
+    memory_kw = f" memory {memory}" if memory else ""
+    contact = f"{PARAMS_FILE} friction {friction}{memory_kw}"
+    return {"plane": f"fix wall all wall/geocontact {contact} zplane 0 NULL",
+            "region": f"fix wall all wall/geocontact/region {contact} floor",
+            "drum": f"fix wall all wall/geocontact/region {contact} drum"}[kind]
 
 
 def wall_grain(kind: str, memory: str | None, friction: float = 0.5):
     lmp = open_lammps()
-    memory_kw = f" memory {memory}" if memory else ""
-    contact = f"{PARAMS_FILE} friction {friction}{memory_kw}"
-    fix = {"plane": f"fix wall all wall/geocontact {contact} zplane 0 NULL",
-           "region": f"fix wall all wall/geocontact/region {contact} floor",
-           "drum": f"fix wall all wall/geocontact/region {contact} drum"}[kind]
+    fix = wall_fix(kind, memory, friction)
     for line in ("units si", "atom_style sphere", "atom_modify map array", "boundary f f f",
                  "comm_modify vel yes", "region box block -1 1 -1 1 -1 1", "create_box 1 box",
                  "create_atoms 1 single 0 0 0.5", f"set type 1 diameter {2 * R}",
                  f"set type 1 density {DENSITY}", "neighbor 0.01 bin", f"timestep {DT}",
-                 "region floor plane 0 0 0 0 0 1 side in",
-                 f"region drum cylinder z 0 0 {DRUM} -1 1 side in", fix, "thermo 1",
+                 *WALL_REGIONS, fix, "thermo 1",
                  "thermo_style custom step f_wall[4] f_wall[5]"):
         lmp.command(line)
     return lmp
@@ -383,11 +388,13 @@ def wall_dent_radius() -> float:
     return a_max
 
 
-def wall_history(kind: str, memory: str | None, travel: float, *, rolling: bool):
+def wall_history(kind: str, memory: str | None, travel: float, *, rolling: bool,
+                 restart: Path | None = None):
     """Press, unload to HELD / 2, carry the grain `travel` along the wall (the contact point's
     distance over the grain when rolling on a plane or carried round the drum; a slide without
     spin on a plane moves the grain, not the point), unload off the wall and reload to
-    HELD / 2. Returns (w, row, vector) per step after the carry."""
+    HELD / 2. Returns (w, row, vector) per step after the carry. `restart`: written half-way
+    through the carry and read back."""
     lmp = wall_grain(kind, memory)
     for k, d in enumerate(np.linspace(-0.5 * DY, PEAK, 31)):
         place_grain(lmp, kind, 0.5 * d, first=k == 0)
@@ -403,6 +410,10 @@ def wall_history(kind: str, memory: str | None, travel: float, *, rolling: bool)
     spin = speed / arm if rolling else 0.0
     for k in range(1, MOVE_STEPS + 1):
         place_grain(lmp, kind, w, speed * k * DT, speed, spin)
+        if restart is not None and k == MOVE_STEPS // 2:
+            lmp = scenarios.reopen_from_restart(lmp, restart, "neighbor 0.01 bin",
+                                                *WALL_REGIONS, wall_fix(kind, memory),
+                                                "thermo 1")
     path = [*np.linspace(HELD, -0.5 * DY, 42)[1:], *np.linspace(-0.5 * DY, HELD, 42)[1:]]
     rows = [(0.5 * d, *place_grain(lmp, kind, 0.5 * d, end)) for d in path]
     lmp.close()
@@ -472,6 +483,20 @@ def test_a_grain_carried_round_a_drum_forgets_its_dent_past_it(factor, forgotten
         assert w_max > 0.5 * HELD * 1.2
     law = np.array([v[WALL_VECTOR["law"]] for _, _, v in rows])
     assert np.all(np.diff(law) >= -1e-12 * law.max())
+
+
+@pytest.mark.parametrize("kind", ["plane", "drum"])
+def test_a_wall_restart_carries_the_travel_and_the_last_normal(tmp_path, kind):
+    """Rolled (plane) or carried round (drum) by 1.6 x 2 a_max with a restart half-way: the
+    same steps as the uninterrupted run, to round-off, and the dent forgotten, which the second
+    half alone (0.8 x 2 a_max) would not do: the travelled distance is in the wall's records
+    (with the due flag and the last normal, from which the drum's turn is taken)."""
+    a_max = wall_dent_radius()
+    runs = [wall_history(kind, "place", 1.6 * 2 * a_max, rolling=kind == "plane",
+                         restart=restart) for restart in (None, tmp_path / "wall.restart")]
+    (whole, split) = (np.array([row for _, row, _ in run]) for run in runs)
+    assert split[-1][3] == pytest.approx(0.5 * HELD, rel=1e-9)  # forgotten
+    assert np.allclose(split, whole, rtol=1e-12, atol=1e-12 * np.abs(whole).max())
 
 
 def test_bad_wall_memory_arguments_are_one_line_lammps_errors():

@@ -741,7 +741,7 @@ def test_one_restart_carries_several_parameter_files(cycled_runs):
 # format, so removing its 8 tag bytes leaves exactly an older plugin's pair section, which
 # began with the number of parameter documents.
 PAIR_TAG = b"GCPS" + struct.pack("<i", 6)
-HISTORY_TAG = struct.pack("<q", (int.from_bytes(b"GCHS", "little") << 32) | 6)
+HISTORY_TAG = struct.pack("<q", (int.from_bytes(b"GCHS", "little") << 32) | 7)
 
 
 def _replace(old: bytes, new: bytes, expected: int):
@@ -757,9 +757,9 @@ def _replace(old: bytes, new: bytes, expected: int):
                                  "where the tag 0x53504347 belongs"),
     (_replace(PAIR_TAG, b"GCPS" + struct.pack("<i", 7), 1),
      "pair section has layout version 7; this plugin reads pair layout versions 1 to 6 only"),
-    (_replace(HISTORY_TAG, HISTORY_TAG[:4].replace(b"\x06", b"\x07") + HISTORY_TAG[4:], 2),
-     "per-atom contact history has contact-history layout version 7; this plugin reads "
-     "contact-history layout versions 1 to 6 only"),
+    (_replace(HISTORY_TAG, HISTORY_TAG[:4].replace(b"\x07", b"\x08") + HISTORY_TAG[4:], 2),
+     "per-atom contact history has contact-history layout version 8; this plugin reads "
+     "contact-history layout versions 1 to 7 only"),
     (_replace(HISTORY_TAG, struct.pack("<d", 1.0), 2),
      "per-atom contact history has no geocontact layout tag \\(0x3ff0000000000000"),
 ], ids=["intact", "pair-older-layout", "pair-other-version", "history-other-version",

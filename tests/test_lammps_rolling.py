@@ -267,14 +267,15 @@ def test_restart_with_rolling_and_twist_history_continues_as_the_uninterrupted_r
 
 
 @pytest.mark.parametrize("name", ["pair-v1.restart", "pair-v2.restart", "pair-v3.restart",
-                                  "pair-v4.restart", "pair-v5.restart"])
+                                  "pair-v4.restart", "pair-v5.restart", "pair-v6.restart"])
 def test_pair_restart_files_of_older_layouts_are_still_read(name):
     """Files written by older plugins (tests/data/make_layout_restarts.py): version 1, before
     rolling, version 2, before the cumulative dissipation tally, version 3, before the contact
-    radius in the record, version 4, before the energy ledger, and version 5, before the
-    travelled distances: the pair's contacts carry on as the same run with this plugin (zero
-    rolling and twist history; the energy scale set and the contact radius taken from the law
-    state at the next step; the ledger from zero; travel 0, far below the dent's diameter here). The
+    radius in the record, version 4, before the energy ledger, version 5, before the
+    travelled distances, and version 6, before the due flag: the pair's contacts carry on as
+    the same run with this plugin (zero rolling and twist history; the energy scale set and the
+    contact radius taken from the law state at the next step; the ledger from zero; travel 0,
+    far below the dent's diameter here; not due). The
     normal history is the run's to round-off. The tangential force these plugins stored was
     not rescaled as the contact radius fell (issue 34), so the file's differs from this
     plugin's run: it is rescaled at the first step (and never above the Coulomb limit), and
@@ -301,11 +302,13 @@ def test_pair_restart_files_of_older_layouts_are_still_read(name):
     assert after[0, 4] <= 0.5 * after[0, 3] * (1 + 1e-12)  # the slipping pair's friction 0.5
 
 
-@pytest.mark.parametrize("name", ["wall-v1.restart", "wall-v2.restart", "wall-v3.restart"])
+@pytest.mark.parametrize("name", ["wall-v1.restart", "wall-v2.restart", "wall-v3.restart",
+                                  "wall-v4.restart"])
 def test_wall_restart_files_of_older_layouts_are_still_read(name):
     """The wall's files written by the plugin before rolling (version 1), before the contact
-    radius (version 2) and before the energy ledger (version 3; tests/data/make_layout_restarts.py)
-    carry on as the same contact with this plugin."""
+    radius (version 2), before the energy ledger (version 3) and before memory with a place
+    (version 4; tests/data/make_layout_restarts.py) carry on as the same contact with this
+    plugin."""
     import test_lammps_wall as wall_tests
 
     radius = 0.1

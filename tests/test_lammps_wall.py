@@ -431,13 +431,13 @@ def test_restart_with_pair_and_wall_histories_together(tmp_path):
 
 # the per-atom layout tag as the fix writes it (fix_wall_geocontact.h): "GCWA" in the high, the
 # layout version in the low 32 bits of a 64-bit word, once per atom
-ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCWA", "little") << 32) | 4)
+ATOM_TAG = struct.pack("<q", (int.from_bytes(b"GCWA", "little") << 32) | 5)
 
 
 @pytest.mark.parametrize(("edit", "fix", "message"), [
     (None, "zplane 0.0 0.5", None),
-    (ATOM_TAG[:4].replace(b"\x04", b"\x05") + ATOM_TAG[4:], "zplane 0.0 0.5",
-     "wall contacts have wall layout version 5; this fix reads wall layout versions 1 to 4 "
+    (ATOM_TAG[:4].replace(b"\x05", b"\x06") + ATOM_TAG[4:], "zplane 0.0 0.5",
+     "wall contacts have wall layout version 6; this fix reads wall layout versions 1 to 5 "
      "only"),
     (struct.pack("<d", 1.0), "zplane 0.0 0.5", "wall contacts have no wall/geocontact layout tag"),
     (None, "zplane 0.0 NULL", "wall contacts are for 2 wall\\(s\\), this fix wall has 1"),

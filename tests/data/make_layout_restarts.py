@@ -11,6 +11,9 @@ Version 3 (before the contact radius in the records, when the tangential force w
 with it; commit 6d76908): pair-v3.restart and wall-v2.restart (the wall's layout version 2).
 Version 5 (before the travelled distances of memory with a place; commit 8ae4650):
 pair-v5.restart (the pair's own section at its layout version 4; the wall's did not change).
+Version 6 (before the due flag of the energy-safe memory reset and the walls' memory; commit
+1647bcb): pair-v6.restart (history layout 6, the pair's own section at its layout version 6) and
+wall-v4.restart (the wall's layout version 4).
 
 pair-vN.restart: the slipping pair of test_lammps_plugin.py after PAIR_STEPS steps of its
 approach path (plastic, unloading, a tangential force built up); wall-vN.restart: the grain of
@@ -31,7 +34,7 @@ import test_lammps_wall as wall_tests  # noqa: E402
 PAIR_STEPS = 33
 WALL_RADIUS = 0.1
 # the wall's layout version at the commit of each pair (history) layout version that wrote one
-WALL_LAYOUT = {1: 1, 3: 2, 4: 3}
+WALL_LAYOUT = {1: 1, 3: 2, 4: 3, 6: 4}
 
 
 def wall_interference() -> float:

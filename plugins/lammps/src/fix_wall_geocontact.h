@@ -70,7 +70,7 @@ class FixWallGeocontact : public Fix {
   // distances, the due flag, the forgotten law work and its change of stored energy, the last
   // step's normal (layout version 1: the first 17 of them, version 2: the first 21, version 3:
   // the first 22, version 4: up to the ledger's)
-  static constexpr int kRecordSize = 31 + geocontact_forces::kLedgerSlots;
+  static constexpr int kRecordSize = 30 + geocontact_forces::kLedgerSlots;
   static constexpr int kRecordSizeV1 = 17;
   static constexpr int kRecordSizeV2 = 21;
   static constexpr int kRecordSizeV3 = 22;
