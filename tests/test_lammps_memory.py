@@ -472,7 +472,8 @@ def test_a_grain_keeps_its_wall_dent_when_its_contact_point_has_not_left_it(kind
 def test_a_grain_carried_round_a_drum_forgets_its_dent_past_it(factor, forgotten):
     """Carried round the inside of a region drum without spin, the grain's contact normal turns
     and the point moves over the grain by b theta: past 2 a_max (the flat floor's, within a few
-    per cent of the drum's R_eff = 1.125 R contact) the dent is forgotten once the grain leaves
+    per cent of the drum's: its R_eff = r rho / (r + rho) = 1.06 R, rho = -2 DRUM as LAMMPS
+    reports a cylinder's curvature) the dent is forgotten once the grain leaves
     the wall (w_max after the reload: its top), short of it kept (w_max: the press's)."""
     a_max = wall_dent_radius()
     rows = wall_history("drum", "place", factor * 2 * a_max, rolling=False)

@@ -96,9 +96,10 @@ def register(sub) -> None:
                         "(virgin loading to 1 and 2 MPa, each with an unload-reload loop to a "
                         "quarter; the contacts of mm grains yield well), unless given")
     p.add_argument("--memory", default=None, choices=["pair", "place"],
-                   help="oedometer, seismic: pair_style geocontact memory: pair (default, the "
-                        "dent follows the pair) or place (forgotten past the contact diameter; "
-                        "docs/dem.md 'Memory with a place')")
+                   help="oedometer, seismic: the memory of pair_style geocontact and the "
+                        "geocontact walls: pair (default, the dent follows the contact record) "
+                        "or place (forgotten once the contact point has travelled past it, "
+                        "without creating energy; docs/dem.md 'Memory with a place')")
     p.add_argument("--seed", type=int, default=None, help="random seed of the sample")
     p.add_argument("--out", help="output directory (written as one unit)")
     add_force_flag(p)
