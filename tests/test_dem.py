@@ -171,13 +171,19 @@ def test_one_and_two_ranks_agree_statistically(tmp_path):
 
 
 def test_memory_flag_reaches_the_pair_style(tmp_path):
-    """--memory place: the run's pair style forgets dents past the contact diameter
-    (docs/dem.md "Memory with a place"); the choice is in the run's log and its inputs."""
+    """--memory place: the run's pair style and its geocontact walls forget dents past the
+    contact diameter (docs/dem.md "Memory with a place"); the choice is in the run's log and
+    its inputs, and the law's tally never falls (the energy-safe reset creates no energy)."""
     out = tmp_path / "oed"
     assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "300", "--inertia", "1e-2",
                  "--targets", "1.5", "0.5", "--contact", "geocontact", "--memory", "place",
                  "--out", str(out)]) == 0
-    assert "pair_style geocontact memory place" in (out / "geocontact.log").read_text()
+    log = (out / "geocontact.log").read_text()
+    assert "pair_style geocontact memory place" in log
+    # the floor and the top wall
+    assert "memory place zplane 0 NULL" in log and "memory place zplane NULL" in log
+    law = read_csv_column(out / "geocontact" / "series.csv", "law_dissipated_J")
+    assert np.all(np.diff(law) >= 0)
     inputs = json.loads((out / "summary.json").read_text())["provenance"]["inputs"]
     assert inputs["extra"]["memory"] == "place"
 
