@@ -22,10 +22,8 @@ LAW = Path("examples/params-reference.json")
 RECORD = "KOBE/NIS000"
 # a fast plumbing run: 300 grains, every 32nd record sample, far from quasi-static (inertia
 # number 0.05: the compressed record shakes the sample above its resonance)
-# `memory pair`: the law's tally of this run never falls (test_settlement_and_dissipation), which
-# is the pair style's cumulative tally of dropped contacts; under `memory place` (the default)
-# the law's channel also takes the change of stored energy of the dents forgotten, which can
-# lower it (docs/dem.md "Memory with a place"; tests/test_lammps_memory.py tests that rule)
+# `memory pair`, the default (docs/dem.md "Memory with a place": `place` forgets dents without
+# creating energy, so the law's tally never falls under either; measured there on this sample)
 SMALL = {"grains": 300, "decimate": 32, "inertia": 0.05,
          "extra": {"nhold": "500", "inertia": "2e-2", "holdtol": "0.3", "memory": "pair"}}
 
