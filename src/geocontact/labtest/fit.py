@@ -312,6 +312,17 @@ class Prepared:
     nu: float
     beta: float
     m: float
+    # the other contact point (the whole record's, or its refinement on the Hertz onset): which
+    # of the two the fit takes is decided by the model of the whole virgin loading
+    # (``choose_contact``)
+    alternative: Prepared | None = None
+
+    def candidates(self) -> list[Prepared]:
+        return [self] + ([self.alternative] if self.alternative is not None else [])
+
+    @property
+    def contact_source(self) -> str:
+        return "onset_refinement" if "whole_record" in self.test.contact else "whole_record"
 
     def first_estimate(self) -> Material:
         """The material with sigma_c analytic at the departure force (a seed: high)."""
@@ -340,22 +351,54 @@ def prepare(record: Record, setup: str, radius: float, *, machine_stiffness=None
     kh = _first_coefficient(test, vd, vf, scale)
     leave = departure(vd, vf, kh, test.noise)
     refined = _refine_on_onset(record, test, leave, machine_stiffness, force)
-    if refined is not None:
-        test = refined
-        vd, vf = _virgin(test)
-        # K of the onset fit (contact free, pre-contact points in): the Hertz part's own
-        kh = test.contact["stiffness"] * scale
-        leave = departure(vd, vf, kh, test.noise)
-        return Prepared(test, vd, vf, kh, leave, nu, beta, m)
-    hertz = hertz_part(vd, vf, leave["approach_m"], test.noise)
-    if hertz is not None:
-        # K of the Hertz part alone (the envelope's onset carries the bend's form error)
-        test.contact["hertz_part"] = hertz
-        kh = hertz["coefficient"]
-        leave = departure(vd, vf, kh, test.noise)
-    return Prepared(test, vd, vf, kh, leave, nu, beta, m)
+    whole = _with_hertz_part(Prepared(test, vd, vf, kh, leave, nu, beta, m))
+    if refined is None:
+        return whole
+    vd, vf = _virgin(refined)
+    # K of the onset fit (contact free, pre-contact points in): the Hertz part's own
+    kh = refined.contact["stiffness"] * scale
+    onset = Prepared(refined, vd, vf, kh, departure(vd, vf, kh, refined.noise), nu, beta, m)
+    # before a model of the whole virgin loading can judge (choose_contact), the more precise
+    # of the two comes first (what --identify departure keeps)
+    pair = 2.0 if test.setup == "flat" else 1.0
+    precise = (refined.contact["onset_refinement"]["approach_shift_se_m"]
+               < pair * test.contact["contact_displacement_se_m"])
+    first, other = (onset, whole) if precise else (whole, onset)
+    first.alternative = other
+    return first
 
 
+def _with_hertz_part(prepared: Prepared) -> Prepared:
+    """K of the Hertz part alone (the envelope's onset K carries the bend's form error), when
+    enough virgin points lie below the departure."""
+    vd, vf, test = prepared.virgin_approach, prepared.virgin_force, prepared.test
+    hertz = hertz_part(vd, vf, prepared.departure["approach_m"], test.noise)
+    if hertz is None:
+        return prepared
+    test.contact["hertz_part"] = hertz
+    kh = hertz["coefficient"]
+    return replace(prepared, hertz_coefficient=kh, departure=departure(vd, vf, kh, test.noise))
+
+
+def choose_contact(prepared: Prepared, misfit, by: str) -> Prepared:
+    """Of the whole-record contact and its refinement on the Hertz onset, the one under which
+    ``misfit`` (of a model of the whole virgin loading: the FE master curve's scale fit, the
+    universal law's) is lower. The onset refinement places the contact on the first loading's
+    Hertz part alone, and that part of a record can carry its own form error (on an FE-made
+    record the force steps as contact nodes engage: -1.6 nm of approach on the noise-free flat
+    test); the model of the whole loading says which contact the rest of the record agrees
+    with. Returns the chosen candidate, its contact annotated (``choice``)."""
+    options = prepared.candidates()
+    scores = {p.contact_source: float(misfit(p)) for p in options}
+    if len(options) == 1:
+        return prepared
+    best = min(options, key=lambda p: scores[p.contact_source])
+    best.test.contact["choice"] = {"chosen": best.contact_source, "by": by, "misfit": scores}
+    return replace(best, alternative=None)
+
+
+BY_MASTER = "misfit of the FE master curve's scale fit over the virgin loading"
+BY_UNIVERSAL = "misfit of the universal law along the whole record"
 HERTZ_PART_POINTS = 20  # virgin points above the noise below the departure to refit K
 ONSET_SHARE = 0.5  # the onset refinement: below this share of the departure force (the
                    # points between it and the departure are up to 3 % below Hertz)
@@ -366,16 +409,15 @@ def _refine_on_onset(record: Record, test: LabTest, leave: dict, machine_stiffne
                      force) -> LabTest | None:
     """The record conditioned again at the contact refined on the Hertz onset
     (``contact.fit_onset``) when the onset is resolved (enough points above the noise below the
-    departure) and places the contact more precisely than the whole record did: the envelope's
-    bend past yield carries a form error the Hertz part has not. None otherwise."""
+    departure; the envelope's bend past yield carries a form error the Hertz part has not, and
+    the Hertz part may carry its own: ``choose_contact``). None otherwise."""
     first_peak = test.cycles[0].peak if test.cycles else test.force.size - 1
     onset = fit_onset(test.approach, test.force, test.noise, ONSET_SHARE * leave["force_N"],
                       first_peak)
     whole = dict(test.contact)
     pair = 2.0 if test.setup == "flat" else 1.0  # approach per machine displacement
-    if onset is None or not (onset["approach_shift_se_m"]
-                             < pair * whole["contact_displacement_se_m"]):
-        test.contact["onset_refinement"] = onset or "too few points above the noise"
+    test.contact["onset_refinement"] = onset or "too few points above the noise"
+    if onset is None:
         return None
     contact = {**whole,
                "contact_displacement_m": whole["contact_displacement_m"]
@@ -432,6 +474,14 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         prepared = prepare(record, setup, radius, machine_stiffness=machine_stiffness,
                            poissons_ratio=poissons_ratio, friction_angle=friction_angle,
                            hardening_ratio=hardening_ratio, force=force)
+    if master is not None:
+        from .identify import scale_fit
+
+        prepared = choose_contact(prepared, lambda p: scale_fit(
+            master, p.virgin_approach, p.virgin_force, p.test.noise)[2], BY_MASTER)
+    elif prepared.alternative is not None:  # nothing to judge by: the more precise one
+        prepared = choose_contact(prepared, lambda p: 0.0 if p is prepared else 1.0,
+                                  "standard error (no model of the whole virgin loading)")
     test, vd, vf = prepared.test, prepared.virgin_approach, prepared.virgin_force
     kh, leave = prepared.hertz_coefficient, prepared.departure
     nu, beta, m = prepared.nu, prepared.beta, prepared.m
@@ -519,15 +569,28 @@ def refit(record: Record, result: LabFit, setup: str, radius: float, force,
     sigma_c identified again from the whole resampled record (about the main fit's)."""
     if result.universal is None:
         return fit_once(record, setup, radius, force=force, master=result.master, **options)
+
+    prepared, found = _universal(prepare(record, setup, radius, force=force, **options),
+                                 beta_given=True,
+                                 start_sigma=result.universal["compressive_yield_stress_Pa"])
+    return fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
+
+
+def _universal(prepared: Prepared, **options) -> tuple[Prepared, dict]:
+    """sigma_c identified with the universal law (``identify.identify_universal``) for each
+    contact candidate; the one whose whole-record misfit is lower (``choose_contact``)."""
     from .identify import identify_universal
 
-    prepared = prepare(record, setup, radius, force=force, **options)
-    found = identify_universal(
-        prepared.first_estimate(), prepared.virgin_approach, prepared.virgin_force,
-        prepared.test.noise, beta_given=True, approach=prepared.test.approach,
-        force=prepared.test.force,
-        start_sigma=result.universal["compressive_yield_stress_Pa"])
-    return fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
+    found = {}
+
+    def misfit(p: Prepared) -> float:
+        found[p.contact_source] = identify_universal(
+            p.first_estimate(), p.virgin_approach, p.virgin_force, p.test.noise,
+            approach=p.test.approach, force=p.test.force, **options)
+        return found[p.contact_source]["misfit"]
+
+    chosen = choose_contact(prepared, misfit, BY_UNIVERSAL)
+    return chosen, found[chosen.contact_source]
 
 
 def bootstrap(record: Record, result: LabFit, setup: str, radius: float, *, samples: int,
@@ -596,18 +659,15 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     if identify == "fe":
         from .identify import identify_by_fe
 
-        found = identify_by_fe(start, prepared.virgin_approach, prepared.virgin_force,
+        found = identify_by_fe(start, [(p.virgin_approach, p.virgin_force)
+                                       for p in prepared.candidates()],
                                prepared.test.noise, mesh=mesh, cache_dir=cache_dir,
                                progress=progress is not None)
         result = fit_once(record, setup, radius, master=found["master"], prepared=prepared,
                           **options)
         result.identification = {k: v for k, v in found.items() if k != "master"}
     elif identify == "universal":
-        from .identify import identify_universal
-
-        found = identify_universal(start, prepared.virgin_approach, prepared.virgin_force,
-                                   prepared.test.noise, beta_given=friction_angle is not None,
-                                   approach=prepared.test.approach, force=prepared.test.force)
+        prepared, found = _universal(prepared, beta_given=friction_angle is not None)
         result = fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
         result.identification = {k: v for k, v in found.items() if k != "material"}
         result.identification["universal_law"] = {"used": True, **found["universal"]}

@@ -190,31 +190,37 @@ def valley(curve: dict, vd, vf, noise: float, best: tuple[float, float]) -> dict
                           "separate along the sigma_c-E correlation"}
 
 
-def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coarse",
+def identify_by_fe(material: Material, virgins, noise: float, *, mesh: str = "coarse",
                    cache_dir=None, progress: bool = False) -> dict[str, Any]:
     """sigma_c (at the material's E, nu, beta, m) whose FE virgin loading reproduces the
-    measured one (module docstring). Returns the identified material, the FE yield of the last
-    round and the rounds."""
+    measured one (module docstring). ``virgins``: the measured virgin loading (approach, force)
+    at each candidate contact point (``fit.choose_contact``); each round takes the one the
+    master curve fits best. Returns the identified material, the FE yield of the last round,
+    the rounds and which candidate the last round took (``virgin_choice``)."""
     from ..fem.campaign import DEFAULT_CACHE
 
     cache_dir = DEFAULT_CACHE if cache_dir is None else cache_dir
-    vd, vf = np.asarray(vd, float), np.asarray(vf, float)
+    virgins = [(np.asarray(a, float), np.asarray(b, float)) for a, b in virgins]
     rounds = []
     trial = material
     for _ in range(ROUNDS):
-        top = float(vf.max())
+        top = max(float(b.max()) for _, b in virgins)
         fy_trial = incipient_yield(trial).force
         # deep enough for any scale the fit may take (s down to 0.25: Fy / 64)
         depth_force = DEPTH_MARGIN * top
         curve = master_curve(trial, max(depth_force, 2.0 * fy_trial), mesh=mesh,
                              cache_dir=cache_dir, progress=progress)
-        s, e, misfit, profile = scale_fit(curve, vd, vf, noise)
+        fits = [scale_fit(curve, a, b, noise) for a, b in virgins]
+        choice = min(range(len(fits)), key=lambda k: fits[k][2])
+        vd, vf = virgins[choice]
+        s, e, misfit, profile = fits[choice]
         sigma = s * trial.compressive_yield_stress
         modulus = e * trial.youngs_modulus  # E* ~ E at a fixed nu
         rounds.append({"trial_sigma_c_Pa": trial.compressive_yield_stress,
                        "trial_youngs_modulus_Pa": trial.youngs_modulus, "scale": s,
                        "modulus_scale": e, "sigma_c_Pa": sigma, "youngs_modulus_Pa": modulus,
-                       "misfit": misfit, "fe_cache_key": curve["cache_key"],
+                       "misfit": misfit, "virgin_choice": choice,
+                       "misfits": [f[2] for f in fits], "fe_cache_key": curve["cache_key"],
                        "fe_max_force_N": curve["max_force_N"], "profile": profile})
         done = abs(s - 1.0) < TOLERANCE and abs(e - 1.0) < TOLERANCE
         trial = trial.with_(compressive_yield_stress=sigma, youngs_modulus=modulus)
@@ -233,7 +239,7 @@ def identify_by_fe(material: Material, vd, vf, noise: float, *, mesh: str = "coa
             "mesh": mesh, "compressive_yield_stress_Pa": trial.compressive_yield_stress,
             "youngs_modulus_Pa": trial.youngs_modulus,
             "yield_force_N": float(fy),
-            "rounds": rounds, "converged": done,
+            "rounds": rounds, "converged": done, "virgin_choice": choice,
             "master": curve}
 
 
