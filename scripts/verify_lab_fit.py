@@ -161,12 +161,9 @@ def _committed_master(name: str) -> dict:
     """The FE master curve a test's identification ended on (tests/data/labtest)."""
     from make_synthetic_lab_tests import MASTERS
 
-    from geocontact.grain.material import Material
+    from geocontact.labtest.identify import read_master
 
-    data = json.loads((MASTERS / f"{name}.master.json").read_text())
-    data["material"] = Material(**data["material"])
-    data["x"], data["g"] = np.asarray(data["x"]), np.asarray(data["g"])
-    return data
+    return read_master(MASTERS / f"{name}.master.json")
 
 
 def verify_shape(name: str, cache: Path, tests: Path) -> dict:

@@ -214,12 +214,9 @@ def test_too_few_cycles_for_the_law():
 
 # --- the fit of a committed synthetic test ------------------------------------------------------
 def _master(name):
-    from geocontact.grain.material import Material
+    from geocontact.labtest.identify import read_master
 
-    data = json.loads((ROOT / "tests" / "data" / "labtest" / f"{name}.master.json").read_text())
-    data["material"] = Material(**data["material"])
-    data["x"], data["g"] = np.asarray(data["x"]), np.asarray(data["g"])
-    return data
+    return read_master(ROOT / "tests" / "data" / "labtest" / f"{name}.master.json")
 
 
 @pytest.mark.parametrize("name,tolerances", [

@@ -23,7 +23,6 @@ import pytest
 
 from geocontact.cli.fit_output import law_along, path_rms_percent
 from geocontact.errors import InputError
-from geocontact.grain.material import Material
 from geocontact.labtest import condition, read_test
 from geocontact.labtest.curve import Record, displacement_of
 from geocontact.labtest.fit import fit_once
@@ -40,11 +39,9 @@ RESIDUAL_GOAL = 0.10  # docs/fit.md acceptance: residual approach at each return
 
 
 def _master():
-    data = json.loads((ROOT / "tests" / "data" / "labtest" /
-                       "platens-quartzite.master.json").read_text())
-    data["material"] = Material(**data["material"])
-    data["x"], data["g"] = np.asarray(data["x"]), np.asarray(data["g"])
-    return data
+    from geocontact.labtest.identify import read_master
+
+    return read_master(ROOT / "tests" / "data" / "labtest" / "platens-quartzite.master.json")
 
 
 def _fit(name: str):

@@ -114,6 +114,8 @@ def _fit(args, record, started: float) -> int:
           f"({time.perf_counter() - started:.1f} s)")
     where = ("refined on the Hertz onset" if "whole_record" in result.contact
              else "from the whole record")
+    if "choice" in result.contact:
+        where += f"; chosen by the {result.contact['choice']['by']}"
     print(f"contact point at displacement {result.contact['contact_displacement_m']:.4g} ± "
           f"{result.contact['contact_displacement_se_m']:.2g} m ({where}), "
           f"load-cell offset {result.contact['offset_N']:.3g} N, noise "
@@ -122,7 +124,15 @@ def _fit(args, record, started: float) -> int:
     print(f"machine compliance: F / k subtracted, k = {k:.4g} N/m" if k else
           "machine compliance: none subtracted (--machine-stiffness not given; a press's own "
           "compliance left in the record lowers E and sigma_c)")
-    print(line("Young's modulus E", "youngs_modulus_Pa", 1e9, "GPa"))
+    route = result.modulus_route
+    print(line("Young's modulus E", "youngs_modulus_Pa", 1e9, "GPa") + "  (" + (
+        "unloading stiffness S = 2 E* a: the record does not resolve its Hertz part"
+        if route["route"] == "unloading_stiffness" else "Hertz part") + ")")
+    if route.get("unloading_stiffness_Pa") and route["route"] != "unloading_stiffness":
+        se = route.get("unloading_stiffness_standard_error_Pa")
+        print(f"  {'':28s} the unloading stiffness gives "
+              f"{route['unloading_stiffness_Pa'] / 1e9:.4g}"
+              + (f" ± {se / 1e9:.2g}" if se else "") + " GPa")
     source = ("FE master curve" if result.master is not None else "universal law"
               if result.universal is not None else "departure from Hertz: a first estimate")
     print(line("yield stress sigma_c", "compressive_yield_stress_Pa", 1e6, "MPa")

@@ -201,6 +201,8 @@ def levels_of(test: LabTest, virgin_d, virgin_f) -> tuple[list[LevelData], list[
         peak = _peak(test, c)
         un = c.unloading()
         dres, n, rms = unloading_law(d[un], f[un], peak, test.noise)
+        # the unloading's initial slope (Oliver & Pharr 1992: the power law's at the peak)
+        stiffness = n * peak.force / (peak.approach - dres)
         dres = max(dres, 0.0)
         below = vd <= peak.approach
         total = float(np.trapezoid(np.append(vf[below], peak.force),
@@ -233,6 +235,7 @@ def levels_of(test: LabTest, virgin_d, virgin_f) -> tuple[list[LevelData], list[
         info.append({"cycle": i + 1, "max_approach_m": peak.approach,
                      "max_force_N": peak.force, "residual_approach_m": dres,
                      "unloading_exponent_free_fit": n, "unloading_fit_rms_of_peak": rms,
+                     "unloading_stiffness_N_per_m": stiffness,
                      "total_work_J": total, "returned_work_J": returned,
                      "plastic_work_J": total - returned, "reloading_from": reload_from})
     return levels, info
@@ -261,6 +264,12 @@ class LabFit:
 
     def values(self) -> dict[str, float]:
         return fitted_values(self.params)
+
+    @property
+    def modulus_route(self) -> dict:
+        """Which route gave E (``yield_info["youngs_modulus"]``): the Hertz part, or the
+        unloading stiffness where the record does not resolve its Hertz part."""
+        return self.yield_info.get("youngs_modulus", {"route": "hertz_part"})
 
     def virgin(self):
         return _virgin(self.test)
@@ -321,6 +330,19 @@ class Prepared:
         return [self] + ([self.alternative] if self.alternative is not None else [])
 
     @property
+    def hertz_resolved(self) -> bool:
+        """Does the record resolve its Hertz part (the onset refinement, or K refitted on
+        enough virgin points below the departure)? Else E* comes from the unloadings."""
+        hertz = self.test.contact.get("hertz_part") or {}
+        return (self.contact_source == "onset_refinement"
+                or hertz.get("first_loading_points", 0) >= HERTZ_PART_POINTS)
+
+    def unloading_peaks(self) -> list[tuple[float, float]]:
+        """(delta_max, S) of each closed cycle: its peak and its unloading stiffness."""
+        _, info = levels_of(self.test, self.virgin_approach, self.virgin_force)
+        return [(c["max_approach_m"], c["unloading_stiffness_N_per_m"]) for c in info]
+
+    @property
     def contact_source(self) -> str:
         return "onset_refinement" if "whole_record" in self.test.contact else "whole_record"
 
@@ -375,6 +397,12 @@ def _with_hertz_part(prepared: Prepared) -> Prepared:
     hertz = hertz_part(vd, vf, prepared.departure["approach_m"], test.noise)
     if hertz is None:
         return prepared
+    # the Hertz part is the first loading's: a departure found past the first peak (a K too
+    # low, on a sparse first loading) would take the next cycles' plastic points for Hertz
+    first = test.approach[test.cycles[0].peak] if test.cycles else math.inf
+    hertz["first_loading_points"] = int(np.sum(
+        (vd > 0) & (vd <= first) & (vd < prepared.departure["approach_m"])
+        & (vf > 5.0 * test.noise)))
     test.contact["hertz_part"] = hertz
     kh = hertz["coefficient"]
     return replace(prepared, hertz_coefficient=kh, departure=departure(vd, vf, kh, test.noise))
@@ -475,10 +503,8 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                            poissons_ratio=poissons_ratio, friction_angle=friction_angle,
                            hardening_ratio=hardening_ratio, force=force)
     if master is not None:
-        from .identify import scale_fit
 
-        prepared = choose_contact(prepared, lambda p: scale_fit(
-            master, p.virgin_approach, p.virgin_force, p.test.noise)[2], BY_MASTER)
+        prepared = choose_contact(prepared, lambda p: _scale_fit(master, p)[2], BY_MASTER)
     elif prepared.alternative is not None:  # nothing to judge by: the more precise one
         prepared = choose_contact(prepared, lambda p: 0.0 if p is prepared else 1.0,
                                   "standard error (no model of the whole virgin loading)")
@@ -498,9 +524,7 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         yield_info = {"source": "departure from Hertz (no identification)",
                       "force_N": fy}
     else:
-        from .identify import scale_fit
-
-        s, e, misfit, _ = scale_fit(master, vd, vf, test.noise)
+        s, e, misfit, _ = _scale_fit(master, prepared)
         trial = master["material"]
         # the master curve is in units of the analytic yield: Fy ~ sigma_c^3 / E*^2
         analytic_fy = master["yield_force_N"] * s**3 / e**2
@@ -509,6 +533,7 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                                poissons_ratio=nu, friction_angle_deg=beta, hardening_ratio=m)
         hertz_part = {"youngs_modulus_Pa": youngs_modulus_of(kh, radius, nu),
                       "note": "E from the contact-point fit of the Hertz part alone"}
+        modulus = _modulus_routes(master, prepared, s, material)
         kh = hertz_coefficient(material)
         fy = analytic_fy * master["fe_over_analytic_yield"]
         yield_info = {"source": "FE master curve (geocontact.labtest.identify): the FE first "
@@ -517,7 +542,17 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                       "force_N": fy, "analytic_force_N": analytic_fy,
                       "fe_over_analytic": master["fe_over_analytic_yield"], "scale": s,
                       "modulus_scale": e, "hertz_part": hertz_part,
+                      "youngs_modulus": modulus,
                       "misfit": misfit, "fe_cache_key": master["cache_key"]}
+    if master is None:
+        yield_info["youngs_modulus"] = {
+            "route": "hertz_part",
+            "why": "E* from the Hertz part" + (
+                "" if prepared.hertz_resolved else
+                ", which this record does not resolve (fewer than "
+                f"{HERTZ_PART_POINTS} points of its first loading above 5 sigma below the "
+                "departure): E is poorly fixed; --identify fe takes E* from the unloading "
+                "stiffness instead")}
     dy = (fy / kh) ** (1.0 / HERTZ_EXPONENT)
     yield_info["approach_m"] = dy
     levels, info = levels_of(test, vd, vf)
@@ -552,6 +587,41 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     return LabFit(params=params, test=test, levels=info, yield_info=yield_info,
                   departure=leave, given=given, assumed=assumed, sigma_c_of_beta=[],
                   master=master, universal=universal)
+
+
+def _scale_fit(master: dict, prepared: Prepared):
+    """(sigma_c, E*) scales of the master curve on the record: E* from the Hertz part where the
+    record resolves it (``identify.scale_fit``), else from the unloading stiffness
+    (``identify.scale_fit_unloading``)."""
+    from .identify import scale_fit, scale_fit_unloading
+
+    vd, vf, noise = prepared.virgin_approach, prepared.virgin_force, prepared.test.noise
+    if prepared.hertz_resolved:
+        return scale_fit(master, vd, vf, noise)
+    return scale_fit_unloading(master, vd, vf, noise, prepared.unloading_peaks())
+
+
+def _modulus_routes(master: dict, prepared: Prepared, s: float, material: Material) -> dict:
+    """Which route gave E, and the unloading stiffness's estimate of E beside it (with its
+    standard error over the cycles) whichever route was taken: a cross-check."""
+    from .identify import unloading_modulus
+
+    if "a" not in master:
+        return {"route": "hertz_part", "why": "the master curve has no contact radius"}
+    u = unloading_modulus(master, prepared.unloading_peaks(), s)
+    trial = master["material"].youngs_modulus
+    route = "hertz_part" if prepared.hertz_resolved else "unloading_stiffness"
+    return {"route": route,
+            "why": ("the record resolves its Hertz part (onset refinement or >= "
+                    f"{HERTZ_PART_POINTS} virgin points above 5 sigma below the departure)"
+                    if prepared.hertz_resolved else
+                    "the record does not resolve its Hertz part: E* from the unloading "
+                    "stiffness S = 2 E* a at each peak, a the master curve's FE contact radius"),
+            "unloading_stiffness_Pa": u["scale"] * trial,
+            "unloading_stiffness_standard_error_Pa": (u["standard_error"] * trial
+                                                      if u["standard_error"] else None),
+            "unloading_stiffness_per_cycle_Pa": [v * trial for v in u["per_cycle"]],
+            "youngs_modulus_Pa": material.youngs_modulus}
 
 
 def sigma_c_of_beta(result: LabFit) -> list[dict]:
@@ -659,7 +729,8 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
     if identify == "fe":
         from .identify import identify_by_fe
 
-        found = identify_by_fe(start, [(p.virgin_approach, p.virgin_force)
+        found = identify_by_fe(start, [(p.virgin_approach, p.virgin_force,
+                                        None if p.hertz_resolved else p.unloading_peaks())
                                        for p in prepared.candidates()],
                                prepared.test.noise, mesh=mesh, cache_dir=cache_dir,
                                progress=progress is not None)
@@ -691,7 +762,13 @@ def _add_systematic(result: LabFit) -> None:
     """Standard errors of sigma_c and E: the bootstrap's (noise) and the identification's
     master-curve sensitivity (``identify.master_sensitivity``) added in quadrature; each kept
     apart too."""
-    sens = result.identification.get("master_sensitivity", {}).get("standard_errors", {})
+    sens = dict(result.identification.get("master_sensitivity", {}).get("standard_errors", {}))
+    route = result.modulus_route
+    if route["route"] == "unloading_stiffness" and route.get(
+            "unloading_stiffness_standard_error_Pa"):
+        # E from the unloadings: the cycles' scatter about their median is its own error
+        sens["youngs_modulus_Pa"] = math.hypot(sens.get("youngs_modulus_Pa", 0.0),
+                                               route["unloading_stiffness_standard_error_Pa"])
     boot = result.bootstrap
     boot["noise_standard_errors"] = dict(boot["standard_errors"])
     for key, value in sens.items():
@@ -703,6 +780,9 @@ def _add_systematic(result: LabFit) -> None:
         boot["method"] += ("; sigma_c and E also carry the identification's master-curve "
                            "sensitivity in quadrature (noise-only values in "
                            "noise_standard_errors)")
+    if route["route"] == "unloading_stiffness":
+        boot["method"] += ("; E from the unloading stiffness also carries the scatter of the "
+                           "cycles' values in quadrature")
 
 
 def provenance_of(result: LabFit) -> dict[str, Any]:
@@ -712,8 +792,13 @@ def provenance_of(result: LabFit) -> dict[str, Any]:
     se = (result.bootstrap or {}).get("standard_errors", {})
     identified = result.master is not None
     from_curve = {
-        "material.youngs_modulus": "E* of the Hertz part (contact-point fit), E = 2 (1 - nu^2) "
-                                   "E* with the given or assumed nu",
+        "material.youngs_modulus": (
+            "E* of the Hertz part (contact-point fit), E = 2 (1 - nu^2) E* with the given or "
+            "assumed nu" if result.modulus_route["route"] == "hertz_part" else
+            "E* from the unloading stiffness S = 2 E* a at each cycle's peak (median over the "
+            "cycles; a from the FE master curve), E = 2 (1 - nu^2) E*: the record does not "
+            "resolve its Hertz part"),
+        "youngs_modulus_route": result.modulus_route,
         "material.compressive_yield_stress": (
             "FE master curve scaled onto the virgin loading at the given or assumed nu, beta, "
             "m" if identified else "analytic incipient yield at the force where the record "

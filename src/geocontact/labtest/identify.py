@@ -25,12 +25,14 @@ What one test separates and what it does not:
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.interpolate import UnivariateSpline
-from scipy.optimize import least_squares
+from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from ..calibrate.fit import _trapezoid_weights
 from ..errors import InputError
@@ -95,13 +97,28 @@ def master_curve(material: Material, max_force: float, *, mesh: str, cache_dir,
     analytic = incipient_yield(material)
     fy, dy = analytic.force, analytic.approach
     keep = (d > 0) & (f > 0)
-    return {"x": d[keep] / dy, "g": f[keep] / fy, "yield_force_N": float(fy),
+    # the contact radius in units of Hertz's at the yield approach, sqrt(R* dy): what the
+    # unloading stiffness S = 2 E* a needs (``unloading_modulus``)
+    a = np.asarray(c["contact_radius_m"], float)[keep] / math.sqrt(
+        material.effective_radius * dy)
+    return {"x": d[keep] / dy, "g": f[keep] / fy, "a": a, "yield_force_N": float(fy),
             "fe_over_analytic_yield": float(fe_fy / fy),
             "material": material,
             "yield_approach_m": float(dy), "fe_yield_approach_m":
                 result.summary.get("first_yield_approach_m"),
             "cache_key": run_key(result, job.identity()), "mesh": mesh,
             "max_force_N": float(max_force)}
+
+
+def read_master(path) -> dict[str, Any]:
+    """A master curve ``master_curve`` made, written as JSON (scripts/make_synthetic_lab_tests.py
+    ``write_masters``)."""
+    data = json.loads(Path(path).read_text())
+    data["material"] = Material(**data["material"])
+    for key in ("x", "g", "a"):
+        if key in data:
+            data[key] = np.asarray(data[key], float)
+    return data
 
 
 def _residual_of(curve: dict, vd, vf, noise: float):
@@ -158,6 +175,102 @@ def scale_fit(curve: dict, vd, vf, noise: float) -> tuple[float, float, float, l
     return math.exp(log_s), math.exp(log_e), misfit(best.x), profile
 
 
+RADIUS_SMOOTHING = 0.02  # RMS of the contact radius's smoothing spline in log a: the FE's
+                         # contact radius steps from node to node (coarse mesh)
+
+
+def _radius_of(curve: dict):
+    """A(x) = a / sqrt(R* dy) of the master curve's FE run at x = delta / dy (analytic yield
+    units): a smoothing spline in log-log; Hertz (A = sqrt(x)) below the FE's first point."""
+    x, a = np.asarray(curve["x"], float), np.asarray(curve["a"], float)
+    use = a > 0
+    lx, la = np.log(x[use]), np.log(a[use])
+    order = np.argsort(lx)
+    lx, la = lx[order], la[order]
+    keep = np.concatenate([[True], np.diff(lx) > 0])
+    lx, la = lx[keep], la[keep]
+    spline = UnivariateSpline(lx, la, k=3, s=lx.size * RADIUS_SMOOTHING**2)
+
+    def radius(xx):
+        lxx = np.log(np.asarray(xx, float))
+        inside = np.exp(spline(np.clip(lxx, lx[0], lx[-1])))
+        return np.where(lxx < lx[0], np.exp(0.5 * lxx) * math.exp(la[0] - 0.5 * lx[0]),
+                        inside)
+
+    return radius
+
+
+def unloading_modulus(curve: dict, peaks, s: float) -> dict[str, Any]:
+    """The E* scale e (E* = e E*(trial)) the unloading stiffness gives at the sigma_c scale s.
+
+    The unloading of an axisymmetric contact is elastic, and its initial slope is
+    S = dF/d delta = 2 E* a, a the contact radius at the peak, whatever the loaded shape
+    (Sneddon 1965; Pharr, Oliver & Brotzen 1992; Oliver & Pharr 1992, eq. 2 with beta = 1): in
+    the pair approach delta of two identical spheres E* is the pair's, E = 2 (1 - nu^2) E*
+    (docs/model.md §2; the FE's own unloadings follow it within 3 %). The record gives S_k
+    at each peak (``fit.levels_of``), the master curve's FE run the contact radius
+    a_k = sqrt(R* dy) A(delta_k / dy) with dy = s^2 / e^2 dy(trial), so e solves
+    log e = median_k log(S_k / (2 E*(trial) a_k)) (a_k moves with e only through A's
+    argument; the median: a cycle whose peak is poorly sampled, the first of a sparse first
+    loading, is an outlier). ``peaks``: (delta_max, S) of each cycle. Returns e, its standard
+    error (the cycles' robust scatter) and each cycle's value."""
+    if "a" not in curve:
+        raise InputError("identification: the master curve has no contact radius (an older "
+                         "master curve file): rerun the identification")
+    radius = _radius_of(curve)
+    dy_t = curve["yield_approach_m"]
+    trial = curve["material"]
+    es_t, r_star = trial.effective_modulus, trial.effective_radius
+    dmax = np.array([p[0] for p in peaks], float)
+    stiff = np.array([p[1] for p in peaks], float)
+
+    def each(log_e):
+        """each cycle's e, S_k / (2 E*(trial) a_k), with a_k at the scales (s, e)"""
+        e = math.exp(log_e)
+        dy = s * s / (e * e) * dy_t
+        return stiff / (2.0 * es_t * math.sqrt(r_star * dy) * radius(dmax / dy))
+
+    def gap(log_e):  # decreasing: a_k grows with e only through A's argument
+        return float(np.median(np.log(each(log_e)))) - log_e
+
+    lo, hi = math.log(0.1), math.log(10.0)
+    log_e = brentq(gap, lo, hi) if gap(lo) > 0 > gap(hi) else min((lo, hi), key=lambda t: abs(
+        gap(t)))
+    values = each(log_e)
+    e = float(math.exp(log_e))
+    # the median's standard error from the cycles' robust scatter (MAD; 1.253: the median's
+    # efficiency against the mean for normal scatter)
+    spread = 1.4826 * float(np.median(np.abs(values - np.median(values))))
+    se = 1.253 * spread / math.sqrt(values.size) if values.size > 2 else None
+    return {"scale": e, "standard_error": se, "per_cycle": [float(v) for v in values]}
+
+
+def scale_fit_unloading(curve: dict, vd, vf, noise: float, peaks
+                        ) -> tuple[float, float, float, list]:
+    """``scale_fit`` with E* from the unloading stiffness (``unloading_modulus``) instead of
+    the Hertz part: for a record whose Hertz part is not resolved the virgin loading fixes E*
+    and sigma_c only along their correlation (Fy ~ sigma_c^3 / E*^2), so E* comes from the
+    unloadings, dense on every record, and the virgin loading fixes sigma_c."""
+    residual = _residual_of(curve, vd, vf, noise)
+
+    def log_e(log_s):
+        return math.log(unloading_modulus(curve, peaks, math.exp(log_s))["scale"])
+
+    def misfit(log_s):
+        return float(np.sum(residual((log_s, log_e(log_s))) ** 2))
+
+    grid = np.linspace(math.log(0.25), math.log(2.0), 36)
+    values = [misfit(g) for g in grid]
+    k = int(np.argmin(values))
+    step = grid[1] - grid[0]
+    best = minimize_scalar(misfit, bounds=(grid[k] - step, grid[k] + step), method="bounded",
+                           options={"xatol": 1e-4})
+    log_s = float(best.x)
+    profile = [{"scale": float(math.exp(g)), "misfit": v}
+               for g, v in zip(grid, values, strict=True)]
+    return math.exp(log_s), math.exp(log_e(log_s)), misfit(log_s), profile
+
+
 VALLEY = 0.10  # the correlated range: misfit within this share of its minimum
 
 
@@ -193,26 +306,30 @@ def valley(curve: dict, vd, vf, noise: float, best: tuple[float, float]) -> dict
 def identify_by_fe(material: Material, virgins, noise: float, *, mesh: str = "coarse",
                    cache_dir=None, progress: bool = False) -> dict[str, Any]:
     """sigma_c (at the material's E, nu, beta, m) whose FE virgin loading reproduces the
-    measured one (module docstring). ``virgins``: the measured virgin loading (approach, force)
-    at each candidate contact point (``fit.choose_contact``); each round takes the one the
+    measured one (module docstring). ``virgins``: the measured virgin loading (approach, force,
+    and the cycles' (delta_max, S) when E* is to come from the unloadings, else None) at each
+    candidate contact point (``fit.choose_contact``); each round takes the one the
     master curve fits best. Returns the identified material, the FE yield of the last round,
     the rounds and which candidate the last round took (``virgin_choice``)."""
     from ..fem.campaign import DEFAULT_CACHE
 
     cache_dir = DEFAULT_CACHE if cache_dir is None else cache_dir
-    virgins = [(np.asarray(a, float), np.asarray(b, float)) for a, b in virgins]
+    virgins = [(np.asarray(v[0], float), np.asarray(v[1], float),
+                v[2] if len(v) > 2 else None) for v in virgins]
     rounds = []
     trial = material
     for _ in range(ROUNDS):
-        top = max(float(b.max()) for _, b in virgins)
+        top = max(float(v[1].max()) for v in virgins)
         fy_trial = incipient_yield(trial).force
         # deep enough for any scale the fit may take (s down to 0.25: Fy / 64)
         depth_force = DEPTH_MARGIN * top
         curve = master_curve(trial, max(depth_force, 2.0 * fy_trial), mesh=mesh,
                              cache_dir=cache_dir, progress=progress)
-        fits = [scale_fit(curve, a, b, noise) for a, b in virgins]
+        # a candidate without a resolved Hertz part takes E* from its unloadings
+        fits = [scale_fit(curve, a, b, noise) if peaks is None else
+                scale_fit_unloading(curve, a, b, noise, peaks) for a, b, peaks in virgins]
         choice = min(range(len(fits)), key=lambda k: fits[k][2])
-        vd, vf = virgins[choice]
+        vd, vf, _ = virgins[choice]
         s, e, misfit, profile = fits[choice]
         sigma = s * trial.compressive_yield_stress
         modulus = e * trial.youngs_modulus  # E* ~ E at a fixed nu
