@@ -27,6 +27,8 @@ Seeded: the same command writes the same files. The FE runs are cached in out/ca
         approach-quartzite sparse-quartzite                                 # the SHAPES only
     nice -n 5 .venv/bin/python scripts/make_synthetic_lab_tests.py --refresh-masters \
         --only platens-quartzite flat-sandstone   # the committed master curves, with a
+    nice -n 5 .venv/bin/python scripts/make_synthetic_lab_tests.py --check-curves \
+        --only platens-quartzite flat-sandstone   # their check histories' FE runs
 """
 
 from __future__ import annotations
@@ -317,18 +319,21 @@ def refresh_masters(names, cache: Path, masters: Path) -> None:
                                  "--refresh-masters (the same FE run)"})
 
 
-CHECK_CURVE = MASTERS / "quartzite-check.json"
+CHECK_CURVES = {"platens-quartzite": MASTERS / "quartzite-check.json",
+                "flat-sandstone": MASTERS / "sandstone-check.json"}
+CHECK_CURVE = CHECK_CURVES["platens-quartzite"]  # the records of SHAPES are the quartzite's
 
 
-def write_check_curve(cache: Path, path: Path = CHECK_CURVE) -> None:
-    """The FE run of the quartzite grain's check history (what the law fitted to each record
-    of SHAPES must predict, docs/fit.md acceptance), for the fast tests of
-    tests/test_labtest_shapes.py: its approach path, forces, steps and cycles."""
-    job = check_job(QUARTZITE)
+def write_check_curve(cache: Path, path: Path = CHECK_CURVE,
+                      name: str = "platens-quartzite") -> None:
+    """The FE run of a grain's check history (what the law fitted to its records must
+    predict, docs/fit.md acceptance), for the fast tests of tests/test_labtest_shapes.py and
+    tests/test_labtest.py: its approach path, forces, steps and cycles."""
+    job = check_job(TESTS[name])
     result = run_campaign([job], cache, workers=1, progress=True)[0]
     keep = ("residual_approach_m", "max_force_N", "steps")
     write_json_atomic(path, {
-        "note": "FE run of the quartzite grain's check history "
+        "note": f"FE run of the {name.split('-')[1]} grain's check history "
                 "(scripts/make_synthetic_lab_tests.py write_check_curve)",
         "forces_N": list(job.forces), "cache_key": job.key(),
         "curve": {k: [float(v) for v in result.curve[k]] for k in ("approach_m", "force_N")}
@@ -346,11 +351,18 @@ def main(argv=None) -> int:
     parser.add_argument("--refresh-masters", action="store_true",
                         help="only rerun the committed master curves' FE runs and rewrite them "
                              "with the contact radius (no new identification)")
+    parser.add_argument("--check-curves", action="store_true",
+                        help="only write the check histories' FE runs of the two tests to "
+                             "tests/data/labtest (run or taken from the cache)")
     args = parser.parse_args(argv)
 
     def run():
         if args.refresh_masters:
             refresh_masters(args.only, Path(args.cache), MASTERS)
+            return
+        if args.check_curves:
+            for name in (n for n in args.only if n in CHECK_CURVES):
+                write_check_curve(Path(args.cache), CHECK_CURVES[name], name)
             return
         made = make(args.only, args.mesh, Path(args.cache), Path(args.out))
         write_masters(args.only, Path(args.cache), Path(args.out), MASTERS)
