@@ -241,12 +241,14 @@ def test_fit_recovers_the_material(name, tolerances):
     assert p.yield_force == pytest.approx(truth["fe_first_yield_force_N"], rel=tolerances["fy"])
     assert p.material.compressive_yield_stress == pytest.approx(
         m["compressive_yield_stress"], rel=tolerances["sigma"])
-    # the cycles: peaks and residual approaches of the FE run behind the test
-    # (the first cycle, 4 Fy, keeps a residual of 8 % of its approach: 2 nm, at the noise)
+    # the cycles: peaks and residual approaches of the FE run behind the test (the first
+    # cycle, 4 Fy, keeps a residual of 8 % of its approach, 7 nm = 0.21 dy: its error is the
+    # contact point's, which the noisy record fixes to 0.3 dy, so it is checked to 0.1 dy)
+    dy = truth["fe_first_yield_approach_m"]
     for k, (lv, fe) in enumerate(zip(fit.levels, truth["fe_cycles"], strict=True)):
         assert lv["max_force_N"] == pytest.approx(fe["max_force_N"], rel=0.02)
-        assert lv["residual_approach_m"] == pytest.approx(fe["residual_approach_m"],
-                                                          rel=0.35 if k == 0 else 0.10)
+        assert lv["residual_approach_m"] == pytest.approx(
+            fe["residual_approach_m"], **({"abs": 0.1 * dy} if k == 0 else {"rel": 0.10}))
 
 
 # --- the command --------------------------------------------------------------------------------
