@@ -525,6 +525,11 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                       "force_N": fy}
     else:
         s, e, misfit, _ = _scale_fit(master, prepared)
+        if not prepared.hertz_resolved:
+            prepared = _contact_at_modulus(record, prepared, master, s, e, machine_stiffness,
+                                           force)
+            test, vd, vf = prepared.test, prepared.virgin_approach, prepared.virgin_force
+            s, e, misfit, _ = _scale_fit(master, prepared)
         trial = master["material"]
         # the master curve is in units of the analytic yield: Fy ~ sigma_c^3 / E*^2
         analytic_fy = master["yield_force_N"] * s**3 / e**2
@@ -599,6 +604,67 @@ def _scale_fit(master: dict, prepared: Prepared):
     if prepared.hertz_resolved:
         return scale_fit(master, vd, vf, noise)
     return scale_fit_unloading(master, vd, vf, noise, prepared.unloading_peaks())
+
+
+def _contact_at_modulus(record: Record, prepared: Prepared, master: dict, s: float, e: float,
+                        machine_stiffness, force) -> Prepared:
+    """The contact point of a record without a resolved Hertz part, refined once E* is known
+    from its unloadings: F = f0 + K (delta - shift)_+^1.5 with K = (4/3) E* sqrt(R*) fixed and
+    the offset the whole record's, fitted for the shift alone on the first loading's points
+    (pre-contact ones and those at the noise included) below ONSET_SHARE of the force where the
+    master curve at the scales (s, e) leaves Hertz by DEPARTURE. With K known one parameter is
+    left, which the few points of a sparse first loading fix (the whole record alone leaves
+    0.24 dy on the sparse record, and sigma_c moves with it); the record is conditioned again
+    there."""
+    from scipy.optimize import least_squares as fit_ls
+
+    test = prepared.test
+    trial = master["material"]
+    e_star = e * trial.effective_modulus
+    kh = 4.0 / 3.0 * e_star * math.sqrt(trial.effective_radius)
+    x, g = np.asarray(master["x"]), np.asarray(master["g"])
+    left = np.flatnonzero((x > 1.0) & (g < (1.0 - DEPARTURE) * x**HERTZ_EXPONENT))
+    if left.size == 0 or not test.cycles:
+        return prepared
+    fy = master["yield_force_N"] * s**3 / e**2
+    upto = ONSET_SHARE * fy * float(x[left[0]]) ** HERTZ_EXPONENT
+    first = test.cycles[0].peak
+    d, f = test.approach[: first + 1], test.force[: first + 1]
+    use = f < upto
+    if int(np.sum(use & (f > 0.0))) < 3:
+        return prepared
+    d, f = d[use], f[use]
+    scale = float(max(d.max(), 1e-30))
+
+    def residual(theta):
+        return kh * np.maximum(d - theta[0] * scale, 0.0) ** HERTZ_EXPONENT - f
+
+    found = fit_ls(residual, [0.0], bounds=([-0.5], [0.5]))
+    s2 = 2.0 * found.cost / max(f.size - 1, 1)
+    se = float(math.sqrt(s2 / max(float(found.jac[:, 0] @ found.jac[:, 0]), 1e-300))) * scale
+    shift = float(found.x[0]) * scale
+    pair = 2.0 if test.setup == "flat" else 1.0
+    whole = test.contact
+    contact = {**whole,
+               "contact_displacement_m": whole["contact_displacement_m"] + shift / pair,
+               "contact_displacement_se_m": se / pair,
+               "stiffness": kh * pair**HERTZ_EXPONENT,
+               "modulus_refinement": {
+                   "method": "F = f0 + K (delta - shift)_+^1.5, K from E* of the unloading "
+                             "stiffness, on the first loading below "
+                             f"{ONSET_SHARE:g} x the master curve's departure force",
+                   "approach_shift_m": shift, "approach_shift_se_m": se,
+                   "upto_N": upto, "points": int(f.size), "coefficient": kh,
+                   "before": {k: whole[k] for k in ("contact_displacement_m",
+                                                    "contact_displacement_se_m")}}}
+    contact.pop("noise_N", None)
+    refined = condition(record, test.setup, test.radius, machine_stiffness, force=force,
+                        contact=contact)
+    if whole.get("hertz_part") is not None:
+        refined.contact.setdefault("hertz_part", whole["hertz_part"])
+    vd, vf = _virgin(refined)
+    return replace(prepared, test=refined, virgin_approach=vd, virgin_force=vf,
+                   alternative=None)
 
 
 def _modulus_routes(master: dict, prepared: Prepared, s: float, material: Material) -> dict:
