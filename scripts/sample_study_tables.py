@@ -3,7 +3,8 @@
     .venv/bin/python scripts/sample_study_tables.py datasets/sample-study [--json OUT]
 
 For every study folder below the argument (each a ``geocontact dem cyclic-shear`` result:
-``summary.json`` and ``curves.csv``), per law and mean stress: the small-strain modulus over the
+``summary.json`` and ``curves.csv``; a study still under way: the runs finished so far, each
+``runs/NAME/run.json``), per law and mean stress: the small-strain modulus over the
 samples (mean, range), G/Gmax and the damping ratio D per amplitude (mean and range over the
 samples) beside Darendeli (2001) for a clean sand at the same mean stress, the ledger's damping
 split by channel (the normal law, Coulomb sliding, the dashpots; shares of the dissipated
@@ -47,9 +48,21 @@ def percent(values) -> str:
     return f"{np.mean(v):.2f} ({np.min(v):.2f}–{np.max(v):.2f})"
 
 
+def finished_runs(folder: Path) -> tuple[dict, list[dict]]:
+    """A study's summary and curves: from its summary.json and curves.csv when the study is
+    complete, else from the runs finished so far (each run's own run.json: its summary and
+    curves), marked partial."""
+    if (folder / "summary.json").is_file() and (folder / "curves.csv").is_file():
+        return (json.loads((folder / "summary.json").read_text()),
+                read_curves(folder / "curves.csv"))
+    documents = [json.loads(p.read_text()) for p in sorted(folder.glob("runs/*/run.json"))]
+    summary = {"material": folder.name, "law": f"partial: {len(documents)} runs finished",
+               "runs": [d["summary"] for d in documents], "calibrated_max_depth": None}
+    return summary, [c for d in documents for c in d["curves"]]
+
+
 def study_tables(folder: Path) -> tuple[str, dict]:
-    summary = json.loads((folder / "summary.json").read_text())
-    curves = read_curves(folder / "curves.csv")
+    summary, curves = finished_runs(folder)
     groups: dict[tuple[str, float], list[dict]] = defaultdict(list)
     for c in curves:
         groups[(c["law"], c["consolidation_stress_Pa"])].append(c)
@@ -110,8 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("root", type=Path)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    folders = sorted(p.parent for p in args.root.rglob("summary.json")
-                     if (p.parent / "curves.csv").is_file())
+    folders = sorted({p.parent.parent.parent for p in args.root.rglob("runs/*/run.json")})
     if not folders:
         print(f"root: no finished cyclic-shear study below {args.root}", file=sys.stderr)
         return 2
