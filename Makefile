@@ -131,9 +131,9 @@ CALIBRATE_MESH ?= default
 # has no ledger saying geocontact wrote them, README "Results you can trust").
 calibrate-examples: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference --mesh $(CALIBRATE_MESH) --acceptance \
-	  --force --out examples/params-reference.json
+	  --step-control fixed --force --out examples/params-reference.json
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh default --levels 13 \
-	  --kinematics finite --mesh-rule contact --max-step-ratio 1.01 \
+	  --kinematics finite --mesh-rule contact --max-step-ratio 1.01 --step-control fixed \
 	  --cache datasets/fe-runs/weak-finite --residual-form table --loading-form segments \
 	  --acceptance --force --out examples/params-reference-weak.json
 
@@ -141,7 +141,8 @@ calibrate-examples: $(STAMP)
 # cached in a committed dataset (datasets/fe-runs/README.md): every finished run is committed and a
 # later session resumes the campaign where it stopped. Interrupt it at any time. The same fit as
 # calibrate-examples' weak line (the shipped file), written into out/ instead of examples/.
-WEAK_FINITE_FE := --kinematics finite --mesh-rule contact --max-step-ratio 1.01
+# fixed load steps: the control its committed runs were made with (the default until issue 36)
+WEAK_FINITE_FE := --kinematics finite --mesh-rule contact --max-step-ratio 1.01 --step-control fixed
 calibrate-weak-finite: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh default --levels 13 \
 	  --acceptance $(WEAK_FINITE_FE) --workers 1 --cache datasets/fe-runs/weak-finite \
@@ -153,7 +154,8 @@ calibrate-weak-finite: $(STAMP)
 # fit until the default-mesh campaign was complete (session 12).
 calibrate-weak-finite-coarse: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh coarse --levels 13 \
-	  --acceptance --kinematics finite --mesh-rule contact --max-step-ratio 1.02 --workers 1 \
+	  --acceptance --kinematics finite --mesh-rule contact --max-step-ratio 1.02 --step-control fixed \
+	  --workers 1 \
 	  --cache datasets/fe-runs/weak-finite-coarse --residual-form table --loading-form segments \
 	  --out out/calibrate/params-reference-weak-finite-coarse.json
 
@@ -183,7 +185,7 @@ paper-histories-finite: $(STAMP)
 STAIRCASE_facet := --material reference-weak --mesh default $(WEAK_FINITE_FE) --contact facet \
   --out datasets/staircase
 STAIRCASE_dense := --material reference-weak --mesh default --kinematics finite \
-  --mesh-rule contact-dense --max-step-ratio 1.01 --out datasets/staircase
+  --mesh-rule contact-dense --max-step-ratio 1.01 --step-control fixed --out datasets/staircase
 staircase-finite-facet staircase-finite-dense: staircase-finite-%: staircase-%-24 staircase-%-48
 	$(PY) scripts/measure_staircase.py $(STAIRCASE_$*) --steps 24 48 --finished-only \
 	  --json staircase-finite-$*-default.json

@@ -19,7 +19,7 @@ by ``make calibrate-weak-finite`` or its coarse pilot) and measured:
     PYTHONPATH=src .venv/bin/python scripts/compare_law_forms.py \\
         --dataset datasets/fe-runs/weak-finite-coarse --material reference-weak \\
         --mesh coarse --levels 13 --kinematics finite --mesh-rule contact \\
-        --max-step-ratio 1.02 [--out out/forms/weak-finite-coarse.json]
+        --max-step-ratio 1.02 --step-control fixed [--out out/forms/weak-finite-coarse.json]
 
 Only finished runs are used (the missing levels are listed); nothing is written into the
 dataset. The JSON output records the inputs, the version and every number printed.

@@ -19,11 +19,13 @@ the current FE sources (or older ones whose runs they reproduce bit for bit:
 with this cache would recompute it), and the kernels that made it with how a job at today's
 defaults (the compiled kernels with the node contact) reuses it: bit for bit, or a numpy run
 within the agreement rule's tolerance (``fem.identity.AGREED_FE_CODE``; ``--kernels numpy``
-reuses it bit for bit); the runs under way (from their checkpoint: steps and solves
-done of those requested, force reached, FE time and its cost per solve so far); entries
-that are neither (reported, never touched). Exit status 0, or 1 if a run folder is not a
-complete, self-consistent result (its key is not the hash of its identity, its manifest or curve
-is missing).
+reuses it bit for bit), and its load-step control (``step_control``: a run without it in its
+record was made with fixed steps, and only a job with fixed steps finds it; a job at another
+default would have to ask for them, which the line says); the runs under
+way (from their checkpoint: steps and solves done of those requested, force reached, FE time and
+its cost per solve so far); entries that are neither (reported, never touched). Exit status 0,
+or 1 if a run folder is not a complete, self-consistent result (its key is not the hash of its
+identity, its manifest or curve is missing).
 
 ``--law P.json``: the law file driven along every finished run of the campaign, as the
 calibration's acceptance does (``calibrate.acceptance.compare``: force RMS over the path as % of
@@ -89,6 +91,7 @@ def check_run(folder: Path) -> dict:
         reuse = (f"within {agreed.tolerance:g}" if agreed is not None
                  else "only with --kernels numpy (no agreement entry)")
     return {**entry, "kernels": kernels, "default_reuse": reuse,
+            "step_control": identity["inputs"].get("step_control", "fixed"),
             "peak_force_N": max(forces), "history_points": len(forces),
             "solves": control.get("solves"), "newton_iterations": summary.get("newton_iterations"),
             "wall_time_s": summary.get("wall_time_s"), "cpu_time_s": summary.get("cpu_time_s"),
@@ -132,6 +135,15 @@ def campaign_status(folder: Path) -> dict:
     return {"campaign": folder.name, "finished": finished, "pending": pending, "other": other}
 
 
+def _asking(run: dict) -> str:
+    """What a job at today's defaults must ask for to find ``run``: its step control when that
+    is not today's default."""
+    from geocontact.fem.settings import FeSettings
+
+    control = run["step_control"]
+    return "" if control == FeSettings().step_control else f"with --step-control {control} "
+
+
 def _print(status: dict) -> None:
     finished = status["finished"]
     current = sum(1 for run in finished if run.get("state") == "current")
@@ -144,9 +156,9 @@ def _print(status: dict) -> None:
         wall = run["wall_time_s"]
         print(f"  {run['key']}  peak {run['peak_force_N']:.4g} N, {run['history_points']} points,"
               f" {run['solves']} solves, {run['newton_iterations']} iterations, "
-              f"{wall:.0f} s, {run['state']} ({run['kernels']}"
-              + (f"; a default job reuses it {run['default_reuse']})" if run["state"] == "current"
-                 else ")"))
+              f"{wall:.0f} s, {run['state']} ({run['kernels']}, {run['step_control']} steps"
+              + (f"; a job {_asking(run)}reuses it {run['default_reuse']})"
+                 if run["state"] == "current" else ")"))
     for run in status["pending"]:
         if "problem" in run:
             print(f"  {run['key']}  under way, {run['problem']}")

@@ -88,6 +88,27 @@ def figure(out: Path, names: list[str], path: Path) -> None:
     plt.close(fig)
 
 
+def waypoint_gaps(curves: dict[str, dict], waypoints: int) -> dict:
+    """Each run's approach at the history's waypoints (every peak and every return to 0 N: the
+    ends of the monotonic segments, recorded by every run whatever its steps), and per pair of
+    runs the largest |delta_a / delta_b - 1| there, peaks and residuals apart."""
+    ends = {}
+    for label, curve in curves.items():
+        force, approach = np.asarray(curve["force_N"]), np.asarray(curve["approach_m"])
+        turn = np.flatnonzero(np.diff(np.sign(np.diff(force))) != 0) + 1
+        ends[label] = approach[np.concatenate([turn, [len(force) - 1]])]
+    gaps = {}
+    for a, b in itertools.combinations(ends, 2):
+        ea, eb = ends[a], ends[b]
+        if len(ea) != len(eb) or len(ea) != waypoints - 1:
+            continue
+        peaks, rests = slice(0, None, 2), slice(1, None, 2)
+        gaps[f"{a} vs {b}"] = {
+            "peak_approach_gap_max": float(np.max(np.abs(ea[peaks] / eb[peaks] - 1.0))),
+            "residual_approach_gap_max": float(np.max(np.abs(ea[rests] / eb[rests] - 1.0)))}
+    return {"approach_at_waypoints_m": {k: v.tolist() for k, v in ends.items()}, "pairs": gaps}
+
+
 def _ratio(text: str) -> float | None:
     return None if text == "none" else float(text)
 
@@ -123,6 +144,10 @@ def main() -> None:
                          "step), all compared pairwise")
     ap.add_argument("--kernels", default="numpy", help="fem kernels: numpy | compiled")
     ap.add_argument("--force", type=float, default=FORCE)
+    ap.add_argument("--cycles", type=int, default=0,
+                    help="run 0 -> F -> 0 this many times instead of 0 -> F (the measures are "
+                         "of the first loading; each run's approach at every peak and at every "
+                         "return to 0 N is compared too: ``waypoints``)")
     ap.add_argument("--floor", type=float, default=10.0, help="lowest force, x Fy")
     ap.add_argument("--out", required=True)
     ap.add_argument("--progress", action="store_true", help="progress bar of each FE run")
@@ -139,6 +164,7 @@ def main() -> None:
         return
 
     material = load_material(args.material)
+    history = [0.0, args.force] + [0.0, args.force] * (args.cycles - 1) + [0.0] * (args.cycles > 0)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     curves, runs = {}, {}
@@ -162,14 +188,16 @@ def main() -> None:
             label += f", {control}"
         if args.kernels != "numpy":
             name += f"-{args.kernels}"
-        model = {"contact": contact, "kinematics": args.kinematics}
-        model.update({"step_control": control} if control != "fixed" else {})
+        if args.cycles:
+            name += f"-{args.cycles}cycles"
+        # the step control always named: its default moved from "fixed" to "adaptive" (issue 36)
+        model = {"contact": contact, "kinematics": args.kinematics, "step_control": control}
         model.update({"kernels": args.kernels} if args.kernels != "numpy" else {})
         started = time.perf_counter()
         cpu_started = time.process_time()
         if args.finished_only or args.under_way:
             identity = FeRunIdentity.of(
-                material, [0.0, args.force], args.mesh, steps_per_segment=n,
+                material, history, args.mesh, steps_per_segment=n,
                 mesh_rule=rule, step_rule=args.step_rule, max_step_ratio=ratio, **model)
             result = finished_run(out / name, identity)
             if result is None and (out / name / "summary.json").exists():
@@ -196,7 +224,7 @@ def main() -> None:
                 print(f"{name}: not finished, left out")
                 continue
         else:
-            result = run_history(material, [0.0, args.force], args.mesh, out / name,
+            result = run_history(material, history, args.mesh, out / name,
                                  steps_per_segment=n, resume=True, write_fields=False,
                                  mesh_rule=rule, step_rule=args.step_rule,
                                  max_step_ratio=ratio, progress=args.progress, **model)
@@ -228,13 +256,15 @@ def main() -> None:
     for label, r in runs.items():  # a finished run against itself at half its steps' forces
         if r["steps_per_segment"] % 2 == 0:
             x, f = loading_branch(curves[label])
-            half = np.array(load_schedule([0.0, args.force], r["steps_per_segment"] // 2,
+            half = np.array(load_schedule(history, r["steps_per_segment"] // 2,
                                           r["first_yield_force_predicted_N"],
                                           args.step_rule)[0])
             keep = np.array([np.min(np.abs(half / v - 1.0)) < 1e-9 for v in f])
             gmax, grms = sampling_gap((x, f), (x[keep], f[keep]), args.floor * fy)
             measures["runs"][label].update({"sampling_gap_half_max": gmax,
                                             "sampling_gap_half_rms": grms})
+    if args.cycles:
+        measures["waypoints"] = waypoint_gaps(curves, len(history))
     rules = "-".join(args.mesh_rule)
     measures.update({"material": args.material, "mesh": args.mesh,
                      "mesh_rule": args.mesh_rule[0] if len(args.mesh_rule) == 1 else args.mesh_rule,

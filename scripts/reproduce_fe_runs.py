@@ -81,6 +81,8 @@ def rerun(folder: Path, out: Path, kernels: str | None = None):
         step_rule=inputs.get("step_rule", "segment"),
         max_step_ratio=inputs.get("max_step_ratio"), contact=inputs.get("contact", "node"),
         kernels=inputs["kernels"],
+        # a record without it was made with fixed steps (the default before issue 36)
+        step_control=inputs.get("step_control", "fixed"),
         resume=True, write_fields=False,
         overwrite=True, progress=True)
 

@@ -83,7 +83,9 @@ def measures(force, approach) -> dict:
 
 def fe_runs(mesh: str, depths=DEPTHS) -> dict[float, dict]:
     material = preset("reference")
-    jobs = {d: FemJob(material, history(d), mesh=mesh, label=f"partial d={d:g} {mesh}")
+    # fixed load steps: the control of the committed runs (the default before issue 36)
+    jobs = {d: FemJob(material, history(d), mesh=mesh, label=f"partial d={d:g} {mesh}",
+                      step_control="fixed")
             for d in depths}
     out = {}
     for d, job in jobs.items():

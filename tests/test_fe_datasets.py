@@ -3,6 +3,7 @@ them is a complete result whose key is the hash of its identity record, so a cam
 from the repository never reuses a half-written or hand-edited run; and the status script tells
 such a folder, a run under way and a foreign file apart."""
 
+import dataclasses
 import importlib.util
 import json
 import shutil
@@ -12,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from geocontact.fem.campaign import FemJob
 from geocontact.fem.identity import identity_key
 from geocontact.fem.run import run_history
 from geocontact.grain.material import preset
@@ -39,10 +41,16 @@ def test_committed_run_is_a_complete_result(folder):
     run = fe_dataset.check_run(folder)
     assert "problem" not in run, run.get("problem")
     assert run["newton_iterations"] > 0 and run["peak_force_N"] > 0
-    # current, and reused by a job at today's defaults (the compiled kernels with the node
+    # current, and reused by its job at today's defaults (the compiled kernels with the node
     # contact): bit for bit, or a numpy run within the agreement's tolerance; stale only a
-    # compiled run made before compiled_code was recorded (stale before the default too)
+    # compiled run made before compiled_code was recorded (stale before the default too).
+    # "Its job" asks for what the record names, and for fixed load steps where it names none:
+    # every committed run was made with them, so an adaptive job does not take it for its own.
     identity = json.loads((folder / "summary.json").read_text())["identity"]
+    assert run["step_control"] == "fixed" and "step_control" not in identity["inputs"]
+    job = FemJob.of_inputs(identity["inputs"])
+    assert job.step_control == "fixed"
+    assert dataclasses.replace(job, step_control="adaptive").key() != job.key()
     if run["kernels"] == "compiled" and "compiled_code" not in identity:
         assert run["state"] == "stale"
     else:

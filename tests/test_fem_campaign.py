@@ -187,7 +187,7 @@ def test_killed_worker_and_any_error_lose_nothing_finished(material, tmp_path, m
 
 
 PROGRESS_RUN = {"history": ([0.0, 20.0, 0.0], "coarse"),
-                "fe": {"steps_per_segment": 4, "max_step_ratio": 1.25}}
+                "fe": {"steps_per_segment": 4, "max_step_ratio": 1.25, "step_control": "fixed"}}
 
 
 def _stopped_run(material, checkpoint, monkeypatch, stop_at):

@@ -282,7 +282,10 @@ def test_fe_model_reaches_every_run_of_the_study():
 
 # The weak grain's FE of record (examples/params-reference-weak.json; docs/cycles.md) and the
 # study run with it.
-WEAK_FE_MODEL = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01}
+# Fixed load steps (cut at x1.01), named: the control the study's committed runs were made with,
+# whatever the default (issue 36: the adaptive control may become it).
+WEAK_FE_MODEL = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01,
+                 "step_control": "fixed"}
 FINITE_STUDY_RUNS = (Path(__file__).resolve().parents[1] / "datasets" / "fe-runs"
                      / "paper-histories-finite")
 
@@ -290,11 +293,12 @@ FINITE_STUDY_RUNS = (Path(__file__).resolve().parents[1] / "datasets" / "fe-runs
 def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
     """--fe-model-materials reference-weak: finite strain for the weak grain's runs (and the
     single loads of its increasing history) only; the σc = 10 MPa and von Mises runs keep the FE
-    defaults, the same jobs (cache keys) as a study without the FE model flags. An unknown preset
-    is a one-line error naming the option and the allowed presets."""
+    defaults, the same jobs (cache keys) as a study without the FE model flags; the step control
+    alone reaches every run. An unknown preset is a one-line error naming the option and the
+    allowed presets."""
     from geocontact.analyses.paper_histories import single_load_jobs, study_jobs
 
-    model = WEAK_FE_MODEL
+    model = {k: v for k, v in WEAK_FE_MODEL.items() if k != "step_control"}
     names = ["repeated-10MPa", "mono-increasing-1MPa", "repeated-von-mises-10MPa"]
     plan, jobs = study_jobs("coarse", only=names, fe_model=model,
                             fe_model_materials=["reference-weak"])
@@ -306,6 +310,14 @@ def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
     assert by_name["mono-increasing-1MPa"].key() == finite[1].key()
     for job in single_load_jobs(by_name["mono-increasing-1MPa"]):
         assert job.kinematics == "finite" and job.max_step_ratio == 1.01
+    _, adaptive = study_jobs("coarse", only=names, fe_model={**model, "step_control": "adaptive"},
+                             fe_model_materials=["reference-weak"])
+    assert [job.step_control for job in adaptive] == ["adaptive"] * 3
+    assert [job.kinematics for job in adaptive] == ["small", "finite", "small"]
+    assert adaptive[0].key() != plain[0].key()
+    assert [job.step_control for job in study_jobs("coarse", only=names, fe_model=WEAK_FE_MODEL,
+                                                   fe_model_materials=["reference-weak"])[1]
+            ] == ["fixed"] * 3
     with pytest.raises(InputError, match=r"fe_model_materials: unknown material 'weak' "
                                          r"\(allowed: .*reference-weak"):
         study_jobs("coarse", only=names, fe_model=model, fe_model_materials=["weak"])
@@ -334,7 +346,8 @@ def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
     script = _paper_histories_script(root)
     out = tmp_path / "study"
     assert script.main(["--mesh", "default", "--kinematics", "finite", "--mesh-rule", "contact",
-                        "--max-step-ratio", "1.01", "--fe-model-materials", "reference-weak",
+                        "--max-step-ratio", "1.01", "--step-control", "fixed",
+                        "--fe-model-materials", "reference-weak",
                         "--workers", "1", "--cache",
                         str(FINITE_STUDY_RUNS),
                         "--out", str(out)]) == 0  # the whole study: every run finished

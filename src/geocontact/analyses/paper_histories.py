@@ -90,7 +90,8 @@ def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
     ``fe_model``: kinematics, mesh_rule, step_rule and max_step_ratio of the runs (``FemJob``;
     the FE defaults when None); ``fe_model_materials``: the material presets it applies to (None:
     every run), the others run with the FE defaults, e.g. finite strain only for the weak grain,
-    where small strain is not valid (docs/verification.md, item 13)."""
+    where small strain is not valid (docs/verification.md, item 13); its ``step_control``
+    reaches every run."""
     from ..fem.campaign import FemJob
 
     runs = study()["runs"]
@@ -112,9 +113,12 @@ def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
         forces = preset_history(spec["history"], float(spec["peak_force"]))
         model = (fe_model if fe_model_materials is None
                  or spec["material"] in fe_model_materials else None)
+        # the step control is how every run is solved, not a material's model: it reaches all
+        # (the committed study was made with fixed steps throughout)
+        every = {k: v for k, v in (fe_model or {}).items() if k == "step_control"}
         jobs.append(FemJob(preset(spec["material"]), tuple(forces), mesh=run_mesh,
                            steps_per_segment=steps_per_segment, label=label,
-                           **(model or {})))
+                           **{**every, **(model or {})}))
     return plan, jobs
 
 

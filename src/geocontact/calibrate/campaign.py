@@ -351,6 +351,9 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
             "mesh": job.mesh,
             "kinematics": job.kinematics, "mesh_rule": job.mesh_rule,
             "step_rule": job.step_rule, "max_step_ratio": job.max_step_ratio,
+            # named where not "fixed": the load steps of every file written before the
+            # adaptive control became the default (issue 36)
+            **({"step_control": job.step_control} if job.step_control != "fixed" else {}),
             "steps_per_segment": job.steps_per_segment
             or runs[0].result.summary["inputs"]["steps_per_segment"],
             "elements": [r.result.summary["mesh"]["elements"] for r in runs],

@@ -100,7 +100,8 @@ def main(argv: list[str] | None = None, prog: str = "geocontact study paper-hist
     ap.add_argument("--fe-model-materials", nargs="+", default=None, metavar="PRESET",
                     help="apply the FE model flags above only to the runs of these material "
                          "presets; the others run with the FE defaults (small strain), e.g. "
-                         "finite strain only for reference-weak (default: every run)")
+                         "finite strain only for reference-weak (default: every run); "
+                         "--step-control reaches every run")
     args = ap.parse_args(argv)
     out = Path(args.out)
     # before the FE runs: ours to replace, writable, no other run on it
