@@ -338,3 +338,36 @@ def test_contact_dense_pair_meets_the_staircase_goal_to_6_kN(tmp_path):
         assert run["slope_jump_max"] < 1.0  # no riser: a staircase has jumps of 4-38
         assert 0.5 < run["slope_min"] and run["slope_max"] < 1.5
         assert run["bump_rms"] < 0.005
+
+
+def test_waypoint_gaps_compare_each_peak_and_return_to_zero():
+    """scripts/measure_staircase.py --cycles: each run's approach at every peak and every return
+    to 0 N (the ends of the monotonic segments, recorded whatever the steps), and per pair the
+    largest relative difference there, peaks and residuals apart (synthetic curves of two cycles
+    0 -> 1 -> 0 -> 1 -> 0, one run 24 steps, the other 48, 2 % and 10 % apart at the ends)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "measure_staircase.py"
+    spec = importlib.util.spec_from_file_location("measure_staircase", path)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+
+    def run(steps, peaks, rests):
+        up = np.linspace(0.0, 1.0, steps + 1)
+        force = np.concatenate([up, up[::-1][1:], up[1:], up[::-1][1:]])
+        ends = [peaks[0], rests[0], peaks[1], rests[1]]
+        approach = np.concatenate([
+            np.linspace(0.0, ends[0], steps + 1), np.linspace(ends[0], ends[1], steps + 1)[1:],
+            np.linspace(ends[1], ends[2], steps + 1)[1:],
+            np.linspace(ends[2], ends[3], steps + 1)[1:]])
+        return {"force_N": force, "approach_m": approach}
+
+    curves = {"a": run(24, [1.0, 1.1], [0.5, 0.6]),
+              "b": run(48, [1.0, 1.1 * 1.02], [0.5 / 1.1, 0.6])}
+    gaps = script.waypoint_gaps(curves, 5)
+    assert gaps["approach_at_waypoints_m"]["a"] == pytest.approx([1.0, 0.5, 1.1, 0.6])
+    pair = gaps["pairs"]["a vs b"]
+    assert pair["peak_approach_gap_max"] == pytest.approx(1.0 - 1.0 / 1.02, rel=1e-12)
+    assert pair["residual_approach_gap_max"] == pytest.approx(0.1, rel=1e-12)
+    assert script.waypoint_gaps(curves, 7)["pairs"] == {}  # not the history's waypoints
