@@ -56,8 +56,12 @@ def finished_runs(folder: Path) -> tuple[dict, list[dict]]:
         return (json.loads((folder / "summary.json").read_text()),
                 read_curves(folder / "curves.csv"))
     documents = [json.loads(p.read_text()) for p in sorted(folder.glob("runs/*/run.json"))]
+    # the calibrated depth of the law file the plastic runs read (kept beside each run)
+    depth = None
+    for law in sorted(folder.glob("runs/geocontact-*/law-no-cyclic-extension.json")):
+        depth = (json.loads(law.read_text()).get("calibrated_range") or {}).get("max_depth")
     summary = {"material": folder.name, "law": f"partial: {len(documents)} runs finished",
-               "runs": [d["summary"] for d in documents], "calibrated_max_depth": None}
+               "runs": [d["summary"] for d in documents], "calibrated_max_depth": depth}
     return summary, [c for d in documents for c in d["curves"]]
 
 
