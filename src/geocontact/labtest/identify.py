@@ -121,17 +121,23 @@ def read_master(path) -> dict[str, Any]:
     return data
 
 
+def _log_spline(x, y, smoothing: float):
+    """(log x sorted and strictly rising, log y at those points, the smoothing spline of log y
+    on them): within ``smoothing`` (relative) of the points."""
+    lx, ly = np.log(np.asarray(x, float)), np.log(np.asarray(y, float))
+    order = np.argsort(lx)
+    lx, ly = lx[order], ly[order]
+    keep = np.concatenate([[True], np.diff(lx) > 0])
+    lx, ly = lx[keep], ly[keep]
+    return lx, ly, UnivariateSpline(lx, ly, k=3, s=lx.size * smoothing**2)
+
+
 def _residual_of(curve: dict, vd, vf, noise: float):
     """residual(log s, log e) of the master curve scaled onto the measured virgin loading."""
-    lx, lg = np.log(curve["x"]), np.log(curve["g"])
-    order = np.argsort(lx)
-    lx, lg = lx[order], lg[order]
-    keep = np.concatenate([[True], np.diff(lx) > 0])
     # a smoothing spline in log-log: the FE curve steps as contact nodes engage (docs/fem.md),
     # and those steps, scaled against the record's, make the misfit multi-modal; the spline
     # keeps the curve within MASTER_SMOOTHING (relative) of the FE points
-    lx, lg = lx[keep], lg[keep]
-    spline = UnivariateSpline(lx, lg, k=3, s=lx.size * MASTER_SMOOTHING**2)
+    lx, _, spline = _log_spline(curve["x"], curve["g"], MASTER_SMOOTHING)
 
     def shape(x):
         return np.where((x >= lx[0]) & (x <= lx[-1]), spline(x), np.nan)
@@ -184,12 +190,7 @@ def _radius_of(curve: dict):
     units): a smoothing spline in log-log; Hertz (A = sqrt(x)) below the FE's first point."""
     x, a = np.asarray(curve["x"], float), np.asarray(curve["a"], float)
     use = a > 0
-    lx, la = np.log(x[use]), np.log(a[use])
-    order = np.argsort(lx)
-    lx, la = lx[order], la[order]
-    keep = np.concatenate([[True], np.diff(lx) > 0])
-    lx, la = lx[keep], la[keep]
-    spline = UnivariateSpline(lx, la, k=3, s=lx.size * RADIUS_SMOOTHING**2)
+    lx, la, spline = _log_spline(x[use], a[use], RADIUS_SMOOTHING)
 
     def radius(xx):
         lxx = np.log(np.asarray(xx, float))
