@@ -392,3 +392,31 @@ def test_low_stress_samples_consolidate(tmp_path):
     run = doc["runs"][0]
     assert run["consolidated_mean_stress_Pa"] == pytest.approx(100.0, rel=0.02)
     assert run["Gmax_Pa"] > 0
+
+
+def test_a_study_stopped_after_a_run_resumes(tmp_path, monkeypatch):
+    """Stopped (Ctrl-C) during its second run, a study keeps the first, loops file included, as
+    its own: the next call reuses it and runs the rest, and the folder verifies."""
+    import geocontact.analyses.dem_cyclic as cyclic
+
+    settings = CyclicSettings(grains=100, amplitudes=(1e-6, 1e-5), cycles=2, seeds=2,
+                              baseline="none", cyclic_extension="off")
+    real, calls = cyclic.run_one, []
+
+    def stopped_at_the_second(*args, **kwargs):
+        calls.append(args[0].name)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(cyclic, "run_one", stopped_at_the_second)
+    out = tmp_path / "study"
+    with pytest.raises(KeyboardInterrupt):
+        run_cyclic_shear(LAW, settings, out=out)
+    assert verify_manifest(out) == []  # the first run's loops file is listed as ours
+    monkeypatch.setattr(cyclic, "run_one", real)
+    lines: list[str] = []
+    run_cyclic_shear(LAW, settings, out=out, progress=lines.append)
+    assert sum("finished before, reused" in line for line in lines) == 1
+    assert sum("done in" in line for line in lines) == 1
+    assert verify_manifest(out) == []

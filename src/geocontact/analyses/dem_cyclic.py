@@ -421,13 +421,15 @@ def run_cyclic_shear(law: str | Path, settings: CyclicSettings, *, out: str | Pa
                          f"amplitudes x {settings.cycles} cycles")
             parsed = run_one(run, settings, law, material, folder, ranks, progress)
             wall = parsed["summary"]["runtime_s"]
-            write_manifest(out, COMMAND, inputs)
             if progress:
                 progress(f"{what}: done in {wall:.1f} s, Gmax "
                          f"{parsed['summary']['Gmax_Pa']:.4g} Pa")
         elif progress:
             progress(f"{what}: finished before, reused")
         documents.append(_write_loops(out, folder, run, settings, material))
+        # the run and its loops listed as ours at once: a study stopped at any point resumes
+        # (its loops file unlisted, the next call refused the folder as not ours)
+        write_manifest(out, COMMAND, inputs)
     curves = [c for d in documents for c in d["curves"]]
     write_csv(out / "curves.csv", {k: np.array([c[k] for c in curves]) for k in CURVE_COLUMNS})
     document = {"schema": SCHEMA, "test": "cyclic-shear", "law": given,
