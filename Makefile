@@ -214,7 +214,10 @@ sample-study-twice-the-grains: $(STAMP) plugin
 sample-study-reference: $(STAMP) plugin
 	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json \
 	  --cyclic-extension off --stress 1e2 1e5 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/reference
-$(SAMPLE_STUDY)/params-quartz-like.json: $(STAMP) examples/sample-study/quartz-like.toml
+# made once (order-only: a fresh clone's newer .venv must not remake it): the file records when
+# it was made, so a remade file has another sha256 and the committed runs that read it would no
+# longer be this study's. Delete it to make it again (and the quartz-like runs with it).
+$(SAMPLE_STUDY)/params-quartz-like.json: | $(STAMP)
 	mkdir -p $(SAMPLE_STUDY)
 	$(VENV)/bin/geocontact params --material examples/sample-study/quartz-like.toml --out $@
 sample-study-quartz-like: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
