@@ -8,8 +8,10 @@ For every study folder below the argument (each a ``geocontact dem cyclic-shear`
 samples (mean, range), G/Gmax and the damping ratio D per amplitude (mean and range over the
 samples) beside Darendeli (2001) for a clean sand at the same mean stress, the ledger's damping
 split by channel (the normal law, Coulomb sliding, the dashpots; shares of the dissipated
-energy), and the contacts beyond the law file's calibrated range. Markdown on stdout; ``--json``
-also writes the numbers. Reads only; every number comes from the study's own files.
+energy), and the contacts beyond the law file's calibrated range. A sample's point that is not
+a quasi-static loop (its energy balance does not close) is counted, not averaged. Markdown on
+stdout; ``--json`` also writes the numbers. Reads only; every number comes from the study's own
+files.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from geocontact.analyses.dem_cyclic import balance_check
 from geocontact.analyses.empirical_curves import darendeli
 
 
@@ -94,16 +97,28 @@ def study_tables(folder: Path) -> tuple[str, dict]:
         dar = darendeli(np.array(amps), stress)
         lines += [f"**{law}, {stress / 1e3:.4g} kPa** (mean and range over the samples; "
                   "D in %; the ledger's shares of the dissipated energy in %)", "",
-                  "| γa | G/Gmax | Darendeli G/Gmax | D (loop) | D (ledger) | Darendeli D | "
-                  "law | sliding | dashpots | mean stress change per cycle (kPa) |",
-                  "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+                  "| γa | quasi-static samples | G/Gmax | Darendeli G/Gmax | D (loop) | "
+                  "D (ledger) | Darendeli D | law | sliding | dashpots | "
+                  "mean stress change per cycle (kPa) |",
+                  "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         for j, a in enumerate(amps):
-            at = [r for r in rows if r["amplitude"] == a]
+            every = [r for r in rows if r["amplitude"] == a]
+            # a sample's point whose energy balance does not close is not a quasi-static loop
+            # (geocontact.analyses.dem_cyclic.balance_check): counted, not averaged
+            at = [r for r in every if balance_check(r)["quasi_static"] is not False]
+            counted = f"{len(at)}/{len(every)}"
+            if not at:
+                lines.append(f"| {a:.3g} | {counted} | — | {dar['G_over_Gmax'][j]:.3g} | — | — | "
+                             f"{100 * dar['damping_ratio'][j]:.2f} | — | — | — | — |")
+                numbers["cases"].append({"law": law, "stress_Pa": stress, "amplitude": a,
+                                         "quasi_static_samples": 0, "samples": len(every)})
+                continue
             ledger = np.array([r["damping_ratio_ledger"] for r in at])
             share = {k: [r[f"damping_ratio_{k}"] / r["damping_ratio_ledger"] for r in at]
                      if np.all(np.isfinite(ledger)) and np.all(ledger > 0) else None
                      for k in ("normal_law", "sliding", "viscous")}
             case = {"law": law, "stress_Pa": stress, "amplitude": a,
+                    "quasi_static_samples": len(at), "samples": len(every),
                     "G_over_Gmax": [r["G_over_Gmax"] for r in at],
                     "damping_ratio": [r["damping_ratio"] for r in at],
                     "damping_ratio_ledger": ledger.tolist(),
@@ -112,7 +127,8 @@ def study_tables(folder: Path) -> tuple[str, dict]:
                     "shares": share}
             numbers["cases"].append(case)
             lines.append(
-                f"| {a:.3g} | {spread(case['G_over_Gmax'])} | {dar['G_over_Gmax'][j]:.3g} | "
+                f"| {a:.3g} | {counted} | {spread(case['G_over_Gmax'])} | "
+                f"{dar['G_over_Gmax'][j]:.3g} | "
                 f"{percent(case['damping_ratio'])} | "
                 f"{percent(ledger) if np.all(np.isfinite(ledger)) else '—'} | "
                 f"{100 * dar['damping_ratio'][j]:.2f} | "

@@ -14,9 +14,11 @@ import numpy as np
 import pytest
 
 from geocontact.analyses.dem_cyclic import (
+    BALANCE_TOLERANCE,
     CURVE_COLUMNS,
     CyclicSettings,
     Run,
+    balance_check,
     loop_measures,
     run_cyclic_shear,
     run_one,
@@ -125,6 +127,9 @@ def test_the_ledger_closes_the_loops_energy(study):
         terms = (c["damping_ratio_ledger"], c["stored_energy_change_ratio"],
                  c["kinetic_energy_change_ratio"])
         assert abs(c["damping_ratio"] - sum(terms)) < 0.01 * max(map(abs, terms)) + 2e-4
+        # so every point of this dense sample is a quasi-static loop (balance_check)
+        assert c["quasi_static"] is True
+        assert abs(c["energy_balance_residual"]) < BALANCE_TOLERANCE
         if c["law"] == "geocontact":  # the normal law's share: positive, part of the whole
             assert 0 < c["damping_ratio_normal_law"] < c["damping_ratio_ledger"]
         else:  # the elastic law dissipates nothing itself: friction and damping do
@@ -285,6 +290,52 @@ def test_other_tests_refuse_cyclic_shear_flags(tmp_path, capsys):
 
 
 # --- the loop measures and the engineers' curves -----------------------------------------------
+
+def test_a_point_whose_energy_balance_does_not_close_is_not_quasi_static():
+    """balance_check: W_loop V = ΔD + ΔU + ΔK (units of 4π W_peak V). A cycle that releases
+    stored energy and dissipates it with the loop's work balances; one whose contacts
+    dissipate ten times the loop's work with no stored or kinetic energy released got energy
+    the contact stress did not see; without a ledger (pair granular) nothing is known."""
+    relaxing = {"damping_ratio": 0.01, "damping_ratio_ledger": 0.25,
+                "stored_energy_change_ratio": -0.24, "kinetic_energy_change_ratio": 0.0}
+    check = balance_check(relaxing)
+    assert check["quasi_static"] is True
+    assert check["energy_balance_residual"] == pytest.approx(0.0, abs=1e-15)
+    thrown = {**relaxing, "damping_ratio_ledger": 0.1, "stored_energy_change_ratio": -1e-9}
+    check = balance_check(thrown)
+    assert check["quasi_static"] is False
+    assert check["energy_balance_residual"] == pytest.approx((0.01 - 0.1 + 1e-9) / 0.11,
+                                                             rel=1e-6)
+    # either side of the tolerance: (D − 0.01) / (D + 0.49) = T at D = (0.01 + 0.49 T)/(1 − T)
+    edge = (0.01 + 0.49 * BALANCE_TOLERANCE) / (1 - BALANCE_TOLERANCE)
+    assert balance_check({**relaxing, "damping_ratio": 0.99 * edge})["quasi_static"] is True
+    assert balance_check({**relaxing, "damping_ratio": 1.01 * edge})["quasi_static"] is False
+    granular = {**relaxing, "damping_ratio_ledger": math.nan}
+    assert balance_check(granular)["quasi_static"] is None
+
+
+def test_the_report_leaves_out_points_that_are_not_quasi_static():
+    """The report's curves average a law's samples over its quasi-static points only; the
+    others are returned apart (drawn as crosses, listed)."""
+    from geocontact.report.dem_cyclic import _groups
+
+    rows = [(seed, a, g, d, qs) for seed, qs_last in ((1, 1.0), (2, 0.0))
+            for a, g, d, qs in ((1e-5, 1.0, 0.01, 1.0), (1e-3, 0.5 * seed, 0.1 * seed, qs_last))]
+    c = {"law": np.array(["geocontact"] * 4), "consolidation_stress_Pa": np.full(4, 100.0),
+         "seed": np.array([r[0] for r in rows], dtype=float),
+         "amplitude": np.array([r[1] for r in rows]),
+         "G_over_Gmax": np.array([r[2] for r in rows]),
+         "damping_ratio": np.array([r[3] for r in rows]),
+         "damping_ratio_ledger": np.array([r[3] for r in rows]),
+         "G_Pa": np.array([r[2] for r in rows]) * 1e6,
+         "quasi_static": np.array([r[4] for r in rows])}
+    (law, stress, amps, mod, damp, _, dynamic, mod_all, _), = _groups(c)
+    assert list(amps) == [1e-5, 1e-3]
+    assert dynamic.tolist() == [[False, False], [False, True]]
+    assert np.nanmean(mod, axis=0).tolist() == [1.0, 0.5]  # the second sample's 1.0 left out
+    assert np.nanmean(damp, axis=0)[1] == pytest.approx(0.1)
+    assert mod_all[1, 1] == 1.0  # kept for the crosses
+
 
 def test_loop_measures_of_a_viscoelastic_ellipse():
     """Kelvin-Voigt at damping ratio D: τ = G γa (sin ωt + 2D cos ωt); the loop's area is

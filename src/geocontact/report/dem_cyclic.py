@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..analyses.dem_cyclic import BALANCE_TERMS, BALANCE_TOLERANCE, balance_check
 from ..analyses.empirical_curves import darendeli, hardin_drnevich
 from ..errors import InputError
 from ..figures import Figure
@@ -47,7 +49,12 @@ def _read(path: Path, text: tuple[str, ...] = ("law", "material")) -> dict[str, 
 
 
 def _curves(directory: Path) -> dict[str, np.ndarray]:
-    return _read(directory / "curves.csv")
+    c = _read(directory / "curves.csv")
+    if "quasi_static" not in c:  # a study written before the balance check: check it here
+        flags = [balance_check({k: c[k][i] if k in c else math.nan for k in BALANCE_TERMS})
+                 ["quasi_static"] for i in range(len(c["law"]))]
+        c["quasi_static"] = np.array([math.nan if f is None else float(f) for f in flags])
+    return c
 
 
 def _groups(c: dict[str, np.ndarray]):
@@ -66,8 +73,12 @@ def _groups(c: dict[str, np.ndarray]):
                         out[i, j] = c[column][row][0]
                 return out
 
-            yield law, stress, amps, grid("G_over_Gmax"), grid("damping_ratio"), \
-                grid("damping_ratio_ledger"), grid("G_Pa")
+            # a point whose energy balance does not close is not a quasi-static loop
+            # (analyses.dem_cyclic.balance_check): left out of the curves, drawn apart
+            dynamic = grid("quasi_static") == 0.0
+            yield law, stress, amps, *(np.where(dynamic, np.nan, grid(k)) for k in (
+                "G_over_Gmax", "damping_ratio", "damping_ratio_ledger")), dynamic, \
+                grid("G_over_Gmax"), grid("damping_ratio")
 
 
 def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Path) -> None:
@@ -89,26 +100,37 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     data: dict[str, np.ndarray] = {}
     styles = ["-", "--", ":", "-."]
-    for law, stress, amps, mod, damp, ledger, _ in groups:
+    dropped = []
+    for law, stress, amps, mod, damp, ledger, dynamic, mod_all, damp_all in groups:
         style = styles[stresses.index(stress) % len(styles)]
         label = f"{law}, {stress / 1e3:.4g} kPa (n = {len(mod)})"
-        for ax, values in ((axes[0], mod), (axes[1], damp)):
-            mean = np.nanmean(values, axis=0)
+        for ax, values, every in ((axes[0], mod, mod_all), (axes[1], damp, damp_all)):
+            mean = _over_samples(np.nanmean, values)
             ax.plot(amps, mean, "o" + style, ms=4, color=COLOURS.get(law, "C2"), label=label)
             if len(values) > 1:
-                ax.fill_between(amps, np.nanmin(values, axis=0), np.nanmax(values, axis=0),
+                ax.fill_between(amps, _over_samples(np.nanmin, values),
+                                _over_samples(np.nanmax, values),
                                 color=COLOURS.get(law, "C2"), alpha=0.2, lw=0)
+            if dynamic.any():
+                seeds, at = np.nonzero(dynamic)
+                ax.plot(amps[at], every[seeds, at], "x", ms=5, color=COLOURS.get(law, "C2"),
+                        label=(f"{law}, {stress / 1e3:.4g} kPa: not quasi-static"
+                               if ax is axes[0] else None))
+        if dynamic.any():
+            dropped.append([law, stress, int(dynamic.sum()), dynamic.size,
+                            ", ".join(f"{a:.3g}" for a in amps[dynamic.any(axis=0)])])
         key = f"{law}_{stress:g}Pa"
         if np.isfinite(ledger).any():  # pair granular has no ledger
-            axes[1].plot(amps, np.nanmean(ledger, axis=0), "s" + style, ms=4, mfc="none",
+            axes[1].plot(amps, _over_samples(np.nanmean, ledger), "s" + style, ms=4, mfc="none",
                          color=COLOURS.get(law, "C2"), alpha=0.6,
                          label=f"{law}, {stress / 1e3:.4g} kPa: ledger (dissipated)")
-            data[f"{key}_damping_ratio_ledger_mean"] = np.nanmean(ledger, axis=0)
+            data[f"{key}_damping_ratio_ledger_mean"] = _over_samples(np.nanmean, ledger)
         data[f"{key}_amplitude"] = amps
-        data[f"{key}_G_over_Gmax_mean"] = np.nanmean(mod, axis=0)
-        data[f"{key}_damping_ratio_mean"] = np.nanmean(damp, axis=0)
-        data[f"{key}_damping_ratio_min"] = np.nanmin(damp, axis=0)
-        data[f"{key}_damping_ratio_max"] = np.nanmax(damp, axis=0)
+        data[f"{key}_G_over_Gmax_mean"] = _over_samples(np.nanmean, mod)
+        data[f"{key}_damping_ratio_mean"] = _over_samples(np.nanmean, damp)
+        data[f"{key}_damping_ratio_min"] = _over_samples(np.nanmin, damp)
+        data[f"{key}_damping_ratio_max"] = _over_samples(np.nanmax, damp)
+        data[f"{key}_quasi_static_samples"] = np.sum(~dynamic, axis=0).astype(float)
     strains = np.logspace(np.log10(min(c["amplitude"])), np.log10(max(c["amplitude"])), 60)
     for stress in stresses:
         style = styles[stresses.index(stress) % len(styles)]
@@ -138,7 +160,10 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
         f"{s['material']}: each amplitude's last cycle; G secant, D = W_loop / (4π W_peak); "
         "markers the mean over the samples, band their range; open squares: the energy the "
         "contacts dissipated over the cycle (the ledger) over 4π W_peak V, which exceeds the "
-        "loop's D by the stored energy the sample releases as it relaxes. Darendeli (2001) through "
+        "loop's D by the stored energy the sample releases as it relaxes; crosses: a sample's "
+        "point whose energy balance does not close (W_loop V ≠ ΔD + ΔU + ΔK beyond "
+        f"{BALANCE_TOLERANCE:.0%}: not a quasi-static loop), left out of the mean and band. "
+        "Darendeli (2001) through "
         "pystrata for PI = 0, OCR = 1, 1 Hz, 10 cycles; Hardin & Drnevich (1972) the "
         "hyperbola with Darendeli's reference strain and its Masing damping.", data)))
 
@@ -166,4 +191,18 @@ def dem_cyclic_section(report: Report, directory: Path, root: Path, figures: Pat
         f"{tag}_loops", "Stress–strain loops of the last cycle of each amplitude",
         "Each loop scaled by its own amplitudes (so a wider loop is a larger damping ratio); "
         "the data keep the measured strain and stress.", data)))
+    if dropped:
+        items.insert(1, "<p>Points that are not quasi-static loops (the contact stress's "
+                     "loop does not balance the contacts' energy ledger: energy reached the "
+                     "grains by the sheared periodic boundary; left out of the curves):</p>")
+        items.insert(2, table(["law", "mean stress (Pa)", "points left out", "of",
+                               "at amplitudes"], dropped))
     report.add(f"DEM cyclic simple shear {rel or '.'}", *items)
+
+
+def _over_samples(reduce, values: np.ndarray) -> np.ndarray:
+    """np.nanmean / np.nanmin / np.nanmax over the samples of each amplitude; NaN, without a
+    warning, where no sample is left (every point left out as not quasi-static)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return reduce(values, axis=0)
