@@ -65,8 +65,8 @@ def register(sub) -> None:
     p.add_argument("--baseline", default=None,
                    help="seismic: baseline correction of the acceleration, none, mean, linear "
                         "or quadratic (default linear); cyclic-shear: the contact beside the "
-                        "law, granular (pair granular hertz/material + Mindlin) or none "
-                        "(default granular)")
+                        "law, elastic (the grain's elastic law through the same pair style; "
+                        "default), granular (pair granular hertz/material + Mindlin) or none")
     p.add_argument("--amplitudes", type=float, nargs="+", default=None, metavar="A",
                    help="cyclic-shear: shear strain amplitudes, increasing (default 9 from "
                         "1e-6 to 1e-2, log-spaced)")
