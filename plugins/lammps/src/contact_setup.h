@@ -153,6 +153,25 @@ inline bool parse_damping(LAMMPS *lmp, int &iarg, int narg, char **arg, double &
   return true;
 }
 
+// A keyword that takes one of two words, `keyword first|second`: -1 when arg[iarg] is another
+// keyword; else the index (0 or 1) of the word given, with iarg moved past both. A missing or
+// other word is a one-line error naming the keyword and the two words.
+inline int parse_either(LAMMPS *lmp, int &iarg, int narg, char **arg, const char *keyword,
+                        const char *first, const char *second, const char *who)
+{
+  if (std::strcmp(arg[iarg], keyword) != 0) return -1;
+  if (iarg + 1 >= narg)
+    lmp->error->all(FLERR, "{}: keyword '{}' needs a value ({} or {})", who, keyword, first,
+                    second);
+  const char *word = arg[iarg + 1];
+  const int which = std::strcmp(word, first) == 0 ? 0 : std::strcmp(word, second) == 0 ? 1 : -1;
+  if (which < 0)
+    lmp->error->all(FLERR, "{}: {} must be {} or {}, got '{}'", who, keyword, first, second,
+                    word);
+  iarg += 2;
+  return which;
+}
+
 // `range warn|error` (issue 37): what a contact loaded beyond the law file's calibrated range
 // (delta_max / delta_y > calibrated_range.max_depth, where the law extrapolates) does: `warn`
 // (the default) counts it and says so once; `error` stops the run there (range_error below).
@@ -160,14 +179,9 @@ inline bool parse_damping(LAMMPS *lmp, int &iarg, int narg, char **arg, double &
 inline bool parse_range(LAMMPS *lmp, int &iarg, int narg, char **arg, bool &stop,
                         const char *who)
 {
-  if (std::strcmp(arg[iarg], "range") != 0) return false;
-  if (iarg + 1 >= narg)
-    lmp->error->all(FLERR, "{}: keyword 'range' needs a value (warn or error)", who);
-  if (std::strcmp(arg[iarg + 1], "error") == 0) stop = true;
-  else if (std::strcmp(arg[iarg + 1], "warn") == 0) stop = false;
-  else lmp->error->all(FLERR, "{}: range must be warn or error, got '{}'", who, arg[iarg + 1]);
-  iarg += 2;
-  return true;
+  const int word = parse_either(lmp, iarg, narg, arg, "range", "warn", "error", who);
+  if (word >= 0) stop = word == 1;
+  return word >= 0;
 }
 
 // `memory place|pair` (pair_style geocontact and the wall fixes; docs/dem.md "Memory with a
@@ -177,14 +191,9 @@ inline bool parse_range(LAMMPS *lmp, int &iarg, int narg, char **arg, bool &stop
 inline bool parse_memory(LAMMPS *lmp, int &iarg, int narg, char **arg, bool &place,
                          const char *who)
 {
-  if (std::strcmp(arg[iarg], "memory") != 0) return false;
-  if (iarg + 1 >= narg)
-    lmp->error->all(FLERR, "{}: keyword 'memory' needs a value (place or pair)", who);
-  if (std::strcmp(arg[iarg + 1], "place") == 0) place = true;
-  else if (std::strcmp(arg[iarg + 1], "pair") == 0) place = false;
-  else lmp->error->all(FLERR, "{}: memory must be place or pair, got '{}'", who, arg[iarg + 1]);
-  iarg += 2;
-  return true;
+  const int word = parse_either(lmp, iarg, narg, arg, "memory", "place", "pair", who);
+  if (word >= 0) place = word == 0;
+  return word >= 0;
 }
 
 // The depth delta_max / delta_y of a contact state when it is beyond the law file's calibrated
