@@ -619,6 +619,13 @@ inline void travel_rates(const double *n, const double *vi, const double *vj, co
   rate_j = armj * std::sqrt(dot3(dj, dj));
 }
 
+// How far, in dent radii a_max, the contact point must travel over a grain before its dent is
+// behind it: a new contact circle of radius a_max centred that far from the old one starts at
+// a_max from the dent's centre, where the FE's residual hollow ends (docs/dem.md "FE check of
+// the 2 a_max rule": the hollow ends at 0.9-1.0 a_max from F = 10 to 1e4 Fy; the rim beyond it
+// stands proud of the sphere, which no dent of the law represents).
+constexpr double kDentTravelRadii = 2.0;
+
 // The dent's radius a_max: the contact radius at the top of its envelope (F = F_max at
 // delta_max), in the law's SI units; 0 for a contact never loaded.
 inline double dent_radius(const geocontact::LawParams &law, const geocontact::ContactState &s)
@@ -665,11 +672,11 @@ inline bool forget_if_safe(const geocontact::LawParams &law, const StiffnessCons
 
 // Advance the distances the contact point travelled on each grain over the step (`Record`: the
 // pair's or a wall's, with travel[2], due, forgotten and reset_stored; a wall's travel[1] stays
-// 0, the wall being rigid) and, once either passes 2 a_max, mark the contact due and forget its
-// dent as soon as that creates no energy (forget_if_safe). Only a contact that yielded has a
-// dent; an elastic one has nothing to forget. The envelope set anew (virgin loading) puts the
-// dent where the contact is: the caller then zeroes the distances and the due flag
-// (envelope_moved). Returns true when the dent was forgotten. Call before the step's law
+// 0, the wall being rigid) and, once either passes kDentTravelRadii a_max, mark the contact due
+// and forget its dent as soon as that creates no energy (forget_if_safe). Only a contact that
+// yielded has a dent; an elastic one has nothing to forget. The envelope set anew (virgin
+// loading) puts the dent where the contact is: the caller then zeroes the distances and the due
+// flag (envelope_moved). Returns true when the dent was forgotten. Call before the step's law
 // update, with commit only.
 template <class Record>
 inline bool track_place(const geocontact::LawParams &law, const StiffnessConstants &c,
@@ -681,7 +688,8 @@ inline bool track_place(const geocontact::LawParams &law, const StiffnessConstan
   if (!rec.due) {
     if (!(rec.law.max_approach > law.yield_approach)) return false;
     const double a_max = sim.scale * c.length_to_run * dent_radius(law, rec.law);
-    if (!(a_max > 0.0) || std::max(rec.travel[0], rec.travel[1]) <= 2.0 * a_max) return false;
+    if (!(a_max > 0.0) || std::max(rec.travel[0], rec.travel[1]) <= kDentTravelRadii * a_max)
+      return false;
     rec.due = 1;
   }
   return forget_if_safe(law, c, sim, rec);
