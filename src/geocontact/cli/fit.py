@@ -126,7 +126,7 @@ def _fit(args, record, started: float) -> int:
           "compliance left in the record lowers E and sigma_c)")
     route = result.modulus_route
     print(line("Young's modulus E", "youngs_modulus_Pa", 1e9, "GPa") + "  (" + (
-        "unloading stiffness S = 2 E* a: the record does not resolve its Hertz part"
+        "unloading stiffness S = 2 beta E* a: the record does not resolve its Hertz part"
         if route["route"] == "unloading_stiffness" else "Hertz part") + ")")
     if route.get("unloading_stiffness_Pa") and route["route"] != "unloading_stiffness":
         se = route.get("unloading_stiffness_standard_error_Pa")

@@ -539,6 +539,8 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         hertz_part = {"youngs_modulus_Pa": youngs_modulus_of(kh, radius, nu),
                       "note": "E from the contact-point fit of the Hertz part alone"}
         modulus = _modulus_routes(master, prepared, s, material)
+        if not prepared.hertz_resolved:
+            modulus.update(_sigma_c_from_factor(master, prepared, modulus))
         kh = hertz_coefficient(material)
         fy = analytic_fy * master["fe_over_analytic_yield"]
         yield_info = {"source": "FE master curve (geocontact.labtest.identify): the FE first "
@@ -667,6 +669,22 @@ def _contact_at_modulus(record: Record, prepared: Prepared, master: dict, s: flo
                    alternative=None)
 
 
+def _sigma_c_from_factor(master: dict, prepared: Prepared, modulus: dict) -> dict:
+    """How far sigma_c moves when E* is off by the unloading stiffness factor's own scatter
+    (``stiffness.scatter``, the FE unloadings about beta(a/R)): the scale fit rerun at
+    E* x (1 -+ that share); half the range is sigma_c's systematic error from it."""
+    from .identify import scale_fit_unloading
+    from .stiffness import scatter
+
+    vd, vf, noise = prepared.virgin_approach, prepared.virgin_force, prepared.test.noise
+    peaks = prepared.unloading_peaks()
+    trial = master["material"].compressive_yield_stress
+    sigma = [scale_fit_unloading(master, vd, vf, noise, peaks, modulus_factor=1.0 + k * scatter())
+             [0] * trial for k in (-1.0, 1.0)]
+    return {"sigma_c_from_stiffness_factor_Pa": sigma,
+            "sigma_c_stiffness_factor_standard_error_Pa": 0.5 * abs(sigma[1] - sigma[0])}
+
+
 def _modulus_routes(master: dict, prepared: Prepared, s: float, material: Material) -> dict:
     """Which route gave E, and the unloading stiffness's estimate of E beside it (with its
     standard error over the cycles) whichever route was taken: a cross-check."""
@@ -682,10 +700,13 @@ def _modulus_routes(master: dict, prepared: Prepared, s: float, material: Materi
                     f"{HERTZ_PART_POINTS} virgin points above 5 sigma below the departure)"
                     if prepared.hertz_resolved else
                     "the record does not resolve its Hertz part: E* from the unloading "
-                    "stiffness S = 2 E* a at each peak, a the master curve's FE contact radius"),
+                    "stiffness S = 2 beta E* a at each peak, a the master curve's FE contact "
+                    "radius, beta(a/R) the FE unloadings' (labtest.stiffness)"),
             "unloading_stiffness_Pa": u["scale"] * trial,
             "unloading_stiffness_standard_error_Pa": (u["standard_error"] * trial
                                                       if u["standard_error"] else None),
+            "stiffness_factor_per_cycle": u["stiffness_factor"],
+            "stiffness_factor_standard_error_Pa": u["stiffness_factor_standard_error"] * trial,
             "unloading_stiffness_per_cycle_Pa": [v * trial for v in u["per_cycle"]],
             "youngs_modulus_Pa": material.youngs_modulus}
 
@@ -833,8 +854,14 @@ def _add_systematic(result: LabFit) -> None:
     if route["route"] == "unloading_stiffness" and route.get(
             "unloading_stiffness_standard_error_Pa"):
         # E from the unloadings: the cycles' scatter about their median is its own error
+        # and beta(a/R)'s own scatter, for E and, through the scale fit, for sigma_c
         sens["youngs_modulus_Pa"] = math.hypot(sens.get("youngs_modulus_Pa", 0.0),
-                                               route["unloading_stiffness_standard_error_Pa"])
+                                               route["unloading_stiffness_standard_error_Pa"],
+                                               route.get("stiffness_factor_standard_error_Pa",
+                                                         0.0))
+        sens["compressive_yield_stress_Pa"] = math.hypot(
+            sens.get("compressive_yield_stress_Pa", 0.0),
+            route.get("sigma_c_stiffness_factor_standard_error_Pa", 0.0))
     boot = result.bootstrap
     boot["noise_standard_errors"] = dict(boot["standard_errors"])
     for key, value in sens.items():
@@ -848,7 +875,8 @@ def _add_systematic(result: LabFit) -> None:
                            "noise_standard_errors)")
     if route["route"] == "unloading_stiffness":
         boot["method"] += ("; E from the unloading stiffness also carries the scatter of the "
-                           "cycles' values in quadrature")
+                           "cycles' values and of the FE unloadings about beta(a/R) in "
+                           "quadrature, sigma_c the latter's effect through the scale fit")
 
 
 def provenance_of(result: LabFit) -> dict[str, Any]:
@@ -861,8 +889,9 @@ def provenance_of(result: LabFit) -> dict[str, Any]:
         "material.youngs_modulus": (
             "E* of the Hertz part (contact-point fit), E = 2 (1 - nu^2) E* with the given or "
             "assumed nu" if result.modulus_route["route"] == "hertz_part" else
-            "E* from the unloading stiffness S = 2 E* a at each cycle's peak (median over the "
-            "cycles; a from the FE master curve), E = 2 (1 - nu^2) E*: the record does not "
+            "E* from the unloading stiffness S = 2 beta E* a at each cycle's peak (median over "
+            "the cycles; a from the FE master curve, beta(a/R) from the FE unloadings of "
+            "datasets/fe-runs), E = 2 (1 - nu^2) E*: the record does not "
             "resolve its Hertz part"),
         "youngs_modulus_route": result.modulus_route,
         "material.compressive_yield_stress": (

@@ -39,6 +39,8 @@ from ..errors import InputError
 from ..grain.hertz import incipient_yield
 from ..grain.material import Material
 from ..law.params import HERTZ_EXPONENT
+from .stiffness import factor as stiffness_factor
+from .stiffness import scatter as stiffness_factor_scatter
 
 ROUNDS = 4          # FE runs at most
 TOLERANCE = 0.01    # relative change of sigma_c and E that ends the rounds
@@ -206,12 +208,14 @@ def unloading_modulus(curve: dict, peaks, s: float) -> dict[str, Any]:
 
     The unloading of an axisymmetric contact is elastic, and its initial slope is
     S = dF/d delta = 2 E* a, a the contact radius at the peak, whatever the loaded shape
-    (Sneddon 1965; Pharr, Oliver & Brotzen 1992; Oliver & Pharr 1992, eq. 2 with beta = 1): in
-    the pair approach delta of two identical spheres E* is the pair's, E = 2 (1 - nu^2) E*
-    (docs/model.md §2; the FE's own unloadings follow it within 3 %). The record gives S_k
-    at each peak (``fit.levels_of``), the master curve's FE run the contact radius
-    a_k = sqrt(R* dy) A(delta_k / dy) with dy = s^2 / e^2 dy(trial), so e solves
-    log e = median_k log(S_k / (2 E*(trial) a_k)) (a_k moves with e only through A's
+    (Sneddon 1965; Pharr, Oliver & Brotzen 1992) for an elastic half-space; a sphere's is
+    S = 2 beta E* a, Oliver & Pharr's (1992, eq. 2) beta, which this project's FE unloadings
+    give as beta(a/R) (``stiffness``: 1.02 at small contacts, rising with a/R). In the pair
+    approach delta of two identical spheres E* is the pair's, E = 2 (1 - nu^2) E*
+    (docs/model.md §2). The record gives S_k at each peak (``fit.levels_of``), the master
+    curve's FE run the contact radius a_k = sqrt(R* dy) A(delta_k / dy) with
+    dy = s^2 / e^2 dy(trial), so e solves
+    log e = median_k log(S_k / (2 beta_k E*(trial) a_k)) (a_k moves with e only through A's
     argument; the median: a cycle whose peak is poorly sampled, the first of a sparse first
     loading, is an outlier). ``peaks``: (delta_max, S) of each cycle. Returns e, its standard
     error (the cycles' robust scatter) and each cycle's value."""
@@ -226,10 +230,11 @@ def unloading_modulus(curve: dict, peaks, s: float) -> dict[str, Any]:
     stiff = np.array([p[1] for p in peaks], float)
 
     def each(log_e):
-        """each cycle's e, S_k / (2 E*(trial) a_k), with a_k at the scales (s, e)"""
+        """each cycle's e, S_k / (2 beta E*(trial) a_k), with a_k at the scales (s, e)"""
         e = math.exp(log_e)
         dy = s * s / (e * e) * dy_t
-        return stiff / (2.0 * es_t * math.sqrt(r_star * dy) * radius(dmax / dy))
+        a = math.sqrt(r_star * dy) * radius(dmax / dy)
+        return stiff / (2.0 * es_t * a * stiffness_factor(a / trial.radius))
 
     def gap(log_e):  # decreasing: a_k grows with e only through A's argument
         return float(np.median(np.log(each(log_e)))) - log_e
@@ -243,19 +248,26 @@ def unloading_modulus(curve: dict, peaks, s: float) -> dict[str, Any]:
     # efficiency against the mean for normal scatter)
     spread = 1.4826 * float(np.median(np.abs(values - np.median(values))))
     se = 1.253 * spread / math.sqrt(values.size) if values.size > 2 else None
-    return {"scale": e, "standard_error": se, "per_cycle": [float(v) for v in values]}
+    dy = s * s / (e * e) * dy_t
+    betas = stiffness_factor(math.sqrt(r_star * dy) * radius(dmax / dy) / trial.radius)
+    return {"scale": e, "standard_error": se, "per_cycle": [float(v) for v in values],
+            "stiffness_factor": [float(v) for v in betas],
+            # the FE unloadings' own scatter about beta(a/R): a systematic error of e
+            "stiffness_factor_standard_error": e * stiffness_factor_scatter()}
 
 
-def scale_fit_unloading(curve: dict, vd, vf, noise: float, peaks
-                        ) -> tuple[float, float, float, list]:
+def scale_fit_unloading(curve: dict, vd, vf, noise: float, peaks, *,
+                        modulus_factor: float = 1.0) -> tuple[float, float, float, list]:
     """``scale_fit`` with E* from the unloading stiffness (``unloading_modulus``) instead of
     the Hertz part: for a record whose Hertz part is not resolved the virgin loading fixes E*
     and sigma_c only along their correlation (Fy ~ sigma_c^3 / E*^2), so E* comes from the
-    unloadings, dense on every record, and the virgin loading fixes sigma_c."""
+    unloadings, dense on every record, and the virgin loading fixes sigma_c.
+    ``modulus_factor``: E* that many times the unloadings' (how sigma_c moves with E*)."""
     residual = _residual_of(curve, vd, vf, noise)
 
     def log_e(log_s):
-        return math.log(unloading_modulus(curve, peaks, math.exp(log_s))["scale"])
+        return math.log(modulus_factor * unloading_modulus(curve, peaks, math.exp(log_s))[
+            "scale"])
 
     def misfit(log_s):
         return float(np.sum(residual((log_s, log_e(log_s))) ** 2))
