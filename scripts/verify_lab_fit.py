@@ -15,6 +15,13 @@ For each test (a grain no calibration of the project uses):
 
     nice -n 5 .venv/bin/python scripts/verify_lab_fit.py [--bootstrap 30] [--out out/verify_lab_fit]
     nice -n 5 .venv/bin/python scripts/verify_lab_fit.py --shapes   # the records of issue 37
+    nice -n 5 .venv/bin/python scripts/verify_lab_fit.py --committed [--shapes] [--channels]
+
+``--committed``: no FE run at all: the committed master curves and check-history runs
+(tests/data/labtest) instead of the identification's and the cache's (items 1-3; the
+realizations with the committed master, their bias and scatter, no bootstrap); ``--channels``
+adds the realizations with the noise on one channel at a time (load cell, displacement
+transducer), which tells which one makes a bias.
 
 FE runs (the tests, the check histories and the identification's master curves) come from
 the cache out/cache/fem when there (make_synthetic_lab_tests.py fills it), else run (coarse).
@@ -52,7 +59,8 @@ def fit(path: Path, truth: dict, bootstrap: int, cache: Path, identify: str = "f
                     bootstrap_samples=bootstrap, cache_dir=cache, identify=identify)
 
 
-def realizations(path: Path, truth: dict, clean, *, samples: int) -> dict:
+def realizations(path: Path, truth: dict, clean, *, samples: int,
+                 channels: str = "force,displacement", boot: bool = True) -> dict:
     """Does the bootstrap's standard error describe the scatter over the noise? The noise-free
     record re-noised ``samples`` times with the generator's noise model (independent
     realizations), each fitted with the noise-free fit's master curve (or, in the universal
@@ -71,9 +79,11 @@ def realizations(path: Path, truth: dict, clean, *, samples: int) -> dict:
                    poissons_ratio=m["poissons_ratio"], friction_angle=m["friction_angle_deg"])
     rows, first = [], None
     for _ in range(samples):
-        noisy = Record(rec.displacement + rng.normal(0, DISPLACEMENT_NOISE * span, rec.force.size),
-                       rec.force + FORCE_TARE * peak + rng.normal(0, FORCE_NOISE * peak,
-                                                                  rec.force.size),
+        # both draws always, so each channel's noise is the same whichever channels are on
+        dn = rng.normal(0, DISPLACEMENT_NOISE * span, rec.force.size)
+        fn = rng.normal(0, FORCE_NOISE * peak, rec.force.size)
+        noisy = Record(rec.displacement + (dn if "displacement" in channels else 0.0),
+                       rec.force + FORCE_TARE * peak + (fn if "force" in channels else 0.0),
                        rec.time, "realization", {})
         fit = refit(noisy, clean, truth["setup"], truth["radius_m"], None, **options)
         first = first or (noisy, fit)
@@ -81,7 +91,15 @@ def realizations(path: Path, truth: dict, clean, *, samples: int) -> dict:
                      fit.params.material.youngs_modulus, fit.params.yield_force))
     sig, mod, fy = (np.array(v) for v in zip(*rows, strict=True))
     boot = bootstrap(first[0], first[1], truth["setup"], truth["radius_m"], samples=samples,
-                     seed=7, **options)["relative_standard_errors"]
+                     seed=7, **options)["relative_standard_errors"] if boot else None
+    if boot is None:
+        return {"samples": samples, "noise_on": channels,
+                "scatter_relative": {"compressive_yield_stress": float(np.std(sig)
+                                                                       / np.mean(sig)),
+                                     "youngs_modulus": float(np.std(mod) / np.mean(mod))},
+                "bias_percent": {"compressive_yield_stress": float(
+                    100 * (np.mean(sig) / m["compressive_yield_stress"] - 1)),
+                    "youngs_modulus": float(100 * (np.mean(mod) / m["youngs_modulus"] - 1))}}
     return {"samples": samples,
             "scatter_relative": {"compressive_yield_stress": float(np.std(sig) / np.mean(sig)),
                                  "youngs_modulus": float(np.std(mod) / np.mean(mod)),
@@ -164,6 +182,97 @@ def _committed_master(name: str) -> dict:
     from geocontact.labtest.identify import read_master
 
     return read_master(MASTERS / f"{name}.master.json")
+
+
+def _committed_check(name: str):
+    """The grain's check-history FE run committed in tests/data/labtest, as
+    calibrate.acceptance.compare reads a job and its run."""
+    from types import SimpleNamespace
+
+    from make_synthetic_lab_tests import CHECK_CURVES
+
+    data = json.loads(CHECK_CURVES[name].read_text())
+    return (SimpleNamespace(forces=tuple(data["forces_N"]), identity=lambda: None),
+            SimpleNamespace(curve=data["curve"], summary=data["summary"]))
+
+
+def verify_committed(name: str, tests: Path, realization_count: int,
+                     channels: bool) -> dict:
+    """Items 1-3 of the module docstring with the committed master curve and check-history
+    run (no FE run, no bootstrap): the noisy fit along the check history, the noise-free E and
+    sigma_c, and the realizations' bias and scatter (with --channels, also with the noise on one
+    channel at a time)."""
+    from geocontact.labtest.fit import fit_once
+
+    truth = json.loads((tests / f"{name}.truth.json").read_text())
+    m = truth["material"]
+    grain = "platens-quartzite" if name in SHAPES else name  # SHAPES: the quartzite's
+    master = _committed_master(grain)
+
+    def fit_of(record):
+        return fit_once(read_test(tests / f"{record}.csv"), truth["setup"], m["radius"],
+                        machine_stiffness=truth["machine_stiffness_N_per_m"],
+                        poissons_ratio=m["poissons_ratio"],
+                        friction_angle=m["friction_angle_deg"], master=master)
+
+    def errors(fit):
+        return {"youngs_modulus_error_percent": 100.0 * (
+            fit.params.material.youngs_modulus / m["youngs_modulus"] - 1.0),
+            "sigma_c_error_percent": 100.0 * (fit.params.material.compressive_yield_stress
+                                              / m["compressive_yield_stress"] - 1.0),
+            "contact_choice": fit.contact.get("choice", {}).get("chosen", "only one")}
+
+    noisy, clean = fit_of(name), fit_of(f"{name}.clean")
+    job, run = _committed_check(grain)
+    c = compare(noisy.params, job, run, name=f"{name}-check", kind="held-out",
+                description="a different FE history of the same grain")
+    row = {"test": name, "master": "committed (tests/data/labtest)",
+           "force_rms_percent_of_peak": c.force_rms_percent,
+           "force_max_percent_of_peak": c.force_max_percent,
+           "residual_approach_error_percent": c.residual_error_percent,
+           "noisy": errors(noisy), "noise_free": errors(clean)}
+    dy, pair = truth["fe_first_yield_approach_m"], 2.0 if truth["setup"] == "flat" else 1.0
+    for key, fit, at in (("noisy", noisy, "contact_displacement_m"),
+                         ("noise_free", clean, "clean_contact_displacement_m")):
+        if at in truth:
+            row[key]["contact_error_over_yield_approach"] = pair * (
+                fit.contact["contact_displacement_m"] - truth[at]) / dy
+    sets = ["force,displacement"] + (["force", "displacement"] if channels else [])
+    row["noise_realizations"] = [
+        realizations(tests / f"{name}.clean.csv", truth, clean, samples=realization_count,
+                     channels=on, boot=False) for on in sets]
+    row["meets"] = {
+        "force": row["force_rms_percent_of_peak"] <= GOALS["force_rms_percent_of_peak"],
+        "residual": (row["residual_approach_error_percent"] or 0.0)
+        <= GOALS["residual_approach_error_percent"],
+        "sigma_c_noise_free": abs(row["noise_free"]["sigma_c_error_percent"])
+        <= GOALS["sigma_c_error_percent_noise_free"]}
+    return row
+
+
+def committed(args) -> int:
+    names = list(SHAPES) if args.shapes else [n for n in TESTS if n not in SHAPES]
+    rows = [verify_committed(n, Path(args.tests), args.realizations, args.channels)
+            for n in names]
+    document = {"goals": GOALS, "tests": rows,
+                "all_met": all(all(r["meets"].values()) for r in rows)}
+    write_json_atomic(args.out, document)
+    for r in rows:
+        print(f"{r['test']:20s} check history: force RMS {r['force_rms_percent_of_peak']:.2f} % "
+              f"(max {r['force_max_percent_of_peak']:.1f} %), residual "
+              f"{r['residual_approach_error_percent']:.1f} %; noisy: E "
+              f"{r['noisy']['youngs_modulus_error_percent']:+.1f} %, sigma_c "
+              f"{r['noisy']['sigma_c_error_percent']:+.1f} %; noise-free: E "
+              f"{r['noise_free']['youngs_modulus_error_percent']:+.1f} %, sigma_c "
+              f"{r['noise_free']['sigma_c_error_percent']:+.1f} %")
+        for z in r["noise_realizations"]:
+            print(f"{'':20s} {z['samples']} realizations, noise on {z['noise_on']}: sigma_c "
+                  f"{z['bias_percent']['compressive_yield_stress']:+.1f} % (scatter "
+                  f"{100 * z['scatter_relative']['compressive_yield_stress']:.1f} %), E "
+                  f"{z['bias_percent']['youngs_modulus']:+.1f} % (scatter "
+                  f"{100 * z['scatter_relative']['youngs_modulus']:.1f} %)")
+    print("all goals met" if document["all_met"] else "goals NOT all met", f"({args.out})")
+    return 0 if document["all_met"] else 1
 
 
 def verify_shape(name: str, cache: Path, tests: Path) -> dict:
@@ -251,7 +360,17 @@ def main(argv=None) -> int:
     parser.add_argument("--shapes", action="store_true",
                         help="the records of SHAPES (issue 37: small first cycle, long "
                              "approach, sparse first loading) with the committed master curve")
+    parser.add_argument("--committed", action="store_true",
+                        help="no FE run: the committed master curves and check-history runs "
+                             "(tests/data/labtest), realizations without the bootstrap")
+    parser.add_argument("--channels", action="store_true",
+                        help="with --committed: realizations with the noise on one channel "
+                             "at a time too")
     args = parser.parse_args(argv)
+    if args.committed:
+        args.out = args.out or ("out/verify_lab_fit-committed"
+                                + ("-shapes" if args.shapes else "") + ".json")
+        return run_reporting_errors(lambda: committed(args))
     args.out = args.out or ("out/verify_lab_fit-shapes.json" if args.shapes else
                             "out/verify_lab_fit.json" if args.identify == "fe"
                             else f"out/verify_lab_fit-{args.identify}.json")
