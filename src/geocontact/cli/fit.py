@@ -140,6 +140,9 @@ def _fit(args, record, started: float) -> int:
     for row in result.identification.get("beta_profile", []):
         print(f"  {'':28s} beta {row['friction_angle_deg']:4.0f} deg: sigma_c "
               f"{row['compressive_yield_stress_Pa'] / 1e6:.4g} MPa, misfit {row['misfit']:.3g}")
+    beyond = (result.identification.get("calibrated_range") or {}).get("warning")
+    if beyond:
+        print(f"warning: {beyond}", file=sys.stderr)
     print(line("first-yield force Fy", "yield_force_N", 1.0, "N"))
     for key in ("poissons_ratio", "friction_angle_deg", "hardening_ratio"):
         state = "assumed" if key in result.assumed else "given"

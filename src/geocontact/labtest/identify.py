@@ -477,6 +477,24 @@ def _best_sigma_whole(law, material: Material, approach, force, start_sigma: flo
                           material, (centre - span, centre + span), 1.0)
 
 
+def beyond_calibrated_depth(params, approach) -> dict[str, Any]:
+    """Does the record go deeper than the law it is identified with was calibrated
+    (``calibrated_range.max_depth``, in delta / delta_y of that law)? Then sigma_c was found on
+    the law's extrapolation (docs/law.md, "The calibrated range"): ``warning`` says so in one
+    line, with the count of the record's points beyond and the largest depth reached."""
+    depth = np.asarray(approach, float) / params.yield_approach
+    top = float(params.calibrated_depth)
+    beyond = int(np.sum(depth > top))
+    out: dict[str, Any] = {"calibrated_depth": top, "largest_depth": float(depth.max()),
+                           "points_beyond": beyond, "warning": None}
+    if beyond:
+        out["warning"] = (
+            f"the record reaches {depth.max():.3g} delta_y, beyond the universal law's "
+            f"calibrated depth {top:.3g} delta_y at the identified material ({beyond} points): "
+            "sigma_c was found on the law's extrapolation; use --identify fe")
+    return out
+
+
 def identify_universal(material: Material, vd, vf, noise: float, *,
                        beta_given: bool, approach=None, force=None,
                        start_sigma: float | None = None) -> dict[str, Any]:
@@ -528,6 +546,7 @@ def identify_universal(material: Material, vd, vf, noise: float, *,
         out["beta_profile_note"] = ("best sigma_c and misfit at each beta: the pair one curve "
                                     "gives; beta stays assumed in the law file")
     found = law(material.with_(compressive_yield_stress=sigma))
+    out["calibrated_range"] = beyond_calibrated_depth(found, approach if whole else vd)
     out["universal"] = found.provenance.get("universal", {})
     out["yield_force_N"] = found.yield_force
     out["material"] = found.material
