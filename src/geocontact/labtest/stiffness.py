@@ -79,13 +79,15 @@ def run_factors(folder: Path) -> list[dict[str, Any]]:
     return rows
 
 
-def measure(campaigns) -> dict[str, Any]:
+def measure(campaigns, runs=None) -> dict[str, Any]:
     """beta(a/R) fitted over every run of the FE campaign folders ``campaigns`` (each run once:
-    a run committed to two campaigns is the same FE job)."""
+    a run committed to two campaigns is the same FE job), or over the run folders named in
+    ``runs`` only (what a committed fit was made of: runs committed since do not change it)."""
     rows, seen = [], set()
     for campaign in campaigns:
         for summary in sorted(Path(campaign).glob("*/summary.json")):
-            if summary.parent.name in seen:
+            if summary.parent.name in seen or (runs is not None
+                                               and summary.parent.name not in runs):
                 continue
             seen.add(summary.parent.name)
             rows += [{**r, "campaign": Path(campaign).name} for r in run_factors(summary.parent)]
