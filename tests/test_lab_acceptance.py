@@ -158,7 +158,7 @@ def test_a_record_without_a_hertz_part_takes_e_from_its_unloadings(record):
     """sparse-quartzite (its first loading in about 12 points: no Hertz part) takes E from the
     unloading stiffness S = 2 beta E* a (beta(a/R) of the FE unloadings), with a standard error,
     and says so: E within 2 % (+0.5 %, noise-free +1.1 %) and sigma_c within docs/fit.md's 5 %
-    (+0.0 %, -4.2 %); with beta = 1 they were +1.9 %, +2.6 % and -4.2 %, -8.0 %, and from the
+    (-0.1 %, -4.2 %); with beta = 1 they were +1.9 %, +2.6 % and -4.2 %, -8.0 %, and from the
     Hertz part (the route before) E -19 %, sigma_c +93 % on the noise-free record."""
     truth, fit = _fit("sparse-quartzite", record, master="platens-quartzite")
     route = fit.modulus_route
