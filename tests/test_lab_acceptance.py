@@ -188,3 +188,31 @@ def test_a_record_with_a_hertz_part_keeps_it_and_the_unloadings_agree():
     assert route["route"] == "hertz_part"
     assert route["unloading_stiffness_Pa"] == pytest.approx(truth["material"]["youngs_modulus"],
                                                             rel=E_TOLERANCE)
+
+
+def test_the_load_cell_noise_does_not_pull_the_flat_test_s_contact():
+    """The flat test's noisy sigma_c bias (docs/fit.md, "The flat test's bias"): the noise-free
+    record with the generator's load-cell noise alone (3e-4 of the peak force; the realizations'
+    first draw of scripts/verify_lab_fit.py). With the contact fit's robust loss at 3 sigma the
+    whole record's contact moved -0.024 dy and sigma_c came out +11 % (the onset refinement,
+    chosen, +11 %); with the loss at the power laws' form error it is -0.009 dy and +5.4 to
+    +6.2 % over three draws. Checked: the whole record's contact is chosen, sigma_c within 8 %
+    (the bias left is the form error inside the noise's width, not resolved) and E within 2 %."""
+    from geocontact.labtest.curve import Record
+
+    truth = json.loads((TESTS / "flat-sandstone.truth.json").read_text())
+    m = truth["material"]
+    clean = read_test(TESTS / "flat-sandstone.clean.csv")
+    rng = np.random.default_rng(2024)
+    rng.normal(0, 1, clean.force.size)  # the displacement's draw, not used: the same force noise
+    peak = float(clean.force.max())
+    noisy = Record(clean.displacement, clean.force + 1e-3 * peak
+                   + rng.normal(0, 3e-4 * peak, clean.force.size), clean.time, "realization", {})
+    fit = fit_once(noisy, truth["setup"], m["radius"],
+                   machine_stiffness=truth["machine_stiffness_N_per_m"],
+                   poissons_ratio=m["poissons_ratio"], friction_angle=m["friction_angle_deg"],
+                   master=read_master(DATA / "flat-sandstone.master.json"))
+    assert fit.contact["choice"]["chosen"] == "whole_record"
+    assert fit.params.material.compressive_yield_stress == pytest.approx(
+        m["compressive_yield_stress"], rel=0.08)
+    assert fit.params.material.youngs_modulus == pytest.approx(m["youngs_modulus"], rel=0.02)
