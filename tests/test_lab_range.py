@@ -37,3 +37,32 @@ def test_a_record_beyond_it_is_warned_in_one_line_with_the_count_and_the_depth(p
     assert "\n" not in found["warning"] and "beyond the universal law's calibrated depth" in (
         found["warning"])
     assert f"{2.0 * top:.3g}" in found["warning"]
+
+
+def test_geocontact_fit_strict_range_refuses_in_one_line_and_writes_nothing(
+        tmp_path, capsys, monkeypatch):
+    """``geocontact fit --identify universal --strict-range`` on the noise-free platens test
+    with a universal law calibrated (here, by construction) only to 5 delta_y: the record goes
+    to about 40 delta_y, so it is refused before the bootstrap, in one line, nothing written."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    import geocontact.labtest.identify as identify
+    from geocontact.cli import main
+
+    law = identify.universal_law()
+    if law is None:
+        pytest.skip("the universal law is not in this installation")
+    monkeypatch.setattr(identify, "universal_law",
+                        lambda: lambda m: replace(law(m), calibrated_depth=5.0))
+    tests = Path(__file__).resolve().parents[1] / "examples" / "tests"
+    out = tmp_path / "P.json"
+    argv = ["fit", str(tests / "platens-quartzite.clean.csv"), "--setup", "platens",
+            "--radius", "4e-3", "--machine-stiffness", "3e6", "--poissons-ratio", "0.2",
+            "--friction-angle", "20", "--identify", "universal", "--bootstrap", "0",
+            "--strict-range", "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "beyond the universal law's calibrated depth 5 delta_y" in err
+    assert "(--strict-range)" in err and "\n" not in err
+    assert not out.exists()

@@ -55,6 +55,9 @@ def register(sub) -> None:
     p.add_argument("--bootstrap", type=int, default=30, metavar="N",
                    help="bootstrap samples for the standard errors (0: none; default 30)")
     p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument("--strict-range", action="store_true",
+                   help="with --identify universal: refuse (one line, nothing written) a record "
+                        "deeper than the universal law's calibrated depth instead of warning")
     add_force_flag(p)
     p.add_argument("--json", action="store_true", help="print one JSON document (fit.json)")
     p.set_defaults(run=run)
@@ -91,7 +94,8 @@ def _fit(args, record, started: float) -> int:
                       hardening_ratio=args.hardening_ratio, bootstrap_samples=args.bootstrap,
                       seed=args.seed, identify=args.identify, mesh=args.mesh,
                       cache_dir=Path(args.cache) if args.cache else None,
-                      progress=None if args.json else progress)
+                      progress=None if args.json else progress,
+                      strict_range=args.strict_range)
     inputs = {"curve": args.curve, "curve_sha256": record.sha256, "setup": args.setup,
               "radius": args.radius, "poissons_ratio": args.poissons_ratio,
               "friction_angle": args.friction_angle, "hardening_ratio": args.hardening_ratio,

@@ -801,11 +801,14 @@ IDENTIFY = ("fe", "universal", "departure")
 def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=None,
              poissons_ratio=None, friction_angle=None, hardening_ratio=None,
              bootstrap_samples: int = 30, seed: int = 0, identify: str = "fe",
-             mesh: str = "coarse", cache_dir=None, progress=None) -> LabFit:
+             mesh: str = "coarse", cache_dir=None, progress=None,
+             strict_range: bool = False) -> LabFit:
     """The whole fit (module docstring): law, material, bootstrap standard errors; the
     provenance says what came from where. ``identify``: "fe" (sigma_c and delta_y from the FE
     master curve, ``labtest.identify``) or "departure" (no FE run: delta_y where the record
-    leaves Hertz, sigma_c analytic there, a biased first estimate)."""
+    leaves Hertz, sigma_c analytic there, a biased first estimate). ``strict_range``: refuse,
+    before the bootstrap, a record that goes beyond the universal law's calibrated depth
+    (``identify.beyond_calibrated_depth``) instead of warning."""
     if identify not in IDENTIFY:
         raise InputError(f"identify: unknown method {identify!r} (allowed: "
                          f"{', '.join(IDENTIFY)})")
@@ -826,6 +829,9 @@ def fit_test(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         result.identification = {k: v for k, v in found.items() if k != "master"}
     elif identify == "universal":
         prepared, found = _universal(prepared, beta_given=friction_angle is not None)
+        beyond = (found.get("calibrated_range") or {}).get("warning")
+        if beyond and strict_range:
+            raise InputError(f"curve: {beyond} (--strict-range)")
         result = fit_once(record, setup, radius, prepared=prepared, universal=found, **options)
         result.identification = {k: v for k, v in found.items() if k != "material"}
         result.identification["universal_law"] = {"used": True, **found["universal"]}
