@@ -34,9 +34,21 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+def auto_rule_message(material, summary) -> str:
+    """What the mesh rule "auto" chose for the run of ``summary`` and why (its mesh force over
+    the analytic first-yield force against fem.settings.AUTO_DENSE_FORCE_RATIO)."""
+    from ..fem.settings import AUTO_DENSE_FORCE_RATIO, chosen_mesh_rule
+
+    rule, ratio = chosen_mesh_rule(material, summary["identity"]["inputs"]["mesh_force_N"])
+    side = "above" if ratio > AUTO_DENSE_FORCE_RATIO else "not above"
+    return (f"mesh rule auto: {rule} (mesh force {ratio:.4g} x the analytic first-yield force, "
+            f"{side} {AUTO_DENSE_FORCE_RATIO:g})")
+
+
 def run(args) -> int:
     from ..fem.roundoff import fe_summary_resolutions
     from ..fem.run import run_history
+    from ..fem.settings import AUTO_MESH_RULE
 
     material = load_material(args.material)
     forces = load_history(args.history)
@@ -59,6 +71,8 @@ def run(args) -> int:
         fp = s["fully_plastic_force_N"]
         print(f"wrote {args.out}: {s['steps']} steps, {s['mesh']['elements']} elements, "
               f"{s['wall_time_s']:.1f} s")
+        if args.mesh_rule == AUTO_MESH_RULE:
+            print(auto_rule_message(material, s))
         bracket = s.get("first_yield_bracket_N")
         between = (f" (between the steps at {bracket[0]:.6g} and {bracket[1]:.6g} N)"
                    if fy is not None and bracket else "")

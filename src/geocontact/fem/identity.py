@@ -213,6 +213,15 @@ _KERNELS_DEFAULT = ("the element kernels' default resolved per run (fem.settings
                     "calls in the same order: a run on the numpy path computes as before")
 _reproduces(_DEFAULT_FE_CODE, "a96dc9b1776d119a", _KERNELS_DEFAULT)
 
+# The mesh rule chosen from the material and the load (issue 36, fem.settings.chosen_mesh_rule).
+_AUTO_MESH_RULE_CODE = "eda0d948e9431144"
+_AUTO_MESH_RULE = ("the opt-in mesh rule 'auto' added (refused before; resolved to a concrete "
+                   "rule before the identity is made, which records that rule, never 'auto') "
+                   "and the record compared with each setting's default when it entered the "
+                   "identity (fem.settings.RECORD_DEFAULTS, equal to today's defaults): every "
+                   "run is meshed, solved and recorded as before")
+_reproduces(_AUTO_MESH_RULE_CODE, _DEFAULT_FE_CODE, _AUTO_MESH_RULE)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -265,6 +274,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_DEFAULT_FE_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_DEFAULT_FE_CODE, *REPRODUCED_FE_CODE[_DEFAULT_FE_CODE])},
+    # the same compiled code under the FE code of the "auto" mesh rule (reruns under it)
+    (_AUTO_MESH_RULE_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_AUTO_MESH_RULE_CODE, *REPRODUCED_FE_CODE[_AUTO_MESH_RULE_CODE])},
 }
 
 
@@ -363,7 +376,7 @@ class FeRunIdentity:
     @classmethod
     def of_settings(cls, material: Material, forces, settings: FeSettings) -> FeRunIdentity:
         forces = tuple(validate_forces(list(forces)))
-        return cls(material, forces, settings.resolved(forces))
+        return cls(material, forces, settings.resolved(forces, material))
 
     def __getattr__(self, name: str) -> Any:
         if name in _SETTINGS:

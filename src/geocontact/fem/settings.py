@@ -38,6 +38,35 @@ STEP_CONTROLS = ("fixed", "adaptive")
 # so the keys (cache entries, checkpoints) of earlier runs stay valid.
 RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "contact",
                      "kernels", "step_control")
+# The value each of them had by default when it entered the identity: a record leaves a setting
+# out only at this value and reads an absent one as it, so a default that moves later keeps every
+# older record meaning what it meant (a run made at "yield" / "fixed" keeps its key whatever the
+# default becomes). The kernels' absence is read per FE code instead
+# (fem.identity.recorded_kernels).
+RECORD_DEFAULTS = {"mesh_rule": "yield", "kinematics": "small", "step_rule": "segment",
+                   "max_step_ratio": None, "contact": "node", "step_control": "fixed"}
+# The mesh rule chosen from the material and the load (issue 36; docs/fem.md "The mesh rule
+# chosen from the material and the load"): "auto" resolves, with the history's largest force (the
+# mesh force), to "contact-dense" when that force is above AUTO_DENSE_FORCE_RATIO x the analytic
+# first-yield force, else to "yield". The ratio is where the "contact" rules' surface band starts
+# (fem.run.CONTACT_BAND_FORCE_RATIO) and the staircase criterion's range begins: below it the
+# contact stays in the elastic-plastic transition, where the verified "yield" meshes hold; above
+# it the node-by-node growth of a flattened contact shows in the force on the "yield" meshes
+# (24 vs 48 steps 1.1-6 % apart at 100-10^5 Fy) and not on "contact-dense" (0.16-0.24 %). The
+# identity records the rule it resolved to, never "auto".
+AUTO_MESH_RULE = "auto"
+MESH_RULE_CHOICES = (AUTO_MESH_RULE, *MESH_RULES)
+AUTO_DENSE_FORCE_RATIO = 10.0
+
+
+def chosen_mesh_rule(material, force: float) -> tuple[str, float]:
+    """The mesh rule "auto" resolves to for a mesh sized for ``force`` (N) on ``material``, and
+    the ratio it was chosen by: ``force`` over the analytic first-yield force
+    (geocontact.grain.hertz.incipient_yield), against AUTO_DENSE_FORCE_RATIO."""
+    from ..grain.hertz import incipient_yield
+
+    ratio = float(force) / float(incipient_yield(material).force)
+    return ("contact-dense" if ratio > AUTO_DENSE_FORCE_RATIO else "yield"), ratio
 
 
 def default_kernels(contact: str) -> str:
@@ -56,7 +85,8 @@ class FeSettings:
     steps per monotonic segment (None: the preset's, STEPS_PER_SEGMENT). ``tolerance``: Newton
     tolerance relative to the force scale. ``volumetric``: "bbar-p1" | "bbar-p0" | "full".
     ``mesh_force``: size the mesh for this force, >= the history's largest (None: the largest).
-    ``mesh_rule``: "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES). ``kinematics``:
+    ``mesh_rule``: "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES) | "auto", chosen
+    from the material and the load when resolved (``chosen_mesh_rule``). ``kinematics``:
     "small" | "finite". ``step_rule``: "segment" | "decade" (fem.run.load_schedule).
     ``max_step_ratio``: None or a cap in (1, 2] on the loading force ratio of one solve above
     the first-yield force (fem.run.sub_steps; with the adaptive control its largest step,
@@ -93,7 +123,7 @@ class FeSettings:
             raise InputError(f"steps_per_segment: must be an integer >= 1, got {steps!r}")
         if not _is_number(self.tolerance) or not self.tolerance > 0:
             raise InputError(f"tolerance: must be a positive number, got {self.tolerance!r}")
-        for name, allowed in (("volumetric", VOLUMETRIC), ("mesh_rule", MESH_RULES),
+        for name, allowed in (("volumetric", VOLUMETRIC), ("mesh_rule", MESH_RULE_CHOICES),
                               ("kinematics", KINEMATICS), ("step_rule", STEP_RULES),
                               ("contact", CONTACTS), ("kernels", KERNELS),
                               ("step_control", STEP_CONTROLS)):
@@ -111,9 +141,10 @@ class FeSettings:
                                                 and self.mesh_force > 0):
             raise InputError(f"mesh_force: must be a positive number, got {self.mesh_force!r}")
 
-    def resolved(self, forces) -> FeSettings:
+    def resolved(self, forces, material=None) -> FeSettings:
         """The settings of a run of the force history ``forces`` with the defaults resolved
-        (steps_per_segment the preset's, mesh_force the largest force), numbers as floats and
+        (steps_per_segment the preset's, mesh_force the largest force, the mesh rule "auto" the
+        one ``chosen_mesh_rule`` gives for ``material`` at mesh_force), numbers as floats and
         ints, so two spellings of the same run are equal."""
         fmax = max(forces)
         mesh_force = fmax if self.mesh_force is None else self.mesh_force
@@ -122,7 +153,14 @@ class FeSettings:
                              f"got {self.mesh_force!r}")
         steps = (STEPS_PER_SEGMENT[self.mesh] if self.steps_per_segment is None
                  else self.steps_per_segment)
+        rule = self.mesh_rule
+        if rule == AUTO_MESH_RULE:
+            if material is None:
+                raise InputError("mesh_rule: 'auto' is chosen from the material, which was not "
+                                 "given (give a concrete rule: " + ", ".join(MESH_RULES) + ")")
+            rule = chosen_mesh_rule(material, mesh_force)[0]
         return replace(self, steps_per_segment=int(steps), tolerance=float(self.tolerance),
+                       mesh_rule=rule,
                        mesh_force=float(mesh_force),
                        max_step_ratio=(None if self.max_step_ratio is None
                                        else float(self.max_step_ratio)))
@@ -133,9 +171,12 @@ class FeSettings:
         record = {"mesh": self.mesh, "steps_per_segment": self.steps_per_segment,
                   "tolerance": self.tolerance, "mesh_force_N": self.mesh_force,
                   "volumetric": self.volumetric}
-        defaults = replace(FeSettings(), kernels=default_kernels(self.contact))
+        if self.mesh_rule == AUTO_MESH_RULE:
+            raise ValueError("FeSettings.record: the mesh rule 'auto' is recorded as the rule it "
+                             "resolves to (resolved(forces, material))")
+        defaults = {**RECORD_DEFAULTS, "kernels": default_kernels(self.contact)}
         record.update({name: getattr(self, name) for name in RECORDED_WHEN_SET
-                       if getattr(self, name) != getattr(defaults, name)})
+                       if getattr(self, name) != defaults[name]})
         return record
 
     @classmethod
@@ -145,7 +186,8 @@ class FeSettings:
         return cls(mesh=inputs["mesh"], steps_per_segment=inputs.get("steps_per_segment"),
                    tolerance=inputs["tolerance"], volumetric=inputs["volumetric"],
                    mesh_force=inputs.get("mesh_force_N"),
-                   **{name: inputs[name] for name in RECORDED_WHEN_SET if name in inputs})
+                   **{name: inputs.get(name, RECORD_DEFAULTS.get(name))
+                      for name in RECORDED_WHEN_SET})
 
     def describe(self, largest_force: float) -> list[str]:
         """The (resolved) settings in a few words each, those at their default left out."""
@@ -156,7 +198,7 @@ class FeSettings:
             words.append(f"tolerance {self.tolerance:g}")
         if self.volumetric != VOLUMETRIC_DEFAULT:
             words.append(f"volumetric {self.volumetric}")
-        if self.mesh_rule != "yield":
+        if self.mesh_rule != FeSettings.__dataclass_fields__["mesh_rule"].default:
             words.append(f"mesh rule {self.mesh_rule}")
         if self.kinematics != "small":
             words.append(f"{self.kinematics} strain")
@@ -168,7 +210,7 @@ class FeSettings:
             words.append(f"{self.contact} contact")
         if self.kernels != default_kernels(self.contact):
             words.append(f"{self.kernels} kernels")
-        if self.step_control != "fixed":
+        if self.step_control != FeSettings.__dataclass_fields__["step_control"].default:
             words.append(f"{self.step_control} step control")
         return words
 
@@ -190,11 +232,14 @@ class FeSettings:
                        help="FE kinematics: small strain (default) or finite strain "
                             "(logarithmic elastic strain, exponential map, F-bar)")
         p.add_argument("--mesh-rule", default=default["mesh_rule"].default,
-                       choices=list(MESH_RULES),
+                       choices=list(MESH_RULE_CHOICES),
                        help="FE mesh rule: 'yield' (default, the verified meshes), 'contact' "
                             "(small surface elements over the plastic range of contact radii: "
                             "the contact edge of a weak grain moves in steps of ~1 %% of the "
-                            "radius) or 'contact-dense' (twice as many surface elements there)")
+                            "radius), 'contact-dense' (twice as many surface elements there) "
+                            "or 'auto' ('contact-dense' when the largest force is above "
+                            f"{AUTO_DENSE_FORCE_RATIO:g} x the analytic first-yield force, "
+                            "else 'yield'; the run records the rule chosen)")
         p.add_argument("--step-rule", default=default["step_rule"].default,
                        choices=list(STEP_RULES),
                        help="FE load steps: 'segment' (default, --steps per monotonic segment) "

@@ -1,0 +1,116 @@
+"""The FE mesh rule chosen from the material and the load (``mesh_rule="auto"``,
+fem.settings.chosen_mesh_rule, issue 36): what it resolves to, that the identity records the
+concrete rule (so a run asked as "auto" is the same run as the one asked by its rule, and every
+committed run keeps its key), and its one-line refusals. No FE run: milliseconds."""
+
+import argparse
+
+import pytest
+
+from geocontact.cli.fem import auto_rule_message
+from geocontact.errors import InputError
+from geocontact.fem.campaign import FemJob
+from geocontact.fem.identity import FeRunIdentity
+from geocontact.fem.run import CONTACT_BAND_FORCE_RATIO
+from geocontact.fem.settings import (
+    AUTO_DENSE_FORCE_RATIO,
+    RECORD_DEFAULTS,
+    FeSettings,
+    chosen_mesh_rule,
+)
+from geocontact.grain.hertz import incipient_yield
+from geocontact.grain.material import preset
+
+REFERENCE = preset("reference")
+WEAK = preset("reference-weak")
+
+
+def _yield_force(material) -> float:
+    return float(incipient_yield(material).force)
+
+
+def test_the_rule_is_chosen_by_the_largest_force_over_first_yield():
+    """contact-dense above AUTO_DENSE_FORCE_RATIO x Fy (where the "contact" rules' band starts),
+    yield at or below it; the ratio reported is F / Fy."""
+    assert AUTO_DENSE_FORCE_RATIO == CONTACT_BAND_FORCE_RATIO
+    fy = _yield_force(REFERENCE)
+    rule, ratio = chosen_mesh_rule(REFERENCE, 6000.0)
+    assert rule == "contact-dense" and ratio == pytest.approx(6000.0 / fy, rel=1e-12)
+    assert chosen_mesh_rule(REFERENCE, 10.0 * fy)[0] == "yield"
+    assert chosen_mesh_rule(REFERENCE, 10.01 * fy)[0] == "contact-dense"
+    assert chosen_mesh_rule(REFERENCE, 0.5 * fy)[0] == "yield"
+    # the weak grain (sigma_c 10x lower) yields at a force ~1000x lower (Fy ~ sigma_c^3):
+    # the same load is far deeper into the plastic range
+    assert _yield_force(REFERENCE) / _yield_force(WEAK) == pytest.approx(1000.0, rel=0.05)
+    assert chosen_mesh_rule(WEAK, 0.02)[0] == "yield"
+    assert chosen_mesh_rule(WEAK, 300.0)[0] == "contact-dense"
+
+
+@pytest.mark.parametrize("material, forces, rule", [
+    (REFERENCE, [0.0, 6000.0, 0.0], "contact-dense"),          # case (a), ~2000 Fy
+    (REFERENCE, [0.0, 3000.0, 0.0, 3000.0, 0.0], "contact-dense"),  # case (c)
+    (WEAK, [0.0, 300.0], "contact-dense"),                     # case (b)
+    (REFERENCE, [0.0, 20.0, 0.0], "yield"),                    # below 10 Fy
+])
+def test_auto_is_the_run_of_the_rule_it_chooses(material, forces, rule):
+    """The identity records the concrete rule, never "auto": the run asked as "auto" has the
+    key of the run asked by its rule, and below the threshold the key of a default run (so
+    every committed "yield" run is found by an "auto" job at those loads)."""
+    auto = FeRunIdentity.of(material, forces, "coarse", mesh_rule="auto")
+    named = FeRunIdentity.of(material, forces, "coarse", mesh_rule=rule)
+    assert auto.mesh_rule == rule
+    assert auto.key() == named.key()
+    assert auto.inputs().get("mesh_rule", "yield") == rule
+    if rule == "yield":
+        assert auto.key() == FeRunIdentity.of(material, forces, "coarse").key()
+        assert "mesh_rule" not in auto.inputs()
+    # a campaign job asks the same way
+    job = FemJob(material, tuple(forces), "coarse", mesh_rule="auto")
+    assert job.key() == named.key()
+
+
+def test_a_shared_mesh_chooses_by_the_force_it_is_sized_for():
+    """Calibration levels share a mesh sized for the largest level (mesh_force): every level
+    gets the rule of that force, so they keep one mesh."""
+    fy = _yield_force(REFERENCE)
+    low = FeRunIdentity.of(REFERENCE, [0.0, 5.0 * fy, 0.0], "coarse", mesh_rule="auto",
+                           mesh_force=6000.0)
+    assert low.mesh_rule == "contact-dense"
+
+
+def test_the_record_reads_an_absent_setting_as_its_default_when_it_entered():
+    """RECORD_DEFAULTS: a record without mesh_rule / step_control was made at "yield" /
+    "fixed", whatever the default of the day."""
+    assert (RECORD_DEFAULTS["mesh_rule"], RECORD_DEFAULTS["step_control"]) == ("yield", "fixed")
+    inputs = FeRunIdentity.of(REFERENCE, [0.0, 60.0, 0.0]).inputs()
+    settings = FeSettings.of_record(inputs)
+    assert (settings.mesh_rule, settings.step_control) == ("yield", "fixed")
+    dense = FeRunIdentity.of(REFERENCE, [0.0, 60.0, 0.0], mesh_rule="contact-dense",
+                             step_control="adaptive").inputs()
+    back = FeSettings.of_record(dense)
+    assert (back.mesh_rule, back.step_control) == ("contact-dense", "adaptive")
+
+
+def test_auto_refusals_are_one_line():
+    with pytest.raises(InputError, match=r"^mesh_rule: unknown 'dense' \(allowed: auto, yield, "
+                                         r"contact, contact-dense\)$"):
+        FeSettings(mesh_rule="dense")
+    with pytest.raises(InputError, match="^mesh_rule: 'auto' is chosen from the material") as e:
+        FeSettings(mesh_rule="auto").resolved([0.0, 60.0])
+    assert "\n" not in str(e.value)
+    # an unresolved "auto" is never written into a record
+    with pytest.raises(ValueError, match="recorded as the rule it resolves to"):
+        FeSettings(mesh_rule="auto").record()
+
+
+def test_the_cli_flag_takes_auto_and_says_what_it_chose():
+    p = argparse.ArgumentParser()
+    FeSettings.add_model_flags(p)
+    assert FeSettings.model_of(p.parse_args(["--mesh-rule", "auto"]))["mesh_rule"] == "auto"
+    with pytest.raises(SystemExit):
+        p.parse_args(["--mesh-rule", "dense"])
+    summary = {"identity": {"inputs": {"mesh_force_N": 6000.0}}}
+    ratio = 6000.0 / _yield_force(REFERENCE)
+    assert auto_rule_message(REFERENCE, summary) == (
+        f"mesh rule auto: contact-dense (mesh force {ratio:.4g} x the analytic first-yield "
+        "force, above 10)")
