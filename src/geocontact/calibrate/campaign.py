@@ -350,7 +350,7 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
         "fe": {
             "mesh": job.mesh,
             # the rule the runs were meshed with ("auto" recorded as what it chose)
-            "kinematics": job.kinematics, "mesh_rule": top.result.summary["mesh"]["rule"],
+            "kinematics": job.kinematics, "mesh_rule": job.identity().mesh_rule,
             "step_rule": job.step_rule, "max_step_ratio": job.max_step_ratio,
             # named where not "fixed": the load steps of every file written before the
             # adaptive control became the default (issue 36)
