@@ -91,3 +91,26 @@ def no_work(monkeypatch):
     monkeypatch.setattr(dem, "run_lammps", _stop)
     monkeypatch.setattr(dem_seismic, "run_lammps", _stop)
     monkeypatch.setattr(demo, "_write_demo", _stop)
+
+
+def fe_setting_reaching_the_run(monkeypatch, tmp_path, setting: str, flags: list[str]) -> list:
+    """The value of the FE run's keyword ``setting`` that ``geocontact fem`` and ``cycles``
+    pass on with ``flags`` (a short history on the coarse mesh; the run itself is captured, not
+    made): one value per command."""
+    import geocontact.fem.run as fem_run
+    from geocontact.cli import main
+
+    seen = []
+
+    def capture(*args, **kwargs):
+        seen.append(kwargs.get(setting))
+        raise Reached
+
+    monkeypatch.setattr(fem_run, "run_history", capture)
+    history = tmp_path / "h.toml"
+    history.write_text("[history]\nforces = [0, 60, 0]\n")
+    for command in ("fem", "cycles"):
+        with pytest.raises(Reached):
+            main([command, "--material", "reference", "--history", str(history), "--mesh",
+                  "coarse", "--out", str(tmp_path / command), *flags])
+    return seen

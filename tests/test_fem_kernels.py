@@ -399,27 +399,14 @@ def test_kernels_flag_reaches_the_runs(tmp_path, monkeypatch, capsys):
     refused in one line before any work."""
     import argparse
 
-    import geocontact.fem.run as fem_run
+    from conftest import fe_setting_reaching_the_run
+
     from geocontact.cli import main
     from geocontact.fem.campaign import FemJob
     from geocontact.fem.settings import FeSettings
 
-    seen = []
-
-    class Stop(Exception):
-        pass
-
-    def capture(*args, **kwargs):
-        seen.append(kwargs.get("kernels"))
-        raise Stop
-
-    monkeypatch.setattr(fem_run, "run_history", capture)
-    history = tmp_path / "h.toml"
-    history.write_text("[history]\nforces = [0, 60, 0]\n")
-    for command in ("fem", "cycles"):
-        with pytest.raises(Stop):
-            main([command, "--material", "reference", "--history", str(history), "--mesh",
-                  "coarse", "--out", str(tmp_path / command), "--kernels", "numpy"])
+    seen = fe_setting_reaching_the_run(monkeypatch, tmp_path, "kernels", ["--kernels", "numpy"])
+    history = tmp_path / "h.toml"  # written by the helper
     assert seen == ["numpy", "numpy"]
     parser = argparse.ArgumentParser()
     FeSettings.add_model_flags(parser)

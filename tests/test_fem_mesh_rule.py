@@ -121,25 +121,13 @@ def test_geocontact_fem_passes_auto_on_and_refuses_an_unknown_rule_in_one_line(
     """``geocontact fem|cycles --mesh-rule auto`` reach the FE run as "auto" (captured here
     instead of running it; the run resolves it, above); an unknown rule is one line naming the
     flag and listing "auto"."""
-    import geocontact.fem.run as fem_run
+    from conftest import fe_setting_reaching_the_run
+
     from geocontact.cli import main
 
-    seen = []
-
-    class Stop(Exception):
-        pass
-
-    def capture(*args, **kwargs):
-        seen.append(kwargs.get("mesh_rule"))
-        raise Stop
-
-    monkeypatch.setattr(fem_run, "run_history", capture)
-    history = tmp_path / "h.toml"
-    history.write_text("[history]\nforces = [0, 60, 0]\n")
-    for command in ("fem", "cycles"):
-        with pytest.raises(Stop):
-            main([command, "--material", "reference", "--history", str(history), "--mesh",
-                  "coarse", "--out", str(tmp_path / command), "--mesh-rule", "auto"])
+    seen = fe_setting_reaching_the_run(monkeypatch, tmp_path, "mesh_rule",
+                                       ["--mesh-rule", "auto"])
+    history = tmp_path / "h.toml"  # written by the helper
     assert seen == ["auto", "auto"]
     code = main(["fem", "--material", "reference", "--history", str(history),
                  "--out", str(tmp_path / "x"), "--mesh-rule", "dense"])
