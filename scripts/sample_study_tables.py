@@ -73,7 +73,7 @@ def study_tables(folder: Path) -> tuple[str, dict]:
     groups: dict[tuple[str, float], list[dict]] = defaultdict(list)
     for c in curves:
         groups[(c["law"], c["consolidation_stress_Pa"])].append(c)
-    lines = [f"### {summary['material']} (`{summary['law']}`)", ""]
+    lines = [f"### {folder.name}: {summary['material']} (`{summary['law']}`)", ""]
     numbers: dict = {"material": summary["material"], "law_file": summary["law"], "cases": []}
     runs = summary["runs"]
     lines += ["| law | mean stress (kPa) | samples | packing fraction | contacts/grain | "
