@@ -250,13 +250,25 @@ def verify_committed(name: str, tests: Path, realization_count: int,
     return row
 
 
+def write_acceptance(rows: list[dict], out) -> dict:
+    """The acceptance document of ``rows`` (each with its goals' ``meets``), written to ``out``."""
+    document = {"goals": GOALS, "tests": rows,
+                "all_met": all(all(r["meets"].values()) for r in rows)}
+    write_json_atomic(out, document)
+    return document
+
+
+def verdict(document: dict, out) -> int:
+    """The last line, and the exit code: 0 when every goal of every test is met."""
+    print("all goals met" if document["all_met"] else "goals NOT all met", f"({out})")
+    return 0 if document["all_met"] else 1
+
+
 def committed(args) -> int:
     names = list(SHAPES) if args.shapes else [n for n in TESTS if n not in SHAPES]
     rows = [verify_committed(n, Path(args.tests), args.realizations, args.channels)
             for n in names]
-    document = {"goals": GOALS, "tests": rows,
-                "all_met": all(all(r["meets"].values()) for r in rows)}
-    write_json_atomic(args.out, document)
+    document = write_acceptance(rows, args.out)
     for r in rows:
         print(f"{r['test']:20s} check history: force RMS {r['force_rms_percent_of_peak']:.2f} % "
               f"(max {r['force_max_percent_of_peak']:.1f} %), residual "
@@ -271,8 +283,7 @@ def committed(args) -> int:
                   f"{100 * z['scatter_relative']['compressive_yield_stress']:.1f} %), E "
                   f"{z['bias_percent']['youngs_modulus']:+.1f} % (scatter "
                   f"{100 * z['scatter_relative']['youngs_modulus']:.1f} %)")
-    print("all goals met" if document["all_met"] else "goals NOT all met", f"({args.out})")
-    return 0 if document["all_met"] else 1
+    return verdict(document, args.out)
 
 
 def verify_shape(name: str, cache: Path, tests: Path) -> dict:
@@ -329,9 +340,7 @@ def shapes(args) -> int:
     from make_synthetic_lab_tests import SHAPES
 
     rows = [verify_shape(n, Path(args.cache), Path(args.tests)) for n in SHAPES]
-    document = {"goals": GOALS, "tests": rows,
-                "all_met": all(all(r["meets"].values()) for r in rows)}
-    write_json_atomic(args.out, document)
+    document = write_acceptance(rows, args.out)
     for r in rows:
         print(f"{r['test']:20s} contact {r['contact_error_over_yield_approach']:+.2f} dy (se "
               f"{r['contact_standard_error_over_yield_approach']:.2f} dy), "
@@ -341,8 +350,7 @@ def shapes(args) -> int:
               f" %), residual {r['residual_approach_error_percent']:.1f} %; E "
               f"{r['youngs_modulus_error_percent']:+.1f} %, sigma_c "
               f"{r['sigma_c_error_percent']:+.1f} % ({r['fit_seconds']:.0f} s)")
-    print("all goals met" if document["all_met"] else "goals NOT all met", f"({args.out})")
-    return 0 if document["all_met"] else 1
+    return verdict(document, args.out)
 
 
 def main(argv=None) -> int:
@@ -380,9 +388,7 @@ def main(argv=None) -> int:
     def run():
         rows = [verify(n, args.bootstrap, Path(args.cache), Path(args.tests), args.realizations,
                        args.identify) for n in TESTS if n not in SHAPES]
-        document = {"goals": GOALS, "tests": rows,
-                    "all_met": all(all(r["meets"].values()) for r in rows)}
-        write_json_atomic(args.out, document)
+        document = write_acceptance(rows, args.out)
         for r in rows:
             print(f"{r['test']:20s} check history: force RMS {r['force_rms_percent_of_peak']:.2f}"
                   f" % of peak, residual {r['residual_approach_error_percent']:.1f} %; noisy: "
@@ -397,8 +403,7 @@ def main(argv=None) -> int:
                   f" %), E scatter {100 * z['scatter_relative']['youngs_modulus']:.1f} % "
                   f"(bootstrap {100 * z['bootstrap_relative_of_one']['youngs_modulus']:.1f} %), "
                   f"sigma_c bias {z['bias_percent']['compressive_yield_stress']:+.1f} %")
-        print("all goals met" if document["all_met"] else "goals NOT all met", f"({args.out})")
-        return 0 if document["all_met"] else 1
+        return verdict(document, args.out)
 
     return run_reporting_errors(run)
 
