@@ -14,16 +14,34 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from common import write_table  # noqa: E402
 
+from geocontact.errors import ArgumentParser, run_reporting_errors  # noqa: E402
 from geocontact.law import load_params  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "params-reference.json"
+BENCHMARKS = ("law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx", "fem_finite",
+              "ccx_nlgeom", "fem_kernels", "fem_kernels_small")
+
+
+def parse(argv: list[str]):
+    """The benchmarks to run (all when none is named) and ``--quick``; an unknown name is one
+    line naming the allowed ones, and ``--help`` prints the usage instead of running anything."""
+    parser = ArgumentParser(prog="benchmarks/run.py",
+                            description="Every benchmark against a peer measured in the same "
+                                        "run; writes out/bench/*.json and the results table.")
+    parser.add_argument("names", nargs="*", metavar="NAME",
+                        help="benchmarks to run, any of: " + ", ".join(BENCHMARKS)
+                        + " (default: all)")
+    parser.add_argument("--quick", action="store_true",
+                        help="small samples and meshes, one repeat (a smoke run, not a measure)")
+    args = parser.parse_args(argv)
+    unknown = [n for n in args.names if n not in BENCHMARKS]
+    if unknown:
+        parser.error(f"unknown benchmark {', '.join(unknown)}; allowed: {', '.join(BENCHMARKS)}")
+    return args.names or list(BENCHMARKS), args.quick
 
 
 def main(argv: list[str]) -> int:
-    quick = "--quick" in argv
-    names = ([a for a in argv if not a.startswith("--")]
-             or ["law", "lammps", "lammps_poly", "lammps_wall", "fem", "ccx", "fem_finite",
-                 "ccx_nlgeom", "fem_kernels", "fem_kernels_small"])
+    names, quick = parse(argv)
     if "law" in names:
         import bench_law
 
@@ -71,4 +89,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(run_reporting_errors(lambda: main(sys.argv[1:])))
