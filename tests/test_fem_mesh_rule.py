@@ -135,27 +135,38 @@ def test_geocontact_fem_passes_auto_on_and_refuses_an_unknown_rule_in_one_line(
     assert code == 2 and err.count("\n") == 0 and "--mesh-rule" in err and "'auto'" in err
 
 
-def test_auto_meets_the_staircase_criterion_on_three_reference_cycles(tmp_path):
-    """Case (c) of the verification of the default (docs/fem.md): the reference grain under
-    three cycles 0 -> 3 kN -> 0, coarse preset, on the rule "auto" chooses there
-    (contact-dense) with the adaptive control, 24 vs 48 steps per segment, recomputed from the
-    committed finished runs (no FE run): within 1 % in force at the same approach (0.16 %
-    measured; the "yield" mesh gave 1.32 %), a smooth log-slope (jumps 0.06 / 0.10 against
-    1.05 / 1.15), and the same peaks and residuals within 0.1 % (0.005 %)."""
+FINISHED_STAIRCASES = {
+    # case: (mesh preset, force N, cycles); docs/fem.md, "Verification for the default"
+    "a": ("default", 6000.0, 1),
+    "c": ("coarse", 3000.0, 3),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FINISHED_STAIRCASES))
+def test_auto_meets_the_staircase_criterion_on_the_finished_cases(tmp_path, case):
+    """Cases (a) and (c) of the verification of the default (docs/fem.md): the reference grain
+    0 -> 6 kN -> 0 on the default preset and three cycles 0 -> 3 kN -> 0 on the coarse one, on
+    the rule "auto" chooses there (contact-dense) with the adaptive control, 24 vs 48 steps per
+    segment, recomputed from the committed finished runs (no FE run): within 1 % in force at
+    the same approach (0.071 % and 0.16 % measured; the "yield" mesh gave 1.25 % and 1.32 %), a
+    smooth log-slope (jumps <= 0.1 against 0.7-1.15), and the same peaks and residuals within
+    0.1 % (0.006 % and 0.005 %)."""
     import json
     import subprocess
     import sys
     from pathlib import Path
 
-    assert chosen_mesh_rule(REFERENCE, 3000.0)[0] == "contact-dense"
+    mesh, force, cycles = FINISHED_STAIRCASES[case]
+    assert chosen_mesh_rule(REFERENCE, force)[0] == "contact-dense"
     root = Path(__file__).resolve().parents[1]
-    out = tmp_path / "c.json"
+    out = tmp_path / f"{case}.json"
     done = subprocess.run(
         [sys.executable, str(root / "scripts" / "measure_staircase.py"), "--material",
-         "reference", "--mesh", "coarse", "--force", "3000", "--cycles", "3", "--mesh-rule",
-         "contact-dense", "--step-control", "adaptive", "--kernels", "compiled", "--steps", "24",
-         "48", "--out", str(root / "datasets" / "staircase-auto"), "--finished-only", "--json",
-         str(out)], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+         "reference", "--mesh", mesh, "--force", str(force), "--cycles", str(cycles),
+         "--mesh-rule", "contact-dense", "--step-control", "adaptive", "--kernels", "compiled",
+         "--steps", "24", "48", "--out", str(root / "datasets" / "staircase-auto"),
+         "--finished-only", "--json", str(out)],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert done.returncode == 0, done.stderr[-2000:]
     measures = json.loads(out.read_text())
     assert measures["measured_to_force_N"] is None and len(measures["runs"]) == 2  # finished
@@ -165,4 +176,6 @@ def test_auto_meets_the_staircase_criterion_on_three_reference_cycles(tmp_path):
     for run in measures["runs"].values():
         assert run["slope_jump_max"] < 0.3
     ends = measures["waypoints"]["pairs"]["24 steps, adaptive vs 48 steps, adaptive"]
+    assert len(measures["waypoints"]["approach_at_waypoints_m"]["24 steps, adaptive"]) \
+        == 2 * cycles
     assert ends["peak_approach_gap_max"] < 1e-3 and ends["residual_approach_gap_max"] < 1e-3
