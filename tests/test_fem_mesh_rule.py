@@ -136,33 +136,38 @@ def test_geocontact_fem_passes_auto_on_and_refuses_an_unknown_rule_in_one_line(
 
 
 FINISHED_STAIRCASES = {
-    # case: (mesh preset, force N, cycles); docs/fem.md, "Verification for the default"
-    "a": ("default", 6000.0, 1),
-    "c": ("coarse", 3000.0, 3),
+    # case: (material, kinematics, mesh preset, force N, cycles, largest log-slope jump);
+    # docs/fem.md, "Verification for the default". The jump bound is about a tenth of what the
+    # "yield" mesh gave (0.69-1.15 on (a) and (c), 4.97-6.97 on (b); measured 0.03-0.10 and 0.36)
+    "a": ("reference", "small", "default", 6000.0, 1, 0.3),
+    "b": ("reference-weak", "finite", "coarse", 300.0, None, 0.5),
+    "c": ("reference", "small", "coarse", 3000.0, 3, 0.3),
 }
 
 
 @pytest.mark.parametrize("case", sorted(FINISHED_STAIRCASES))
 def test_auto_meets_the_staircase_criterion_on_the_finished_cases(tmp_path, case):
-    """Cases (a) and (c) of the verification of the default (docs/fem.md): the reference grain
-    0 -> 6 kN -> 0 on the default preset and three cycles 0 -> 3 kN -> 0 on the coarse one, on
+    """The three cases of the verification of the default (docs/fem.md): (a) the reference grain
+    0 -> 6 kN -> 0 on the default preset, (b) the weak grain with finite strain 0 -> 300 N on the
+    coarse one, (c) the reference grain under three cycles 0 -> 3 kN -> 0 on the coarse one, on
     the rule "auto" chooses there (contact-dense) with the adaptive control, 24 vs 48 steps per
     segment, recomputed from the committed finished runs (no FE run): within 1 % in force at
-    the same approach (0.071 % and 0.16 % measured; the "yield" mesh gave 1.25 % and 1.32 %), a
-    smooth log-slope (jumps <= 0.1 against 0.7-1.15), and the same peaks and residuals within
-    0.1 % (0.006 % and 0.005 %)."""
+    the same approach (0.071, 0.57 and 0.16 % measured; the "yield" mesh gave 1.25, 6.05 and
+    1.32 %), a log-slope an order smoother than on "yield", and the same peaks and residuals
+    within 0.1 % (0.006 % and 0.005 %)."""
     import json
     import subprocess
     import sys
     from pathlib import Path
 
-    mesh, force, cycles = FINISHED_STAIRCASES[case]
-    assert chosen_mesh_rule(REFERENCE, force)[0] == "contact-dense"
+    material, kinematics, mesh, force, cycles, jump = FINISHED_STAIRCASES[case]
+    assert chosen_mesh_rule(preset(material), force)[0] == "contact-dense"
     root = Path(__file__).resolve().parents[1]
     out = tmp_path / f"{case}.json"
+    history = ["--cycles", str(cycles)] if cycles else []
     done = subprocess.run(
         [sys.executable, str(root / "scripts" / "measure_staircase.py"), "--material",
-         "reference", "--mesh", mesh, "--force", str(force), "--cycles", str(cycles),
+         material, "--kinematics", kinematics, "--mesh", mesh, "--force", str(force), *history,
          "--mesh-rule", "contact-dense", "--step-control", "adaptive", "--kernels", "compiled",
          "--steps", "24", "48", "--out", str(root / "datasets" / "staircase-auto"),
          "--finished-only", "--json", str(out)],
@@ -174,8 +179,10 @@ def test_auto_meets_the_staircase_criterion_on_the_finished_cases(tmp_path, case
     assert pair["common_forces"] >= 20
     assert pair["force_gap_max"] < 0.01
     for run in measures["runs"].values():
-        assert run["slope_jump_max"] < 0.3
-    ends = measures["waypoints"]["pairs"]["24 steps, adaptive vs 48 steps, adaptive"]
-    assert len(measures["waypoints"]["approach_at_waypoints_m"]["24 steps, adaptive"]) \
-        == 2 * cycles
-    assert ends["peak_approach_gap_max"] < 1e-3 and ends["residual_approach_gap_max"] < 1e-3
+        assert run["slope_jump_max"] < jump
+    if cycles:
+        ends = measures["waypoints"]["pairs"]["24 steps, adaptive vs 48 steps, adaptive"]
+        assert len(measures["waypoints"]["approach_at_waypoints_m"]["24 steps, adaptive"]) \
+            == 2 * cycles
+        assert ends["peak_approach_gap_max"] < 1e-3
+        assert ends["residual_approach_gap_max"] < 1e-3
