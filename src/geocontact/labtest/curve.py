@@ -206,16 +206,41 @@ def displacement_of(approach, setup: str):
     return 0.5 * np.asarray(approach) if setup == "flat" else np.asarray(approach)
 
 
-def force_noise(force) -> float:
-    """Standard deviation of the force noise: median absolute deviation of the residual of a
-    Savitzky-Golay smoothing (robust to turning points), scaled to a normal's sigma. The
-    residual of a quadratic over 11 points keeps a share sqrt(1 - h) of white noise
-    (h = the filter's central weight)."""
+def local_smoothing(force, time=None) -> tuple[np.ndarray, np.ndarray]:
+    """The force smoothed by a local quadratic over SMOOTH_WINDOW points, in time when the
+    record has it, and each point's leverage h (the share of its own value in the smoothed one:
+    the residual of white noise has the variance (1 - h) sigma^2). On an evenly sampled record
+    this is the Savitzky-Golay filter (scipy.signal, mode "interp"). A logger's uneven intervals
+    are why it is in time: the press drives the displacement at a constant speed, so the force
+    is smooth in time, not in the point index; in the index a jittered interval is a kink of
+    the size slope x jitter, which a smoothing in the index takes for noise (the flat test's
+    record, intervals 0.3-1.7 x the mean: 4.1e-4 of the peak force against the 3e-4 it was
+    made with, docs/fit.md "The flat test's bias")."""
     f = np.asarray(force, dtype=float)
     window = min(SMOOTH_WINDOW, f.size - (1 - f.size % 2))
-    r = f - savgol_filter(f, window, 2)
-    centre = savgol_filter(np.eye(window)[window // 2], window, 2)[window // 2]
-    return float(1.4826 * np.median(np.abs(r - np.median(r))) / math.sqrt(1.0 - centre))
+    t = np.arange(f.size, dtype=float) if time is None else np.asarray(time, dtype=float)
+    half = window // 2
+    # each point's window: centred, or the first / last full window at the ends
+    start = np.clip(np.arange(f.size) - half, 0, f.size - window)
+    idx = start[:, None] + np.arange(window)[None, :]
+    span = t[idx[:, -1]] - t[idx[:, 0]]
+    tau = (t[idx] - t[:, None]) / span[:, None]  # conditioned: the window in [-1, 1]
+    x = np.stack([np.ones_like(tau), tau, tau**2], axis=-1)  # (points, window, 3)
+    inverse = np.linalg.inv(np.einsum("nwi,nwj->nij", x, x))
+    coef = np.einsum("nij,nwj,nw->ni", inverse, x, f[idx])
+    # the point itself sits at tau = 0 of its own window: the fit's value there is coef[0]
+    return coef[:, 0], inverse[:, 0, 0]
+
+
+def force_noise(force, time=None) -> float:
+    """Standard deviation of the force noise: median absolute deviation of the residual of a
+    local quadratic smoothing (``local_smoothing``, in time when given; robust to turning
+    points), each residual divided by sqrt(1 - h), the share of white noise it keeps, and
+    scaled to a normal's sigma."""
+    f = np.asarray(force, dtype=float)
+    smooth, leverage = local_smoothing(f, time)
+    r = (f - smooth) / np.sqrt(1.0 - leverage)
+    return float(1.4826 * np.median(np.abs(r - np.median(r))))
 
 
 def turning_points(u) -> list[int]:
@@ -306,7 +331,7 @@ def condition(record: Record, setup: str, radius: float,
     u = np.asarray(record.displacement, dtype=float)
     if machine_stiffness:
         u = u - f / machine_stiffness
-    sigma = force_noise(f)
+    sigma = force_noise(f, record.time)
     # orient: the press pushes, so the displacement grows into the grain
     if np.median(u[-max(5, u.size // 20):]) < u[0] and u.max() - u[0] < u[0] - u.min():
         u = -u
