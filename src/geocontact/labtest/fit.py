@@ -502,7 +502,9 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
                            poissons_ratio=poissons_ratio, friction_angle=friction_angle,
                            hardening_ratio=hardening_ratio, force=force)
     if master is not None:
-
+        # each candidate at the contact the master curve puts it (a record whose E comes from
+        # its unloadings is refined at that E below, once chosen), then the better one
+        prepared = _refined_by_master(record, prepared, master, machine_stiffness, force)
         prepared = choose_contact(prepared, lambda p: _scale_fit(master, p)[2], BY_MASTER)
     elif prepared.alternative is not None:  # nothing to judge by: the more precise one
         prepared = choose_contact(prepared, lambda p: 0.0 if p is prepared else 1.0,
@@ -527,8 +529,6 @@ def fit_once(record: Record, setup: str, radius: float, *, machine_stiffness=Non
         if not prepared.hertz_resolved:
             prepared = _contact_at_modulus(record, prepared, master, s, e, machine_stiffness,
                                            force)
-        else:
-            prepared = _contact_by_master(record, prepared, master, machine_stiffness, force)
         test, vd, vf = prepared.test, prepared.virgin_approach, prepared.virgin_force
         s, e, misfit, _ = _scale_fit(master, prepared)
         trial = master["material"]
@@ -607,6 +607,21 @@ def _scale_fit(master: dict, prepared: Prepared):
     if prepared.hertz_resolved:
         return scale_fit(master, vd, vf, noise)
     return scale_fit_unloading(master, vd, vf, noise, prepared.unloading_peaks())
+
+
+def _refined_by_master(record: Record, prepared: Prepared, master: dict, machine_stiffness,
+                       force) -> Prepared:
+    """Each contact candidate whose record resolves its Hertz part refined by the master curve
+    (``_contact_by_master``), the alternative kept: the choice between them is then made at the
+    contacts the fit would use. Compared before, on the noisy ramp record the whole record's
+    contact (-0.16 dy) won by 0.7 % of misfit and its refinement stayed at -0.14 dy (sigma_c
+    +20 %), while the onset's refinement, -0.03 dy, fits 5 % better (sigma_c +4.9 %)."""
+    refined = [_contact_by_master(record, p, master, machine_stiffness, force)
+               if p.hertz_resolved else replace(p, alternative=None)
+               for p in prepared.candidates()]
+    first = refined[0]
+    first.alternative = refined[1] if len(refined) > 1 else None
+    return first
 
 
 def _contact_by_master(record: Record, prepared: Prepared, master: dict, machine_stiffness,
