@@ -215,7 +215,7 @@ def local_smoothing(force, time=None) -> tuple[np.ndarray, np.ndarray]:
     is smooth in time, not in the point index; in the index a jittered interval is a kink of
     the size slope x jitter, which a smoothing in the index takes for noise (the flat test's
     record, intervals 0.3-1.7 x the mean: 4.1e-4 of the peak force against the 3e-4 it was
-    made with, docs/fit.md "The flat test's bias")."""
+    made with: docs/fit.md, "The contact point and the master curve")."""
     f = np.asarray(force, dtype=float)
     window = min(SMOOTH_WINDOW, f.size - (1 - f.size % 2))
     t = np.arange(f.size, dtype=float) if time is None else np.asarray(time, dtype=float)
