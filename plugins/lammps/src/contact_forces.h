@@ -538,8 +538,10 @@ inline ContactResult contact_step(const geocontact::LawParams &law, const Stiffn
   out.fn = out.stiffness = 0.0;
   for (int k = 0; k < 3; ++k) out.ft[k] = out.torque[k] = 0.0;
   const RollingCoeffs &rc = *coeffs.resistance;
-  const geocontact::StepResult res =
-      geocontact::step(law, rec.law, g.overlap * (g.sim.approach * c.approach_to_law));
+  // n_r computed when the contact leaves the virgin curve (law.hpp step, LazyReloading): the
+  // record's n_r of a contact on the curve is not read before then
+  const geocontact::StepResult res = geocontact::step<false, true>(
+      law, rec.law, g.overlap * (g.sim.approach * c.approach_to_law));
   out.law_force = g.sim.force * res.force * c.force_to_run;
   if (!(out.law_force > 0.0)) {
     if (commit) release_springs(rec, c, g.sim, rc);

@@ -114,6 +114,36 @@ void check_arrays(const geocontact::LawParams &p, const std::vector<const Value 
 
 }  // namespace
 
+// The LAMMPS plugin's step (step<false, true>: n_r computed when the contact leaves the virgin
+// curve) against the one-contact step<false> on a golden history: the same forces, stiffnesses
+// and states to the bit, n_r included once refresh_envelope() has brought it up to date.
+void check_lazy_reloading(const geocontact::LawParams &p, const Value &c)
+{
+  const std::string name = c.find("name")->string + " (plugin step)";
+  geocontact::ContactState eager, lazy;
+  size_t k = 0;
+  for (const Value &x : c.find("approaches")->array) {
+    const auto a = geocontact::step(p, eager, x.number);
+    const auto b = geocontact::step<false, true>(p, lazy, x.number);
+    const std::string where = name + " step " + std::to_string(k++);
+    check(same_bits(a.force, b.force), where, "force", b.force, a.force);
+    check(same_bits(a.stiffness, b.stiffness), where, "stiffness", b.stiffness, a.stiffness);
+    geocontact::ContactState read = lazy;
+    geocontact::refresh_envelope(p, read);
+    const double pairs[][2] = {{eager.force, read.force},
+                               {eager.work, read.work},
+                               {eager.max_approach, read.max_approach},
+                               {eager.residual_approach, read.residual_approach},
+                               {eager.unloading_exponent, read.unloading_exponent},
+                               {eager.reloading_exponent, read.reloading_exponent},
+                               {eager.branch_value, read.branch_value},
+                               {eager.cycles, read.cycles},
+                               {eager.ratchet_shift, read.ratchet_shift}};
+    for (const auto &pr : pairs) check(same_bits(pr[0], pr[1]), where, "state", pr[1], pr[0]);
+    check(eager.branch == read.branch, where, "branch", read.branch, eager.branch);
+  }
+}
+
 int main(int argc, char **argv)
 {
   if (argc != 2) {
@@ -185,6 +215,8 @@ int main(int argc, char **argv)
           "dissipated_energy", geocontact::dissipated_energy(p, s), de);
     ++n_cases;
   }
+  for (const Value &c : golden.find("cases")->array)
+    check_lazy_reloading(params.at(c.find("params")->string), c);
   std::map<std::string, std::vector<const Value *>> by_variant;
   // each case 10 times, so a variant has enough contacts (> 512) to be split over threads
   for (int copy = 0; copy < 10; ++copy)

@@ -535,11 +535,24 @@ inline double envelope_band(const LawParams &p, double dmax, double dres)
 
 namespace detail {
 
+// n_r of the envelope at lx = log x beyond delta_y, its n_u given:
+// n_r = min(1.5 x^p_r, n_u); with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
+GEOCONTACT_ALWAYS_INLINE double envelope_reloading_exponent(const LawParams &p, double lx,
+                                                            double nu)
+{
+  return p.reloading_power >= p.unloading_power
+             ? nu
+             : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+}
+
 // The envelope of a contact on the virgin curve at d_max (shifted), lx = log(max(d_max/delta_y,
 // 1)): residual approach, n_u, n_r, and the cycle count, which restarts when the excursion
 // (from `start`, where the contact left its old envelope) is wider than the envelope band.
 // Always inlined: called out of line, its outputs by reference kept the step's envelope
 // variables in memory (-2 instructions per update of the array step, docs/benchmarks.md).
+// Reloading = false leaves n_r beyond delta_y as it was (the caller computes it when the contact
+// leaves the curve: envelope_reloading_exponent).
+template <bool Reloading = true>
 GEOCONTACT_ALWAYS_INLINE void virgin_envelope(const LawParams &p, double dmax, double lx,
                                               double start, double &dres, double &nu, double &nr,
                                               double &cycles)
@@ -560,10 +573,7 @@ GEOCONTACT_ALWAYS_INLINE void virgin_envelope(const LawParams &p, double dmax, d
       dres = -p.residual_limit * std::expm1(-p.residual_power * lr) * dmax;
     }
     nu = kHertzExponent * std::exp(p.unloading_power * lx);
-    // n_r = min(1.5 x^p_r, n_u): with p_r >= p_u, x^p_r >= x^p_u for x >= 1, so n_r = n_u
-    nr = p.reloading_power >= p.unloading_power
-             ? nu
-             : std::min(kHertzExponent * std::exp(p.reloading_power * lx), nu);
+    if (Reloading) nr = envelope_reloading_exponent(p, lx, nu);
   }
   // an excursion wider than the band is a new envelope: the count restarts; within the band it
   // is the same cycle
@@ -573,7 +583,7 @@ GEOCONTACT_ALWAYS_INLINE void virgin_envelope(const LawParams &p, double dmax, d
 // The general step: branch moves until the target approach is reached (at most a few branch
 // ends are crossed). Inlined into step() like the fast paths: for arrays of contacts
 // (arrays.hpp's ContactRecord) the fields then resolve to the record's memory.
-template <bool Lazy, class State>
+template <bool Lazy, bool LazyReloading, class State>
 GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
@@ -615,6 +625,8 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
         if (Lazy && dmax > dy)  // leaving the virgin curve: its envelope, computed once
           virgin_envelope(p, dmax, std::log(std::max(dmax / dy, 1.0)), bval, dres, nu, nr,
                           cycles);
+        else if (LazyReloading && dmax > dy)  // n_r alone (the same lx: the same bits)
+          nr = envelope_reloading_exponent(p, std::log(std::max(dmax / dy, 1.0)), nu);
         b = UNLOADING;
         bval = 1.0;
         continue;
@@ -628,7 +640,8 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
       force = fmax;
       // Lazy: computed when the contact leaves the curve (step<true> below); within delta_y
       // it is that of delta_y (the elastic fast path may take the contact off the curve)
-      if (!Lazy || target <= dy) virgin_envelope(p, dmax, lx, bval, dres, nu, nr, cycles);
+      if (!Lazy || target <= dy)
+        virgin_envelope<!LazyReloading>(p, dmax, lx, bval, dres, nu, nr, cycles);
       d = target;
       continue;
     }
@@ -771,7 +784,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step_moves(const LawParams &p, State &s, dou
 // sample): the general loop's move "VIRGIN, up" and its end (the stiffness on the virgin
 // curve) with the same arithmetic, so the same bits, but the target's segment found once instead
 // of three times and only the fields that change written back.
-template <bool Lazy, class State>
+template <bool Lazy, bool LazyReloading, class State>
 GEOCONTACT_ALWAYS_INLINE StepResult virgin_climb(const LawParams &p, State &s, double d,
                                                  double target, double approach_new)
 {
@@ -794,7 +807,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult virgin_climb(const LawParams &p, State &s, d
   if (!Lazy || target <= dy) {
     double dres = s.residual_approach, nu = s.unloading_exponent, nr = s.reloading_exponent;
     double cycles = s.cycles;
-    virgin_envelope(p, target, lx, s.branch_value, dres, nu, nr, cycles);
+    virgin_envelope<!LazyReloading>(p, target, lx, s.branch_value, dres, nu, nr, cycles);
     s.residual_approach = dres;
     s.unloading_exponent = nu;
     s.reloading_exponent = nr;
@@ -823,7 +836,14 @@ GEOCONTACT_ALWAYS_INLINE StepResult virgin_climb(const LawParams &p, State &s, d
 // those of Lazy = false. The state of a contact on the virgin curve then holds the envelope of
 // where it entered the curve: refresh_envelope() below brings it up to date, and must run before
 // anything else reads it (energies, restart files, the arrays' views).
-template <bool Lazy = false, class State>
+//
+// LazyReloading = true with Lazy = false (what the LAMMPS plugin runs): the envelope's residual
+// approach, n_u and cycle count at every virgin step (the contact's unloading stiffness, which
+// sets its damping and tangential stiffness, and its outputs read them), but n_r, which only a
+// reload reads, when the contact leaves the curve: one exp less per virgin step where
+// p_r < p_u; the same results to the bit, n_r of a contact on the virgin curve being that of
+// where it entered the curve until then (refresh_envelope() updates it).
+template <bool Lazy = false, bool LazyReloading = Lazy, class State>
 GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double approach_new)
 {
   const double kh = p.hertz_coefficient, dy = p.yield_approach;
@@ -856,7 +876,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double ap
   if (s.branch == VIRGIN) {
     const double d = s.approach - s.ratchet_shift, target = approach_new - s.ratchet_shift;
     if (target > d && target > 0.0)
-      return detail::virgin_climb<Lazy>(p, s, d, target, approach_new);
+      return detail::virgin_climb<Lazy, LazyReloading>(p, s, d, target, approach_new);
   }
   if (s.max_approach > dy && (s.branch == UNLOADING || s.branch == RELOADING)) {
     // on a plastic envelope's unloading or reloading curve, moving along it without reaching
@@ -881,7 +901,7 @@ GEOCONTACT_ALWAYS_INLINE StepResult step(const LawParams &p, State &s, double ap
       return {f, f > 0.0 ? expo * f / (target - dres) : 0.0};
     }
   }
-  return detail::step_moves<Lazy>(p, s, approach_new);
+  return detail::step_moves<Lazy, LazyReloading>(p, s, approach_new);
 }
 
 // The envelope of a contact stepped with Lazy = true, brought up to date: on the virgin curve
