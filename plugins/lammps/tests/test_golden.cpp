@@ -144,6 +144,90 @@ void check_lazy_reloading(const geocontact::LawParams &p, const Value &c)
   }
 }
 
+// The law's step three ways on one approach history: step<false> (fast paths, the Python
+// binding's one-contact step), step<false, true> (the LAMMPS plugin's: n_r computed when the
+// contact leaves the virgin curve), and, on every step up the virgin curve, the general loop
+// (detail::step_moves, what such a step ran before its fast path virgin_climb) from the same
+// state: the same forces, stiffnesses and states to the bit, n_r of the plugin's state once
+// refresh_envelope() has brought it up to date. Returns the number of virgin steps compared.
+size_t check_step_forms(const geocontact::LawParams &p, const std::vector<double> &approaches,
+                        const std::string &name)
+{
+  geocontact::ContactState eager, lazy;
+  size_t climbs = 0;
+  auto same_state = [](const geocontact::ContactState &a, const geocontact::ContactState &b,
+                       const std::string &where) {
+    const double pairs[][2] = {{a.approach, b.approach},
+                               {a.force, b.force},
+                               {a.work, b.work},
+                               {a.max_approach, b.max_approach},
+                               {a.max_force, b.max_force},
+                               {a.residual_approach, b.residual_approach},
+                               {a.unloading_exponent, b.unloading_exponent},
+                               {a.reloading_exponent, b.reloading_exponent},
+                               {a.branch_value, b.branch_value},
+                               {a.cycles, b.cycles},
+                               {a.ratchet_shift, b.ratchet_shift},
+                               {a.pending_ratchet, b.pending_ratchet}};
+    for (const auto &pr : pairs) check(same_bits(pr[0], pr[1]), where, "state", pr[1], pr[0]);
+    check(a.branch == b.branch, where, "branch", b.branch, a.branch);
+  };
+  for (size_t k = 0; k < approaches.size(); ++k) {
+    const double x = approaches[k];
+    const std::string where = name + " step " + std::to_string(k);
+    const bool climb = eager.branch == geocontact::VIRGIN && x > eager.approach &&
+                       x - eager.ratchet_shift > 0.0;
+    geocontact::ContactState loop = eager;
+    const auto a = geocontact::step(p, eager, x);
+    const auto b = geocontact::step<false, true>(p, lazy, x);
+    check(same_bits(a.force, b.force), where, "force", b.force, a.force);
+    check(same_bits(a.stiffness, b.stiffness), where, "stiffness", b.stiffness, a.stiffness);
+    geocontact::ContactState read = lazy;
+    geocontact::refresh_envelope(p, read);
+    same_state(eager, read, where + " (plugin step)");
+    if (climb) {
+      const auto c = geocontact::detail::step_moves<false, false>(p, loop, x);
+      check(same_bits(a.force, c.force), where, "force (loop)", c.force, a.force);
+      check(same_bits(a.stiffness, c.stiffness), where, "stiffness (loop)", c.stiffness,
+            a.stiffness);
+      same_state(eager, loop, where + " (loop)");
+      ++climbs;
+    }
+  }
+  return climbs;
+}
+
+// Random load paths in units of delta_y (a seeded generator, the same paths on every run):
+// virgin loading in DEM-sized increments to one of several depths (1.5 to 300 delta_y, beyond
+// every regime's start in the golden parameter sets), partial or full unloading, reloading
+// below, to and beyond the envelope, and separation.
+std::vector<double> random_load_path(unsigned seed, double dy)
+{
+  unsigned state = seed * 2654435761u + 12345u;
+  auto uniform = [&state]() {
+    state = state * 1664525u + 1013904223u;
+    return (state >> 8) / 16777216.0;
+  };
+  std::vector<double> path{0.0};
+  double here = 0.0, deepest = 0.0;
+  for (int leg = 0; leg < 8; ++leg) {
+    double to;
+    if (leg % 2 == 0) {  // load: to a new depth, or back under the envelope
+      const double depth = 1.5 * std::pow(200.0, uniform());
+      to = uniform() < 0.7 ? std::fmax(depth, deepest * (1.0 + 0.3 * uniform())) : depth;
+      deepest = std::fmax(deepest, to);
+    } else {  // unload: part-way, fully, or apart
+      const double u = uniform();
+      to = u < 0.6 ? here * (0.3 + 0.65 * uniform()) : u < 0.85 ? 0.0 : -1.0;
+    }
+    const int steps = 20 + static_cast<int>(60 * uniform());
+    for (int k = 1; k <= steps; ++k) path.push_back((here + (to - here) * k / steps) * dy);
+    here = to;
+  }
+  path.push_back(-dy);
+  return path;
+}
+
 int main(int argc, char **argv)
 {
   if (argc != 2) {
@@ -217,6 +301,24 @@ int main(int argc, char **argv)
   }
   for (const Value &c : golden.find("cases")->array)
     check_lazy_reloading(params.at(c.find("params")->string), c);
+  size_t n_forms = 0, n_climbs = 0;
+  for (const Value &c : golden.find("cases")->array) {
+    std::vector<double> approaches;
+    for (const Value &x : c.find("approaches")->array) approaches.push_back(x.number);
+    n_climbs += check_step_forms(params.at(c.find("params")->string), approaches,
+                                 c.find("name")->string + " (step forms)");
+    ++n_forms;
+  }
+  for (const auto &kv : params)
+    for (unsigned seed = 0; seed < 40; ++seed, ++n_forms)
+      n_climbs += check_step_forms(kv.second, random_load_path(seed, kv.second.yield_approach),
+                                   kv.first + " random path " + std::to_string(seed));
+  if (n_climbs < 10000) {
+    std::fprintf(stderr, "FAIL: only %zu virgin steps compared with the general loop\n", n_climbs);
+    return 1;
+  }
+  std::printf("step forms: %zu paths, %zu virgin steps compared\n",
+              n_forms, n_climbs);
   std::map<std::string, std::vector<const Value *>> by_variant;
   // each case 10 times, so a variant has enough contacts (> 512) to be split over threads
   for (int copy = 0; copy < 10; ++copy)
