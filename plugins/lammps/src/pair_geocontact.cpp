@@ -478,10 +478,12 @@ void PairGeocontact::finish_stiffness_outputs()
 
 // Normal and tangential force on grain i (and the opposite on j if owned here), with the
 // torques of the tangential force about each centre, -(r - delta/2) (n x Ft) (contact_frame),
-// and the rolling and twisting torque on i (the opposite on j).
-void PairGeocontact::apply_contact_force(int i, int j, double fn, const double *ft,
-                                         const double *n, const double *del, double energy,
-                                         const double *extra_torque, double half_overlap)
+// and the rolling and twisting torque on i (the opposite on j). Inlined into compute(), its one
+// caller: as a call (nine arguments, atom->f and atom->torque reloaded) it cost 11 M of its 37 M
+// instructions on the poly sample (docs/benchmarks.md, the plugin's speed work).
+GEOCONTACT_ALWAYS_INLINE void PairGeocontact::apply_contact_force(
+    int i, int j, double fn, const double *ft, const double *n, const double *del, double energy,
+    const double *extra_torque, double half_overlap)
 {
   double **f = atom->f;
   double **torque = atom->torque;
