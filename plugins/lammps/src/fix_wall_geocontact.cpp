@@ -558,9 +558,9 @@ void FixWallGeocontact::touch_wall(int i, WallRecord &stored, const WallContact 
   const double *radius = atom->radius;
   const double *n = contact.n;
   const double no_spin[3] = {0.0, 0.0, 0.0};
-  // the stored record itself when the step commits (most calls), a scratch copy in setup
-  WallRecord scratch;
-  WallRecord &rec = commit ? stored : (scratch = stored);
+  // the stored record itself when the step commits (most calls), a copy in setup (a member:
+  // a local would be constructed at every call)
+  WallRecord &rec = commit ? stored : (setup_record_ = stored);
   const bool known = rec.active;
   if (!rec.active) {
     rec.law = geocontact::ContactState();

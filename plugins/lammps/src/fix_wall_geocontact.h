@@ -229,6 +229,7 @@ class FixWallGeocontact : public Fix {
   bigint last_position_step_;
 
   std::vector<WallRecord> records_;  // sides_.size() per atom, local index major
+  WallRecord setup_record_;          // the copy a setup step works on (touch_wall)
   int capacity_ = 0;                  // atoms array_atom and records_ are sized for
   double forgotten_dissipated_;      // this rank's share: contacts dropped beyond the skin
   double forgotten_ledger_[geocontact_forces::kLedgerSlots] = {};  // the same, other channels

@@ -566,14 +566,13 @@ void PairGeocontact::compute(int eflag, int vflag)
       const geocontact::Similarity sim =
           geocontact::pair_similarity(radi, radius[j], constants.calibrated_radius);
 
-      // the record itself when the step commits (most calls), a scratch copy in setup
-      ContactRecord scratch;
+      // the record itself when the step commits (most calls), a copy in setup (setup_record_)
       if (commit && !known) {  // a new contact: a record of its own from this step on
         slot = record_of_[k] = static_cast<int>(pair_records_.size());
         pair_records_.emplace_back();
       }
-      ContactRecord &rec = commit ? pair_records_[slot] : (known ? scratch = pair_records_[slot]
-                                                                 : scratch);
+      ContactRecord &rec = commit ? pair_records_[slot]
+                                  : (setup_record_ = known ? pair_records_[slot] : ContactRecord());
       if (!known) {
         rec.partner = tag[j];
         rec.law = geocontact::ContactState();

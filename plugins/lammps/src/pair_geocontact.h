@@ -119,6 +119,10 @@ class PairGeocontact : public Pair {
   // neighbor-list pair its record (-1: none). sync_mirrors() writes them back to the per-atom
   // tables of both grains before the tables are moved, saved or read.
   std::vector<ContactRecord> pair_records_;
+  // the copy of a record that a setup step works on (its springs are not advanced): a member,
+  // as a local it was constructed at every contact of every step (8 M instructions of the
+  // poly sample's 370 M, docs/benchmarks.md)
+  ContactRecord setup_record_;
   std::vector<int> record_of_;
   std::vector<int> first_pair_;
   // The law's dissipation (J) carried away by contacts whose records were dropped (pairs that
