@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench examples calibrate-examples check-calibrations clean plugin \
+.PHONY: valgrind demo test lint bench examples calibrate-examples check-calibrations clean plugin \
 	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
 	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite \
@@ -98,6 +98,12 @@ demo: $(STAMP) plugin
 ccx:
 	command -v ccx >/dev/null || (apt-get update && apt-get install -y calculix-ccx) \
 	  || (sudo apt-get update && sudo apt-get install -y calculix-ccx)
+
+# Valgrind, whose callgrind counts the plugin's instructions (`benchmarks/lammps_callgrind.py`,
+# docs/benchmarks.md; Debian/Ubuntu package; not needed by `test` or `bench`)
+valgrind:
+	command -v valgrind >/dev/null || (apt-get update && apt-get install -y valgrind) \
+	  || (sudo apt-get update && sudo apt-get install -y valgrind)
 
 # Headless Chromium, the browser of `make check-figures` (Debian/Ubuntu package; not needed by
 # `test`, whose figure checks skip only their browser part without it)

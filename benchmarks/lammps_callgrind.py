@@ -10,7 +10,7 @@ fix wall/geocontact walls on the 40 x 40 layer of lammps_wall_driver.py, 50 + 10
 the peers `peer_poly`, `peer_poly_rolling` (pair granular hertz/material, Mindlin, Tsuji),
 `peer_wall` (fix wall/gran). Counted: the instructions inside the pair's `compute` or the wall's
 `post_force` and everything they call (`--toggle-collect`), printed as JSON with the per-function
-breakdown left in DIR (callgrind_annotate DIR/callgrind.out). Needs valgrind.
+breakdown left in DIR (callgrind_annotate DIR/callgrind.out). Needs valgrind (`make valgrind`).
 """
 
 from __future__ import annotations
