@@ -20,8 +20,8 @@ with this cache would recompute it), and the kernels that made it with how a job
 defaults (the compiled kernels with the node contact) reuses it: bit for bit, or a numpy run
 within the agreement rule's tolerance (``fem.identity.AGREED_FE_CODE``; ``--kernels numpy``
 reuses it bit for bit), and its load-step control (``step_control``: a run without it in its
-record was made with fixed steps, and only a job with fixed steps finds it; a job at another
-default would have to ask for them, which the line says); the runs under
+record was made with fixed steps, the default before issue 36, and is found by a job that asks
+for them, ``--step-control fixed``; a default job is adaptive and runs it anew); the runs under
 way (from their checkpoint: steps and solves done of those requested, force reached, FE time and
 its cost per solve so far); entries that are neither (reported, never touched). Exit status 0,
 or 1 if a run folder is not a complete, self-consistent result (its key is not the hash of its

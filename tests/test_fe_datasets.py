@@ -45,7 +45,8 @@ def test_committed_run_is_a_complete_result(folder):
     # contact): bit for bit, or a numpy run within the agreement's tolerance; stale only a
     # compiled run made before compiled_code was recorded (stale before the default too).
     # "Its job" asks for what the record names, and for fixed load steps where it names none:
-    # every committed run was made with them, so an adaptive job does not take it for its own.
+    # every committed run was made with them (the default before issue 36 made the adaptive
+    # control the default), so a default job, adaptive, does not take it for its own.
     identity = json.loads((folder / "summary.json").read_text())["identity"]
     assert run["step_control"] == "fixed" and "step_control" not in identity["inputs"]
     job = FemJob.of_inputs(identity["inputs"])

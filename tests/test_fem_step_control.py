@@ -159,8 +159,8 @@ def test_sub_steps_end_on_the_requested_forces_and_a_failed_solve_is_cut():
 def test_a_coarse_run_is_converged_in_the_load_step_where_the_default_is_not(tmp_path,
                                                                              monkeypatch):
     """The weak grain 0 -> 0.3 N -> 0 (F/Fy ~ 110, perfectly plastic flattening), coarse mesh:
-    with the fixed default 3 and 24 requested steps per segment differ by 1.6 % in the peak
-    approach; with the adaptive control by 0.27 % (0.5 % asserted), the recorded forces the
+    with fixed steps (the default before) 3 and 24 requested steps per segment differ by 1.6 % in
+    the peak approach; with the adaptive control by 0.27 % (0.5 % asserted), the recorded forces the
     same as the fixed control's. An interrupted adaptive run resumes to the same curve (the
     control's state is in the checkpoint)."""
     material = preset("reference-weak")
@@ -172,7 +172,7 @@ def test_a_coarse_run_is_converged_in_the_load_step_where_the_default_is_not(tmp
     def peak_approach(result):
         return result.curve["approach_m"][np.argmax(result.curve["force_N"])]
 
-    fixed = [run(steps_per_segment=n) for n in (3, 24)]
+    fixed = [run(steps_per_segment=n, step_control="fixed") for n in (3, 24)]
     adaptive = [run(steps_per_segment=n, step_control="adaptive") for n in (3, 24)]
     fixed_gap = abs(peak_approach(fixed[0]) / peak_approach(fixed[1]) - 1.0)
     adaptive_gap = abs(peak_approach(adaptive[0]) / peak_approach(adaptive[1]) - 1.0)
@@ -208,25 +208,34 @@ def test_a_coarse_run_is_converged_in_the_load_step_where_the_default_is_not(tmp
     assert resumed.summary["step_control"] == control
 
 
-def test_the_step_control_is_recorded_only_when_adaptive_and_refused_in_one_line(tmp_path,
-                                                                                 capsys):
+def test_the_step_control_is_recorded_against_its_first_default_and_refused_in_one_line(
+        tmp_path, capsys):
+    """The adaptive control is the default (issue 36), but the identity compares step_control
+    with "fixed", its default when it entered the record: a fixed-step run (every committed one)
+    keeps its key, and a default job records "adaptive", so it never takes a fixed-step run for
+    its own; a record without the key reads as fixed steps."""
     material = preset("reference")
-    assert FeSettings().step_control == "fixed"
+    assert FeSettings().step_control == "adaptive"
     plain = FeRunIdentity.of(material, [0.0, 10.0])
-    adaptive = FeRunIdentity.of(material, [0.0, 10.0], step_control="adaptive")
-    assert "step_control" not in plain.inputs()
-    assert adaptive.inputs()["step_control"] == "adaptive" and adaptive.key() != plain.key()
-    assert FeSettings.of_record(adaptive.inputs()) == adaptive.settings
-    job = FemJob.of_inputs(adaptive.inputs())
-    assert job.step_control == "adaptive" and job.key() == adaptive.key()
+    fixed = FeRunIdentity.of(material, [0.0, 10.0], step_control="fixed")
+    assert plain.inputs()["step_control"] == "adaptive"
+    assert "step_control" not in fixed.inputs() and fixed.key() != plain.key()
+    assert FeSettings.of_record(fixed.inputs()).step_control == "fixed"
+    assert FeSettings.of_record(plain.inputs()) == plain.settings
+    assert FemJob.of_inputs(fixed.inputs()).step_control == "fixed"
+    job = FemJob(material, (0.0, 10.0))
+    assert job.step_control == "adaptive" and job.key() == plain.key()
+    assert FemJob.of_inputs(plain.inputs()).key() == plain.key()
+    assert "fixed step control" in fixed.settings.describe(10.0)
+    assert not any("step control" in w for w in plain.settings.describe(10.0))
     with pytest.raises(InputError, match=r"^step_control: unknown 'smart' \(allowed: fixed, "
                                          r"adaptive\)$"):
         FeSettings(step_control="smart")
     parser = argparse.ArgumentParser()
     FeSettings.add_model_flags(parser)
     assert "step_control" not in FeSettings.model_of(parser.parse_args([]))
-    assert FeSettings.model_of(parser.parse_args(["--step-control", "adaptive"]))[
-        "step_control"] == "adaptive"
+    assert FeSettings.model_of(parser.parse_args(["--step-control", "fixed"]))[
+        "step_control"] == "fixed"
     history = tmp_path / "h.toml"
     history.write_text("[history]\nforces = [0.0, 10.0, 0.0]\n")
     code = main(["fem", "--material", "reference", "--history", str(history), "--out",

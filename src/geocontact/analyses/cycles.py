@@ -167,7 +167,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                kinematics: str = "small", mesh_rule: str = "yield",
                step_rule: str = "segment",
                max_step_ratio: float | None = None, contact: str = "node",
-               kernels: str | None = None, step_control: str = "fixed") -> dict[str, Any]:
+               kernels: str | None = None, step_control: str = "adaptive") -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With

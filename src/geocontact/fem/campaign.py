@@ -75,7 +75,7 @@ class FemJob:
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
     kernels: str | None = None  # "numpy" | "compiled" | None: the contact's default
-    step_control: str = "fixed"  # "fixed" | "adaptive" (fem.run.AdaptiveSteps)
+    step_control: str = "adaptive"  # "adaptive" | "fixed" (fem.run.AdaptiveSteps)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))

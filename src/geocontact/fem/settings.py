@@ -108,7 +108,7 @@ class FeSettings:
     max_step_ratio: float | None = None
     contact: str = "node"
     kernels: str | None = None
-    step_control: str = "fixed"
+    step_control: str = "adaptive"
 
     def __post_init__(self) -> None:
         from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
