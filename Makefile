@@ -137,7 +137,7 @@ CALIBRATE_MESH ?= default
 # has no ledger saying geocontact wrote them, README "Results you can trust").
 calibrate-examples: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference --mesh $(CALIBRATE_MESH) --acceptance \
-	  --step-control fixed --force --out examples/params-reference.json
+	  --mesh-rule yield --step-control fixed --force --out examples/params-reference.json
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh default --levels 13 \
 	  --kinematics finite --mesh-rule contact --max-step-ratio 1.01 --step-control fixed \
 	  --cache datasets/fe-runs/weak-finite --residual-form table --loading-form segments \
@@ -147,7 +147,8 @@ calibrate-examples: $(STAMP)
 # cached in a committed dataset (datasets/fe-runs/README.md): every finished run is committed and a
 # later session resumes the campaign where it stopped. Interrupt it at any time. The same fit as
 # calibrate-examples' weak line (the shipped file), written into out/ instead of examples/.
-# fixed load steps: the control its committed runs were made with (the default until issue 36)
+# Fixed load steps and a named mesh rule: the FE its committed runs were made with (issue 36 made
+# the adaptive control and the mesh rule "auto" the defaults).
 WEAK_FINITE_FE := --kinematics finite --mesh-rule contact --max-step-ratio 1.01 --step-control fixed
 calibrate-weak-finite: $(STAMP)
 	$(VENV)/bin/geocontact calibrate --material reference-weak --mesh default --levels 13 \
@@ -167,8 +168,10 @@ calibrate-weak-finite-coarse: $(STAMP)
 
 # The paper's histories (docs/model.md §8) on the default mesh with finite strain where it matters
 # (issue 15): the weak grain's runs (and the single loads of its increasing history) with the
-# calibration's FE model, the sigma_c = 10 MPa and von Mises runs with the FE defaults (small
-# strain: within 0.2 % of finite strain in approach for them, docs/verification.md item 13). A
+# calibration's FE model, the sigma_c = 10 MPa and von Mises runs with small strain (within 0.2 %
+# of finite strain in approach for them, docs/verification.md item 13) on the "yield" meshes, and
+# every run with fixed load steps (the FE the committed runs were made with, the defaults before
+# issue 36: --others-mesh-rule yield and --step-control fixed name them). A
 # committed, resumable campaign like calibrate-weak-finite (datasets/fe-runs/README.md), then the
 # findings table of the whole study (docs/cycles.md) and its report (out/paper-histories-finite/
 # report.html; docs/cycles/paper-histories-finite-ratios.png is its figure). PAPER_FINITE_ONLY="..."
@@ -177,7 +180,7 @@ PAPER_FINITE_ONLY ?=
 PAPER_FINITE_WORKERS ?= 1
 paper-histories-finite: $(STAMP)
 	$(VENV)/bin/geocontact study paper-histories --mesh default $(WEAK_FINITE_FE) \
-	  --fe-model-materials reference-weak --workers $(PAPER_FINITE_WORKERS) \
+	  --fe-model-materials reference-weak --others-mesh-rule yield --workers $(PAPER_FINITE_WORKERS) \
 	  --cache datasets/fe-runs/paper-histories-finite --out out/paper-histories-finite \
 	  $(if $(PAPER_FINITE_ONLY),--only $(PAPER_FINITE_ONLY))
 	$(VENV)/bin/geocontact report out/paper-histories-finite

@@ -19,9 +19,10 @@ the current FE sources (or older ones whose runs they reproduce bit for bit:
 with this cache would recompute it), and the kernels that made it with how a job at today's
 defaults (the compiled kernels with the node contact) reuses it: bit for bit, or a numpy run
 within the agreement rule's tolerance (``fem.identity.AGREED_FE_CODE``; ``--kernels numpy``
-reuses it bit for bit), and its load-step control (``step_control``: a run without it in its
-record was made with fixed steps, the default before issue 36, and is found by a job that asks
-for them, ``--step-control fixed``; a default job is adaptive and runs it anew); the runs under
+reuses it bit for bit), its mesh rule and load-step control (``mesh_rule``, ``step_control``:
+a run without them in its record was made on the "yield" meshes with fixed steps, the defaults
+before issue 36, and is found by a job that asks for them, ``--mesh-rule yield --step-control
+fixed``, as the line says; a default job, "auto" and adaptive, runs it anew); the runs under
 way (from their checkpoint: steps and solves done of those requested, force reached, FE time and
 its cost per solve so far); entries that are neither (reported, never touched). Exit status 0,
 or 1 if a run folder is not a complete, self-consistent result (its key is not the hash of its
@@ -56,7 +57,9 @@ from geocontact.fem.identity import (  # noqa: E402
     recorded_kernels,
     reproduced_code,
 )
+from geocontact.fem.settings import chosen_mesh_rule  # noqa: E402
 from geocontact.files import RESULT_MANIFEST  # noqa: E402
+from geocontact.grain.material import Material  # noqa: E402
 
 DATASETS = ROOT / "datasets" / "fe-runs"
 
@@ -92,6 +95,10 @@ def check_run(folder: Path) -> dict:
                  else "only with --kernels numpy (no agreement entry)")
     return {**entry, "kernels": kernels, "default_reuse": reuse,
             "step_control": identity["inputs"].get("step_control", "fixed"),
+            "mesh_rule": identity["inputs"].get("mesh_rule", "yield"),
+            # the rule a default job (mesh rule "auto") meshes this run's inputs with
+            "auto_mesh_rule": chosen_mesh_rule(Material.from_dict(identity["inputs"]["material"]),
+                                               identity["inputs"]["mesh_force_N"])[0],
             "peak_force_N": max(forces), "history_points": len(forces),
             "solves": control.get("solves"), "newton_iterations": summary.get("newton_iterations"),
             "wall_time_s": summary.get("wall_time_s"), "cpu_time_s": summary.get("cpu_time_s"),
@@ -136,12 +143,14 @@ def campaign_status(folder: Path) -> dict:
 
 
 def _asking(run: dict) -> str:
-    """What a job at today's defaults must ask for to find ``run``: its step control when that
-    is not today's default."""
+    """What a job at today's defaults must ask for to find ``run``: its mesh rule when "auto"
+    would choose another for it, its step control when that is not today's default."""
     from geocontact.fem.settings import FeSettings
 
-    control = run["step_control"]
-    return "" if control == FeSettings().step_control else f"with --step-control {control} "
+    rule, control = run["mesh_rule"], run["step_control"]
+    flags = ([f"--mesh-rule {rule}"] if rule != run["auto_mesh_rule"] else []) + (
+        [f"--step-control {control}"] if control != FeSettings().step_control else [])
+    return f"with {' '.join(flags)} " if flags else ""
 
 
 def _print(status: dict) -> None:

@@ -7,7 +7,8 @@ committed campaign folder (``datasets/fe-runs/<campaign>``; the cheapest first, 
 named), runs each again from its recorded inputs with the current code into ``--out``, and
 compares the new result with the committed one: curve.csv value for value (exactly) and
 summary.json field for field, except what must differ (``identity``: the FE code hash and key;
-``wall_time_s``, ``cpu_time_s``).
+``wall_time_s``, ``cpu_time_s``); a committed run made before summary.json recorded ``choice``
+(the mesh rule and step control and why) is compared with the one its inputs give.
 
     PYTHONPATH=src .venv/bin/python scripts/reproduce_fe_runs.py \\
         datasets/fe-runs/weak-finite-coarse --runs 2 --out out/reproduce \\
@@ -54,6 +55,7 @@ from geocontact.fem.identity import (  # noqa: E402
     recorded_kernels,
 )
 from geocontact.fem.run import run_history  # noqa: E402
+from geocontact.fem.settings import recorded_choice  # noqa: E402
 from geocontact.grain.material import Material  # noqa: E402
 
 # summary.json fields that differ between two runs of the same arithmetic
@@ -112,6 +114,11 @@ def _engine_free(summary: dict, name: str):
     """A field of summary.json, its inputs without ``kernels`` when the kernels are those of the
     run's identity (recorded or not as they are its contact's default or not: the same
     inputs). The identity's kernels themselves are compared by the caller's row."""
+    if name == "choice":
+        # the run's mesh rule and step control and why (issue 36's switch of the defaults): a
+        # run made before it has none, and the one its inputs give (recorded_choice) must be
+        # the rerun's
+        return recorded_choice(summary)
     value = summary.get(name)
     if name == "inputs" and isinstance(value, dict):
         kernels = recorded_kernels(summary["identity"])

@@ -52,6 +52,11 @@ def test_committed_run_is_a_complete_result(folder):
     job = FemJob.of_inputs(identity["inputs"])
     assert job.step_control == "fixed"
     assert dataclasses.replace(job, step_control="adaptive").key() != job.key()
+    # its mesh rule likewise ("yield" where the record names none): a job asking "auto", the
+    # default, finds it only where "auto" chooses that rule for its inputs
+    assert job.mesh_rule == run["mesh_rule"] == identity["inputs"].get("mesh_rule", "yield")
+    auto = dataclasses.replace(job, mesh_rule="auto")
+    assert (auto.key() == job.key()) == (run["auto_mesh_rule"] == run["mesh_rule"])
     if run["kernels"] == "compiled" and "compiled_code" not in identity:
         assert run["state"] == "stale"
     else:

@@ -21,18 +21,20 @@ FORCES = [0.0, 60.0, 0.0]
 def test_defaults_are_the_verified_settings_and_resolve_per_history():
     s = FeSettings()
     assert (s.mesh, s.tolerance, s.volumetric, s.mesh_rule, s.kinematics, s.step_rule,
-            s.max_step_ratio, s.contact, s.kernels) == (
-        "coarse", TOLERANCE, VOLUMETRIC_DEFAULT, "yield", "small", "segment", None, "node",
-        "compiled")
+            s.max_step_ratio, s.contact, s.kernels, s.step_control) == (
+        "coarse", TOLERANCE, VOLUMETRIC_DEFAULT, "auto", "small", "segment", None, "node",
+        "compiled", "adaptive")
     # the kernels' default is the contact's: the facet contact has no compiled path
     assert FeSettings(contact="facet").kernels == "numpy"
     assert FeSettings(kernels=None) == FeSettings(kernels="compiled")
-    resolved = FeSettings(mesh="default").resolved(FORCES)
+    resolved = FeSettings(mesh="default").resolved(FORCES, REFERENCE)
     assert resolved.steps_per_segment == STEPS_PER_SEGMENT["default"]
     assert resolved.mesh_force == 60.0
     # two spellings of one run are one identity
-    assert FeSettings(steps_per_segment=12, mesh_force=60).resolved(FORCES) == (
-        FeSettings().resolved(FORCES))
+    assert FeSettings(steps_per_segment=12, mesh_force=60).resolved(FORCES, REFERENCE) == (
+        FeSettings().resolved(FORCES, REFERENCE))
+    # "auto" resolved from the material and the load: 60 N is ~20 x the reference's Fy
+    assert resolved.mesh_rule == "contact-dense"
 
 
 @pytest.mark.parametrize("keywords, message", [
@@ -60,11 +62,15 @@ def test_a_mesh_force_below_the_largest_force_is_refused_for_the_history():
 
 def test_the_identity_records_the_settings_as_before_and_round_trips():
     """The record keeps the first identity's keys (mesh ... volumetric) and adds a later
-    setting only when not at its default, so earlier keys stay valid; a recorded identity
-    gives back its settings."""
-    plain = FeRunIdentity.of(REFERENCE, FORCES).inputs()
+    setting only when not at its default when it entered the record (RECORD_DEFAULTS: the
+    "yield" meshes, fixed steps), so earlier keys stay valid; a default run (the rule "auto"
+    chose, adaptive steps) names both; a recorded identity gives back its settings."""
+    plain = FeRunIdentity.of(REFERENCE, FORCES, mesh_rule="yield", step_control="fixed").inputs()
     assert set(plain) == {"material", "forces_N", "mesh", "steps_per_segment", "tolerance",
                           "mesh_force_N", "volumetric"}
+    default = FeRunIdentity.of(REFERENCE, FORCES).inputs()
+    assert {k: v for k, v in default.items() if k not in plain} == {
+        "mesh_rule": "contact-dense", "step_control": "adaptive"}
     finite = FeSettings(kinematics="finite", max_step_ratio=1.01, kernels="numpy")
     identity = FeRunIdentity.of_settings(REFERENCE, FORCES, finite)
     inputs = identity.inputs()

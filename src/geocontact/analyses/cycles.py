@@ -164,7 +164,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                resume: bool = False, fit_params=None, progress: bool = False,
                inputs: dict[str, Any] | None = None, overwrite: bool = False,
-               kinematics: str = "small", mesh_rule: str = "yield",
+               kinematics: str = "small", mesh_rule: str = "auto",
                step_rule: str = "segment",
                max_step_ratio: float | None = None, contact: str = "node",
                kernels: str | None = None, step_control: str = "adaptive") -> dict[str, Any]:
@@ -254,6 +254,8 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
             "law_dissipated_energy_J": path["dissipated_energy_J"]})
         write_csv(out / "law_by_force.csv", force_path)
     write_cycles_csv(out / "cycles.csv", analyses)
+    from ..fem.settings import recorded_choice
+
     fs = result.summary
     summary = {
         "version": __version__,
@@ -261,6 +263,8 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
         "fe_run": {k: fs.get(k) for k in ("first_yield_force_N", "first_yield_approach_m",
                                           "fully_plastic_force_N", "mesh", "steps",
                                           "wall_time_s", "version", "inputs")},
+        # the mesh rule and step control of the FE run and why (docs/fem.md "Defaults")
+        "fe_choice": recorded_choice(fs),
         "law": None if params is None else {"label": params.label,
                                             "cyclic": params.cyclic.to_dict()},
         "files": {"fe": "fe/", "cycles": "cycles.csv",

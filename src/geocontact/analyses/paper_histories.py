@@ -85,13 +85,16 @@ class PaperRun:
 def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
                only: list[str] | None = None, mesh_checks: dict[str, str] | None = None,
                fe_model: dict[str, Any] | None = None,
-               fe_model_materials: Sequence[str] | None = None):
+               fe_model_materials: Sequence[str] | None = None,
+               others_fe_model: dict[str, Any] | None = None):
     """The study's FE jobs: ``(plan, jobs)``, plan = [(label, run name, mesh)] in job order.
     ``fe_model``: kinematics, mesh_rule, step_rule and max_step_ratio of the runs (``FemJob``;
     the FE defaults when None); ``fe_model_materials``: the material presets it applies to (None:
     every run), the others run with the FE defaults, e.g. finite strain only for the weak grain,
-    where small strain is not valid (docs/verification.md, item 13); its ``step_control``
-    reaches every run."""
+    where small strain is not valid (docs/verification.md, item 13), changed by
+    ``others_fe_model`` (FemJob keywords, e.g. ``{"mesh_rule": "yield"}``: the rule the
+    committed study's other runs were meshed with before "auto" became the default); the
+    ``step_control`` of ``fe_model`` reaches every run."""
     from ..fem.campaign import FemJob
 
     runs = study()["runs"]
@@ -112,7 +115,7 @@ def study_jobs(mesh: str = "default", *, steps_per_segment: int | None = None,
         spec = runs[name]
         forces = preset_history(spec["history"], float(spec["peak_force"]))
         model = (fe_model if fe_model_materials is None
-                 or spec["material"] in fe_model_materials else None)
+                 or spec["material"] in fe_model_materials else others_fe_model)
         # the step control is how every run is solved, not a material's model: it reaches all
         # (the committed study was made with fixed steps throughout)
         every = {k: v for k, v in (fe_model or {}).items() if k == "step_control"}
@@ -134,7 +137,8 @@ def single_load_jobs(job) -> list:
                    steps_per_segment=job.steps_per_segment, mesh_force=max(forces),
                    label=f"single load {p:.4g} N @ {job.label}", kinematics=job.kinematics,
                    mesh_rule=job.mesh_rule, step_rule=job.step_rule,
-                   max_step_ratio=job.max_step_ratio) for p in peaks]
+                   max_step_ratio=job.max_step_ratio, contact=job.contact, kernels=job.kernels,
+                   step_control=job.step_control) for p in peaks]
 
 
 def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cache/fem", *,
@@ -144,13 +148,14 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
                         progress: bool = True,
                         fe_model: dict[str, Any] | None = None,
                         fe_model_materials: Sequence[str] | None = None,
+                        others_fe_model: dict[str, Any] | None = None,
                         ) -> dict[str, PaperRun]:
     """Run (or read from the cache) the FE runs of the study and analyse their cycles.
 
     ``mesh_checks`` {run name: mesh}: the same run also on another mesh, in the same campaign,
     returned as ``"<name>@<mesh>"`` (a mesh-sensitivity check of the cyclic quantities).
-    ``fe_model``, ``fe_model_materials``: the FE model and the materials it applies to
-    (``study_jobs``).
+    ``fe_model``, ``fe_model_materials``, ``others_fe_model``: the FE model, the materials it
+    applies to and that of the other runs (``study_jobs``).
     ``single_loads``: also run, for every monotonically increasing history, a single load to
     each of its peaks on its mesh (the paper compares the two)."""
     from ..fem.campaign import run_campaign
@@ -158,7 +163,8 @@ def run_paper_histories(mesh: str = "default", cache_dir: str | Path = "out/cach
     runs = study()["runs"]
     plan, jobs = study_jobs(mesh, steps_per_segment=steps_per_segment, only=only,
                             mesh_checks=mesh_checks, fe_model=fe_model,
-                            fe_model_materials=fe_model_materials)
+                            fe_model_materials=fe_model_materials,
+                            others_fe_model=others_fe_model)
     singles = {label: single_load_jobs(job)
                for (label, name, _), job in zip(plan, jobs, strict=True)
                if single_loads and runs[name]["history"] == "mono-increasing"}

@@ -87,6 +87,17 @@ def _check_positive(what: str, value) -> None:
         raise InputError(f"{what}: must be a positive number of newtons, got {value!r}")
 
 
+def _auto_choice(summary: dict) -> dict:
+    """provenance.fe.mesh_rule_choice of a calibration asked with the mesh rule "auto": what it
+    chose for the top level's run (the levels share its mesh, ``shared_mesh_force``) and why."""
+    from ..fem.settings import recorded_choice
+
+    choice = recorded_choice(summary)
+    return {"asked": "auto", "chose": choice["mesh_rule"],
+            "mesh_force_over_first_yield": choice["mesh_force_over_first_yield"],
+            "auto_dense_above": choice["auto_dense_above"], "reason": choice["reason"]}
+
+
 def shared_mesh_force(peaks) -> float | None:
     """The force every run's mesh is sized for when data/calibration.toml asks for one shared
     mesh (``shared_mesh = true``): the highest peak; else None (each run sized for its own)."""
@@ -97,8 +108,8 @@ def calibration_jobs(material: Material, peaks, mesh: str = "default",
                      steps_per_segment: int | None = None,
                      fe_model: dict[str, str] | None = None) -> list[FemJob]:
     """The calibration levels' FE runs; ``fe_model``: kinematics, mesh_rule, step_rule,
-    max_step_ratio of ``FemJob`` (the FE defaults when None: small strain, the verified meshes,
-    no sub-steps)."""
+    max_step_ratio of ``FemJob`` (the FE defaults when None: small strain, the mesh rule "auto",
+    adaptive load steps)."""
     shape = settings()["campaign"]["history"]
     mesh_force = shared_mesh_force(peaks)
     return [FemJob(material, tuple(float(s) * peak for s in shape), mesh=mesh,
@@ -351,6 +362,10 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
             "mesh": job.mesh,
             # the rule the runs were meshed with ("auto" recorded as what it chose)
             "kinematics": job.kinematics, "mesh_rule": job.identity().mesh_rule,
+            # asked "auto" (the default): the mesh force over the analytic first-yield force
+            # that decided it (fem.settings.settings_choice); absent in files of a named rule
+            **({"mesh_rule_choice": _auto_choice(top.result.summary)}
+               if job.mesh_rule == "auto" else {}),
             "step_rule": job.step_rule, "max_step_ratio": job.max_step_ratio,
             # named where not "fixed": the load steps of every file written before the
             # adaptive control became the default (issue 36)

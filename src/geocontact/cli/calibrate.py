@@ -95,7 +95,12 @@ def run(args) -> int:
     if args.loading_form != "regimes":  # recorded when not the default (shipped files unchanged)
         inputs["loading_form"] = args.loading_form
     fe_model = fe_model_of(args)
-    inputs.update(fe_model)
+    inputs.update({k: v for k, v in fe_model.items() if k != "step_control"})
+    # the load-step control named where it is not "fixed", its default when it entered the
+    # files (as provenance.fe): a file made with fixed steps reads as before, a default one
+    # (adaptive, issue 36) says so
+    if args.step_control != "fixed":
+        inputs["step_control"] = args.step_control
     if args.residual_form != "saturating":  # files of the default form read as before
         inputs["residual_form"] = args.residual_form
     outputs = [Output(out, "file", "--out")]
@@ -116,7 +121,7 @@ def run(args) -> int:
         return 0
     e = params.fit_errors
     model = ("" if args.kinematics == "small" else f", {args.kinematics} strain") + (
-        "" if args.mesh_rule == "yield" else f", {args.mesh_rule} mesh rule") + (
+        "" if args.mesh_rule == "auto" else f", {args.mesh_rule} mesh rule") + (
         "" if args.step_rule == "segment" else f", {args.step_rule} step rule") + (
         "" if args.max_step_ratio is None else f", load-step ratio <= {args.max_step_ratio:g}") + (
         "" if args.contact == "node" else f", {args.contact} contact") + (

@@ -37,12 +37,10 @@ def register(sub) -> None:
 def auto_rule_message(material, summary) -> str:
     """What the mesh rule "auto" chose for the run of ``summary`` and why (its mesh force over
     the analytic first-yield force against fem.settings.AUTO_DENSE_FORCE_RATIO)."""
-    from ..fem.settings import AUTO_DENSE_FORCE_RATIO, chosen_mesh_rule
+    from ..fem.settings import auto_rule_reason, chosen_mesh_rule
 
-    rule, ratio = chosen_mesh_rule(material, summary["identity"]["inputs"]["mesh_force_N"])
-    side = "above" if ratio > AUTO_DENSE_FORCE_RATIO else "not above"
-    return (f"mesh rule auto: {rule} (mesh force {ratio:.4g} x the analytic first-yield force, "
-            f"{side} {AUTO_DENSE_FORCE_RATIO:g})")
+    return auto_rule_reason(*chosen_mesh_rule(material,
+                                              summary["identity"]["inputs"]["mesh_force_N"]))
 
 
 def run(args) -> int:

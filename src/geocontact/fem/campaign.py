@@ -39,7 +39,7 @@ from .identity import (
 )
 from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC_DEFAULT, FemResult
 from .run import load_schedule, run_history, sub_step_record, write_result
-from .settings import FeSettings
+from .settings import RECORD_DEFAULTS, FeSettings
 
 DEFAULT_CACHE = Path("out/cache/fem")
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
@@ -70,7 +70,9 @@ class FemJob:
     tolerance: float = TOLERANCE
     volumetric: str = VOLUMETRIC_DEFAULT
     kinematics: str = "small"  # "small" | "finite" (fem.finite_strain)
-    mesh_rule: str = "yield"  # "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES)
+    # "auto" (chosen from the material and the load: fem.settings.chosen_mesh_rule) | "yield" |
+    # "contact" | "contact-dense" (fem.mesh.MESH_RULES)
+    mesh_rule: str = "auto"
     step_rule: str = "segment"  # "segment" | "decade" (fem.run.load_schedule)
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
@@ -89,12 +91,12 @@ class FemJob:
                   steps_per_segment=inputs.get("steps_per_segment"),
                   mesh_force=inputs.get("mesh_force_N"), tolerance=inputs["tolerance"],
                   volumetric=inputs["volumetric"], kinematics=inputs.get("kinematics", "small"),
-                  mesh_rule=inputs.get("mesh_rule", "yield"),
+                  mesh_rule=inputs.get("mesh_rule", RECORD_DEFAULTS["mesh_rule"]),
                   step_rule=inputs.get("step_rule", "segment"),
                   max_step_ratio=inputs.get("max_step_ratio"),
                   contact=inputs.get("contact", "node"),
                   kernels=inputs.get("kernels"),
-                  step_control=inputs.get("step_control", "fixed"))
+                  step_control=inputs.get("step_control", RECORD_DEFAULTS["step_control"]))
         return replace(job, **changes) if changes else job
 
     def settings(self) -> FeSettings:

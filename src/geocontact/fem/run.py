@@ -64,7 +64,7 @@ from .result import (
     VOLUMETRIC,
     FemResult,
 )
-from .settings import FeSettings
+from .settings import FeSettings, settings_choice
 from .solver import ContactSolver, State
 
 MAX_CUTBACKS = 8
@@ -959,6 +959,8 @@ def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], started: RunClock,
                  "element": f"P2 triangle (6-node, isoparametric), {identity.volumetric}"
                             + (" (F-bar)" if identity.kinematics == "finite" else "")},
         "kinematics": identity.kinematics,
+        # the mesh rule and step control the run has, and why "auto" gives its rule or not
+        "choice": settings_choice(material, identity.settings),
         "contact_resolution": contact,
         "warnings": warnings,
         "steps": int(len(p.targets)),

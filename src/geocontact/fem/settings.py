@@ -40,9 +40,12 @@ RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "
                      "kernels", "step_control")
 # The value each of them had by default when it entered the identity: a record leaves a setting
 # out only at this value and reads an absent one as it, so a default that moves later keeps every
-# older record meaning what it meant (a run made at "yield" / "fixed" keeps its key whatever the
-# default becomes). The kernels' absence is read per FE code instead
-# (fem.identity.recorded_kernels).
+# older record meaning what it meant. mesh_rule entered as "yield" and step_control as "fixed";
+# both defaults moved (issue 36: "auto" and "adaptive", the verified settings, docs/fem.md
+# "Defaults"), and a run made on the "yield" meshes or with fixed steps keeps its key, found by a
+# job that asks for them (every committed run: their makers name them), while a default run
+# records what "auto" chose where that is not "yield" and "adaptive". The kernels' absence is
+# read per FE code instead (fem.identity.recorded_kernels).
 RECORD_DEFAULTS = {"mesh_rule": "yield", "kinematics": "small", "step_rule": "segment",
                    "max_step_ratio": None, "contact": "node", "step_control": "fixed"}
 # The mesh rule chosen from the material and the load (issue 36; docs/fem.md "The mesh rule
@@ -69,6 +72,39 @@ def chosen_mesh_rule(material, force: float) -> tuple[str, float]:
     return ("contact-dense" if ratio > AUTO_DENSE_FORCE_RATIO else "yield"), ratio
 
 
+def settings_choice(material, settings: FeSettings) -> dict[str, Any]:
+    """What the resolved ``settings`` of a run on ``material`` chose and why (summary.json
+    ``choice``): the mesh rule and the load-step control the run has, the mesh force over the
+    analytic first-yield force, the rule "auto" gives at that ratio (``chosen_mesh_rule``)
+    against AUTO_DENSE_FORCE_RATIO, and a sentence saying so. A function of the identity's
+    inputs alone, so the same for a run asked with "auto" and one asked with the rule it gave
+    (the two are one run, with one key)."""
+    auto, ratio = chosen_mesh_rule(material, settings.mesh_force)
+    return {"mesh_rule": settings.mesh_rule, "step_control": settings.step_control,
+            "mesh_force_over_first_yield": ratio, "auto_dense_above": AUTO_DENSE_FORCE_RATIO,
+            "auto_mesh_rule": auto, "reason": auto_rule_reason(auto, ratio)}
+
+
+def recorded_choice(summary: dict[str, Any]) -> dict[str, Any]:
+    """summary.json ``choice`` of a finished run, or for a run made before it was recorded (FE
+    code before issue 36's switch of the defaults) the same record from its identity's inputs
+    (``settings_choice``: it depends on nothing else)."""
+    if "choice" in summary:
+        return summary["choice"]
+    from ..grain.material import Material
+
+    inputs = summary["inputs"]
+    return settings_choice(Material(**inputs["material"]), FeSettings.of_record(inputs))
+
+
+def auto_rule_reason(rule: str, ratio: float) -> str:
+    """The sentence saying why "auto" gives ``rule`` at ``ratio`` (mesh force over the analytic
+    first-yield force)."""
+    side = "above" if ratio > AUTO_DENSE_FORCE_RATIO else "not above"
+    return (f"mesh rule auto: {rule} (mesh force {ratio:.4g} x the analytic first-yield force, "
+            f"{side} {AUTO_DENSE_FORCE_RATIO:g})")
+
+
 def default_kernels(contact: str) -> str:
     """The element kernels of a run with the contact ``contact`` when none are asked for: the
     compiled ones (fem.compiled) for the node contact, whose runs agree with the numpy path's to
@@ -85,16 +121,16 @@ class FeSettings:
     steps per monotonic segment (None: the preset's, STEPS_PER_SEGMENT). ``tolerance``: Newton
     tolerance relative to the force scale. ``volumetric``: "bbar-p1" | "bbar-p0" | "full".
     ``mesh_force``: size the mesh for this force, >= the history's largest (None: the largest).
-    ``mesh_rule``: "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES) | "auto", chosen
-    from the material and the load when resolved (``chosen_mesh_rule``). ``kinematics``:
-    "small" | "finite". ``step_rule``: "segment" | "decade" (fem.run.load_schedule).
-    ``max_step_ratio``: None or a cap in (1, 2] on the loading force ratio of one solve above
-    the first-yield force (fem.run.sub_steps; with the adaptive control its largest step,
-    default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "fixed" | "adaptive"
-    (``STEP_CONTROLS``, fem.run.AdaptiveSteps). ``contact``: "node" | "facet". ``kernels``:
-    "numpy" | "compiled" (small or finite strain, node contact; fem.compiled) | None, the
-    contact's default (``default_kernels``: compiled with the node contact, numpy with the
-    facet contact), which the object holds in its place once made.
+    ``mesh_rule``: "auto" (the default: chosen from the material and the load when resolved,
+    ``chosen_mesh_rule``) | "yield" | "contact" | "contact-dense" (fem.mesh.MESH_RULES).
+    ``kinematics``: "small" | "finite". ``step_rule``: "segment" | "decade"
+    (fem.run.load_schedule). ``max_step_ratio``: None or a cap in (1, 2] on the loading force
+    ratio of one solve above the first-yield force (fem.run.sub_steps; with the adaptive control
+    its largest step, default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "adaptive" (the
+    default, fem.run.AdaptiveSteps) | "fixed" (``STEP_CONTROLS``). ``contact``: "node" |
+    "facet". ``kernels``: "numpy" | "compiled" (small or finite strain, node contact;
+    fem.compiled) | None, the contact's default (``default_kernels``: compiled with the node
+    contact, numpy with the facet contact), which the object holds in its place once made.
     """
 
     mesh: str = "coarse"
@@ -102,7 +138,7 @@ class FeSettings:
     tolerance: float = TOLERANCE
     volumetric: str = VOLUMETRIC_DEFAULT
     mesh_force: float | None = None
-    mesh_rule: str = "yield"
+    mesh_rule: str = AUTO_MESH_RULE
     kinematics: str = "small"
     step_rule: str = "segment"
     max_step_ratio: float | None = None
@@ -198,7 +234,9 @@ class FeSettings:
             words.append(f"tolerance {self.tolerance:g}")
         if self.volumetric != VOLUMETRIC_DEFAULT:
             words.append(f"volumetric {self.volumetric}")
-        if self.mesh_rule != FeSettings.__dataclass_fields__["mesh_rule"].default:
+        # the resolved rule is never "auto": named where it is not "yield", the rule a record
+        # without mesh_rule was meshed with (RECORD_DEFAULTS), so older runs read as before
+        if self.mesh_rule != RECORD_DEFAULTS["mesh_rule"]:
             words.append(f"mesh rule {self.mesh_rule}")
         if self.kinematics != "small":
             words.append(f"{self.kinematics} strain")
@@ -233,13 +271,15 @@ class FeSettings:
                             "(logarithmic elastic strain, exponential map, F-bar)")
         p.add_argument("--mesh-rule", default=default["mesh_rule"].default,
                        choices=list(MESH_RULE_CHOICES),
-                       help="FE mesh rule: 'yield' (default, the verified meshes), 'contact' "
-                            "(small surface elements over the plastic range of contact radii: "
-                            "the contact edge of a weak grain moves in steps of ~1 %% of the "
-                            "radius), 'contact-dense' (twice as many surface elements there) "
-                            "or 'auto' ('contact-dense' when the largest force is above "
-                            f"{AUTO_DENSE_FORCE_RATIO:g} x the analytic first-yield force, "
-                            "else 'yield'; the run records the rule chosen)")
+                       help="FE mesh rule: 'auto' (default: 'contact-dense' when the largest "
+                            f"force is above {AUTO_DENSE_FORCE_RATIO:g} x the analytic "
+                            "first-yield force, else 'yield'; the run records the rule chosen "
+                            "and why, summary.json 'choice'), 'yield' (the verified meshes of "
+                            "the elastic-plastic transition; the rule before issue 36), "
+                            "'contact' (small surface elements over the plastic range of "
+                            "contact radii: the contact edge of a weak grain moves in steps of "
+                            "~1 %% of the radius) or 'contact-dense' (twice as many surface "
+                            "elements there)")
         p.add_argument("--step-rule", default=default["step_rule"].default,
                        choices=list(STEP_RULES),
                        help="FE load steps: 'segment' (default, --steps per monotonic segment) "
@@ -254,12 +294,13 @@ class FeSettings:
                             "dependent (docs/fem.md)")
         p.add_argument("--step-control", default=default["step_control"].default,
                        choices=list(STEP_CONTROLS),
-                       help="FE load-step control: 'fixed' (default: the requested steps, cut "
-                            "by --max-step-ratio when given) or 'adaptive' (each solve's load "
+                       help="FE load-step control: 'adaptive' (default: each solve's load "
                             "increment sized by the contact edge's advance against the surface "
                             "element there, the plastic strain increment and Newton's effort; "
-                            "--max-step-ratio is then its largest step; the recorded steps are "
-                            "unchanged; docs/fem.md)")
+                            "--max-step-ratio is then its largest step) or 'fixed' (the "
+                            "requested steps, cut by --max-step-ratio when given; the control "
+                            "before issue 36); the recorded steps are the requested ones either "
+                            "way (docs/fem.md)")
         p.add_argument("--contact", default=default["contact"].default,
                        choices=["node", "facet"],
                        help="FE contact with the flat: 'node' (default, exact node-to-flat "

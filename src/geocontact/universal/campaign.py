@@ -53,16 +53,20 @@ from .design import (
 
 MESH = "coarse"
 DEFAULT_CACHE = Path("out/cache/universal")
+# the v1 design's FE model beside the mesh (point_jobs)
+V1_FE_MODEL = {"mesh_rule": "yield", "step_control": "fixed"}
 
 
 def point_jobs(point: DesignPoint, mesh: str = MESH):
-    """The FE runs of one point (``calibrate.campaign.calibration_jobs`` at its peaks)."""
+    """The FE runs of one point (``calibrate.campaign.calibration_jobs`` at its peaks), on the
+    "yield" meshes with fixed load steps: the v1 design's FE, the defaults it was made with
+    (named since issue 36 made "auto" and the adaptive control the defaults)."""
     from ..calibrate.campaign import calibration_jobs
 
     material = point.material()
     fy = incipient_yield(material).force
     return calibration_jobs(material, [float(p) * fy for p in force_levels(
-        point.log10_modulus_over_strength)], mesh)
+        point.log10_modulus_over_strength)], mesh, fe_model=V1_FE_MODEL)
 
 
 def point_row(point: DesignPoint, jobs, results) -> dict[str, Any]:

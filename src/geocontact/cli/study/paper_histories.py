@@ -83,6 +83,8 @@ def markdown(runs, findings) -> str:
 
 
 def main(argv: list[str] | None = None, prog: str = "geocontact study paper-histories") -> int:
+    from ...fem.settings import MESH_RULE_CHOICES
+
     ap = ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
     ap.add_argument("--steps", type=int, default=None, help="FE steps per monotonic segment")
@@ -102,7 +104,15 @@ def main(argv: list[str] | None = None, prog: str = "geocontact study paper-hist
                          "presets; the others run with the FE defaults (small strain), e.g. "
                          "finite strain only for reference-weak (default: every run); "
                          "--step-control reaches every run")
+    ap.add_argument("--others-mesh-rule", default=None,
+                    choices=list(MESH_RULE_CHOICES),
+                    help="with --fe-model-materials: the mesh rule of the other runs (default: "
+                         "the FE default, 'auto'); 'yield' is the rule the committed study's "
+                         "other runs were meshed with (make paper-histories-finite)")
     args = ap.parse_args(argv)
+    if args.others_mesh_rule is not None and args.fe_model_materials is None:
+        raise InputError("--others-mesh-rule: only with --fe-model-materials (without it the "
+                         "FE model flags reach every run)")
     out = Path(args.out)
     # before the FE runs: ours to replace, writable, no other run on it
     with claim([Output(out, "folder", "--out")], "paper-histories", overwrite=args.force):
@@ -116,7 +126,9 @@ def _study(args, out: Path) -> int:
                                mesh_checks=({"repeated-10MPa": args.check_mesh}
                                             if args.check_mesh else None),
                                fe_model=fe_model_of(args),
-                               fe_model_materials=args.fe_model_materials)
+                               fe_model_materials=args.fe_model_materials,
+                               others_fe_model=({"mesh_rule": args.others_mesh_rule}
+                                                if args.others_mesh_rule else None))
     # the whole study lands as one folder: an interrupted rerun never mixes old and new files
     with atomic_directory(out, "paper-histories", overwrite=args.force,
                           inputs=vars(args)) as tmp:
