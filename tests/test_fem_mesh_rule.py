@@ -82,9 +82,14 @@ def test_the_record_reads_an_absent_setting_as_its_default_when_it_entered():
     """RECORD_DEFAULTS: a record without mesh_rule / step_control was made at "yield" /
     "fixed", whatever the default of the day."""
     assert (RECORD_DEFAULTS["mesh_rule"], RECORD_DEFAULTS["step_control"]) == ("yield", "fixed")
-    inputs = FeRunIdentity.of(REFERENCE, [0.0, 60.0, 0.0]).inputs()
+    inputs = FeRunIdentity.of(REFERENCE, [0.0, 60.0, 0.0], mesh_rule="yield",
+                              step_control="fixed").inputs()
+    assert "mesh_rule" not in inputs and "step_control" not in inputs
     settings = FeSettings.of_record(inputs)
     assert (settings.mesh_rule, settings.step_control) == ("yield", "fixed")
+    # the defaults moved (docs/fem.md "Defaults"): a default run names both
+    default = FeSettings.of_record(FeRunIdentity.of(REFERENCE, [0.0, 60.0, 0.0]).inputs())
+    assert (default.mesh_rule, default.step_control) == ("contact-dense", "adaptive")
     dense = FeRunIdentity.of(REFERENCE, [0.0, 60.0, 0.0], mesh_rule="contact-dense",
                              step_control="adaptive").inputs()
     back = FeSettings.of_record(dense)

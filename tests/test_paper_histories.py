@@ -283,7 +283,8 @@ def test_fe_model_reaches_every_run_of_the_study():
 # The weak grain's FE of record (examples/params-reference-weak.json; docs/cycles.md) and the
 # study run with it.
 # Fixed load steps (cut at x1.01), named: the control the study's committed runs were made with,
-# whatever the default (issue 36: the adaptive control may become it).
+# whatever the default (issue 36 made the adaptive control the default); the other materials'
+# runs on the "yield" meshes (--others-mesh-rule yield), the rule before "auto" became the default.
 WEAK_FE_MODEL = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01,
                  "step_control": "fixed"}
 FINITE_STUDY_RUNS = (Path(__file__).resolve().parents[1] / "datasets" / "fe-runs"
@@ -347,7 +348,7 @@ def test_findings_with_the_weak_grains_fe_of_record(tmp_path):
     out = tmp_path / "study"
     assert script.main(["--mesh", "default", "--kinematics", "finite", "--mesh-rule", "contact",
                         "--max-step-ratio", "1.01", "--step-control", "fixed",
-                        "--fe-model-materials", "reference-weak",
+                        "--fe-model-materials", "reference-weak", "--others-mesh-rule", "yield",
                         "--workers", "1", "--cache",
                         str(FINITE_STUDY_RUNS),
                         "--out", str(out)]) == 0  # the whole study: every run finished

@@ -222,6 +222,16 @@ _AUTO_MESH_RULE = ("the opt-in mesh rule 'auto' added (refused before; resolved 
                    "run is meshed, solved and recorded as before")
 _reproduces(_AUTO_MESH_RULE_CODE, _DEFAULT_FE_CODE, _AUTO_MESH_RULE)
 
+# The verified settings made the defaults (issue 36, docs/fem.md "Defaults").
+_DEFAULTS_CODE = "f17f50983599a3e1"
+_DEFAULTS_SWITCH = ("the mesh rule 'auto' and the adaptive load-step control made the defaults "
+                    "(FeSettings, FemJob, run_cycles, the CLI), each setting still recorded "
+                    "against its default when it entered the identity (RECORD_DEFAULTS), so a "
+                    "run asked by its settings is meshed, solved and recorded as before; "
+                    "summary.json gains 'choice' (the rule, the control and why: a function of "
+                    "the inputs, which fem.settings.recorded_choice gives for an older run)")
+_reproduces(_DEFAULTS_CODE, _AUTO_MESH_RULE_CODE, _DEFAULTS_SWITCH)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -278,6 +288,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_AUTO_MESH_RULE_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_AUTO_MESH_RULE_CODE, *REPRODUCED_FE_CODE[_AUTO_MESH_RULE_CODE])},
+    # and under the FE code of the switched defaults (reruns under it)
+    (_DEFAULTS_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_DEFAULTS_CODE, *REPRODUCED_FE_CODE[_DEFAULTS_CODE])},
 }
 
 
