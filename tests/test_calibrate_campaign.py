@@ -339,8 +339,11 @@ def test_shipped_calibrations_match_a_fresh_fe_run(tmp_path, name, material, mes
     assert params.material == load_material(material)
     low, high = force_range(params.material)
     peak = low * (high / low) ** 0.625  # between levels (7 levels: 0.5, 0.67; 13: 7/12, 8/12)
+    # the "yield" meshes with fixed steps (the defaults before issue 36): for the weak grain
+    # another rule than the calibration's, and as cheap as the check was made to be
     job = FemJob(params.material, (0.0, peak, 0.0), mesh="coarse", steps_per_segment=8,
-                 kinematics=fe.get("kinematics", "small"), max_step_ratio=cap)
+                 kinematics=fe.get("kinematics", "small"), max_step_ratio=cap,
+                 mesh_rule="yield", step_control="fixed")
     (result,) = run_campaign([job], tmp_path, progress=False)
     comparison = compare(params, job, result, name="check", kind="held-out")
     assert comparison.force_rms_percent < tolerance
