@@ -48,6 +48,14 @@ def cyclic_params() -> LawParams:
                                         residual_ratio_power=1.2, tolerance=0.01))
 
 
+# The FE settings the tests whose subject is not the FE defaults name: the "yield" meshes and
+# fixed load steps, the defaults before issue 36 (now "auto" and "adaptive", docs/fem.md
+# "Defaults"), on which those tests were written and which are the cheapest above 10 Fy. The
+# defaults themselves are tested in test_fe_defaults.py, test_fem_mesh_rule.py and
+# test_fem_step_control.py.
+YIELD_FIXED = {"mesh_rule": "yield", "step_control": "fixed"}
+
+
 def assert_energy_balance(curve, tolerance: float = 0.01) -> None:
     """An FE run's energy balance at every step (docs/model.md §5: work of the force = stored
     elastic

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from conftest import YIELD_FIXED
 
 from geocontact.fem import solver as solver_module
 from geocontact.fem.run import history_mesh
@@ -53,7 +54,8 @@ def test_fast_path_matches_reference_path(material, monkeypatch, cholmod):
         pytest.importorskip("sksparse.cholmod")
     else:
         monkeypatch.setattr(solver_module, "_cholmod", lambda: None)
-    report = compare_linear_solvers(material, HISTORY, mesh="coarse", steps_per_segment=3)
+    report = compare_linear_solvers(material, HISTORY, mesh="coarse", steps_per_segment=3,
+                                    **YIELD_FIXED)
     diff = report["max_relative_difference"]
     assert report["within_accuracy"], diff
     assert max(diff.values()) < 1e-6 < ACCURACY  # the same equations, solved to round-off

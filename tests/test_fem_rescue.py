@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import YIELD_FIXED
 
 from geocontact.errors import ConvergenceError
 from geocontact.fem import run as fem_run
@@ -162,7 +163,7 @@ def test_run_records_a_rescued_step_and_keeps_it_through_a_resume(material, tmp_
     halving is the engine's usual arithmetic, so the curve is the unrescued run's, bit for bit."""
     forces = [0.0, 27.6, 0.0]
     plain = fem_run.run_history(material, forces, mesh="coarse", steps_per_segment=4,
-                                write_fields=False)
+                                write_fields=False, **YIELD_FIXED)
     assert "rescued_steps" not in plain.summary
     real = ContactSolver.solve_step
 
@@ -184,9 +185,10 @@ def test_run_records_a_rescued_step_and_keeps_it_through_a_resume(material, tmp_
         m.setattr(fem_run, "_advance", stop_at_nine)
         with pytest.raises(KeyboardInterrupt):
             fem_run.run_history(material, forces, mesh="coarse", steps_per_segment=4,
-                                write_fields=False, out=out)
+                                write_fields=False, out=out, **YIELD_FIXED)
     rescued = fem_run.run_history(material, forces, mesh="coarse", steps_per_segment=4,
-                                  write_fields=False, out=out, resume=True)
+                                  write_fields=False, out=out, resume=True,
+                                  **YIELD_FIXED)
     [record] = rescued.summary["rescued_steps"]
     assert record["step"] < 9  # before the interruption: the checkpoint carried it
     assert 10.0 < record["force_N"] < 16.0 and record["line_search_halvings"] == 0

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import YIELD_FIXED
 
 import geocontact.fem.run as fem_run
 from geocontact.errors import InputError
@@ -214,7 +215,8 @@ def test_capped_steps_bring_a_coarse_run_close_to_a_fine_step_one(tmp_path, monk
     forces = [0.0, 0.3]
 
     def run(**kwargs):
-        return run_history(material, forces, "coarse", write_fields=False, **kwargs)
+        return run_history(material, forces, "coarse", write_fields=False, **YIELD_FIXED,
+                           **kwargs)
 
     reference = run(steps_per_segment=24).curve["approach_m"][-1]
     plain = run(steps_per_segment=3)

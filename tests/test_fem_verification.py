@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import YIELD_FIXED
 
 import geocontact.fem.run as fem_run
 from geocontact.fem.identity import FeRunIdentity
@@ -298,7 +299,7 @@ def test_yielded_contact_fraction_is_zero_while_elastic_and_reported_per_step():
     steps per segment: the crossing falls in a 2111-2965 N step)."""
     material = _drucker_prager(30.0)
     result = run_history(material, [0.0, 6000.0], mesh="coarse", write_fields=False,
-                         steps_per_segment=8)
+                         steps_per_segment=8, **YIELD_FIXED)
     c, s = result.curve, result.summary
     for column in ("yielded_contact_fraction", "yielded_core_fraction"):
         assert np.all((c[column] >= 0.0) & (c[column] <= 1.0 + 1e-12))
