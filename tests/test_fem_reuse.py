@@ -8,6 +8,7 @@ from dataclasses import replace
 import meshio
 import numpy as np
 import pytest
+from conftest import YIELD_FIXED
 
 import geocontact.fem.identity as reuse
 import geocontact.fem.run as fem_run
@@ -21,9 +22,9 @@ from geocontact.grain.material import MATERIAL_KEYS, preset
 
 FORCES = [0.0, 60.0, 0.0]
 STEPS = 3  # 10 load steps; waypoints (ParaView files) at steps 7 and 10
-# the step accounting above is the fixed control's on the "yield" mesh (the defaults before issue
-# 36; the adaptive control numbers its solves): named where a test counts the steps
-OLD_DEFAULTS = {"mesh_rule": "yield", "step_control": "fixed"}
+# the step accounting above is the fixed control's on the "yield" mesh (conftest.YIELD_FIXED, the
+# defaults before issue 36; the adaptive control numbers its solves): named where a test counts
+# the steps
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +34,7 @@ def material():
 
 def _run(material, out=None, **kwargs):
     return run_history(material, FORCES, mesh="coarse", steps_per_segment=STEPS, out=out,
-                       **{**OLD_DEFAULTS, **kwargs})
+                       **{**YIELD_FIXED, **kwargs})
 
 
 def _interrupt_at(monkeypatch, step):
@@ -128,11 +129,11 @@ def test_a_grain_yielding_at_the_contact_edge_records_how_its_first_yield_is_fou
 def test_summary_records_the_identity_and_fields_progress_do_not_change_it(material, tmp_path):
     quiet = _run(material, tmp_path / "a", write_fields=False, progress=False)
     loud = _run(material, tmp_path / "b", write_fields=True, progress=True)
-    job = FemJob(material, tuple(FORCES), steps_per_segment=STEPS, **OLD_DEFAULTS)
+    job = FemJob(material, tuple(FORCES), steps_per_segment=STEPS, **YIELD_FIXED)
     assert quiet.summary["identity"] == loud.summary["identity"]
     identity = json.loads((tmp_path / "b" / "summary.json").read_text())["identity"]
     assert identity["key"] == job.key() == FeRunIdentity.of(
-        material, FORCES, "coarse", steps_per_segment=STEPS, **OLD_DEFAULTS).key()
+        material, FORCES, "coarse", steps_per_segment=STEPS, **YIELD_FIXED).key()
     assert identity["inputs"] == loud.summary["inputs"]
     assert identity["fe_code"] == fe_code_hash()
     assert set(identity["libraries"]) == set(LIBRARIES)
@@ -148,10 +149,10 @@ def test_cycles_resume_reuses_only_a_run_of_the_same_code(material, tmp_path, mo
                                                           capsys):
     out = tmp_path / "cycles"
     first = run_cycles(material, FORCES, out, mesh="coarse",
-                       steps_per_segment=STEPS, **OLD_DEFAULTS)
+                       steps_per_segment=STEPS, **YIELD_FIXED)
     steps = _count_steps(monkeypatch)
     again = run_cycles(material, FORCES, out, mesh="coarse",
-                       steps_per_segment=STEPS, **OLD_DEFAULTS,
+                       steps_per_segment=STEPS, **YIELD_FIXED,
                        resume=True)
     assert steps == [] and again["analyses"]["fe"] == first["analyses"]["fe"]
     # the FE run was made by other (older) code: --resume runs it again
@@ -166,7 +167,7 @@ def test_cycles_resume_reuses_only_a_run_of_the_same_code(material, tmp_path, mo
     add_to_manifest(out, ["fe/summary.json"])
     capsys.readouterr()
     run_cycles(material, FORCES, out, mesh="coarse",
-                       steps_per_segment=STEPS, **OLD_DEFAULTS, resume=True)
+                       steps_per_segment=STEPS, **YIELD_FIXED, resume=True)
     assert len(steps) == 10
     assert "made by other FE code" in capsys.readouterr().err
     assert json.loads(summary_path.read_text())["identity"]["fe_code"] == fe_code_hash()
