@@ -36,8 +36,10 @@ W_NLGEOM = 100.0  # interference / omega_c (Jackson-Green) of the finite-strain 
 
 def run_ours(material, force: float, mesh: str, kinematics: str = "small") -> dict:
     wall0, cpu0 = time.perf_counter(), time.process_time()
+    # the "yield" mesh CalculiX is given (run_peer: history_mesh's rule) and fixed steps, as
+    # many as its increments: the two codes on the same discretisation
     result = run_history(material, [0.0, force, 0.0], mesh=mesh, write_fields=False,
-                         kinematics=kinematics)
+                         kinematics=kinematics, mesh_rule="yield", step_control="fixed")
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     cycle = result.summary["cycles"][0]
     return {"approach": result.curve["approach_m"], "force": result.curve["force_N"],

@@ -23,7 +23,11 @@ BUDGET_S = 60.0
 
 def main(mesh: str = "default") -> dict:
     material = preset("reference")
-    report = compare_linear_solvers(material, [0.0, 6000.0, 0.0], mesh=mesh)
+    # the "yield" mesh and fixed steps (the defaults before issue 36): the series of this
+    # benchmark and its budget; the same cycle on today's defaults ("auto": contact-dense, and
+    # the adaptive control) is case (a) of docs/fem.md's verification, 631 s of CPU
+    report = compare_linear_solvers(material, [0.0, 6000.0, 0.0], mesh=mesh, mesh_rule="yield",
+                                    step_control="fixed")
     fast, reference = report["paths"]["fast"], report["paths"]["reference"]
     wall, cpu = fast["wall_time_s"], fast["cpu_time_s"]
     s = fast["summary"]
@@ -67,7 +71,7 @@ def main_finite(mesh: str = "default") -> dict:
     for kinematics in ("small", "finite"):
         wall0, cpu0 = time.perf_counter(), time.process_time()
         result = run_history(material, [0.0, 6000.0, 0.0], mesh=mesh, write_fields=False,
-                             kinematics=kinematics)
+                             kinematics=kinematics, mesh_rule="yield", step_control="fixed")
         s = result.summary
         runs[kinematics] = {"wall_time_s": time.perf_counter() - wall0,
                             "cpu_time_s": time.process_time() - cpu0, "steps": s["steps"],

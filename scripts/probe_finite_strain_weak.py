@@ -50,7 +50,8 @@ def main(argv=None) -> int:
             result = run_history(material, FORCES, mesh=args.mesh,
                                  out=args.work / f"b{beta:g}-{kinematics}",
                                  steps_per_segment=args.steps, resume=True, write_fields=False,
-                                 kinematics=kinematics, max_step_ratio=args.max_step_ratio)
+                                 kinematics=kinematics, max_step_ratio=args.max_step_ratio,
+                                 mesh_rule="yield", step_control="fixed")  # as documented
             c = result.summary["cycles"][0]
             peak = int(result.curve["force_N"].argmax())
             cycle[kinematics] = {"max_approach_m": c["max_approach_m"],

@@ -31,7 +31,8 @@ def main() -> None:
     args = ap.parse_args()
     material = preset("reference-weak")
     result = run_history(material, [0.0, 3000.0], mesh="coarse", steps_per_segment=12,
-                         write_fields=False, keep_states=True, mesh_rule=args.mesh_rule)
+                         write_fields=False, keep_states=True, mesh_rule=args.mesh_rule,
+                         step_control="fixed")  # the fixed steps it probes
     solver, states, force = result.solver, result.states, result.curve["force_N"]
     k = int(np.searchsorted(force, 1000.0))
     old, target = states[k], float(force[k + 1])

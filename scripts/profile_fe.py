@@ -88,7 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     profile.enable()
     result = run_history(material, forces, mesh=args.mesh, write_fields=False,
                          linear_solver=args.linear_solver, kinematics=args.kinematics,
-                         mesh_rule=args.mesh_rule, steps_per_segment=args.steps)
+                         mesh_rule=args.mesh_rule, steps_per_segment=args.steps,
+                         step_control="fixed")  # the documented profile's control
     profile.disable()
     wall = time.perf_counter() - started
     stats = pstats.Stats(profile).stats  # {(file, line, name): (cc, nc, tottime, cumtime, ...)}

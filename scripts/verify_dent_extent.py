@@ -54,7 +54,9 @@ def dent_of(material_name: str, ratio: float, kinematics: str,
     and the run's numbers (force, a_max, approach at the peak, plastic zone)."""
     material = preset(material_name)
     force = ratio * float(incipient_yield(material).force)
-    settings = FeSettings(MESH, kinematics=kinematics, steps_per_segment=steps_per_segment)
+    # the "yield" meshes and fixed steps (the defaults before issue 36): the documented runs
+    settings = FeSettings(MESH, kinematics=kinematics, steps_per_segment=steps_per_segment,
+                          mesh_rule="yield", step_control="fixed")
     result = run_history(material, [0.0, force, 0.0], settings=settings, keep_states=True,
                          write_fields=False)
     peak = int(np.argmax(result.curve["force_N"]))

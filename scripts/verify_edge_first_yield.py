@@ -55,8 +55,11 @@ def edge_run(beta: float, mesh: str, fraction: float | None, grading: float | No
     analytic = hertz.incipient_yield(material)
     started = time.perf_counter()
     with _mesh_rule(analytic, fraction, grading):
+        # fixed steps on the "yield" meshes (the defaults before issue 36): the documented
+        # table's runs, whose step bracket it reports
         result = run.run_history(material, [0.0, 3.0 * analytic.force], mesh=mesh,
-                                 write_fields=False, steps_per_segment=12)
+                                 write_fields=False, steps_per_segment=12, mesh_rule="yield",
+                                 step_control="fixed")
     s = result.summary
     where = s["first_yield_location_m"]
     return {"beta_deg": beta, "mesh": mesh, "a_min_over_a_y": fraction,

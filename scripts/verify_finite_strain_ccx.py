@@ -85,7 +85,8 @@ def run_ours(material, forces, name, args, kinematics, mesh_force) -> dict:
     result = run_history(material, forces, mesh=args.mesh, out=args.work / name,
                          steps_per_segment=args.steps, resume=True, write_fields=False,
                          kinematics=kinematics, mesh_force=mesh_force,
-                         mesh_rule=args.mesh_rule, max_step_ratio=args.max_step_ratio)
+                         mesh_rule=args.mesh_rule, max_step_ratio=args.max_step_ratio,
+                         step_control="fixed")  # the cap's sub-steps, as documented
     s, c = result.summary, result.curve
     cycle = s["cycles"][0]
     print(f"{name}: {s['steps']} steps, {s['wall_time_s']:.1f} s "

@@ -109,8 +109,11 @@ def measure(mesh: str, work: Path, law, provenance_runs: list[dict], swap: bool,
     forces, fy = history(material, levels)
     tag = "" if tuple(levels) == LEVELS else "-" + "-".join(f"{x:g}" for x in levels)
     started = time.perf_counter()
+    # the pair model's own mesh rule and load steps ("yield", fixed), so the half model is the
+    # same discretisation (and the documented runs, made when these were the defaults)
     half = run_history(material, forces, mesh=mesh, out=work / mesh / f"half-model{tag}",
-                       resume=True, write_fields=False, progress=True)
+                       resume=True, write_fields=False, progress=True, mesh_rule="yield",
+                       step_control="fixed")
     provenance_runs.append({"run": f"{mesh}/half-model{tag}",
                             "key": half.summary["identity"]["key"],
                             "wall_time_s": half.summary["wall_time_s"],

@@ -86,7 +86,10 @@ def main(argv=None) -> int:
 
     def run() -> int:
         picks = materials()
-        jobs = [FemJob(m, history(m, c[3]), mesh="coarse", label=f"universal-acceptance-{i}")
+        # the "yield" meshes and fixed steps of the shipped campaign (the defaults before issue
+        # 36): the acceptance compares the law with the FE it was built from
+        jobs = [FemJob(m, history(m, c[3]), mesh="coarse", label=f"universal-acceptance-{i}",
+                       mesh_rule="yield", step_control="fixed")
                 for i, (c, m) in enumerate(picks, 1)]
         results = run_campaign(jobs, args.cache, workers=args.workers)
         if args.fe_only:
