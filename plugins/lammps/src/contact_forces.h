@@ -13,6 +13,14 @@
 #include <cmath>
 #include <string>
 
+// A function kept out of line where inlining it into a loop would make the loop share its
+// registers (pair_geocontact.cpp touch_pair).
+#if defined(__GNUC__) || defined(__clang__)
+#define GEOCONTACT_NOINLINE __attribute__((noinline))
+#else
+#define GEOCONTACT_NOINLINE
+#endif
+
 namespace LAMMPS_NS {
 namespace geocontact_forces {
 
@@ -529,10 +537,15 @@ inline void release_springs(Record &rec, const StiffnessConstants &c,
 // One step of a contact (`Record` as for clear_springs). `commit` false (setup): the springs are
 // not advanced (LAMMPS's history update off), so the force is the one the last step ended with,
 // and the ledger is not touched.
+// Always inlined into its callers (the pair's touch_pair, the wall's touch_wall): as a call it
+// took its geometry and gave its result through memory (docs/benchmarks.md, "The contact step
+// outside the law, counted").
 template <class Record>
-inline ContactResult contact_step(const geocontact::LawParams &law, const StiffnessConstants &c,
-                                  const ContactCoeffs &coeffs, Record &rec,
-                                  const ContactGeometry &g, double dt, bool commit)
+GEOCONTACT_ALWAYS_INLINE ContactResult contact_step(const geocontact::LawParams &law,
+                                                    const StiffnessConstants &c,
+                                                    const ContactCoeffs &coeffs, Record &rec,
+                                                    const ContactGeometry &g, double dt,
+                                                    bool commit)
 {
   ContactResult out;
   out.fn = out.stiffness = 0.0;

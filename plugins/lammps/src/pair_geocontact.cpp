@@ -506,6 +506,87 @@ GEOCONTACT_ALWAYS_INLINE void PairGeocontact::apply_contact_force(
   if (evflag) ev_tally_xyz(i, j, nlocal, 0, energy, 0.0, fx, fy, fz, del[0], del[1], del[2]);
 }
 
+// One pair of grains that touch or have a record (compute's loop): the record, the contact step
+// (contact_forces.h, inlined here), the tallies and the forces. Kept out of compute's loop (never
+// inlined into it): the loop over the neighbor list, most of whose pairs are apart, then keeps
+// its own registers instead of sharing them with the contact step's (docs/benchmarks.md, "The
+// contact step outside the law, counted").
+GEOCONTACT_NOINLINE void PairGeocontact::touch_pair(int i, int j, int k, const double *del,
+                                                    double rsq, double radsum, bool commit,
+                                                    double dt, int eflag)
+{
+  double **v = atom->v;
+  double **omega = atom->omega;
+  const double *radius = atom->radius;
+  const double *rmass = atom->rmass;
+  const int *type = atom->type;
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  const double radi = radius[i];
+  int slot = record_of_[k];
+  const bool known = slot >= 0;
+  const TypePairLaw &tp = coeffs_[type[i]][type[j]];
+  const geocontact::LawParams &law = laws_[tp.law];
+  const StiffnessConstants &constants = stiffness_constants_[tp.law];
+  const geocontact::Similarity sim =
+      geocontact::pair_similarity(radi, radius[j], constants.calibrated_radius);
+
+  // the record itself when the step commits (most calls), a copy in setup (setup_record_)
+  if (commit && !known) {  // a new contact: a record of its own from this step on
+    slot = record_of_[k] = static_cast<int>(pair_records_.size());
+    pair_records_.emplace_back();
+  }
+  ContactRecord &rec = commit ? pair_records_[slot]
+                              : (setup_record_ = known ? pair_records_[slot] : ContactRecord());
+  if (!known) {
+    rec.partner = tag[j];
+    rec.law = geocontact::ContactState();
+    clear_springs(rec);
+    clear_ledger(rec);
+    rec.travel[0] = rec.travel[1] = rec.forgotten = rec.reset_stored = 0.0;
+    rec.due = 0;
+  } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
+    rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
+  }
+  const double r = std::sqrt(rsq);
+  const double overlap = radsum - r;
+  const double rinv = 1.0 / r;
+  const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
+  const double half = 0.5 * overlap;  // the contact plane halves the overlap
+  const ContactGeometry geometry{overlap,     sim,         n,        v[i],
+                                 v[j],        omega[i],    omega[j], radi - half,
+                                 radius[j] - half, radi, radius[j], rmass[i],
+                                 rmass[j],    false};
+  const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
+  if (commit && known && place_memory_) {
+    double rate_i = 0.0, rate_j = 0.0;
+    travel_rates(n, v[i], v[j], omega[i], omega[j], r, geometry.armi, geometry.armj, rate_i,
+                 rate_j);
+    track_place(law, constants, sim, rec, rate_i, rate_j, dt);
+  }
+  const double envelope = rec.law.max_approach;
+  const ContactResult res = contact_step(law, constants, cc, rec, geometry, dt, commit);
+  envelope_moved(rec, envelope);  // virgin loading: the dent is where the contact is now
+  rec.energy_scale = sim.energy;
+  rec.law_index = tp.law;
+  if (range_error_ && commit) stop_beyond_range(law, rec.law, tag[i], tag[j]);
+  if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
+  const double fn = res.fn;
+  const double *ft = res.ft;
+
+  if (commit) history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
+  // setup: the springs the next step starts from are the record's, not the scratch copy's
+  // (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
+  if (eflag_global)
+    tally_contact(law, constants, rec, commit || known ? &pair_records_[slot] : nullptr, sim,
+                  tp.resistance, j < nlocal);
+  if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) return;
+  const double energy =
+      eflag ? sim.energy * constants.energy_to_run * geocontact::elastic_energy(law, rec.law)
+            : 0.0;
+  apply_contact_force(i, j, fn, ft, n, del, energy, res.torque, half);
+}
+
 void PairGeocontact::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
@@ -516,7 +597,6 @@ void PairGeocontact::compute(int eflag, int vflag)
   // During setup forces are evaluated but the history is not advanced (as pair granular):
   // the first step of the run then moves from the stored state.
   const bool commit = !update->setupflag;
-  const bool stop_beyond = range_error_ && commit;  // read once, not per contact
   const double dt = update->dt;
   if (eflag_global) {
     for (int k = 0; k < GV_COUNT; ++k) pvector[k] = 0.0;
@@ -528,14 +608,7 @@ void PairGeocontact::compute(int eflag, int vflag)
   }
 
   double **x = atom->x;
-  double **v = atom->v;
-  double **omega = atom->omega;
   const double *radius = atom->radius;
-  const double *rmass = atom->rmass;
-  const int *type = atom->type;
-  const tagint *tag = atom->tag;
-  const int nlocal = atom->nlocal;
-
   const int inum = list->inum;
   const int *ilist = list->ilist;
   const int *numneigh = list->numneigh;
@@ -543,7 +616,7 @@ void PairGeocontact::compute(int eflag, int vflag)
 
   for (int ii = 0; ii < inum; ++ii) {
     const int i = ilist[ii];
-    const int itype = type[i];
+    const double xi[3] = {x[i][0], x[i][1], x[i][2]};
     const double radi = radius[i];
     const int *jlist = firstneigh[i];
     const int jnum = numneigh[i];
@@ -552,75 +625,11 @@ void PairGeocontact::compute(int eflag, int vflag)
     for (int jj = 0; jj < jnum; ++jj) {
       const int j = jlist[jj] & NEIGHMASK;
       const int k = first + jj;
-      const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
+      const double del[3] = {xi[0] - x[j][0], xi[1] - x[j][1], xi[2] - x[j][2]};
       const double rsq = dot3(del, del);
       const double radsum = radi + radius[j];
-      int slot = record_of_[k];
-      const bool known = slot >= 0;
-      if (rsq >= radsum * radsum && !known) continue;  // apart, never touched
-
-      const int jtype = type[j];
-      const TypePairLaw &tp = coeffs_[itype][jtype];
-      const geocontact::LawParams &law = laws_[tp.law];
-      const StiffnessConstants &constants = stiffness_constants_[tp.law];
-      const geocontact::Similarity sim =
-          geocontact::pair_similarity(radi, radius[j], constants.calibrated_radius);
-
-      // the record itself when the step commits (most calls), a copy in setup (setup_record_)
-      if (commit && !known) {  // a new contact: a record of its own from this step on
-        slot = record_of_[k] = static_cast<int>(pair_records_.size());
-        pair_records_.emplace_back();
-      }
-      ContactRecord &rec = commit ? pair_records_[slot]
-                                  : (setup_record_ = known ? pair_records_[slot] : ContactRecord());
-      if (!known) {
-        rec.partner = tag[j];
-        rec.law = geocontact::ContactState();
-        clear_springs(rec);
-        clear_ledger(rec);
-        rec.travel[0] = rec.travel[1] = rec.forgotten = rec.reset_stored = 0.0;
-        rec.due = 0;
-      } else if (rec.contact_radius < 0.0) {  // an older restart's record: a before this step
-        rec.contact_radius = contact_stiffness(law, constants, rec.law, sim).radius;
-      }
-      const double r = std::sqrt(rsq);
-      const double overlap = radsum - r;
-      const double rinv = 1.0 / r;
-      const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
-      const double half = 0.5 * overlap;  // the contact plane halves the overlap
-      const ContactGeometry geometry{overlap,     sim,         n,        v[i],
-                                     v[j],        omega[i],    omega[j], radi - half,
-                                     radius[j] - half, radi, radius[j], rmass[i],
-                                     rmass[j],    false};
-      const ContactCoeffs cc{tp.friction, tp.damping, &tp.resistance};
-      if (commit && known && place_memory_) {
-        double rate_i = 0.0, rate_j = 0.0;
-        travel_rates(n, v[i], v[j], omega[i], omega[j], r, geometry.armi, geometry.armj, rate_i,
-                     rate_j);
-        track_place(law, constants, sim, rec, rate_i, rate_j, dt);
-      }
-      const double envelope = rec.law.max_approach;
-      const ContactResult res =
-          contact_step(law, constants, cc, rec, geometry, dt, commit);
-      envelope_moved(rec, envelope);  // virgin loading: the dent is where the contact is now
-      rec.energy_scale = sim.energy;
-      rec.law_index = tp.law;
-      if (stop_beyond) stop_beyond_range(law, rec.law, tag[i], tag[j]);
-      if (eflag_global && res.stiffness > 0.0) note_stiffness(res.stiffness);
-      const double fn = res.fn;
-      const double *ft = res.ft;
-
-      if (commit) history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
-      // setup: the springs the next step starts from are the record's, not the scratch copy's
-      // (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
-      if (eflag_global)
-        tally_contact(law, constants, rec, commit || known ? &pair_records_[slot] : nullptr, sim,
-                      tp.resistance, j < nlocal);
-      if (fn <= 0.0 && ft[0] == 0.0 && ft[1] == 0.0 && ft[2] == 0.0) continue;
-      const double energy =
-          eflag ? sim.energy * constants.energy_to_run * geocontact::elastic_energy(law, rec.law)
-                : 0.0;
-      apply_contact_force(i, j, fn, ft, n, del, energy, res.torque, half);
+      if (rsq >= radsum * radsum && record_of_[k] < 0) continue;  // apart, never touched
+      touch_pair(i, j, k, del, rsq, radsum, commit, dt, eflag);
     }
   }
   if (eflag_global) finish_stiffness_outputs();

@@ -100,6 +100,8 @@ class PairGeocontact : public Pair {
   void stop_beyond_range(const geocontact::LawParams &law, const geocontact::ContactState &state,
                          tagint i, tagint j);
   void finish_stiffness_outputs();
+  void touch_pair(int i, int j, int k, const double *del, double rsq, double radsum,
+                  bool commit, double dt, int eflag);
   void apply_contact_force(int i, int j, double fn, const double *ft, const double *n,
                            const double *del, double energy, const double *extra_torque,
                            double half_overlap);
