@@ -574,7 +574,6 @@ GEOCONTACT_NOINLINE void PairGeocontact::touch_pair(int i, int j, int k, const d
   const double fn = res.fn;
   const double *ft = res.ft;
 
-  if (commit) history_->mirrors_stale = true;  // the tables are written by sync_mirrors()
   // setup: the springs the next step starts from are the record's, not the scratch copy's
   // (whose Coulomb reset at dt = 0 may differ); a contact not yet recorded has none
   if (eflag_global)
@@ -614,6 +613,7 @@ void PairGeocontact::compute(int eflag, int vflag)
   const int *numneigh = list->numneigh;
   int **firstneigh = list->firstneigh;
 
+  bool touched = false;
   for (int ii = 0; ii < inum; ++ii) {
     const int i = ilist[ii];
     const double xi[3] = {x[i][0], x[i][1], x[i][2]};
@@ -630,8 +630,11 @@ void PairGeocontact::compute(int eflag, int vflag)
       const double radsum = radi + radius[j];
       if (rsq >= radsum * radsum && record_of_[k] < 0) continue;  // apart, never touched
       touch_pair(i, j, k, del, rsq, radsum, commit, dt, eflag);
+      touched = true;
     }
   }
+  // a committed step changed records: the per-atom tables are written by sync_mirrors()
+  if (commit && touched) history_->mirrors_stale = true;
   if (eflag_global) finish_stiffness_outputs();
 }
 
