@@ -139,9 +139,9 @@ def main() -> None:
                     help="cap(s) on the loading force ratio of one solve (run_history "
                          "max_step_ratio); every --steps is run with every cap; none: no cap")
     ap.add_argument("--step-control", nargs="+", default=["fixed"],
-                    help="fem step control(s): fixed | adaptive (run_history); every one is run "
-                         "with every --steps and cap (with adaptive the cap is its largest "
-                         "step), all compared pairwise")
+                    help="fem step control(s): fixed | adaptive | dissipation (run_history); "
+                         "every one is run with every --steps and cap (with adaptive or "
+                         "dissipation the cap is its largest step), all compared pairwise")
     ap.add_argument("--kernels", default="numpy", help="fem kernels: numpy | compiled")
     ap.add_argument("--force", type=float, default=FORCE)
     ap.add_argument("--cycles", type=int, default=0,

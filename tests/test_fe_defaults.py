@@ -1,6 +1,7 @@
 """The FE defaults are the verified settings (issue 36; docs/fem.md "Defaults"): with no flags
 ``geocontact fem``, ``cycles``, ``calibrate``, ``study paper-histories`` and the Python API run
-the mesh rule "auto" with the adaptive load-step control; the flags still override; a run made
+the mesh rule "auto" with the adaptive load-step control bounded by the plastic dissipation
+("dissipation"); the flags still override; a run made
 under the old defaults ("yield" meshes, fixed steps: every committed one) keeps its key and is
 found by a job that names them; summary.json says what was chosen and why. No FE run here but
 one short coarse run (seconds)."""
@@ -31,21 +32,21 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_the_python_api_defaults_to_auto_and_adaptive():
-    assert (FeSettings().mesh_rule, FeSettings().step_control) == ("auto", "adaptive")
+    assert (FeSettings().mesh_rule, FeSettings().step_control) == ("auto", "dissipation")
     job = FemJob(REFERENCE, (0.0, 3000.0, 0.0))
-    assert (job.mesh_rule, job.step_control) == ("auto", "adaptive")
+    assert (job.mesh_rule, job.step_control) == ("auto", "dissipation")
     # resolved per run: far above 10 Fy the dense contact band, below it the yield meshes
     assert job.identity().mesh_rule == "contact-dense"
     assert FemJob(REFERENCE, (0.0, 5.0, 0.0)).identity().mesh_rule == "yield"
     parameters = inspect.signature(run_cycles).parameters
     assert (parameters["mesh_rule"].default, parameters["step_control"].default) == (
-        "auto", "adaptive")
+        "auto", "dissipation")
     # run_history's settings are FeSettings' (settings=None: FeSettings(mesh, **keywords))
     assert inspect.signature(run_history).parameters["settings"].default is None
 
 
 @pytest.mark.parametrize("setting, value", [("mesh_rule", "auto"),
-                                            ("step_control", "adaptive")])
+                                            ("step_control", "dissipation")])
 def test_fem_and_cycles_with_no_flags_run_auto_and_adaptive(setting, value, tmp_path,
                                                              monkeypatch):
     assert fe_setting_reaching_the_run(monkeypatch, tmp_path, setting, []) == [value, value]
@@ -55,6 +56,7 @@ def test_fem_and_cycles_with_no_flags_run_auto_and_adaptive(setting, value, tmp_
     (["--mesh-rule", "yield"], "mesh_rule", "yield"),
     (["--mesh-rule", "contact"], "mesh_rule", "contact"),
     (["--step-control", "fixed"], "step_control", "fixed"),
+    (["--step-control", "adaptive"], "step_control", "adaptive"),
 ])
 def test_the_flags_still_override(flags, setting, value, tmp_path, monkeypatch):
     assert fe_setting_reaching_the_run(monkeypatch, tmp_path, setting, flags) == [value, value]
@@ -92,9 +94,9 @@ def test_calibrate_with_no_flags_runs_auto_and_adaptive(monkeypatch, tmp_path):
 
     model, inputs = _calibrate_model(monkeypatch, tmp_path, [])
     assert model["mesh_rule"] == "auto" and "step_control" not in model
-    assert inputs["step_control"] == "adaptive"
+    assert inputs["step_control"] == "dissipation"
     jobs = calibration_jobs(REFERENCE, [30.0, 3000.0], "coarse", fe_model=model)
-    assert {(j.mesh_rule, j.step_control) for j in jobs} == {("auto", "adaptive")}
+    assert {(j.mesh_rule, j.step_control) for j in jobs} == {("auto", "dissipation")}
     # the levels share a mesh sized for the top one, so one rule for all
     assert {j.identity().mesh_rule for j in jobs} == {"contact-dense"}
     model, inputs = _calibrate_model(monkeypatch, tmp_path,
@@ -113,7 +115,7 @@ def test_the_paper_study_defaults_and_the_committed_studys_pins():
     steps (found by key in datasets/fe-runs/paper-histories-finite)."""
     names = ["repeated-10MPa", "mono-increasing-1MPa", "repeated-von-mises-10MPa"]
     _, plain = study_jobs("coarse", only=names)
-    assert {(j.mesh_rule, j.step_control) for j in plain} == {("auto", "adaptive")}
+    assert {(j.mesh_rule, j.step_control) for j in plain} == {("auto", "dissipation")}
     weak = {"kinematics": "finite", "mesh_rule": "contact", "max_step_ratio": 1.01,
             "step_control": "fixed"}
     _, pinned = study_jobs("default", only=names, fe_model=weak,
@@ -150,7 +152,7 @@ def test_a_run_made_under_the_old_defaults_keeps_its_key():
     default = FeRunIdentity.of(REFERENCE, [0.0, 3000.0, 0.0])
     assert default.key() != old.key()
     assert (default.inputs()["mesh_rule"], default.inputs()["step_control"]) == (
-        "contact-dense", "adaptive")
+        "contact-dense", "dissipation")
 
 
 def test_summary_says_what_was_chosen_and_why(tmp_path):
@@ -162,14 +164,14 @@ def test_summary_says_what_was_chosen_and_why(tmp_path):
     choice = result.summary["choice"]
     rule, ratio = chosen_mesh_rule(REFERENCE, 60.0)
     assert ratio > AUTO_DENSE_FORCE_RATIO and rule == "contact-dense"
-    assert choice == {"mesh_rule": "contact-dense", "step_control": "adaptive",
+    assert choice == {"mesh_rule": "contact-dense", "step_control": "dissipation",
                       "mesh_force_over_first_yield": pytest.approx(ratio, rel=1e-12),
                       "auto_dense_above": AUTO_DENSE_FORCE_RATIO,
                       "auto_mesh_rule": "contact-dense", "reason": choice["reason"]}
     assert choice["reason"] == (f"mesh rule auto: contact-dense (mesh force {ratio:.4g} x the "
                                 "analytic first-yield force, above 10)")
     assert result.summary["mesh"]["rule"] == "contact-dense"
-    assert result.summary["step_control"]["control"] == "adaptive"
+    assert result.summary["step_control"]["control"] == "dissipation"
     before = {k: v for k, v in result.summary.items() if k != "choice"}
     assert recorded_choice(before) == json.loads(json.dumps(choice))
     # a named rule: the run says what it has and what "auto" would have given

@@ -23,7 +23,7 @@ def test_defaults_are_the_verified_settings_and_resolve_per_history():
     assert (s.mesh, s.tolerance, s.volumetric, s.mesh_rule, s.kinematics, s.step_rule,
             s.max_step_ratio, s.contact, s.kernels, s.step_control) == (
         "coarse", TOLERANCE, VOLUMETRIC_DEFAULT, "auto", "small", "segment", None, "node",
-        "compiled", "adaptive")
+        "compiled", "dissipation")
     # the kernels' default is the contact's: the facet contact has no compiled path
     assert FeSettings(contact="facet").kernels == "numpy"
     assert FeSettings(kernels=None) == FeSettings(kernels="compiled")
@@ -70,7 +70,7 @@ def test_the_identity_records_the_settings_as_before_and_round_trips():
                           "mesh_force_N", "volumetric"}
     default = FeRunIdentity.of(REFERENCE, FORCES).inputs()
     assert {k: v for k, v in default.items() if k not in plain} == {
-        "mesh_rule": "contact-dense", "step_control": "adaptive"}
+        "mesh_rule": "contact-dense", "step_control": "dissipation"}
     finite = FeSettings(kinematics="finite", max_step_ratio=1.01, kernels="numpy")
     identity = FeRunIdentity.of_settings(REFERENCE, FORCES, finite)
     inputs = identity.inputs()

@@ -1,5 +1,6 @@
-"""The adaptive load-step control (``step_control="adaptive"``, fem.run.AdaptiveSteps, issue 36):
-each criterion moves the step the way it should (synthetic inputs), the sub-steps end on the
+"""The adaptive load-step controls (``step_control="adaptive"`` and the default
+``"dissipation"``, fem.run.AdaptiveSteps, issue 36): each criterion moves the step the way it
+should (synthetic inputs), the sub-steps end on the
 requested forces whatever the control, a failed solve is cut and tried again, a coarse run with
 it is converged in the load step where today's default is not, and the setting is recorded,
 resumed and refused like the others (docs/fem.md, "Adaptive load steps")."""
@@ -27,6 +28,8 @@ from geocontact.fem.run import (
     ADAPTIVE_PLASTIC_FLOOR,
     ADAPTIVE_PLASTIC_INCREMENT,
     ADAPTIVE_SAFETY,
+    DISSIPATION_FLOOR,
+    DISSIPATION_INCREMENT,
     AdaptiveSteps,
     run_history,
 )
@@ -37,9 +40,9 @@ YIELD_STRAIN = 1e-4
 ELEMENT = 1e-4  # m: the surface elements of the synthetic mesh
 
 
-def _control(max_ratio=ADAPTIVE_MAX_RATIO, yield_force=1.0):
+def _control(max_ratio=ADAPTIVE_MAX_RATIO, yield_force=1.0, step_control="adaptive"):
     ends = np.arange(0.0, 0.05 + ELEMENT / 2, ELEMENT)
-    return AdaptiveSteps(yield_force, YIELD_STRAIN, ends, math.log(max_ratio))
+    return AdaptiveSteps(yield_force, YIELD_STRAIN, ends, math.log(max_ratio), step_control)
 
 
 def _judge(control, used=0.01, edge=0.0, plastic=0.0, strain=0.01, iterations=3):
@@ -96,11 +99,65 @@ def test_newtons_effort_grows_easy_steps_and_cuts_hard_ones_up_to_the_largest():
     assert control.log_ratio == pytest.approx(0.05)
 
 
+def test_the_dissipation_bound_sets_the_step_against_the_dissipation_there():
+    """"dissipation": the plastic bound is the dissipation a solve adds against the dissipation
+    before it (or DISSIPATION_FLOOR of the work of the force); the largest eqps increment,
+    however large, no longer sets the step; the edge and Newton act as in "adaptive"."""
+    control = _control(step_control="dissipation")
+    dissipation = 2.0  # J
+    budget = DISSIPATION_INCREMENT * dissipation
+    plastic = 1e-3  # an eqps increment 5 x the adaptive control's bound at this strain
+    verdict = control.judge(0.01, 0.0, ELEMENT, plastic, 0.002, 3, 1.5 * budget, dissipation,
+                            10.0)
+    assert verdict == (True, "plastic")
+    assert control.log_ratio == pytest.approx(0.01 * ADAPTIVE_SAFETY / 1.5)
+    assert control.judge(0.01, 0.0, ELEMENT, plastic, 0.002, 3, 2.5 * budget, dissipation,
+                         10.0)[0] is False
+    assert control.judge(0.01, 0.0, ELEMENT, plastic, 0.002, 3, 0.1 * budget, dissipation,
+                         10.0) == (True, "growth")
+    # before any dissipation the budget is DISSIPATION_FLOOR of the work of the force
+    floor = DISSIPATION_INCREMENT * DISSIPATION_FLOOR * 10.0
+    assert control.judge(0.01, 0.0, ELEMENT, plastic, 0.0, 3, 1.5 * floor, 0.0, 10.0) == (
+        True, "plastic")
+    assert control.judge(0.01, 0.0, ELEMENT, plastic, 0.0, 3, 2.5 * floor, 0.0, 10.0)[0] is False
+    # the edge's advance still bounds a plastic solve
+    assert control.judge(0.01, 1.6 * ADAPTIVE_EDGE_ADVANCE * ELEMENT, ELEMENT, plastic, 0.002, 3,
+                         0.1 * budget, dissipation, 10.0) == (True, "edge")
+    # the same solve under "adaptive": its eqps increment is what cuts it
+    assert _control().judge(0.01, 0.0, ELEMENT, plastic, 0.002, 3, 0.1 * budget, dissipation,
+                            10.0)[0] is False
+    record = control.summary(3)
+    assert record["control"] == "dissipation"
+    assert record["criteria"]["dissipation_increment_of_dissipation"] == DISSIPATION_INCREMENT
+    assert "dissipation_increment_of_dissipation" not in _control().summary(3)["criteria"]
+
+
+def test_on_a_power_law_dissipation_the_step_settles_without_a_sawtooth():
+    """D = F^k above first yield (k ~ 2 on the FE's growing contacts, docs/fem.md "The
+    dissipation bound"): the control settles at ln F ratio SAFETY x DISSIPATION_INCREMENT / k,
+    with no solve rejected; the work of the force is far above the floor's."""
+    control = _control(step_control="dissipation")
+    force, k, ratios = 10.0, 2.0, []
+    for _ in range(60):
+        used = control.log_ratio
+        new = force * math.exp(used)
+        accepted, _ = control.judge(used, 0.0, ELEMENT, 1e-3, 0.01, 3, new ** k - force ** k,
+                                    force ** k, 2.0 * force ** k)
+        assert accepted
+        ratios.append(used)
+        force = new
+    steady = ADAPTIVE_SAFETY * DISSIPATION_INCREMENT / k
+    assert ratios[-1] == pytest.approx(steady, rel=0.05)
+    assert np.ptp(ratios[-10:]) < 0.01 * steady
+
+
 @dataclasses.dataclass
 class _State:
     force: float
     eqps: np.ndarray
     iterations: int = 0
+    plastic_dissipation: float = 0.0
+    work: float = 0.0
 
 
 class _Solver:
@@ -121,7 +178,9 @@ class _Solver:
             raise ConvergenceError("synthetic: no convergence")
         self.solves.append(force)
         return _State(force, np.array([0.01 * math.sqrt(force)]),
-                      iterations=3 + int(100 * math.log(max(ratio, 1.0))))
+                      iterations=3 + int(100 * math.log(max(ratio, 1.0))),
+                      plastic_dissipation=1e-3 * max(force - 1.0, 0.0) ** 2,
+                      work=1e-2 * force ** 1.5)
 
     def contact_radius(self, state):
         return 1e-3 * math.sqrt(state.force)
@@ -212,26 +271,30 @@ def test_a_coarse_run_is_converged_in_the_load_step_where_fixed_steps_are_not(tm
 
 def test_the_step_control_is_recorded_against_its_first_default_and_refused_in_one_line(
         tmp_path, capsys):
-    """The adaptive control is the default (issue 36), but the identity compares step_control
-    with "fixed", its default when it entered the record: a fixed-step run (every committed one)
-    keeps its key, and a default job records "adaptive", so it never takes a fixed-step run for
-    its own; a record without the key reads as fixed steps."""
+    """An adaptive control is the default (issue 36: "dissipation"), but the identity compares
+    step_control with "fixed", its default when it entered the record: a fixed-step run (every
+    committed one) keeps its key, and a default job records "dissipation", so it never takes a
+    fixed-step run (nor an "adaptive" one) for its own; a record without the key reads as fixed
+    steps."""
     material = preset("reference")
-    assert FeSettings().step_control == "adaptive"
+    assert FeSettings().step_control == "dissipation"
     plain = FeRunIdentity.of(material, [0.0, 10.0])
     fixed = FeRunIdentity.of(material, [0.0, 10.0], step_control="fixed")
-    assert plain.inputs()["step_control"] == "adaptive"
+    assert plain.inputs()["step_control"] == "dissipation"
     assert "step_control" not in fixed.inputs() and fixed.key() != plain.key()
     assert FeSettings.of_record(fixed.inputs()).step_control == "fixed"
     assert FeSettings.of_record(plain.inputs()) == plain.settings
     assert FemJob.of_inputs(fixed.inputs()).step_control == "fixed"
     job = FemJob(material, (0.0, 10.0))
-    assert job.step_control == "adaptive" and job.key() == plain.key()
+    assert job.step_control == "dissipation" and job.key() == plain.key()
+    eqps = FeRunIdentity.of(material, [0.0, 10.0], step_control="adaptive")
+    assert eqps.inputs()["step_control"] == "adaptive" and eqps.key() != plain.key()
     assert FemJob.of_inputs(plain.inputs()).key() == plain.key()
     assert "fixed step control" in fixed.settings.describe(10.0)
     assert not any("step control" in w for w in plain.settings.describe(10.0))
+    assert "adaptive step control" in eqps.settings.describe(10.0)
     with pytest.raises(InputError, match=r"^step_control: unknown 'smart' \(allowed: fixed, "
-                                         r"adaptive\)$"):
+                                         r"adaptive, dissipation\)$"):
         FeSettings(step_control="smart")
     parser = argparse.ArgumentParser()
     FeSettings.add_model_flags(parser)

@@ -312,11 +312,11 @@ def test_fe_model_can_be_kept_to_the_weak_grain(tmp_path, capsys):
     for job in single_load_jobs(by_name["mono-increasing-1MPa"]):
         assert job.kinematics == "finite" and job.max_step_ratio == 1.01
     # the step control alone reaches every run: fixed steps (the committed study's) against
-    # the default, adaptive
+    # the default, the dissipation-bounded adaptive control
     _, fixed = study_jobs("coarse", only=names, fe_model={**model, "step_control": "fixed"},
                           fe_model_materials=["reference-weak"])
     assert [job.step_control for job in fixed] == ["fixed"] * 3
-    assert [job.step_control for job in plain] == ["adaptive"] * 3
+    assert [job.step_control for job in plain] == ["dissipation"] * 3
     assert [job.kinematics for job in fixed] == ["small", "finite", "small"]
     assert fixed[0].key() != plain[0].key()
     assert [job.step_control for job in study_jobs("coarse", only=names, fe_model=WEAK_FE_MODEL,

@@ -39,6 +39,7 @@ from ..calibrate.cyclic_fit import (
     with_cyclic,
 )
 from ..errors import InputError
+from ..fem.settings import DEFAULT_STEP_CONTROL
 from ..files import atomic_directory, provenance, write_csv, write_json_atomic
 from ..grain.force_history import cycle_peak
 
@@ -167,7 +168,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                kinematics: str = "small", mesh_rule: str = "auto",
                step_rule: str = "segment",
                max_step_ratio: float | None = None, contact: str = "node",
-               kernels: str | None = None, step_control: str = "adaptive") -> dict[str, Any]:
+               kernels: str | None = None,
+               step_control: str = DEFAULT_STEP_CONTROL) -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With

@@ -68,6 +68,7 @@ def run(args) -> int:
     from ..calibrate.campaign import settings
     from ..calibrate.workflow import calibrate_to_file
     from ..fem.campaign import DEFAULT_CACHE
+    from ..fem.settings import DEFAULT_STEP_CONTROL
 
     started = time.perf_counter()
     check_steps(args.steps)
@@ -125,7 +126,7 @@ def run(args) -> int:
         "" if args.step_rule == "segment" else f", {args.step_rule} step rule") + (
         "" if args.max_step_ratio is None else f", load-step ratio <= {args.max_step_ratio:g}") + (
         "" if args.contact == "node" else f", {args.contact} contact") + (
-        "" if args.step_control == "adaptive" else f", {args.step_control} load steps")
+        "" if args.step_control == DEFAULT_STEP_CONTROL else f", {args.step_control} load steps")
     print(f"wrote {out} ({len(runs)} FE levels, {args.mesh} mesh{model}, {wall:.1f} s)")
     print(f"yield: FE {e['yield']['fe_force_N']:.4g} N, analytic "
           f"{e['yield']['analytic_force_N']:.4g} N; FE Fp "

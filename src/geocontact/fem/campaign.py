@@ -39,7 +39,7 @@ from .identity import (
 )
 from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC_DEFAULT, FemResult
 from .run import load_schedule, run_history, sub_step_record, write_result
-from .settings import RECORD_DEFAULTS, FeSettings
+from .settings import DEFAULT_STEP_CONTROL, RECORD_DEFAULTS, FeSettings
 
 DEFAULT_CACHE = Path("out/cache/fem")
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
@@ -77,7 +77,8 @@ class FemJob:
     max_step_ratio: float | None = None  # loading sub-step cap (fem.run.sub_steps)
     contact: str = "node"  # "node" | "facet" (fem.solver.CONTACTS)
     kernels: str | None = None  # "numpy" | "compiled" | None: the contact's default
-    step_control: str = "adaptive"  # "adaptive" | "fixed" (fem.run.AdaptiveSteps)
+    # "dissipation" | "adaptive" | "fixed" (fem.settings.STEP_CONTROLS, fem.run.AdaptiveSteps)
+    step_control: str = DEFAULT_STEP_CONTROL
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))

@@ -86,7 +86,7 @@ class Checkpoint:
     rows: list[list[float]]  # curve.csv rows of steps 0 ... done
     detector: dict[str, Any]  # first_yield, fully_plastic, last_elastic (run._Run), and
     # rescued_steps (run._advance; absent from checkpoints written before it: none), and
-    # adaptive_steps (run.AdaptiveSteps.record, only for step_control="adaptive")
+    # adaptive_steps (run.AdaptiveSteps.record, only for step_control "adaptive" or "dissipation")
     yield_force: float  # the yield probe's prediction, which placed the load steps
     mesh: Any  # the skfem mesh the run was on
     fields: bool  # the pending folder holds the ParaView files of the waypoints passed

@@ -232,6 +232,17 @@ _DEFAULTS_SWITCH = ("the mesh rule 'auto' and the adaptive load-step control mad
                     "the inputs, which fem.settings.recorded_choice gives for an older run)")
 _reproduces(_DEFAULTS_CODE, _AUTO_MESH_RULE_CODE, _DEFAULTS_SWITCH)
 
+# The dissipation-bounded adaptive control made the default (issue 36, docs/fem.md "The
+# dissipation bound").
+_DISSIPATION_CODE = "6e8768ce8585cba6"
+_DISSIPATION_CONTROL = ("the load-step control 'dissipation' added (fem.run.AdaptiveSteps with "
+                        "the plastic dissipation of a solve in place of its largest eqps "
+                        "increment; recorded in the identity as step_control, which an earlier "
+                        "run records as 'adaptive' or not at all) and made the default: a run "
+                        "with fixed steps or the 'adaptive' control is solved, checkpointed and "
+                        "summarised as before")
+_reproduces(_DISSIPATION_CODE, _DEFAULTS_CODE, _DISSIPATION_CONTROL)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -292,6 +303,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_DEFAULTS_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_DEFAULTS_CODE, *REPRODUCED_FE_CODE[_DEFAULTS_CODE])},
+    # and under the FE code of the dissipation control (reruns under it)
+    (_DISSIPATION_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_DISSIPATION_CODE, *REPRODUCED_FE_CODE[_DISSIPATION_CODE])},
 }
 
 

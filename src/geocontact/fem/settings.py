@@ -31,9 +31,12 @@ from .result import (
 MODEL_FLAGS = ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")
 # How each requested load step is solved (fem.run.step_loop): "fixed" (the requested steps,
 # each cut into geometric sub-steps of at most max_step_ratio above the first-yield force when a
-# cap is given) or "adaptive" (sub-steps sized solve by solve from the contact edge's advance,
-# the plastic increment and Newton's effort: fem.run.AdaptiveSteps, docs/fem.md).
-STEP_CONTROLS = ("fixed", "adaptive")
+# cap is given), "adaptive" (sub-steps sized solve by solve from the contact edge's advance,
+# the largest plastic strain increment and Newton's effort: fem.run.AdaptiveSteps, docs/fem.md)
+# or "dissipation" (the same with the plastic dissipation increment in place of the largest
+# plastic strain increment: fem.run.DISSIPATION_INCREMENT; the default).
+STEP_CONTROLS = ("fixed", "adaptive", "dissipation")
+DEFAULT_STEP_CONTROL = "dissipation"
 # The settings added after the first identity record: recorded only when not at their default,
 # so the keys (cache entries, checkpoints) of earlier runs stay valid.
 RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "contact",
@@ -126,9 +129,9 @@ class FeSettings:
     ``kinematics``: "small" | "finite". ``step_rule``: "segment" | "decade"
     (fem.run.load_schedule). ``max_step_ratio``: None or a cap in (1, 2] on the loading force
     ratio of one solve above the first-yield force (fem.run.sub_steps; with the adaptive control
-    its largest step, default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "adaptive" (the
-    default, fem.run.AdaptiveSteps) | "fixed" (``STEP_CONTROLS``). ``contact``: "node" |
-    "facet". ``kernels``: "numpy" | "compiled" (small or finite strain, node contact;
+    its largest step, default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "dissipation" (the
+    default) | "adaptive" (fem.run.AdaptiveSteps) | "fixed" (``STEP_CONTROLS``). ``contact``:
+    "node" | "facet". ``kernels``: "numpy" | "compiled" (small or finite strain, node contact;
     fem.compiled) | None, the contact's default (``default_kernels``: compiled with the node
     contact, numpy with the facet contact), which the object holds in its place once made.
     """
@@ -144,7 +147,7 @@ class FeSettings:
     max_step_ratio: float | None = None
     contact: str = "node"
     kernels: str | None = None
-    step_control: str = "adaptive"
+    step_control: str = DEFAULT_STEP_CONTROL
 
     def __post_init__(self) -> None:
         from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
@@ -294,13 +297,15 @@ class FeSettings:
                             "dependent (docs/fem.md)")
         p.add_argument("--step-control", default=default["step_control"].default,
                        choices=list(STEP_CONTROLS),
-                       help="FE load-step control: 'adaptive' (default: each solve's load "
-                            "increment sized by the contact edge's advance against the surface "
-                            "element there, the plastic strain increment and Newton's effort; "
-                            "--max-step-ratio is then its largest step) or 'fixed' (the "
+                       help="FE load-step control: 'dissipation' (default: each solve's "
+                            "load increment sized by the contact edge's advance against the "
+                            "surface element there, the plastic dissipation it adds and "
+                            "Newton's effort; --max-step-ratio is then its largest step), "
+                            "'adaptive' (the same with the largest plastic strain increment in "
+                            "place of the dissipation: the default before) or 'fixed' (the "
                             "requested steps, cut by --max-step-ratio when given; the control "
-                            "before issue 36); the recorded steps are the requested ones either "
-                            "way (docs/fem.md)")
+                            "before issue 36); the recorded steps are the requested ones in "
+                            "every control (docs/fem.md)")
         p.add_argument("--contact", default=default["contact"].default,
                        choices=["node", "facet"],
                        help="FE contact with the flat: 'node' (default, exact node-to-flat "
