@@ -146,7 +146,10 @@ def test_the_unloading_stiffness_factor_is_the_committed_fe_runs_own():
     found = stiffness.measure(sorted(p for p in (ROOT / "datasets" / "fe-runs").iterdir()
                                      if p.is_dir()),
                               runs={r["run"] for r in committed["rows"]})
-    assert found["coefficients"] == pytest.approx(committed["coefficients"], rel=1e-9)
+    # a least-squares polynomial fit amplifies the last bits of its data: the same runs and code
+    # give the coefficients 1.6e-9 apart on another CPU (numpy's kernels are chosen per machine;
+    # measured 2026-12-07), far below any edit or staleness of the file
+    assert found["coefficients"] == pytest.approx(committed["coefficients"], rel=1e-7)
     assert found["unloadings"] == committed["unloadings"] >= 50
     small = float(stiffness.factor(1e-3))
     assert small == pytest.approx(1.0, abs=max(0.03, 2 * found["rms_residual"]))
