@@ -68,7 +68,8 @@ def mesh_ratio(provenance: dict, index: int, cache: Path) -> dict:
     info = provenance["points"][str(index)]
     point = record.design_points(index + 1)[index]
     material = point.material()
-    coarse, default = record.fe_settings(mesh="coarse"), record.fe_settings(mesh="default")
+    coarse = record.fe_settings(**record.PILOT_FE)
+    default = record.fe_settings(**{**record.PILOT_FE, "mesh": "default"})
     top = max(info["levels"]["forces_N"])
     probe_forces = info["probes"][-1]["forces_N"]
     shape = [0.0, 1.0, 0.0, 1.0, 0.0]

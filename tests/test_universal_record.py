@@ -14,6 +14,7 @@ import pytest
 from geocontact.errors import InputError
 from geocontact.fem.identity import recorded_kernels
 from geocontact.fem.run import largest_contact_radius_estimate
+from geocontact.fem.settings import DEFAULT_STEP_CONTROL, FeSettings
 from geocontact.grain.hertz import incipient_yield
 from geocontact.universal import record, record_dataset, record_law
 from geocontact.universal.design import design_points as v1_points
@@ -55,8 +56,16 @@ def test_today_design_is_unchanged():
 def test_fe_settings_of_record_and_pilot_overrides():
     s = record.fe_settings()
     assert (s.mesh, s.kinematics, s.kernels) == ("default", "finite", "compiled")
-    pilot = record.fe_settings(mesh="coarse")
+    # the record runs the FE's verified defaults (issue 36), whatever they become
+    defaults = FeSettings()
+    assert (s.mesh_rule, s.step_control) == (defaults.mesh_rule, defaults.step_control)
+    assert (s.mesh_rule, s.step_control) == ("auto", DEFAULT_STEP_CONTROL)
+    # the pilot's settings are the ones its committed provenance records
+    pilot = record.fe_settings(**record.PILOT_FE)
     assert (pilot.mesh, pilot.kinematics, pilot.kernels) == ("coarse", "finite", "compiled")
+    committed = json.loads((PILOT / "provenance.json").read_text())["fe"]
+    assert (pilot.mesh, pilot.mesh_rule) == (committed["mesh"], committed["mesh_rule"])
+    assert pilot.step_control == committed.get("step_control", "fixed")  # before the choice
     job = record.job(record.design_points(1)[0].material(), (0.0, 1.0, 0.0), s, "x", 2.0)
     assert job.settings() == record.fe_settings().__class__(**{**s.as_dict(), "mesh_force": 2.0})
     # the compiled kernels are the node contact's default: not in the inputs, but the record
@@ -227,6 +236,51 @@ def test_bad_settings_and_flags_are_one_line(capsys):
     assert err.count("\n") == 0 and "--mesh: only with --design record" in err
     assert main(["--points", "3", "--design", "record", "--scheduler", "tcp://x:1"]) == 2
     assert "--scheduler" in capsys.readouterr().err
+    assert main(["--points", "3", "--step-control", "fixed"]) == 2
+    assert "--step-control: only with --design record" in capsys.readouterr().err
+
+
+def test_the_campaign_flags_reach_the_settings(monkeypatch):
+    """No flags: the FE of record; the pilot's flags give the pilot's settings."""
+    from geocontact.universal import campaign, record_campaign
+
+    seen = []
+    monkeypatch.setattr(record_campaign, "run_points",
+                        lambda count, dataset, cache, settings, only=None: seen.append(
+                            settings) or [])
+    assert campaign.main(["--points", "3", "--design", "record"]) == 0
+    assert campaign.main(["--points", "3", "--design", "record", "--mesh", "coarse",
+                          "--mesh-rule", "yield", "--step-control", "fixed"]) == 0
+    assert seen == [record.fe_settings(), record.fe_settings(**record.PILOT_FE)]
+
+
+def test_processes_adding_points_to_one_dataset_take_turns(tmp_path):
+    """The folder lock the campaign rewrites its files under: a second process waits for the
+    first, so neither rewrites from files the other is about to change."""
+    import subprocess
+    import sys
+    import time
+
+    from geocontact.files import folder_lock
+
+    child = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time, pathlib\n"
+        "from geocontact.files import folder_lock\n"
+        "d = pathlib.Path(sys.argv[1])\n"
+        "with folder_lock(d):\n"
+        "    (d / 'held').write_text('x')\n"
+        "    time.sleep(1.0)\n"
+        "    (d / 'child').write_text('done')\n"), str(tmp_path)])
+    try:
+        deadline = time.monotonic() + 60
+        while not (tmp_path / "held").exists():
+            assert time.monotonic() < deadline and child.poll() is None
+            time.sleep(0.02)
+        with folder_lock(tmp_path):
+            assert (tmp_path / "child").read_text() == "done"
+    finally:
+        child.wait(timeout=60)
+    assert child.returncode == 0
 
 
 def test_record_law_refuses_outside_the_box_and_an_empty_dataset(tmp_path):

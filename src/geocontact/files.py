@@ -487,9 +487,7 @@ def record_written(paths: list[Path], command: str) -> None:
         if path.is_file():
             by_folder.setdefault(path.parent, []).append(path)
     for folder, files in by_folder.items():
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX)
+        with folder_lock(folder):
             ledger = _ledger(folder)
             stamp = datetime.now(UTC).isoformat(timespec="seconds")
             for path in files:
@@ -498,8 +496,19 @@ def record_written(paths: list[Path], command: str) -> None:
             write_text_atomic(folder / FILES_LEDGER, json.dumps(
                 {"schema": FILES_SCHEMA, "files": dict(sorted(ledger.items()))}, indent=2)
                 + "\n")
-        finally:
-            os.close(fd)
+
+
+@contextmanager
+def folder_lock(folder: str | Path) -> Iterator[None]:
+    """Hold ``folder``'s lock (``fcntl.flock`` on the folder itself, waiting for another holder):
+    processes that read, change and rewrite files of one folder do it one at a time, so none
+    loses another's update. The system releases it when a process dies however it dies."""
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
 
 
 def _lock_path(path: Path) -> Path:

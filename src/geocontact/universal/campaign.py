@@ -28,6 +28,7 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import InputError, run_reporting_errors
+from ..fem.settings import MESH_RULE_CHOICES, STEP_CONTROLS
 from ..files import provenance as provenance_record
 from ..files import write_json_atomic, write_text_atomic
 from ..grain.hertz import incipient_yield
@@ -282,6 +283,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="record only: the FE mesh (default: default; coarse for pilots)")
     parser.add_argument("--kinematics", default=None, choices=["small", "finite"],
                         help="record only: the FE kinematics (default: finite)")
+    parser.add_argument("--mesh-rule", default=None, choices=list(MESH_RULE_CHOICES),
+                        help="record only: the FE mesh rule (default: the FE's, 'auto'; the "
+                             "pilot's: 'yield')")
+    parser.add_argument("--step-control", default=None, choices=list(STEP_CONTROLS),
+                        help="record only: the FE load-step control (default: the FE's, "
+                             "'dissipation'; the pilot's: 'fixed')")
     parser.add_argument("--only", type=int, nargs="+", default=None, metavar="INDEX",
                         help="record only: run just these points of the first --points")
     args = parser.parse_args(argv)
@@ -291,10 +298,10 @@ def main(argv: list[str] | None = None) -> int:
 
         if args.design == "record":
             return _run_record(args)
-        for flag in ("mesh", "kinematics", "only"):
+        for flag in ("mesh", "kinematics", "mesh_rule", "step_control", "only"):
             if getattr(args, flag) is not None:
-                raise InputError(f"--{flag}: only with --design record (v1 is coarse, small "
-                                 "strain, every point)")
+                raise InputError(f"--{flag.replace('_', '-')}: only with --design record "
+                                 "(v1 is coarse, small strain, every point)")
         check_workers(args.workers)
         added = run_points(args.points, args.dataset, args.cache or DEFAULT_CACHE,
                            scheduler=args.scheduler,
@@ -313,9 +320,9 @@ def _run_record(args) -> int:
         raise InputError("--scheduler: the record campaign runs one worker in this process "
                          "(resumable point by point); run several processes with --only")
     record.design_points(args.points)  # one-line error on a bad count, before any work
-    settings = record.fe_settings(**{k: v for k, v in (("mesh", args.mesh),
-                                                        ("kinematics", args.kinematics))
-                                     if v is not None})
+    settings = record.fe_settings(**{k: v for k, v in (
+        ("mesh", args.mesh), ("kinematics", args.kinematics), ("mesh_rule", args.mesh_rule),
+        ("step_control", args.step_control)) if v is not None})
     added = record_campaign.run_points(
         args.points, args.dataset or record_campaign.DEFAULT_DATASET,
         args.cache or record_campaign.DEFAULT_CACHE, settings, only=args.only)

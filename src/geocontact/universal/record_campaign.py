@@ -24,8 +24,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..fem.settings import FeSettings
+from ..files import folder_lock, write_json_atomic, write_text_atomic
 from ..files import provenance as provenance_record
-from ..files import write_json_atomic, write_text_atomic
 from . import record
 from .record_dataset import RECORD_FORMAT, format_rows, point_row, read_points
 
@@ -118,23 +118,27 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
         try:
             row, info = run_point(point, settings, cache, progress)
         except (CampaignError, InputError) as exc:
-            provenance = _provenance(directory)
-            provenance.setdefault("failed", {})[str(point.index)] = {
-                "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
-                "error": str(exc)}
-            write_json_atomic(directory / "provenance.json", provenance)
+            with folder_lock(directory):
+                provenance = _provenance(directory)
+                provenance.setdefault("failed", {})[str(point.index)] = {
+                    "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
+                    "error": str(exc)}
+                write_json_atomic(directory / "provenance.json", provenance)
             if progress:
                 print(f"record campaign: point {point.index} FAILED: {exc}", file=sys.stderr)
             continue
-        provenance = _provenance(directory)
-        provenance.update(_header(settings, fe_code_hash()))
-        provenance.setdefault("failed", {}).pop(str(point.index), None)
-        provenance["points"][str(point.index)] = info
-        write_json_atomic(directory / "provenance.json", provenance)
-        rows = [r for r in _rows(directory) if int(r["index"]) != point.index] + [row]
-        write_text_atomic(directory / "points.csv", format_rows(rows))
-        added.append(point.index)
-        _prepare(directory, progress)
+        # several processes (``--only``) may add points to one dataset: each rewrite is made
+        # from the files as they are under the folder's lock, so none loses another's point
+        with folder_lock(directory):
+            provenance = _provenance(directory)
+            provenance.update(_header(settings, fe_code_hash()))
+            provenance.setdefault("failed", {}).pop(str(point.index), None)
+            provenance["points"][str(point.index)] = info
+            write_json_atomic(directory / "provenance.json", provenance)
+            rows = [r for r in _rows(directory) if int(r["index"]) != point.index] + [row]
+            write_text_atomic(directory / "points.csv", format_rows(rows))
+            added.append(point.index)
+            _prepare(directory, progress)
         if progress:
             print(f"record campaign: point {point.index} done ({info['point_cpu_time_s']:.0f} "
                   f"s CPU, {info['point_wall_time_s']:.0f} s wall; top a/R "
