@@ -44,14 +44,16 @@ def test_committed_run_is_a_complete_result(folder):
     # current, and reused by its job at today's defaults (the compiled kernels with the node
     # contact): bit for bit, or a numpy run within the agreement's tolerance; stale only a
     # compiled run made before compiled_code was recorded (stale before the default too).
-    # "Its job" asks for what the record names, and for fixed load steps where it names none:
-    # every committed run was made with them (the default before issue 36 made the adaptive
-    # control the default), so a default job, adaptive, does not take it for its own.
+    # "Its job" asks for what the record names, and for fixed load steps where it names none
+    # (the default before issue 36 made an adaptive control the default): a job of another
+    # control does not take it for its own. The campaign of record's runs name "dissipation".
     identity = json.loads((folder / "summary.json").read_text())["identity"]
-    assert run["step_control"] == "fixed" and "step_control" not in identity["inputs"]
+    control = identity["inputs"].get("step_control", "fixed")
+    assert run["step_control"] == control
     job = FemJob.of_inputs(identity["inputs"])
-    assert job.step_control == "fixed"
-    assert dataclasses.replace(job, step_control="adaptive").key() != job.key()
+    assert job.step_control == control
+    other = "fixed" if control != "fixed" else "adaptive"
+    assert dataclasses.replace(job, step_control=other).key() != job.key()
     # its mesh rule likewise ("yield" where the record names none): a job asking "auto", the
     # default, finds it only where "auto" chooses that rule for its inputs
     assert job.mesh_rule == run["mesh_rule"] == identity["inputs"].get("mesh_rule", "yield")

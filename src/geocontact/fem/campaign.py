@@ -30,6 +30,7 @@ from ..grain.material import Material
 from .checkpoint import checkpoint_path, fields_beside
 from .identity import (
     FeRunIdentity,
+    check_follows,
     difference,
     equivalent_run,
     fe_code_hash,
@@ -38,7 +39,7 @@ from .identity import (
     reused_message,
 )
 from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC_DEFAULT, FemResult
-from .run import load_schedule, run_history, sub_step_record, write_result
+from .run import run_history, run_schedule, snapshot_path, sub_step_record, write_result
 from .settings import DEFAULT_STEP_CONTROL, RECORD_DEFAULTS, FeSettings
 
 DEFAULT_CACHE = Path("out/cache/fem")
@@ -79,8 +80,17 @@ class FemJob:
     kernels: str | None = None  # "numpy" | "compiled" | None: the contact's default
     # "dissipation" | "adaptive" | "fixed" (fem.settings.STEP_CONTROLS, fem.run.AdaptiveSteps)
     step_control: str = DEFAULT_STEP_CONTROL
+    # a branch: (base forces, step) of the loading ramp it follows (fem.run.run_history); the
+    # base job is this one with those forces and no ``follows``
+    follows: tuple | None = None
+    # save a snapshot after every step (``snapshots_folder``), for branches that follow this
+    # run; not part of its identity
+    snapshots: bool = False
 
     def __post_init__(self) -> None:
+        if self.follows is not None:
+            base, step = check_follows(self.follows)
+            object.__setattr__(self, "follows", (base, step))
         object.__setattr__(self, "forces", tuple(validate_forces(list(self.forces))))
         self.identity()  # one-line InputError on a setting the FE would refuse
 
@@ -97,7 +107,9 @@ class FemJob:
                   max_step_ratio=inputs.get("max_step_ratio"),
                   contact=inputs.get("contact", "node"),
                   kernels=inputs.get("kernels"),
-                  step_control=inputs.get("step_control", RECORD_DEFAULTS["step_control"]))
+                  step_control=inputs.get("step_control", RECORD_DEFAULTS["step_control"]),
+                  follows=(None if "follows" not in inputs else (
+                      tuple(inputs["follows"]["forces_N"]), inputs["follows"]["step"])))
         return replace(job, **changes) if changes else job
 
     def settings(self) -> FeSettings:
@@ -106,7 +118,15 @@ class FemJob:
                              if hasattr(self, name)})
 
     def identity(self) -> FeRunIdentity:
-        return FeRunIdentity.of_settings(self.material, self.forces, self.settings())
+        return FeRunIdentity.of_settings(self.material, self.forces, self.settings(),
+                                         self.follows)
+
+    def base(self) -> FemJob:
+        """The job a branch follows (``follows``), making the snapshots it starts from."""
+        if self.follows is None:
+            raise ValueError("FemJob.base: not a branch")
+        return replace(self, forces=self.follows[0], follows=None, snapshots=True,
+                       label=f"{self.name()} (base)")
 
     def inputs(self) -> dict:
         """The identity record: inputs, FE code hash, library versions, key."""
@@ -137,12 +157,42 @@ def check_scheduler_address(address: str) -> str:
     return text
 
 
+def snapshots_folder(cache: str | Path, job: FemJob) -> Path:
+    """Where a job with ``snapshots`` saves them in the cache (``<key>.steps/``), so a branch
+    that follows it starts from its step instead of computing the base's steps again. They are
+    a saving only, not a result: not committed with the cache, and removable
+    (``remove_snapshots``) once the branches are done."""
+    return Path(cache) / f"{job.key()}.steps"
+
+
+def remove_snapshots(cache: str | Path, job: FemJob) -> None:
+    """Remove the snapshots a job saved (the files the FE wrote there, then the folder if it
+    is empty: anything else is left)."""
+    folder = snapshots_folder(cache, job)
+    if not folder.is_dir():
+        return
+    for path in folder.glob("step_*.checkpoint.npz"):
+        path.unlink(missing_ok=True)
+    try:
+        folder.rmdir()
+    except OSError:
+        pass
+
+
 def _run_job(job: FemJob, directory: str) -> FemResult:
-    """On a worker: run (resuming from a checkpoint if one is there), without fields."""
+    """On a worker: run (resuming from a checkpoint if one is there), without fields; a job
+    with ``snapshots`` saves them beside its result, a branch starts from its base's."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    cache = Path(directory).parent
+    extra = {}
+    if job.snapshots and job.follows is None:
+        extra["snapshots"] = snapshots_folder(cache, job)
+    if job.follows is not None:
+        extra["follows"] = job.follows
+        extra["start"] = snapshot_path(snapshots_folder(cache, job.base()), job.follows[1])
     result = run_history(job.material, list(job.forces), out=directory,
                          settings=job.settings(), resume=True, write_fields=False,
-                         overwrite=True)  # the cache folder is the program's own
+                         overwrite=True, **extra)  # the cache folder is the program's own
     return FemResult(curve=result.curve, summary=result.summary)
 
 
@@ -163,8 +213,7 @@ def run_progress(checkpoint: str | Path) -> dict:
         wall = float(data["wall_time_s"])
         last = data["rows"][-1]
     run = FemJob.of_inputs(identity["inputs"]).identity()
-    targets, _ = load_schedule(list(run.forces), run.steps_per_segment, yield_force,
-                               run.step_rule)
+    targets, _ = run_schedule(run, yield_force)
     return {"key": identity["key"], "step": done, "steps": len(targets),
             "solves_done": sub_step_record(targets[:done], yield_force,
                                            run.max_step_ratio)["solves"],

@@ -243,6 +243,16 @@ _DISSIPATION_CONTROL = ("the load-step control 'dissipation' added (fem.run.Adap
                         "summarised as before")
 _reproduces(_DISSIPATION_CODE, _DEFAULTS_CODE, _DISSIPATION_CONTROL)
 
+# Branches (issue 37, docs/fem.md "Branches"): a run may follow another's loading ramp to one of
+# its steps and go on from there, from that run's snapshot.
+_BRANCH_CODE = "4aeedf54d2157bf5"
+_BRANCHES = ("the opt-in branch added (run_history follows=(base forces, step), recorded in the "
+             "identity as follows only when given; snapshots= saves a run's checkpoint after "
+             "every step, start= starts a branch from one, neither in the identity): the load "
+             "schedule of a run that follows nothing is load_schedule's as before "
+             "(fem.run.run_schedule), and its steps, checkpoints and summary are as before")
+_reproduces(_BRANCH_CODE, _DISSIPATION_CODE, _BRANCHES)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -307,6 +317,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_DISSIPATION_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_DISSIPATION_CODE, *REPRODUCED_FE_CODE[_DISSIPATION_CODE])},
+    # and under the FE code of the branches (reruns under it)
+    (_BRANCH_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_BRANCH_CODE, *REPRODUCED_FE_CODE[_BRANCH_CODE])},
 }
 
 
@@ -394,6 +408,11 @@ class FeRunIdentity:
     material: Material
     forces: tuple[float, ...]
     settings: FeSettings
+    # a branch (``follows``): the run follows the loading ramp ``(0, F)`` of another run (the
+    # base: these forces, the same material and settings) to its recorded step ``step``, then
+    # goes on with ``forces[1:]`` from there (forces[1] is that step's force): (base forces,
+    # step), None for a run of its own
+    follows: tuple[tuple[float, ...], int] | None = None
 
     @classmethod
     def of(cls, material: Material, forces, mesh: str = "coarse",
@@ -403,9 +422,26 @@ class FeRunIdentity:
         return cls.of_settings(material, forces, FeSettings(mesh, **settings))
 
     @classmethod
-    def of_settings(cls, material: Material, forces, settings: FeSettings) -> FeRunIdentity:
+    def of_settings(cls, material: Material, forces, settings: FeSettings,
+                    follows=None) -> FeRunIdentity:
+        """``follows``: None, or (base forces, step) of a branch (``fem.run.run_history``):
+        the base is a loading ramp (0, F), the step a whole number >= 1, and the branch's
+        history starts at 0 and goes to the step's force first. The settings are resolved on
+        the base's forces (its mesh is the base's)."""
         forces = tuple(validate_forces(list(forces)))
-        return cls(material, forces, settings.resolved(forces, material))
+        if follows is None:
+            return cls(material, forces, settings.resolved(forces, material))
+        base, step = check_follows(follows)
+        if len(forces) < 2 or forces[1] <= 0.0:
+            raise InputError("follows: a branch's history starts at 0 N and goes first to the "
+                             f"force of the base's step {step}; got {list(forces)!r}")
+        return cls(material, forces, settings.resolved(base, material), (base, step))
+
+    def base(self) -> FeRunIdentity:
+        """The identity of the run a branch follows (``follows``)."""
+        if self.follows is None:
+            raise ValueError("FeRunIdentity.base: not a branch")
+        return FeRunIdentity(self.material, self.follows[0], self.settings)
 
     def __getattr__(self, name: str) -> Any:
         if name in _SETTINGS:
@@ -418,6 +454,8 @@ class FeRunIdentity:
                   **self.settings.record()}
         if incipient_yield(self.material).at_surface:
             record["first_yield"] = EDGE_FIRST_YIELD
+        if self.follows is not None:  # only a branch records it: other runs' keys unchanged
+            record["follows"] = {"forces_N": list(self.follows[0]), "step": self.follows[1]}
         return record
 
     def to_dict(self) -> dict[str, Any]:
@@ -442,6 +480,22 @@ class FeRunIdentity:
                         f"beta = {m.friction_angle_deg:g} deg, m = {m.hardening_ratio:g}, "
                         f"R = {m.radius:g} m")
         return "; ".join(settings)
+
+
+def check_follows(follows) -> tuple[tuple[float, ...], int]:
+    """(base forces, step) of a branch, checked: the base a loading ramp (0, F > 0) and the
+    step a whole number >= 1; one-line InputError otherwise."""
+    try:
+        base, step = follows
+    except (TypeError, ValueError):
+        raise InputError(f"follows: expected (base forces, step), got {follows!r}") from None
+    base = tuple(validate_forces(list(base)))
+    if len(base) != 2:
+        raise InputError("follows: the base must be a loading ramp (0, F) with F > 0 N, got "
+                         f"forces {list(base)!r}")
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        raise InputError(f"follows: the step must be a whole number >= 1, got {step!r}")
+    return base, int(step)
 
 
 def identity_key(record: dict[str, Any]) -> str:

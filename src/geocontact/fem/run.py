@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InputError
 from ..files import atomic_directory, atomic_path, check_replaceable, write_json_atomic
 from ..grain.force_history import (
     cycle_peak,
@@ -278,6 +278,28 @@ def load_schedule(forces: list[float], n: int, yield_force: float,
             targets += _segment(a, b, n, yield_force, per_decade)
         marks.append(len(targets))  # 1-based step number of the waypoint
     return targets, marks
+
+
+def run_schedule(identity, yield_force: float) -> tuple[list[float], list[int]]:
+    """``load_schedule`` of a run's identity (``fem.identity.FeRunIdentity``). A branch
+    (``identity.follows``) takes its base's steps up to the step it follows (the base's
+    schedule, so the two runs are the same there) and then its own history's from that step's
+    force; the step must be one of the base's, at the force the branch's history goes to first
+    (one-line InputError otherwise)."""
+    forces, n, rule = list(identity.forces), identity.steps_per_segment, identity.step_rule
+    if identity.follows is None:
+        return load_schedule(forces, n, yield_force, rule)
+    base, step = identity.follows
+    base_targets = load_schedule(list(base), n, yield_force, rule)[0]
+    if step > len(base_targets):
+        raise InputError(f"follows: the base has {len(base_targets)} load steps, so no step "
+                         f"{step}")
+    fork = base_targets[step - 1]
+    if not math.isclose(forces[1], fork, rel_tol=1e-12, abs_tol=0.0):
+        raise InputError(f"follows: the base's step {step} is at {fork!r} N; the branch's "
+                         f"history must go to that force first, not to {forces[1]!r} N")
+    targets, marks = load_schedule(forces[1:], n, yield_force, rule)
+    return base_targets[:step] + targets, [step] + [step + m for m in marks]
 
 
 def sub_steps(start: float, target: float, yield_force: float,
@@ -718,6 +740,9 @@ def run_history(
     checkpoint: str | Path | None = None,
     linear_solver: str = "fast",
     notify: Callable[[str], None] | None = None,
+    follows: tuple | None = None,
+    snapshots: str | Path | None = None,
+    start: str | Path | None = None,
     **model: Any,
 ) -> FemResult:
     """Run the force history ``forces`` (N, piecewise linear waypoints) on the FE model.
@@ -745,6 +770,15 @@ def run_history(
     unusable checkpoint, an under-resolved contact: one line each); default: printed to
     stderr.
 
+    **Branches.** ``follows=(base forces, step)`` makes the run a branch of the loading ramp
+    ``base forces`` = (0, F) (same material and settings): it takes that run's load steps up
+    to its recorded step ``step``, whose force must be ``forces[1]``, then goes on with
+    ``forces[1:]``. Its identity records ``follows``; its mesh is the base's. ``snapshots``: a
+    folder where a run also saves its checkpoint after every step (``snapshot_path``), for the
+    branches that follow it; ``start``: the base's snapshot at the branch's step, which a
+    branch starts from instead of computing the base's steps again (a missing or unusable one
+    costs only that work: the result is the same to the bit, as a resumed run's is).
+
     The run is three parts: ``prepare_run`` (the identity, a finished run to reuse, the mesh
     and solver or the checkpoint to go on from), ``step_loop`` (the load steps) and
     ``run_summary`` (summary.json).
@@ -757,7 +791,7 @@ def run_history(
     elif mesh is not None or model:
         raise TypeError("run_history: the settings as settings= or as keywords, not both")
     notify = _to_stderr if notify is None else notify
-    identity = FeRunIdentity.of_settings(material, forces, settings)
+    identity = FeRunIdentity.of_settings(material, forces, settings, follows)
     if resume and out is not None and not keep_states:
         finished = _finished(out, identity, write_fields, progress, notify)
         if finished is not None:
@@ -766,8 +800,10 @@ def run_history(
         check_replaceable(out, "fem", overwrite=overwrite)  # before any work
     prepared = prepare_run(material, identity, out, resume=resume, checkpoint=checkpoint,
                            write_fields=write_fields, linear_solver=linear_solver,
-                           shared_mesh=settings.mesh_force is not None, notify=notify)
-    states = step_loop(prepared, started, keep_states=keep_states, progress=progress)
+                           shared_mesh=settings.mesh_force is not None, notify=notify,
+                           start=start)
+    states = step_loop(prepared, started, keep_states=keep_states, progress=progress,
+                       snapshots=snapshots)
     curve = prepared.run.curve()
     summary = run_summary(prepared, curve, started, notify)
     result = FemResult(curve=curve, summary=summary, states=states, solver=prepared.solver)
@@ -822,6 +858,7 @@ class PreparedRun:
     elapsed_before: float  # wall time of the checkpointed part
     control: AdaptiveSteps | None = None  # step_control "adaptive" or "dissipation"
     cpu_before: float | None = 0.0  # CPU time of the checkpointed part (None: not recorded)
+    branched: bool = False  # a branch that started from its base's snapshot
 
 
 @dataclasses.dataclass(frozen=True)
@@ -847,29 +884,42 @@ class RunClock:
 
 def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
                 write_fields: bool, linear_solver: str, shared_mesh: bool,
-                notify: Callable[[str], None]) -> PreparedRun:
+                notify: Callable[[str], None], start: str | Path | None = None) -> PreparedRun:
     """The mesh, solver and state of a run of ``identity``: from its checkpoint where
-    ``resume`` and the checkpoint is usable, else new (the mesh of ``history_mesh`` and the
-    elastic probe of the first-yield force). ``shared_mesh``: the mesh force was given (the
-    mesh is sized from the ramp to it, the same for every run sharing it)."""
+    ``resume`` and the checkpoint is usable, else (a branch) from its base's snapshot
+    ``start`` where that is usable, else new (the mesh of ``history_mesh`` and the elastic
+    probe of the first-yield force). ``shared_mesh``: the mesh force was given (the mesh is
+    sized from the ramp to it, the same for every run sharing it)."""
     forces, steps = list(identity.forces), identity.steps_per_segment
     ckpt = Path(checkpoint) if checkpoint is not None else (
         checkpoint_path(out) if out is not None else None)
     pending = fields_beside(ckpt) if ckpt is not None else None
-    saved = (read_checkpoint(ckpt, identity, len(CURVE_COLUMNS), notify=notify)
-             if resume and ckpt is not None and ckpt.exists() else None)
-    if saved is not None:
-        solver = _solver(material, saved.mesh, identity, linear_solver)
-        targets, marks = load_schedule(forces, steps, saved.yield_force, identity.step_rule)
-        problem = saved.problem(solver.initial_state(), len(targets), marks, pending,
-                                write_fields)
-        if problem is not None:
-            warn_checkpoint(ckpt, problem, notify)
-            saved = None
+    saved, solver, branched = None, None, False
+    if resume and ckpt is not None and ckpt.exists():
+        saved, solver = _go_on_from(read_checkpoint(ckpt, identity, len(CURVE_COLUMNS),
+                                                    notify=notify),
+                                    ckpt, identity, material, linear_solver, pending,
+                                    write_fields, notify)
+    if saved is None and identity.follows is not None and start is not None \
+            and Path(start).exists():
+        base = read_checkpoint(Path(start), identity.base(), len(CURVE_COLUMNS), notify=notify)
+        if base is not None and base.done != identity.follows[1]:
+            warn_checkpoint(Path(start), f"it is the base's step {base.done}, not the "
+                            f"branch's {identity.follows[1]}", notify)
+            base = None
+        saved, solver = _go_on_from(base, Path(start), identity, material, linear_solver,
+                                    None, False, notify)
+        if saved is not None:  # the branch's own time starts here; its fields are its own
+            branched = True
+            saved = dataclasses.replace(saved, wall_time_s=0.0, cpu_time_s=0.0)
+            if pending is not None:
+                remove_pending_fields(pending)
     if saved is None:
         # a shared mesh (mesh_force) is sized from the ramp 0 -> mesh_force, the same for every
-        # run sharing it; a history starting lower is then checked (contact_resolution)
-        sized_history = [0.0, identity.mesh_force] if shared_mesh else forces
+        # run sharing it; a history starting lower is then checked (contact_resolution); a
+        # branch's mesh is its base's
+        sized_history = ([0.0, identity.mesh_force] if shared_mesh else
+                         list(identity.follows[0]) if identity.follows is not None else forces)
         fe_mesh = history_mesh(material, identity.mesh_force, identity.mesh,
                                min_force=smallest_resolved_force(material, sized_history, steps,
                                                                  identity.step_rule),
@@ -894,7 +944,7 @@ def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
         run.record(0, state)
         done = 0
         elapsed_before, cpu_before = 0.0, 0.0
-    targets, marks = load_schedule(forces, steps, yield_force, identity.step_rule)
+    targets, marks = run_schedule(identity, yield_force)
     # ParaView files of the waypoints, written to the pending folder as the run passes them
     field_steps = sorted({m for m in marks if m >= 1}) if write_fields and pending else []
     control = None
@@ -905,16 +955,43 @@ def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
                                        identity.step_control)
     return PreparedRun(identity, material, solver, run, state, done, yield_force, targets,
                        marks, field_steps, ckpt, pending, write_fields, elapsed_before, control,
-                       cpu_before)
+                       cpu_before, branched)
+
+
+def _go_on_from(saved, path: Path, identity, material: Material, linear_solver: str,
+                pending: Path | None, write_fields: bool, notify: Callable[[str], None]):
+    """(checkpoint, solver on its mesh) if the run of ``identity`` can go on from the
+    checkpoint ``saved`` read from ``path`` (its own, or a branch's base snapshot), else
+    (None, None) after one line saying why."""
+    if saved is None:
+        return None, None
+    solver = _solver(material, saved.mesh, identity, linear_solver)
+    targets, marks = run_schedule(identity, saved.yield_force)
+    problem = saved.problem(solver.initial_state(), len(targets), marks, pending, write_fields)
+    if problem is not None:
+        warn_checkpoint(path, problem, notify)
+        return None, None
+    return saved, solver
+
+
+def snapshot_path(folder: str | Path, step: int) -> Path:
+    """The snapshot of a run's state after load step ``step`` in ``folder`` (``run_history``
+    ``snapshots``): a checkpoint of the run as it stood then, which a branch starts from."""
+    return Path(folder) / f"step_{step:05d}.checkpoint.npz"
 
 
 def step_loop(p: PreparedRun, started: RunClock, *, keep_states: bool = False,
-              progress: bool = False) -> list[State]:
+              progress: bool = False, snapshots: str | Path | None = None) -> list[State]:
     """The load steps of the prepared run ``p`` from where it stands, a checkpoint after each
-    (``started``: the wall clock of this session, for the checkpoint's time). Returns the
-    states when ``keep_states`` (the initial one first)."""
+    (``started``: the wall clock of this session, for the checkpoint's time), and a snapshot in
+    ``snapshots`` after each (``snapshot_path``; not for a branch: a branch is not followed).
+    Returns the states when ``keep_states`` (the initial one first)."""
+    if snapshots is not None and p.identity.follows is not None:
+        raise ValueError("step_loop: a branch's steps are not snapshots for other branches")
     solver, run, state = p.solver, p.run, p.state
     record = json.dumps(p.identity.to_dict())
+    if snapshots is not None:
+        Path(snapshots).mkdir(parents=True, exist_ok=True)
     states = [state] if keep_states else []
     bar = None
     if progress:
@@ -938,9 +1015,13 @@ def step_loop(p: PreparedRun, started: RunClock, *, keep_states: bool = False,
                 states.append(state)
             if step in p.field_steps:
                 _save_fields(solver, state, p.pending / field_name(step))
-            if p.ckpt is not None:
-                save_checkpoint(p.ckpt, record, run.rows, state, solver.mesh,
-                                yield_force=p.yield_force, fields=p.write_fields,
+            for path, fields in ((p.ckpt, p.write_fields),
+                                 (None if snapshots is None else snapshot_path(snapshots, step),
+                                  False)):
+                if path is None:
+                    continue
+                save_checkpoint(path, record, run.rows, state, solver.mesh,
+                                yield_force=p.yield_force, fields=fields,
                                 wall_time_s=started.wall(p.elapsed_before),
                                 cpu_time_s=started.cpu(p.cpu_before),
                                 first_yield=run.first_yield, fully_plastic=run.fully_plastic,
@@ -1014,6 +1095,12 @@ def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], started: RunClock,
     # what made this result (FemJob.key, checkpoints and --resume compare it: fem.reuse)
     summary["identity"] = identity.to_dict()
     summary["fields"] = [f"fields/{field_name(s)}" for s in p.field_steps]
+    if identity.follows is not None:
+        # a branch: its curve's steps 0 ... step are its base's; started from the base's
+        # snapshot, its wall and CPU times are those of the steps after (the solves and Newton
+        # iterations above count the whole curve)
+        summary["branch"] = {"base_key": identity.base().key(), "step": identity.follows[1],
+                             "started_from_base_snapshot": p.branched}
     return summary
 
 
