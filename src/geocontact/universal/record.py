@@ -84,7 +84,8 @@ TOP_CAP = 0.45
 # The FE settings the pilot (datasets/universal/record-pilot) was computed with: the coarse mesh
 # and the "yield" meshes with fixed load steps, the FE defaults of its day. Named, so the pilot's
 # runs are found and its figures regenerate after issue 36 moved the defaults.
-PILOT_FE = {"mesh": "coarse", "mesh_rule": "yield", "step_control": "fixed"}
+PILOT_FE = {"mesh": "coarse", "mesh_rule": "yield", "step_control": "fixed",
+            "step_rule": "segment"}
 
 
 def fe_settings(mesh: str = "default", kinematics: str = "finite", **changes) -> FeSettings:
@@ -92,17 +93,23 @@ def fe_settings(mesh: str = "default", kinematics: str = "finite", **changes) ->
     kernels (small or finite strain) and every other setting the FE's default: the mesh rule
     "auto" and the "dissipation" step control, the verified settings of issue 36 (docs/fem.md
     "Defaults"); ``changes``: any other FeSettings field (``PILOT_FE`` for the pilot's). One-line
-    InputError on a setting the FE refuses."""
+    InputError on a setting the FE refuses. The load steps follow the "decade" rule: the
+    levels are branches of the last probe at its recorded steps (``level_steps``), and at least
+    12 loading steps per decade of force (1.21 x apart) put each within about 5 % of its target
+    contact radius."""
     changes.setdefault("kernels", "compiled")
+    changes.setdefault("step_rule", "decade")
     return FeSettings(mesh=mesh, kinematics=kinematics, **changes)
 
 
 def job(material: Material, forces, settings: FeSettings, label: str,
-        mesh_force: float | None = None) -> FemJob:
-    """One FE run of a point with ``settings`` (``mesh_force`` sizes the mesh, None: its own)."""
+        mesh_force: float | None = None, *, follows=None, snapshots: bool = False) -> FemJob:
+    """One FE run of a point with ``settings`` (``mesh_force`` sizes the mesh, None: its own;
+    ``follows``: a branch, ``snapshots``: saved for branches; ``fem.campaign.FemJob``)."""
     fields = {name: getattr(settings, name) for name in FeSettings.names()}
     fields["mesh_force"] = mesh_force
-    return FemJob(material, tuple(float(f) for f in forces), label=label, **fields)
+    return FemJob(material, tuple(float(f) for f in forces), label=label, follows=follows,
+                  snapshots=snapshots, **fields)
 
 
 # A point of the design of record has today's four coordinates (the same names, the same
@@ -174,7 +181,9 @@ def probe_job(point: RecordPoint, settings: FeSettings, force: float | None = No
     FE's validity force ``validity_force``), whose contact radius curve places the levels."""
     material = point.material()
     top = validity_force(material) if force is None else float(force)
-    return job(material, (0.0, top), settings, f"record probe {attempt} F={top:.4g}N")
+    # every probe saves its snapshots: the last one is the base the levels branch from
+    return job(material, (0.0, top), settings, f"record probe {attempt} F={top:.4g}N",
+               snapshots=True)
 
 
 def next_probe_force(material: Material, force, radius) -> float | None:
@@ -262,23 +271,44 @@ def level_forces(material: Material, force, radius) -> dict[str, Any]:
                     f"(after {MAX_PROBES} probes at most)")}
 
 
-def point_jobs(point: RecordPoint, settings: FeSettings, levels: dict[str, Any]
+def level_steps(forces, base_curve: dict[str, np.ndarray]) -> tuple[list[int], list[float]]:
+    """The recorded loading steps of the base probe (``curve.csv`` of a ramp 0 -> F) nearest
+    in log F to ``forces``, and their forces: a level is a branch of the probe at one of its
+    steps. Two forces on one step is a one-line InputError (the probe's steps too coarse)."""
+    curve = np.asarray(base_curve["force_N"], float)
+    steps = np.nonzero(curve > 0.0)[0]
+    chosen = [int(steps[np.argmin(np.abs(np.log(curve[steps]) - math.log(f)))]) for f in forces]
+    if len(set(chosen)) != len(chosen):
+        raise InputError(f"record levels: the probe's recorded steps are too far apart for "
+                         f"{len(chosen)} levels (steps {chosen})")
+    return chosen, [float(curve[k]) for k in chosen]
+
+
+def point_jobs(point: RecordPoint, settings: FeSettings, levels: dict[str, Any],
+               base: FemJob, base_curve: dict[str, np.ndarray]
                ) -> tuple[list[FemJob], FemJob]:
-    """The calibration runs at the levels' forces (calibrate's history shape, one mesh sized for
-    the top) and the repeated-history run at ``cyclic_peak_over_max`` x the top."""
+    """The calibration runs at the levels (calibrate's history shape 0 -> F -> 0 -> F -> 0) and
+    the repeated-history run at ``cyclic_peak_over_max`` x the top, each a branch of the point's
+    last probe ``base`` (its curve ``base_curve``) at the recorded step nearest its force
+    (``level_steps``): they share its mesh and its loading up to their peak, and the campaign
+    computes only what comes after (docs/fem.md "Branches of a run"). ``levels`` gains the
+    steps and the forces taken ("forces_N"; the rule's own under "rule_forces_N")."""
     from ..calibrate.campaign import settings as calibration_settings
     from ..grain.force_history import preset_history
 
     campaign = calibration_settings()["campaign"]
     material = point.material()
-    peaks = levels["forces_N"]
-    top = max(peaks)
+    cyclic_target = float(campaign["cyclic_peak_over_max"]) * max(levels["forces_N"])
+    steps, peaks = level_steps([*levels["forces_N"], cyclic_target], base_curve)
+    levels.setdefault("rule_forces_N", list(levels["forces_N"]))
+    levels.update(forces_N=peaks[:-1], base_steps=steps[:-1], base_key=base.key())
     runs = [job(material, [float(s) * peak for s in campaign["history"]], settings,
-                f"record level {k} F={peak:.4g}N", mesh_force=top)
-            for k, peak in enumerate(peaks)]
-    cyclic_peak = float(campaign["cyclic_peak_over_max"]) * top
-    cyclic = job(material, preset_history(campaign["cyclic_history"], cyclic_peak), settings,
-                 f"record {campaign['cyclic_history']} F={cyclic_peak:.4g}N")
+                f"record level {k} F={peak:.4g}N", base.mesh_force,
+                follows=(base.forces, step))
+            for k, (step, peak) in enumerate(zip(steps[:-1], peaks[:-1], strict=True))]
+    cyclic = job(material, preset_history(campaign["cyclic_history"], peaks[-1]), settings,
+                 f"record {campaign['cyclic_history']} F={peaks[-1]:.4g}N", base.mesh_force,
+                 follows=(base.forces, steps[-1]))
     return runs, cyclic
 
 
@@ -302,4 +332,7 @@ def describe() -> dict[str, Any]:
                   "refined zone, a <= R/2",
         "repeated_history": "calibration.toml cyclic_history at cyclic_peak_over_max x the top "
                             "level's force",
+        "branches": "the levels and the repeated history are branches of the last probe "
+                    "(fem.run follows) at its recorded loading step nearest their force "
+                    "(step rule 'decade': >= 12 loading steps per decade), on its mesh",
     }

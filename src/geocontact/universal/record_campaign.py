@@ -47,7 +47,7 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
     """The probe, the levels and the repeated history of one point (one worker, in this
     process); returns the dataset row and the point's provenance record."""
     from ..calibrate.campaign import extract_run
-    from ..fem.campaign import run_campaign
+    from ..fem.campaign import remove_snapshots, run_campaign
 
     material = point.material()
     cpu0, wall0 = _cpu(), time.perf_counter()
@@ -63,8 +63,11 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
             break
     levels = record.level_forces(material, *record.contact_curve(
         *[r.curve for r in probe_results]))
-    jobs, cyclic = record.point_jobs(point, settings, levels)
+    jobs, cyclic = record.point_jobs(point, settings, levels, probes[-1], probe_results[-1].curve)
+    _snapshots_for(probes[-1], [*jobs, cyclic], cache, progress)
     results = run_campaign([*jobs, cyclic], cache, workers=1, progress=progress)
+    for probe in probes:  # a saving only, not committed: the branches are done
+        remove_snapshots(cache, probe)
     runs = [extract_run(j, r) for j, r in zip(jobs, results[:-1], strict=True)]
     row = point_row(point, runs, results[-1])
     every = [*probe_results, *results]
@@ -93,6 +96,31 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
         "warnings": sorted({w for r in every for w in r.summary.get("warnings", [])}),
     }
     return row, info
+
+
+def _snapshots_for(base, branches, cache: Path, progress: bool) -> None:
+    """The base's snapshots at the steps of those ``branches`` not yet in the cache: a base run
+    reused from the cache (a new clone, or a session that stopped after it) has none, and each
+    branch would compute the base's loading again; the base is then run again, once, only for
+    them (the same run, so the same states to the bit)."""
+    from ..fem.campaign import snapshots_folder
+    from ..fem.checkpoint import checkpoint_path
+    from ..fem.identity import equivalent_run, finished_run
+    from ..fem.run import run_history, snapshot_path
+
+    folder = snapshots_folder(cache, base)
+    missing = [b for b in branches
+               if finished_run(cache / b.key(), b.identity()) is None
+               and equivalent_run(cache, b.identity()) is None
+               and not checkpoint_path(cache / b.key()).exists()  # under way: goes on from it
+               and not snapshot_path(folder, b.follows[1]).is_file()]
+    if not missing:
+        return
+    if progress:
+        print(f"record campaign: {base.name()}: its snapshots for {len(missing)} branches are "
+              "not here; running it again for them", file=sys.stderr)
+    run_history(base.material, list(base.forces), settings=base.settings(),
+                write_fields=False, snapshots=folder)
 
 
 def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
