@@ -250,7 +250,8 @@ def test_the_campaign_flags_reach_the_settings(monkeypatch):
                             settings) or [])
     assert campaign.main(["--points", "3", "--design", "record"]) == 0
     assert campaign.main(["--points", "3", "--design", "record", "--mesh", "coarse",
-                          "--mesh-rule", "yield", "--step-control", "fixed"]) == 0
+                          "--mesh-rule", "yield", "--step-control", "fixed",
+                          "--step-rule", "segment"]) == 0
     assert seen == [record.fe_settings(), record.fe_settings(**record.PILOT_FE)]
 
 
