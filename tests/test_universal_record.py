@@ -120,6 +120,40 @@ def test_level_rule_stops_at_what_the_probe_reached():
     assert math.isclose(nxt, math.pi * p * (0.33 * m.radius) ** 2, rel_tol=1e-9)
 
 
+def test_levels_are_branches_of_the_last_probe_at_its_nearest_steps():
+    """Each level and the repeated history follow the last probe to its recorded loading step
+    nearest their force (in log F), on its mesh; the rule's forces are kept beside."""
+    point = record.design_points(1)[0]
+    m = point.material()
+    p = 5.0 * m.compressive_yield_stress
+    force, radius = _plastic_curve(m, p, math.pi * p * (0.35 * m.radius) ** 2)
+    levels = record.level_forces(m, force, radius)
+    rule = list(levels["forces_N"])
+    settings = record.fe_settings(mesh="coarse")
+    assert settings.step_rule == "decade"
+    base = record.probe_job(point, settings, float(force[-1]))
+    assert base.snapshots and base.follows is None
+    curve = {"force_N": np.concatenate([[0.0], force])}  # step k at force[k - 1]
+    runs, cyclic = record.point_jobs(point, settings, levels, base, curve)
+    assert levels["rule_forces_N"] == rule and levels["base_key"] == base.key()
+    assert len(runs) == record.LEVELS and len(levels["base_steps"]) == record.LEVELS
+    for run, step, peak, wanted in zip(runs, levels["base_steps"], levels["forces_N"], rule,
+                                       strict=True):
+        assert run.follows == (base.forces, step) and peak == curve["force_N"][step]
+        assert run.forces == (0.0, peak, 0.0, peak, 0.0)
+        # the nearest step: no other recorded force is closer in log F
+        assert abs(math.log(peak / wanted)) == min(abs(math.log(f / wanted)) for f in force)
+        assert run.identity().mesh_force == base.identity().mesh_force  # the probe's mesh
+    half = 0.5 * rule[-1]
+    assert cyclic.follows[0] == base.forces and cyclic.forces[1] == curve["force_N"][
+        cyclic.follows[1]]
+    assert abs(math.log(cyclic.forces[1] / half)) <= math.log(force[1] / force[0]) / 2 + 1e-12
+    assert len(cyclic.forces) == 21  # ten cycles 0 -> F -> 0
+    # steps too far apart for the levels: one line
+    with pytest.raises(InputError, match="too far apart"):
+        record.level_steps([1.0, 1.01], {"force_N": np.array([0.0, 1.0, 10.0])})
+
+
 def test_top_spans_a_doubling_where_yield_is_late():
     """E/sigma_c = 30, beta = 60: first yield at a/R ~ 0.16; the top is twice the lowest level's
     contact radius, below 0.45 R."""
