@@ -54,6 +54,8 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
     probes, probe_results = [], []
     force = None
     for attempt in range(record.MAX_PROBES):
+        if probes:  # only the last probe is followed: the earlier ones' snapshots can go
+            remove_snapshots(cache, probes[-1])
         probes.append(record.probe_job(point, settings, force, attempt))
         probe_results.append(run_campaign([probes[-1]], cache, workers=1,
                                           progress=progress)[0])
