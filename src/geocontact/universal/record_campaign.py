@@ -42,15 +42,15 @@ def _cpu() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
-              progress: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The probe, the levels and the repeated history of one point (one worker, in this
-    process); returns the dataset row and the point's provenance record."""
-    from ..calibrate.campaign import extract_run
+def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
+               progress: bool = True) -> tuple[list[Any], list[Any]]:
+    """The probes of one point (``record.probe_job``, ``record.next_probe_force``: each next
+    one deeper until the contact reaches the top target, at most ``record.MAX_PROBES``), run
+    or read from ``cache``; returns the jobs and their results (``record.contact_curve`` of
+    the results is the point's a(F))."""
     from ..fem.campaign import remove_snapshots, run_campaign
 
     material = point.material()
-    cpu0, wall0 = _cpu(), time.perf_counter()
     probes, probe_results = [], []
     force = None
     for attempt in range(record.MAX_PROBES):
@@ -63,6 +63,19 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
             *[r.curve for r in probe_results]))
         if force is None:
             break
+    return probes, probe_results
+
+
+def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
+              progress: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The probe, the levels and the repeated history of one point (one worker, in this
+    process); returns the dataset row and the point's provenance record."""
+    from ..calibrate.campaign import extract_run
+    from ..fem.campaign import remove_snapshots, run_campaign
+
+    material = point.material()
+    cpu0, wall0 = _cpu(), time.perf_counter()
+    probes, probe_results = run_probes(point, settings, cache, progress)
     levels = record.level_forces(material, *record.contact_curve(
         *[r.curve for r in probe_results]))
     jobs, cyclic = record.point_jobs(point, settings, levels, probes[-1], probe_results[-1].curve)
