@@ -118,6 +118,7 @@ def random_materials(count: int, seed: int = SEED) -> list[dict]:
 
 
 def named_materials() -> list[dict]:
+    """The named cases of the issue (``NAMED``): the weak grain and the hard one."""
     return [{"name": name, "material": material_at(spec["coordinates"], modulus=spec["modulus"],
                                                    radius=spec["radius"]),
              "contact_over_radius": spec["contact_over_radius"], "what": spec["what"]}
@@ -294,7 +295,8 @@ def parse_args(argv=None):
     parser.add_argument("--steps-per-segment", type=int, default=None,
                         help="FE load steps per monotonic segment (default: the FE's)")
     parser.add_argument("--materials", type=int, default=COUNT,
-                        help=f"number of random held-out materials (default {COUNT})")
+                        help=f"number of random held-out materials (default {COUNT}), run with "
+                             "the named weak and hard ones")
     parser.add_argument("--only", default=None,
                         help="comma list of material names to run (held-out-01, weak, hard)")
     parser.add_argument("--cycles", type=int, default=CYCLES,
