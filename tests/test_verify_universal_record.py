@@ -181,3 +181,22 @@ def test_probes_go_deeper_until_the_top_and_drop_the_earlier_snapshots(monkeypat
     assert len(probes) == 2 and removed == [probes[0].key()]
     reached = results[-1].curve["contact_radius_m"][-1] / material.radius
     assert reached == pytest.approx(record.PROBE_AIM * record.TOP_CONTACT_OVER_RADIUS)
+
+
+def test_at_a_pilot_point_the_law_follows_its_own_repeated_history():
+    """At a node of the pilot the interpolation is exact: the law's per-cycle residual increment
+    and loop work (driven by force) are those of the point's committed FE run within a factor 2
+    over cycles 2-5 (the comparison is not off by a definition)."""
+    import types
+
+    from geocontact.law import load_params
+
+    point = json.loads((PILOT / "provenance.json").read_text())["points"]["0"]
+    run = ROOT / "datasets" / "fe-runs" / "universal-record-pilot" / point["cache_keys"][-1]
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["inputs"]["forces_N"] == point["repeated_history_forces_N"]
+    params = load_params(PILOT / "law-point-0.json")
+    rows = script.cyclic_rows(params, point["repeated_history_forces_N"],
+                              types.SimpleNamespace(summary=summary))
+    early = [r for r in rows if r["cycle"] <= 5]
+    assert len(early) == 8 and all(r["fe_resolved"] and r["within_factor_2"] for r in early)
