@@ -114,15 +114,16 @@ def test_level_rule_stops_at_what_the_probe_reached():
     force, radius = _plastic_curve(m, p, top)
     levels = record.level_forces(m, force, radius)
     assert math.isclose(levels["target_contact_over_radius"][-1], 0.2, rel_tol=1e-9)
-    assert "the last probe's largest contact" in levels["top"]
+    assert "the largest contact the FE reached" in levels["top"]
     # the next probe aims at 1.1 x 0.3 R at the mean pressure reached
     nxt = record.next_probe_force(m, force, radius)
     assert math.isclose(nxt, math.pi * p * (0.33 * m.radius) ** 2, rel_tol=1e-9)
 
 
-def test_levels_are_branches_of_the_last_probe_at_its_nearest_steps():
-    """Each level and the repeated history follow the last probe to its recorded loading step
-    nearest their force (in log F), on its mesh; the rule's forces are kept beside."""
+def test_levels_are_branches_of_the_base_at_its_nearest_steps():
+    """The base run goes to the force carrying 1.1 x the top target on the probes' a(F); each
+    level and the repeated history follow it to its recorded loading step nearest their force
+    (in log F), on its mesh; the rule's forces are kept beside."""
     point = record.design_points(1)[0]
     m = point.material()
     p = 5.0 * m.compressive_yield_stress
@@ -131,7 +132,15 @@ def test_levels_are_branches_of_the_last_probe_at_its_nearest_steps():
     rule = list(levels["forces_N"])
     settings = record.fe_settings(mesh="coarse")
     assert settings.step_rule == "decade"
-    base = record.probe_job(point, settings, float(force[-1]))
+    assert record.probe_settings(settings).mesh == record.PROBE_MESH
+    assert not record.probe_job(point, settings).snapshots  # probes are not followed
+    aim = record.PROBE_AIM * record.TOP_CONTACT_OVER_RADIUS * m.radius
+    assert math.isclose(record.base_force(m, force, radius), math.pi * p * aim ** 2,
+                        rel_tol=1e-6)  # within the probe's reach: read off its a(F)
+    short = force < math.pi * p * (0.2 * m.radius) ** 2  # a probe that stops at 0.2 R
+    assert math.isclose(record.base_force(m, force[short], radius[short]),
+                        math.pi * p * aim ** 2, rel_tol=1e-9)  # at its last mean pressure
+    base = record.base_job(point, settings, float(force[-1]))
     assert base.snapshots and base.follows is None
     curve = {"force_N": np.concatenate([[0.0], force])}  # step k at force[k - 1]
     runs, cyclic = record.point_jobs(point, settings, levels, base, curve)

@@ -94,7 +94,7 @@ def fe_settings(mesh: str = "default", kinematics: str = "finite", **changes) ->
     "auto" and the "dissipation" step control, the verified settings of issue 36 (docs/fem.md
     "Defaults"); ``changes``: any other FeSettings field (``PILOT_FE`` for the pilot's). One-line
     InputError on a setting the FE refuses. The load steps follow the "decade" rule: the
-    levels are branches of the last probe at its recorded steps (``level_steps``), and at least
+    levels are branches of the base run at its recorded steps (``level_steps``), and at least
     12 loading steps per decade of force (1.21 x apart) put each within about 5 % of its target
     contact radius."""
     changes.setdefault("kernels", "compiled")
@@ -175,14 +175,47 @@ def validity_force(material: Material) -> float:
     return low
 
 
+# The probes that find a point's forces are run on this mesh (with the point's other settings):
+# they only place the base's force, whose own curve then places the levels (``base_force``).
+PROBE_MESH = "coarse"
+
+
+def probe_settings(settings: FeSettings) -> FeSettings:
+    """The FE settings of a point's probes: the point's, on ``PROBE_MESH``."""
+    from dataclasses import replace
+
+    return replace(settings, mesh=PROBE_MESH)
+
+
 def probe_job(point: RecordPoint, settings: FeSettings, force: float | None = None,
               attempt: int = 0) -> FemJob:
     """A probe of the point: one monotonic loading to ``force`` (default the first probe's, the
-    FE's validity force ``validity_force``), whose contact radius curve places the levels."""
+    FE's validity force ``validity_force``), whose contact radius curve places the base's force
+    (``base_force``)."""
     material = point.material()
     top = validity_force(material) if force is None else float(force)
-    # every probe saves its snapshots: the last one is the base the levels branch from
-    return job(material, (0.0, top), settings, f"record probe {attempt} F={top:.4g}N",
+    return job(material, (0.0, top), settings, f"record probe {attempt} F={top:.4g}N")
+
+
+def base_force(material: Material, force, radius) -> float:
+    """The force of the point's base run (``base_job``): the one that carries ``PROBE_AIM`` x the
+    top target radius (never more than R/2) on the probes' a(F) (``contact_curve``), by log-log
+    interpolation where the probes reach it, else at the mean pressure of the last probe's top
+    (as ``next_probe_force`` aims)."""
+    force, radius = np.asarray(force, float), np.asarray(radius, float)
+    aim = min(PROBE_AIM * top_target(material, force, radius),
+              VALID_CONTACT_OVER_RADIUS * material.radius)
+    if radius[-1] >= aim:
+        unique, first = np.unique(np.log(radius), return_index=True)
+        return float(np.exp(np.interp(math.log(aim), unique, np.log(force)[first])))
+    return float(math.pi * aim ** 2 * force[-1] / (math.pi * radius[-1] ** 2))
+
+
+def base_job(point: RecordPoint, settings: FeSettings, force: float) -> FemJob:
+    """The point's base run: one monotonic loading to ``force`` on the FE of record, saving its
+    snapshots; its curve places the levels, which branch from it (``point_jobs``)."""
+    material = point.material()
+    return job(material, (0.0, float(force)), settings, f"record base F={force:.4g}N",
                snapshots=True)
 
 
@@ -267,8 +300,7 @@ def level_forces(material: Material, force, radius) -> dict[str, Any]:
     return {"forces_N": [float(f) for f in forces],
             "target_contact_over_radius": [float(a / material.radius) for a in targets],
             "top": (f"{target / material.radius:.3g} R" if a_top < a_reached else
-                    f"the last probe's largest contact, {a_reached / material.radius:.3g} R "
-                    f"(after {MAX_PROBES} probes at most)")}
+                    f"the largest contact the FE reached, {a_reached / material.radius:.3g} R")}
 
 
 def level_steps(forces, base_curve: dict[str, np.ndarray]) -> tuple[list[int], list[float]]:
@@ -289,7 +321,7 @@ def point_jobs(point: RecordPoint, settings: FeSettings, levels: dict[str, Any],
                ) -> tuple[list[FemJob], FemJob]:
     """The calibration runs at the levels (calibrate's history shape 0 -> F -> 0 -> F -> 0) and
     the repeated-history run at ``cyclic_peak_over_max`` x the top, each a branch of the point's
-    last probe ``base`` (its curve ``base_curve``) at the recorded step nearest its force
+    base run ``base`` (its curve ``base_curve``) at the recorded step nearest its force
     (``level_steps``): they share its mesh and its loading up to their peak, and the campaign
     computes only what comes after (docs/fem.md "Branches of a run"). ``levels`` gains the
     steps and the forces taken ("forces_N"; the rule's own under "rule_forces_N")."""
@@ -322,17 +354,19 @@ def describe() -> dict[str, Any]:
                     "then Sobol on",
         "modulus_Pa": CAMPAIGN_MODULUS, "radius_m": CAMPAIGN_RADIUS,
         "levels": f"{LEVELS} targets geometric in a/R from the contact radius a_low at the "
-                  "lowest calibration peak (2 Fy) to min(the top target, the last probe's "
+                  "lowest calibration peak (2 Fy) to min(the top target, the base run's "
                   f"largest contact), top target = min(max({TOP_CONTACT_OVER_RADIUS} R, "
-                  f"{MIN_SPAN} a_low), {TOP_CAP} R); forces read off the last probe's a(F)",
-        "probes": f"monotonic loadings: the first to the FE commands' force bound "
-                  "(fem.limits: a <= R/2 by the 2.5 sigma_c estimate), each next one to the "
-                  f"force carrying {PROBE_AIM} x {TOP_CONTACT_OVER_RADIUS} R at the mean "
-                  f"pressure the last reached, at most {MAX_PROBES}; validity limit: the mesh's "
-                  "refined zone, a <= R/2",
+                  f"{MIN_SPAN} a_low), {TOP_CAP} R); forces read off the base run's a(F)",
+        "probes": f"monotonic loadings on the {PROBE_MESH} mesh: the first to the FE "
+                  "commands' force bound (fem.limits: a <= R/2 by the 2.5 sigma_c estimate), "
+                  f"each next one to the force carrying {PROBE_AIM} x {TOP_CONTACT_OVER_RADIUS} "
+                  f"R at the mean pressure the last reached, at most {MAX_PROBES}; validity "
+                  "limit: the mesh's refined zone, a <= R/2",
+        "base": f"one monotonic loading on the FE of record to the force carrying {PROBE_AIM} "
+                "x the top target on the probes' a(F); its a(F) places the levels",
         "repeated_history": "calibration.toml cyclic_history at cyclic_peak_over_max x the top "
                             "level's force",
-        "branches": "the levels and the repeated history are branches of the last probe "
+        "branches": "the levels and the repeated history are branches of the base "
                     "(fem.run follows) at its recorded loading step nearest their force "
                     "(step rule 'decade': >= 12 loading steps per decade), on its mesh",
     }

@@ -54,7 +54,7 @@ def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
     probes, probe_results = [], []
     force = None
     for attempt in range(record.MAX_PROBES):
-        if probes:  # only the last probe is followed: the earlier ones' snapshots can go
+        if probes:  # a probe with snapshots (the pilot's design) is not followed once deeper
             remove_snapshots(cache, probes[-1])
         probes.append(record.probe_job(point, settings, force, attempt))
         probe_results.append(run_campaign([probes[-1]], cache, workers=1,
@@ -75,31 +75,38 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
 
     material = point.material()
     cpu0, wall0 = _cpu(), time.perf_counter()
-    probes, probe_results = run_probes(point, settings, cache, progress)
-    levels = record.level_forces(material, *record.contact_curve(
-        *[r.curve for r in probe_results]))
-    jobs, cyclic = record.point_jobs(point, settings, levels, probes[-1], probe_results[-1].curve)
-    _snapshots_for(probes[-1], [*jobs, cyclic], cache, progress)
+    # the probes (coarse mesh) find the force of the base, one loading on the FE of record whose
+    # curve places the levels and from which they branch
+    probes, probe_results = run_probes(point, record.probe_settings(settings), cache, progress)
+    base = record.base_job(point, settings, record.base_force(material, *record.contact_curve(
+        *[r.curve for r in probe_results])))
+    base_result = run_campaign([base], cache, workers=1, progress=progress)[0]
+    levels = record.level_forces(material, *_level_curve(material, base_result, probe_results))
+    jobs, cyclic = record.point_jobs(point, settings, levels, base, base_result.curve)
+    _snapshots_for(base, [*jobs, cyclic], cache, progress)
     results = run_campaign([*jobs, cyclic], cache, workers=1, progress=progress)
-    for probe in probes:  # a saving only, not committed: the branches are done
-        remove_snapshots(cache, probe)
+    remove_snapshots(cache, base)  # a saving only, not committed: the branches are done
     runs = [extract_run(j, r) for j, r in zip(jobs, results[:-1], strict=True)]
     row = point_row(point, runs, results[-1])
-    every = [*probe_results, *results]
+    every = [*probe_results, base_result, *results]
     info = {
         "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
         "material": {k: getattr(material, k) for k in (
             "youngs_modulus", "poissons_ratio", "compressive_yield_stress",
             "friction_angle_deg", "hardening_ratio", "radius")},
         "fe_settings": settings.as_dict(),
+        "probe_mesh": record.PROBE_MESH,
         "probes": [{"forces_N": list(p.forces), "cache_key": p.key(),
                     "contact_over_radius_reached": float(
                         record.contact_curve(r.curve)[1][-1] / material.radius)}
                    for p, r in zip(probes, probe_results, strict=True)],
+        "base": {"forces_N": list(base.forces), "cache_key": base.key(),
+                 "contact_over_radius_reached": float(
+                     record.contact_curve(base_result.curve)[1][-1] / material.radius)},
         "levels": {**levels, "achieved_contact_over_radius": [
             float(10.0 ** row[f"contact_{k}"]) for k in range(record.LEVELS)]},
         "repeated_history_forces_N": list(cyclic.forces),
-        "cache_keys": [j.key() for j in [*probes, *jobs, cyclic]],
+        "cache_keys": [j.key() for j in [*probes, base, *jobs, cyclic]],
         "fe_code_hash": every[0].summary["identity"]["fe_code"],
         "elements": [r.summary["mesh"]["elements"] for r in every],
         "solves": [(r.summary.get("step_control") or {}).get("solves") for r in every],
@@ -111,6 +118,22 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
         "warnings": sorted({w for r in every for w in r.summary.get("warnings", [])}),
     }
     return row, info
+
+
+def _level_curve(material, base_result, probe_results) -> tuple[np.ndarray, np.ndarray]:
+    """The a(F) the level rule reads: the base's (``record.contact_curve``), or, where the
+    base's mesh resolves no contact at the lowest level's force (a deep base's first steps),
+    the base's merged with the probes' below its first resolved contact."""
+    force, radius = record.contact_curve(base_result.curve)
+    try:
+        record.lowest_contact(material, force, radius)
+        return force, radius
+    except InputError:
+        pass
+    low_force, low_radius = record.contact_curve(*[r.curve for r in probe_results])
+    below = low_force < force[0]
+    return (np.concatenate([low_force[below], force]),
+            np.maximum.accumulate(np.concatenate([low_radius[below], radius])))
 
 
 def _snapshots_for(base, branches, cache: Path, progress: bool) -> None:
