@@ -175,16 +175,20 @@ def validity_force(material: Material) -> float:
     return low
 
 
-# The probes that find a point's forces are run on this mesh (with the point's other settings):
-# they only place the base's force, whose own curve then places the levels (``base_force``).
+# The probes that find a point's forces only place the base's force (``base_force``), whose own
+# curve then places the levels: they run on the pilot's settings (coarse mesh, "yield" meshes,
+# fixed steps; 5-12 s a probe in the pilot), a few per cent off the FE of record in a(F), which
+# moves only where the base ends (aimed at 1.1 x the top target). On the FE of record's own
+# controls a coarse probe took 7 min (the centre point's first, to 78.7 kN).
 PROBE_MESH = "coarse"
 
 
 def probe_settings(settings: FeSettings) -> FeSettings:
-    """The FE settings of a point's probes: the point's, on ``PROBE_MESH``."""
+    """The FE settings of a point's probes: the point's, with the pilot's mesh, mesh rule, step
+    control and step rule (``PILOT_FE``)."""
     from dataclasses import replace
 
-    return replace(settings, mesh=PROBE_MESH)
+    return replace(settings, **PILOT_FE)
 
 
 def probe_job(point: RecordPoint, settings: FeSettings, force: float | None = None,
