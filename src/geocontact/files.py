@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
-from .errors import InputError
+from .errors import InputError, interrupts_held
 
 
 def provenance(command: str, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -134,11 +134,12 @@ def atomic_path(path: str | Path, what: str = "output") -> Iterator[Path]:
                                dir=path.parent)
     os.close(fd)
     try:
-        yield Path(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone to read
-        os.replace(tmp, path)
+        with interrupts_held():  # an interrupt comes after the file, not inside its writer
+            yield Path(tmp)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are for everyone
+            os.replace(tmp, path)
     finally:
         Path(tmp).unlink(missing_ok=True)
 
