@@ -335,9 +335,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True, help="corpus folder")
     parser.add_argument("--base", default=str(DEFAULT_BASE),
                         help="a valid parameter file with every optional field set")
-    args = parser.parse_args(argv)
 
     def run() -> None:
+        args = parser.parse_args(argv)  # a bad flag is one line, not a traceback
         if not Path(args.base).exists():
             raise InputError(f"--base: file not found: {args.base}")
         load_params(args.base)

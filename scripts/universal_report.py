@@ -53,9 +53,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--dataset", default=None)
     parser.add_argument("--cache", default="out/cache/universal")
-    args = parser.parse_args(argv)
 
     def run() -> int:
+        args = parser.parse_args(argv)  # a bad flag is one line, not a traceback
         import matplotlib
 
         matplotlib.use("Agg")

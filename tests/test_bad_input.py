@@ -286,6 +286,18 @@ def test_generators_report_bad_input_in_one_line(tmp_path, capsys, module):
     assert not (tmp_path / "out.json").exists()
 
 
+@pytest.mark.parametrize("module", ["make_bad_law_documents", "universal_report",
+                                    "verify_universal", "verify_envelope_control"])
+def test_scripts_report_a_bad_flag_in_one_line(capsys, module):
+    """Their parsers raise InputError, so they parse inside run_reporting_errors: a bad or
+    missing flag is one line and exit code 2, never a traceback."""
+    import importlib
+
+    script = importlib.import_module(module)  # scripts/ (tests/conftest.py)
+    assert script.main(["--bogus"]) == 2
+    one_line_error(capsys, "--")
+
+
 def test_golden_per_family_bounds(tmp_path, capsys):
     import make_golden_vectors as golden
 

@@ -423,3 +423,19 @@ def test_the_moved_sources_reproduce_the_runs_of_record():
     from geocontact.fem.identity import REPRODUCED_FE_CODE
 
     assert "209c6c5f6f7c038c" in REPRODUCED_FE_CODE[fe_code_hash()]
+
+
+def test_a_run_whose_fully_plastic_onset_came_off_a_reload_is_not_reused():
+    """FE code before b91341923e5d4e1f read Fp on any step of rising force, a reload below the
+    envelope too: such a run is not reused; an onset on virgin loading (or none) is."""
+    from geocontact.fem.identity import _onset_off_virgin_loading
+    from geocontact.fem.result import FemResult
+
+    force = np.array([0.0, 5.0, 10.0, 0.0, 0.3, 10.0, 0.0])
+
+    def result(bracket):
+        return FemResult(curve={"force_N": force}, summary={"fully_plastic_bracket_N": bracket})
+
+    assert _onset_off_virgin_loading(result([0.0, 0.3]))
+    assert not _onset_off_virgin_loading(result([5.0, 10.0]))  # step 2: virgin
+    assert not _onset_off_virgin_loading(result(None))

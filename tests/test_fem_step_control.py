@@ -215,6 +215,82 @@ def test_sub_steps_end_on_the_requested_forces_and_a_failed_solve_is_cut():
         math.log(ADAPTIVE_FIRST_RATIO) * ADAPTIVE_CUT ** fem_run.MAX_CUTBACKS, rel=0.1)
 
 
+class _DentSolver(_Solver):
+    """A reload over a flattened dent: the edge sweeps back (a ~ F^(1/2)) while the plastic flow
+    goes on at a trickle (the plastic bound never binds)."""
+
+    def solve_step(self, state, force):
+        done = super().solve_step(state, force)
+        return dataclasses.replace(done, plastic_dissipation=1.0 + 1e-9 * force,
+                                   work=10.0 + force)
+
+
+def test_the_envelope_control_lets_a_reload_over_the_dent_through_and_loads_fresh_surface_alike():
+    """Below the largest force reached (the envelope), "envelope" counts only the edge's
+    advance beyond the largest contact radius reached: a reload over the dent is not cut by the
+    edge bound, which cuts the same reload under "dissipation" into solves of a tenth of an
+    element's advance; from the envelope on, the two take the same solves."""
+    ends = np.arange(0.0, 0.05, 1e-5)  # fine surface elements: the edge bound binds
+
+    def reload(step_control, envelope, start, target):
+        solver = _DentSolver(fails_above=10.0)
+        control = AdaptiveSteps(1.0, YIELD_STRAIN, ends, math.log(ADAPTIVE_MAX_RATIO),
+                                step_control)
+        control.log_ratio = math.log(1.02)
+        state = _State(start, np.array([0.01 * math.sqrt(start)]), plastic_dissipation=1.0,
+                       work=10.0 + start)
+        done = fem_run._advance_adaptive(solver, state, target, 1, control, envelope)
+        assert done.force == target
+        return solver.solves, control.limited_by
+
+    top = (100.0, 1e-3 * math.sqrt(100.0))  # the envelope: F and a at the largest step end
+    old, old_by = reload("dissipation", None, 2.0, 50.0)
+    new, new_by = reload("envelope", top, 2.0, 50.0)
+    assert old_by["edge"] > 0.5 * len(old) and new_by["edge"] == 0
+    assert len(new) < len(old) / 4
+    # a new peak: from the envelope on, the same solves (and the same as without an envelope)
+    assert reload("envelope", top, 100.0, 300.0)[0] == reload("dissipation", None, 100.0,
+                                                               300.0)[0]
+    # a reload past the envelope counts the edge's advance beyond it
+    past, past_by = reload("envelope", top, 50.0, 300.0)
+    assert past_by["edge"] > 0 and len(past) > len(reload("envelope", top, 50.0, 100.0)[0])
+
+
+def test_an_envelope_run_without_reloads_is_the_dissipation_run_and_a_cyclic_one_is_not():
+    """A history that never loads again after unloading reaches nothing below its envelope, so
+    "envelope" resolves to "dissipation" there (one run, one key: the ramp a branch follows, a
+    level); a cyclic branch keeps "envelope" and its base is the ramp's "dissipation" run."""
+    from geocontact.fem.run import _envelope
+    from geocontact.fem.settings import reloads, resolved_step_control
+
+    assert not reloads([0.0, 5.0, 10.0, 0.0]) and reloads([0.0, 5.0, 0.0, 5.0])
+    assert not reloads([0.0, 5.0, 5.0, 2.0, 0.0]) and reloads([0.0, 5.0, 2.0, 2.5])
+    assert resolved_step_control("envelope", [0.0, 5.0, 0.0]) == "dissipation"
+    assert resolved_step_control("envelope", [0.0, 5.0, 0.0, 5.0]) == "envelope"
+    assert resolved_step_control("adaptive", [0.0, 5.0, 0.0, 5.0]) == "adaptive"
+    material = preset("reference")
+    plain = FeRunIdentity.of(material, [0.0, 10.0, 0.0])
+    assert FeRunIdentity.of(material, [0.0, 10.0, 0.0], step_control="envelope").key() \
+        == plain.key()
+    assert FemJob(material, (0.0, 10.0, 0.0), step_control="envelope").key() == plain.key()
+    cyclic = FeRunIdentity.of_settings(material, [0.0, 5.0, 0.0, 5.0, 0.0],
+                                       FeSettings(step_control="envelope"),
+                                       follows=((0.0, 10.0), 3))
+    assert cyclic.inputs()["step_control"] == "envelope"
+    assert cyclic.base().key() == FeRunIdentity.of(material, [0.0, 10.0]).key()
+    level = FeRunIdentity.of_settings(material, [0.0, 5.0, 0.0],
+                                      FeSettings(step_control="envelope"),
+                                      follows=((0.0, 10.0), 3))
+    assert level.inputs()["step_control"] == "dissipation"
+    job = FemJob(material, (0.0, 5.0, 0.0, 5.0, 0.0), step_control="envelope",
+                 follows=((0.0, 10.0), 3))
+    assert job.base().key() == FemJob(material, (0.0, 10.0)).key()
+    rows = [[0, 0.0, 0.0, 0.0], [1, 5.0, 1.0, 2e-3], [2, 0.0, 0.5, 1e-3], [3, 4.0, 0.9, 1.9e-3]]
+    rows = [r + [0.0] * 8 for r in rows]
+    assert _envelope(rows, _control(step_control="envelope")) == (5.0, 2e-3)
+    assert _envelope(rows, _control(step_control="dissipation")) is None
+
+
 def test_a_coarse_run_is_converged_in_the_load_step_where_fixed_steps_are_not(tmp_path,
                                                                               monkeypatch):
     """The weak grain 0 -> 0.3 N -> 0 (F/Fy ~ 110, perfectly plastic flattening), coarse
@@ -253,10 +329,10 @@ def test_a_coarse_run_is_converged_in_the_load_step_where_fixed_steps_are_not(tm
 
     real = fem_run._advance_adaptive
 
-    def interrupted(solver, state, target, k, control):
+    def interrupted(solver, state, target, k, control, *envelope):
         if k == 3:
             raise KeyboardInterrupt
-        return real(solver, state, target, k, control)
+        return real(solver, state, target, k, control, *envelope)
 
     out = tmp_path / "adaptive"
     with monkeypatch.context() as m:
@@ -294,7 +370,7 @@ def test_the_step_control_is_recorded_against_its_first_default_and_refused_in_o
     assert not any("step control" in w for w in plain.settings.describe(10.0))
     assert "adaptive step control" in eqps.settings.describe(10.0)
     with pytest.raises(InputError, match=r"^step_control: unknown 'smart' \(allowed: fixed, "
-                                         r"adaptive, dissipation\)$"):
+                                         r"adaptive, dissipation, envelope\)$"):
         FeSettings(step_control="smart")
     parser = argparse.ArgumentParser()
     FeSettings.add_model_flags(parser)

@@ -288,6 +288,12 @@ def test_fully_plastic_onset_interpolates_the_first_loading_crossing():
     assert onset["bracket_N"] == [200.0, 300.0]
     # an unloading step never counts, and a history that never gets there gives None
     assert fully_plastic_onset([0, 10, 5], [0, 1, 0.5], [0, 0.5, 1.0]) is None
+    # a reload below the envelope is not virgin loading, however yielded its small contact
+    assert fully_plastic_onset([0, 10, 0, 0.3, 10], [0, 1, 0.4, 0.5, 1], [0, 0.5, 0, 1.0, 0.5]
+                               ) is None
+    onset = fully_plastic_onset([0, 10, 0, 5, 20], [0, 1, 0.4, 0.7, 2], [0, 0.5, 0, 1.0, 1.0],
+                                threshold=0.95)
+    assert onset["bracket_N"] == [5.0, 20.0]  # past the envelope: virgin again
     assert fully_plastic_onset([0, 10, 20], [0, 1, 2], [0, 0.5, 0.9]) is None
 
 

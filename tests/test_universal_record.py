@@ -56,10 +56,11 @@ def test_today_design_is_unchanged():
 def test_fe_settings_of_record_and_pilot_overrides():
     s = record.fe_settings()
     assert (s.mesh, s.kinematics, s.kernels) == ("default", "finite", "compiled")
-    # the record runs the FE's verified defaults (issue 36), whatever they become
+    # the record runs the FE's verified mesh rule (issue 36), whatever it becomes, and the
+    # "envelope" control: the default "dissipation" on runs that never reload (the same runs)
     defaults = FeSettings()
-    assert (s.mesh_rule, s.step_control) == (defaults.mesh_rule, defaults.step_control)
-    assert (s.mesh_rule, s.step_control) == ("auto", DEFAULT_STEP_CONTROL)
+    assert s.mesh_rule == defaults.mesh_rule == "auto"
+    assert s.step_control == "envelope" and DEFAULT_STEP_CONTROL == "dissipation"
     # the pilot's settings are the ones its committed provenance records
     pilot = record.fe_settings(**record.PILOT_FE)
     assert (pilot.mesh, pilot.kinematics, pilot.kernels) == ("coarse", "finite", "compiled")
@@ -158,6 +159,14 @@ def test_levels_are_branches_of_the_base_at_its_nearest_steps():
         cyclic.follows[1]]
     assert abs(math.log(cyclic.forces[1] / half)) <= math.log(force[1] / force[0]) / 2 + 1e-12
     assert len(cyclic.forces) == 21  # ten cycles 0 -> F -> 0
+    # the levels (two cycles) and the repeated history reload: "envelope"; the base never does:
+    # the default control's run, key and snapshots, whichever of the two the record asks for
+    for branch in (*runs, cyclic):
+        assert branch.identity().settings.step_control == "envelope"
+        assert branch.identity().base().key() == base.key()
+    plain = record.fe_settings(mesh="coarse", step_control=DEFAULT_STEP_CONTROL)
+    assert base.key() == record.base_job(point, plain, float(force[-1])).key()
+    assert base.identity().settings.step_control == DEFAULT_STEP_CONTROL
     # steps too far apart for the levels: one line
     with pytest.raises(InputError, match="too far apart"):
         record.level_steps([1.0, 1.01], {"force_N": np.array([0.0, 1.0, 10.0])})
@@ -296,6 +305,21 @@ def test_the_campaign_flags_reach_the_settings(monkeypatch):
                           "--mesh-rule", "yield", "--step-control", "fixed",
                           "--step-rule", "segment"]) == 0
     assert seen == [record.fe_settings(), record.fe_settings(**record.PILOT_FE)]
+
+
+def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch):
+    """Every point of the dataset is of one FE: a point whose provenance records other
+    settings (the repeated history made with "dissipation" before "envelope") is not done."""
+    from geocontact.universal import record_campaign
+
+    settings = record.fe_settings()
+    older = record.fe_settings(step_control=DEFAULT_STEP_CONTROL)
+    (tmp_path / "provenance.json").write_text(json.dumps({"points": {
+        "1": {"fe_settings": settings.as_dict()}, "3": {"fe_settings": older.as_dict()}}}))
+    monkeypatch.setattr(record_campaign, "read_points",
+                        lambda directory: {"index": np.array([1.0, 3.0, 5.0])})
+    assert record_campaign._done(tmp_path, settings) == {1}
+    assert record_campaign._done(tmp_path, older) == {3}
 
 
 def test_processes_adding_points_to_one_dataset_take_turns(tmp_path):

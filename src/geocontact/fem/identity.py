@@ -23,7 +23,7 @@ import hashlib
 import json
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -39,7 +39,7 @@ from .result import (
     TOLERANCE,
     FemResult,
 )
-from .settings import FeSettings
+from .settings import FeSettings, resolved_step_control
 
 SCHEMA = "geocontact.fe-identity/1"
 _SETTINGS = frozenset(FeSettings.names())
@@ -253,6 +253,19 @@ _BRANCHES = ("the opt-in branch added (run_history follows=(base forces, step), 
              "(fem.run.run_schedule), and its steps, checkpoints and summary are as before")
 _reproduces(_BRANCH_CODE, _DISSIPATION_CODE, _BRANCHES)
 
+# The "envelope" control (issues 36 and 37, docs/fem.md "The envelope control"): the repeated
+# history's reloads are not cut by the edge bound where the edge re-enters the flattened dent.
+_ENVELOPE_CODE = "b91341923e5d4e1f"
+_ENVELOPE = ("the opt-in load-step control 'envelope' added (step_control='envelope', "
+             "fem.run.ENVELOPE_CONTROLS; resolved to 'dissipation' for a history that never "
+             "reloads, fem.settings.resolved_step_control, so such a run keeps its key): a run "
+             "with any other control, and one whose history never reloads, is solved, "
+             "checkpointed and summarised as before; and the fully plastic onset read on "
+             "virgin loading only (fem.run.fully_plastic_onset): a run whose onset the older "
+             "code read off a reload is not reused (_onset_off_virgin_loading; none of the 128 "
+             "committed runs), every other run's summary is as before")
+_reproduces(_ENVELOPE_CODE, _BRANCH_CODE, _ENVELOPE)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -321,6 +334,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_BRANCH_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_BRANCH_CODE, *REPRODUCED_FE_CODE[_BRANCH_CODE])},
+    # and under the FE code of the envelope control (reruns under it)
+    (_ENVELOPE_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_ENVELOPE_CODE, *REPRODUCED_FE_CODE[_ENVELOPE_CODE])},
 }
 
 
@@ -427,7 +444,8 @@ class FeRunIdentity:
         """``follows``: None, or (base forces, step) of a branch (``fem.run.run_history``):
         the base is a loading ramp (0, F), the step a whole number >= 1, and the branch's
         history starts at 0 and goes to the step's force first. The settings are resolved on
-        the base's forces (its mesh is the base's)."""
+        the base's forces (its mesh is the base's), the load-step control on the branch's own
+        (``resolved_step_control``: its reloads are its own)."""
         forces = tuple(validate_forces(list(forces)))
         if follows is None:
             return cls(material, forces, settings.resolved(forces, material))
@@ -435,13 +453,19 @@ class FeRunIdentity:
         if len(forces) < 2 or forces[1] <= 0.0:
             raise InputError("follows: a branch's history starts at 0 N and goes first to the "
                              f"force of the base's step {step}; got {list(forces)!r}")
-        return cls(material, forces, settings.resolved(base, material), (base, step))
+        resolved = settings.resolved(base, material)
+        resolved = replace(resolved, step_control=resolved_step_control(settings.step_control,
+                                                                        forces))
+        return cls(material, forces, resolved, (base, step))
 
     def base(self) -> FeRunIdentity:
-        """The identity of the run a branch follows (``follows``)."""
+        """The identity of the run a branch follows (``follows``): its settings with the
+        load-step control resolved on the base's ramp."""
         if self.follows is None:
             raise ValueError("FeRunIdentity.base: not a branch")
-        return FeRunIdentity(self.material, self.follows[0], self.settings)
+        ramp = self.follows[0]
+        return FeRunIdentity(self.material, ramp, replace(
+            self.settings, step_control=resolved_step_control(self.settings.step_control, ramp)))
 
     def __getattr__(self, name: str) -> Any:
         if name in _SETTINGS:
@@ -644,6 +668,8 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
                             agreement=agreement)
         if reason is None and rounding and directory.name != result.summary["identity"]["key"]:
             reason = "not in the folder of its key"
+        if reason is None and _onset_off_virgin_loading(result):
+            reason = "its fully plastic onset was read off a reload (older FE code)"
         if reason is None and fields:
             names = result.summary.get("fields")  # a run with fields has at least one
             if not isinstance(names, list) or not names or not all(
@@ -654,6 +680,21 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
     if why is not None:
         why.append(reason)
     return None
+
+
+def _onset_off_virgin_loading(result: FemResult) -> bool:
+    """Whether the run's fully plastic onset (summary ``fully_plastic_bracket_N``) was read on a
+    step that is not virgin loading: FE code before b91341923e5d4e1f read it on any step of
+    rising force, a reload below the envelope too (fem.run.fully_plastic_onset). Such a run is
+    not reused (the reproduction of older runs holds for every other one: none of the 128
+    committed runs had it)."""
+    bracket = result.summary.get("fully_plastic_bracket_N")
+    if not bracket:
+        return False
+    force = np.asarray(result.curve["force_N"], dtype=float)
+    steps = np.flatnonzero(force == bracket[1])
+    return steps.size > 0 and all(force[k] <= np.max(force[:k], initial=-np.inf)
+                                  for k in steps)
 
 
 def recorded_identities(cache: str | Path) -> list[tuple[Path, Any]]:

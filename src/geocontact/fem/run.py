@@ -391,8 +391,20 @@ ADAPTIVE_MIN_RATIO = 1.0 + 1e-6  # a step that must be smaller than this fails t
 # the same answer within 0.07 %).
 DISSIPATION_INCREMENT = 0.1  # plastic dissipation of one solve / dissipation before it ...
 DISSIPATION_FLOOR = 0.1  # ... or this fraction of the work of the force, if more
-# The load-step controls AdaptiveSteps carries out, and the plastic measure each bounds.
-ADAPTIVE_MEASURES = {"adaptive": "eqps", "dissipation": "dissipation"}
+# The control "envelope" (issue 36/37: the reloads of a cyclic history) is "dissipation" with the
+# edge bound counting only the contact edge's advance onto fresh surface below the envelope: a
+# solve that starts below the largest force the run has reached at the end of a load step
+# counts the edge's advance beyond the largest contact radius of those step ends, not its
+# advance over the dent the envelope already flattened. A reload of the weak grain's repeated
+# history to 410 kN (point 0 of the campaign of record) re-enters that dent node by node from
+# a/R 0.129 to 0.227 at tiny plastic flow (0.8 % of the dissipation); the edge bound, meant for
+# the plastic front of first loading, cut each reload into ~250 solves of 7 Newton iterations
+# (1340 of 4221 solves edge-limited, steps down to x1.0000028). On a loading solve from the
+# envelope (a monotonic ramp, a level, a new peak) the two controls are the same solves.
+ADAPTIVE_MEASURES = {"adaptive": "eqps", "dissipation": "dissipation",
+                     "envelope": "dissipation"}
+# The controls whose edge bound counts only fresh surface below the envelope.
+ENVELOPE_CONTROLS = ("envelope",)
 
 
 @dataclasses.dataclass
@@ -513,15 +525,21 @@ class AdaptiveSteps:
 
 def fully_plastic_onset(force, approach, fraction,
                         threshold: float = FULLY_PLASTIC_FRACTION) -> dict[str, Any] | None:
-    """Fp (docs/model.md §4): the first loading step on which the yielded fraction reaches
-    ``threshold``, interpolated linearly in the force (and the approach) from the step before.
+    """Fp (docs/model.md §4): the first step of virgin loading (above every force before it)
+    on which the yielded fraction reaches ``threshold``, interpolated linearly in the force (and
+    the approach) from the step before. A reload below the envelope is not virgin loading: at a
+    small force on the flattened dent the yielded fraction of the small contact can be high
+    (the repeated history of the campaign of record's point 0 read Fp = 0.30 N, below its first
+    yield, off its first reload step).
 
     ``force``, ``approach``, ``fraction``: per step, in step order (curve.csv columns). None if
-    the threshold is never reached on a loading step.
+    the threshold is never reached on a step of virgin loading.
     """
     force, approach, fraction = (np.asarray(x, dtype=float) for x in (force, approach, fraction))
+    top = -math.inf
     for k in range(1, len(force)):
-        if force[k] > force[k - 1] and fraction[k] >= threshold:
+        top = max(top, force[k - 1])
+        if force[k] > top and fraction[k] >= threshold:
             f0, f1 = fraction[k - 1], fraction[k]
             t = min(max((threshold - f0) / (f1 - f0), 0.0), 1.0) if f1 > f0 else 1.0
             return {"force_N": float(force[k - 1] + t * (force[k] - force[k - 1])),
@@ -604,6 +622,9 @@ class _Run:
     def _detect_fully_plastic(self) -> None:
         if self.fully_plastic is not None or len(self.rows) < 2:
             return
+        force = CURVE_COLUMNS.index("force_N")
+        if self.rows[-1][force] <= max(row[force] for row in self.rows[:-1]):
+            return  # not virgin loading (fully_plastic_onset)
         columns = [CURVE_COLUMNS.index(c) for c in
                    ("force_N", "approach_m", "yielded_core_fraction")]
         last_two = np.array(self.rows[-2:])[:, columns]
@@ -974,6 +995,16 @@ def _go_on_from(saved, path: Path, identity, material: Material, linear_solver: 
     return saved, solver
 
 
+def _envelope(rows: list[list[float]], control: AdaptiveSteps) -> tuple[float, float] | None:
+    """(largest force, largest contact radius) of the curve ``rows`` so far (the ends of the
+    load steps: a resumed run or a branch has the same), for a control of ``ENVELOPE_CONTROLS``;
+    None for the others."""
+    if control.control not in ENVELOPE_CONTROLS:
+        return None
+    force, radius = CURVE_COLUMNS.index("force_N"), CURVE_COLUMNS.index("contact_radius_m")
+    return max(row[force] for row in rows), max(row[radius] for row in rows)
+
+
 def snapshot_path(folder: str | Path, step: int) -> Path:
     """The snapshot of a run's state after load step ``step`` in ``folder`` (``run_history``
     ``snapshots``): a checkpoint of the run as it stood then, which a branch starts from."""
@@ -1003,7 +1034,8 @@ def step_loop(p: PreparedRun, started: RunClock, *, keep_states: bool = False,
         for k in range(p.done, len(p.targets)):
             step = k + 1
             if p.control is not None:
-                state = _advance_adaptive(solver, state, p.targets[k], step, p.control)
+                state = _advance_adaptive(solver, state, p.targets[k], step, p.control,
+                                          _envelope(run.rows, p.control))
             elif p.identity.max_step_ratio is None:
                 state = _advance(solver, state, p.targets[k], step)
             else:
@@ -1158,7 +1190,8 @@ def _rescue(solver: ContactSolver, state: State, target: float, step: int,
 
 
 def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: int,
-                      control: AdaptiveSteps) -> State:
+                      control: AdaptiveSteps,
+                      envelope: tuple[float, float] | None = None) -> State:
     """One requested load step with the adaptive control: unloading and loading below the
     first-yield force in one solve (``_advance``, elastic: path independent), loading above it
     through solves sized by ``control`` (``AdaptiveSteps.judge``). A requested step is cut into
@@ -1166,7 +1199,9 @@ def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: 
     that does not converge is tried again at ``ADAPTIVE_CUT`` of its step; after
     ``MAX_CUTBACKS`` such cuts in a row the rest of the step is solved in rescue mode
     (``_advance``). The state returned counts the Newton iterations of all the step's converged
-    solves, the rejected ones too."""
+    solves, the rejected ones too. ``envelope``: (largest force, largest contact radius) of the
+    run's step ends so far, for the "envelope" control (``ENVELOPE_CONTROLS``): a solve that
+    starts below that force counts only the edge's advance beyond that radius."""
     if target <= state.force or target <= control.yield_force:
         control.solves += 1
         return _advance(solver, state, target, step)
@@ -1199,8 +1234,12 @@ def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: 
         control.solves += 1
         iterations += trial.iterations
         trial_edge = solver.contact_radius(trial)
+        if envelope is None or current.force >= envelope[0]:
+            advance = abs(trial_edge - edge)
+        else:  # below the envelope: the edge's advance onto fresh surface only
+            advance = max(0.0, trial_edge - max(edge, envelope[1]))
         accepted, reason = control.judge(
-            used, abs(trial_edge - edge), control.element_at(max(edge, trial_edge)),
+            used, advance, control.element_at(max(edge, trial_edge)),
             float(np.max(trial.eqps - current.eqps, initial=0.0)),
             float(np.max(current.eqps, initial=0.0)), trial.iterations,
             trial.plastic_dissipation - current.plastic_dissipation, current.plastic_dissipation,

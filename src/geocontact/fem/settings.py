@@ -12,6 +12,7 @@ what is allowed, raised when the object is made, before any work.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
@@ -34,8 +35,34 @@ MODEL_FLAGS = ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")
 # cap is given), "adaptive" (sub-steps sized solve by solve from the contact edge's advance,
 # the largest plastic strain increment and Newton's effort: fem.run.AdaptiveSteps, docs/fem.md)
 # or "dissipation" (the same with the plastic dissipation increment in place of the largest
-# plastic strain increment: fem.run.DISSIPATION_INCREMENT; the default).
-STEP_CONTROLS = ("fixed", "adaptive", "dissipation")
+# plastic strain increment: fem.run.DISSIPATION_INCREMENT; the default) or "envelope" (the
+# dissipation control whose edge bound counts, below the largest force reached, only the edge's
+# advance beyond the largest contact radius reached: fem.run.ENVELOPE_CONTROLS; for cyclic
+# histories, whose reloads re-enter the flattened dent).
+STEP_CONTROLS = ("fixed", "adaptive", "dissipation", "envelope")
+# The controls that solve a history which never loads again after unloading as another does
+# (the same solves: below the envelope is only reached by reloading): resolved to it before the
+# identity is made, so such a run is one run, with one key, whichever of the two was asked.
+SAME_WITHOUT_RELOADS = {"envelope": "dissipation"}
+
+
+def reloads(forces) -> bool:
+    """Whether the force history ``forces`` loads again after unloading."""
+    down = False
+    for a, b in itertools.pairwise(forces):
+        if b < a:
+            down = True
+        elif b > a and down:
+            return True
+    return False
+
+
+def resolved_step_control(step_control: str, forces) -> str:
+    """The load-step control a run of ``forces`` records: ``SAME_WITHOUT_RELOADS``' stand-in
+    when the history never reloads (``reloads``), else ``step_control``."""
+    if step_control in SAME_WITHOUT_RELOADS and not reloads(forces):
+        return SAME_WITHOUT_RELOADS[step_control]
+    return step_control
 DEFAULT_STEP_CONTROL = "dissipation"
 # The settings added after the first identity record: recorded only when not at their default,
 # so the keys (cache entries, checkpoints) of earlier runs stay valid.
@@ -130,10 +157,11 @@ class FeSettings:
     (fem.run.load_schedule). ``max_step_ratio``: None or a cap in (1, 2] on the loading force
     ratio of one solve above the first-yield force (fem.run.sub_steps; with the adaptive control
     its largest step, default fem.run.ADAPTIVE_MAX_RATIO). ``step_control``: "dissipation" (the
-    default) | "adaptive" (fem.run.AdaptiveSteps) | "fixed" (``STEP_CONTROLS``). ``contact``:
-    "node" | "facet". ``kernels``: "numpy" | "compiled" (small or finite strain, node contact;
-    fem.compiled) | None, the contact's default (``default_kernels``: compiled with the node
-    contact, numpy with the facet contact), which the object holds in its place once made.
+    default) | "envelope" | "adaptive" (fem.run.AdaptiveSteps) | "fixed" (``STEP_CONTROLS``).
+    ``contact``: "node" | "facet". ``kernels``: "numpy" | "compiled" (small or finite strain,
+    node contact; fem.compiled) | None, the contact's default (``default_kernels``: compiled
+    with the node contact, numpy with the facet contact), which the object holds in its place
+    once made.
     """
 
     mesh: str = "coarse"
@@ -184,7 +212,8 @@ class FeSettings:
         """The settings of a run of the force history ``forces`` with the defaults resolved
         (steps_per_segment the preset's, mesh_force the largest force, the mesh rule "auto" the
         one ``chosen_mesh_rule`` gives for ``material`` at mesh_force), numbers as floats and
-        ints, so two spellings of the same run are equal."""
+        ints, so two spellings of the same run are equal; the control "envelope" the one it
+        solves alike when ``forces`` never reload (``resolved_step_control``)."""
         fmax = max(forces)
         mesh_force = fmax if self.mesh_force is None else self.mesh_force
         if mesh_force < fmax:
@@ -199,7 +228,8 @@ class FeSettings:
                                  "given (give a concrete rule: " + ", ".join(MESH_RULES) + ")")
             rule = chosen_mesh_rule(material, mesh_force)[0]
         return replace(self, steps_per_segment=int(steps), tolerance=float(self.tolerance),
-                       mesh_rule=rule,
+                       mesh_rule=rule, step_control=resolved_step_control(self.step_control,
+                                                                          forces),
                        mesh_force=float(mesh_force),
                        max_step_ratio=(None if self.max_step_ratio is None
                                        else float(self.max_step_ratio)))

@@ -166,14 +166,16 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
                progress: bool = True, only: list[int] | None = None) -> list[int]:
     """Run the first ``count`` points of the design of record not yet in the dataset (or the
     points ``only`` of them); returns the indices added. A point whose FE fails is recorded
-    under ``failed`` and retried by the next call."""
+    under ``failed`` and retried by the next call. A point made with other FE settings than
+    ``settings`` (its provenance's ``fe_settings``) is made again (``_done``): its runs that
+    those settings leave as they were come from the cache."""
     from ..fem.campaign import CampaignError
     from ..fem.identity import fe_code_hash
 
     settings = settings or record.fe_settings()
     directory, cache = Path(directory), Path(cache_dir)
     directory.mkdir(parents=True, exist_ok=True)
-    done = {int(i) for i in read_points(directory)["index"]}
+    done = _done(directory, settings)
     todo = [p for p in record.design_points(count)
             if p.index not in done and (only is None or p.index in only)]
     if progress:
@@ -210,6 +212,18 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
                   f"s CPU, {info['point_wall_time_s']:.0f} s wall; top a/R "
                   f"{info['levels']['achieved_contact_over_radius'][-1]:.3f})", file=sys.stderr)
     return added
+
+
+def _done(directory: Path, settings: FeSettings) -> set[int]:
+    """The points of the dataset made with ``settings`` (their provenance's ``fe_settings``):
+    a change of the FE of record (e.g. the step control "envelope" for the repeated history)
+    makes the others again, so every point of the dataset is of one FE."""
+    import json
+
+    made = _provenance(directory)["points"]
+    wanted = json.loads(json.dumps(settings.as_dict()))
+    return {int(i) for i in read_points(directory)["index"]
+            if made.get(str(int(i)), {}).get("fe_settings") == wanted}
 
 
 def _prepare(directory: Path, progress: bool) -> None:
