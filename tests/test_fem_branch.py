@@ -133,3 +133,29 @@ def test_a_campaign_starts_branches_from_their_bases_snapshots(material, base, t
                         **SETTINGS)
     assert again.summary["branch"]["started_from_base_snapshot"] is False
     np.testing.assert_array_equal(again.curve["approach_m"], branch.curve["approach_m"])
+
+
+def test_an_adopted_checkpoint_brings_its_snapshots(material, tmp_path):
+    """A base under way when the FE code changed (to code that reproduces its runs) goes on
+    from its checkpoint under the new key, and its snapshots come with it, so its branches
+    start from them instead of a run of the base again."""
+    import json
+
+    from geocontact.fem.campaign import _adopt_checkpoint
+    from geocontact.fem.checkpoint import checkpoint_path
+    from geocontact.fem.identity import REPRODUCED_FE_CODE, fe_code_hash, identity_key
+
+    job = FemJob(material, (0.0, 5.0), mesh="coarse", snapshots=True)
+    record = job.identity().to_dict()
+    record["fe_code"] = next(iter(REPRODUCED_FE_CODE[fe_code_hash()]))  # an older, reproduced
+    record["key"] = identity_key(record)
+    old = tmp_path / f"{record['key']}.checkpoint.npz"
+    np.savez(old, identity=np.array(json.dumps(record)))
+    steps = tmp_path / f"{record['key']}.steps"
+    steps.mkdir()
+    (steps / "step_00003.checkpoint.npz").write_bytes(b"a snapshot")
+    _adopt_checkpoint(tmp_path, job, progress=False)
+    assert checkpoint_path(tmp_path / job.key()).is_file() and not old.exists()
+    assert (snapshots_folder(tmp_path, job) / "step_00003.checkpoint.npz").read_bytes() \
+        == b"a snapshot"
+    assert not steps.exists()

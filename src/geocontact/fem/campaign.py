@@ -273,7 +273,9 @@ def _progress_or_none(checkpoint: Path) -> dict | None:
 def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
     """Move the checkpoint of the same run under another key (inputs equal to rounding, or
     written by FE code whose runs the current code reproduces: ``fem.reuse.difference``) to
-    this job's checkpoint path, with its pending ParaView folder, so the run goes on from it."""
+    this job's checkpoint path, with its pending ParaView folder and its snapshots
+    (``snapshots_folder``: the branches that follow it start from them), so the run goes on
+    from it."""
     target = checkpoint_path(_cached(cache, job))
     if target.exists():
         return
@@ -290,6 +292,9 @@ def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
         path.rename(target)
         if fields.exists():
             fields.rename(fields_beside(target))
+        steps, own_steps = cache / f"{recorded['key']}.steps", snapshots_folder(cache, job)
+        if steps.is_dir() and not own_steps.exists():
+            steps.rename(own_steps)
         if progress:
             print(f"campaign: {job.name()}: going on from the checkpoint of {recorded['key']}, "
                   "the same run (inputs equal to rounding, or FE code whose runs the current "
