@@ -28,7 +28,6 @@ quantity of every cycle, 1 otherwise.
 from __future__ import annotations
 
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -36,8 +35,9 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from geocontact import __version__  # noqa: E402
 from geocontact.errors import ArgumentParser, run_reporting_errors  # noqa: E402
+from geocontact.fem.campaign import FemJob, run_campaign  # noqa: E402
 from geocontact.fem.identity import compiled_code_hash, fe_code_hash  # noqa: E402
-from geocontact.fem.run import run_history  # noqa: E402
+from geocontact.fem.settings import FeSettings  # noqa: E402
 from geocontact.files import write_json_atomic  # noqa: E402
 from geocontact.grain.material import Material  # noqa: E402
 from geocontact.universal.record import fe_settings  # noqa: E402
@@ -51,14 +51,15 @@ COMPARED = ("plastic_work_J", "residual_approach_m", "max_approach_m", "loop_wor
 
 
 def run_one(material: Material, forces: list[float], mesh: str, control: str,
-            ratio: float | None) -> dict:
+            ratio: float | None, cache: Path) -> dict:
+    """One run in the FE cache ``cache`` (a run of FE code the current code reproduces is
+    reused: ``fem.campaign.run_campaign``); its CPU time is its own (summary.json)."""
     settings = fe_settings(mesh=mesh, step_control=control, max_step_ratio=ratio)
-    cpu = time.process_time()
-    result = run_history(material, forces, settings=settings, write_fields=False)
-    cpu = time.process_time() - cpu
-    s = result.summary
-    return {"step_control": control, "max_step_ratio": ratio, "cpu_time_s": cpu,
-            "newton_iterations": s["newton_iterations"],
+    job = FemJob(material, tuple(forces), label=f"{control} {ratio}",
+                 **{name: getattr(settings, name) for name in FeSettings.names()})
+    s = run_campaign([job], cache, workers=1, progress=False)[0].summary
+    return {"step_control": control, "max_step_ratio": ratio, "cpu_time_s": s["cpu_time_s"],
+            "fe_code": s["identity"]["fe_code"], "newton_iterations": s["newton_iterations"],
             "solves": s["step_control"]["solves"],
             "rejected_solves": s["step_control"]["rejected_solves"],
             "next_step_set_by": s["step_control"]["next_step_set_by"],
@@ -86,6 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--tolerance", type=float, default=0.01,
                    help="allowed difference, relative to the first cycle's value")
     p.add_argument("--json", type=Path, help="write the comparison here")
+    p.add_argument("--cache", type=Path, default=Path("out/cache/envelope-control"),
+                   help="FE result cache (runs found there are not made again)")
 
     def run() -> int:
         args = p.parse_args(argv)
@@ -96,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
                                      ("envelope", "envelope", None),
                                      ("envelope-fine", "envelope", args.fine_ratio)):
             print(f"{name}: running", file=sys.stderr, flush=True)
-            runs[name] = run_one(material, forces, args.mesh, control, ratio)
+            runs[name] = run_one(material, forces, args.mesh, control, ratio, args.cache)
             r = runs[name]
             print(f"{name}: {r['solves']} solves, {r['newton_iterations']} Newton iterations, "
                   f"CPU {r['cpu_time_s']:.0f} s", file=sys.stderr, flush=True)

@@ -159,3 +159,29 @@ def test_an_adopted_checkpoint_brings_its_snapshots(material, tmp_path):
     assert (snapshots_folder(tmp_path, job) / "step_00003.checkpoint.npz").read_bytes() \
         == b"a snapshot"
     assert not steps.exists()
+
+
+def test_the_snapshots_of_a_finished_base_are_found_under_an_older_key(material, tmp_path):
+    """A base finished (and its snapshots saved) under FE code that the current code
+    reproduces: its branches start from those snapshots (the folder renamed to the base's key
+    now), not from a run of the base again; another run's snapshots are left alone."""
+    import json
+
+    from geocontact.fem.campaign import adopt_snapshots
+    from geocontact.fem.identity import REPRODUCED_FE_CODE, fe_code_hash, identity_key
+
+    job = FemJob(material, (0.0, 5.0), mesh="coarse", snapshots=True)
+
+    def saved(forces):
+        record = FemJob(material, forces, mesh="coarse").identity().to_dict()
+        record["fe_code"] = next(iter(REPRODUCED_FE_CODE[fe_code_hash()]))
+        record["key"] = identity_key(record)
+        folder = tmp_path / f"{record['key']}.steps"
+        folder.mkdir()
+        np.savez(folder / "step_00002.checkpoint.npz", identity=np.array(json.dumps(record)))
+        return folder
+
+    other, same = saved((0.0, 6.0)), saved((0.0, 5.0))
+    assert adopt_snapshots(tmp_path, job) == snapshots_folder(tmp_path, job)
+    assert (snapshots_folder(tmp_path, job) / "step_00002.checkpoint.npz").is_file()
+    assert not same.exists() and other.is_dir()

@@ -426,7 +426,7 @@ def test_the_moved_sources_reproduce_the_runs_of_record():
 
 
 def test_a_run_whose_fully_plastic_onset_came_off_a_reload_is_not_reused():
-    """FE code before b91341923e5d4e1f read Fp on any step of rising force, a reload below the
+    """FE code before 4a1e7207570fa809 read Fp on any step of rising force, a reload below the
     envelope too: such a run is not reused; an onset on virgin loading (or none) is."""
     from geocontact.fem.identity import _onset_off_virgin_loading
     from geocontact.fem.result import FemResult

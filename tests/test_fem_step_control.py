@@ -243,7 +243,8 @@ def test_the_envelope_control_lets_a_reload_over_the_dent_through_and_loads_fres
         assert done.force == target
         return solver.solves, control.limited_by
 
-    top = (100.0, 1e-3 * math.sqrt(100.0))  # the envelope: F and a at the largest step end
+    # the envelope: F and a at the largest step end, D and W where the reload began
+    top = fem_run.Envelope(100.0, 1e-3 * math.sqrt(100.0), 1.0, 12.0)
     old, old_by = reload("dissipation", None, 2.0, 50.0)
     new, new_by = reload("envelope", top, 2.0, 50.0)
     assert old_by["edge"] > 0.5 * len(old) and new_by["edge"] == 0
@@ -251,6 +252,24 @@ def test_the_envelope_control_lets_a_reload_over_the_dent_through_and_loads_fres
     # a new peak: from the envelope on, the same solves (and the same as without an envelope)
     assert reload("envelope", top, 100.0, 300.0)[0] == reload("dissipation", None, 100.0,
                                                                300.0)[0]
+    # the reload's own plastic flow: bounded against the dissipation since the reload began,
+    # not against the run's (first loading's, 100 times larger), which never binds
+    class Reyielding(_DentSolver):
+        def solve_step(self, state, force):
+            done = super().solve_step(state, force)
+            return dataclasses.replace(done, plastic_dissipation=1000.0 + 0.5 * force)
+
+    def plastic_steps(step_control, envelope):
+        control = AdaptiveSteps(1.0, YIELD_STRAIN, np.arange(0.0, 0.05, 1e-2),
+                                math.log(ADAPTIVE_MAX_RATIO), step_control)
+        state = _State(20.0, np.array([0.01 * math.sqrt(20.0)]), plastic_dissipation=1010.0,
+                       work=30.0)
+        fem_run._advance_adaptive(Reyielding(fails_above=10.0), state, 90.0, 1, control,
+                                  envelope)
+        return control.limited_by["plastic"]
+
+    began = fem_run.Envelope(100.0, 1e-3 * math.sqrt(100.0), 1010.0, 30.0)
+    assert plastic_steps("dissipation", None) == 0 and plastic_steps("envelope", began) > 0
     # a reload past the envelope counts the edge's advance beyond it
     past, past_by = reload("envelope", top, 50.0, 300.0)
     assert past_by["edge"] > 0 and len(past) > len(reload("envelope", top, 50.0, 100.0)[0])
@@ -285,9 +304,15 @@ def test_an_envelope_run_without_reloads_is_the_dissipation_run_and_a_cyclic_one
     job = FemJob(material, (0.0, 5.0, 0.0, 5.0, 0.0), step_control="envelope",
                  follows=((0.0, 10.0), 3))
     assert job.base().key() == FemJob(material, (0.0, 10.0)).key()
-    rows = [[0, 0.0, 0.0, 0.0], [1, 5.0, 1.0, 2e-3], [2, 0.0, 0.5, 1e-3], [3, 4.0, 0.9, 1.9e-3]]
-    rows = [r + [0.0] * 8 for r in rows]
-    assert _envelope(rows, _control(step_control="envelope")) == (5.0, 2e-3)
+    # step, force, approach, radius, dissipation (pair), elastic energy, work (pair), ...
+    rows = [[0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [1, 5.0, 1.0, 2e-3, 2.0, 1.0, 3.0],
+            [2, 0.0, 0.5, 1e-3, 2.5, 0.0, 2.5], [3, 4.0, 0.9, 1.9e-3, 2.6, 0.9, 3.6]]
+    rows = [r + [0.0] * 5 for r in rows]
+    control = _control(step_control="envelope")
+    # the reload began at step 2 (half the pair's values: the half model's)
+    assert _envelope(rows, control) == fem_run.Envelope(5.0, 2e-3, 1.25, 1.25)
+    assert _envelope(rows[:3], control) == fem_run.Envelope(5.0, 2e-3, 1.25, 1.25)
+    assert _envelope(rows[:2], control) == fem_run.Envelope(5.0, 2e-3, 0.0, 0.0)
     assert _envelope(rows, _control(step_control="dissipation")) is None
 
 

@@ -302,6 +302,35 @@ def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
         return
 
 
+def adopt_snapshots(cache: str | Path, job: FemJob, progress: bool = False) -> Path:
+    """The snapshots folder of ``job`` (``snapshots_folder``); where there is none, the folder
+    of the same run under another key (its snapshots' identity equal to rounding, or written by
+    FE code whose runs the current code reproduces: ``fem.reuse.difference``) is renamed to it
+    first, so the branches start from those snapshots instead of a run of the base again."""
+    cache = Path(cache)
+    own = snapshots_folder(cache, job)
+    if own.exists():
+        return own
+    identity = job.identity()
+    for folder in sorted(cache.glob("*.steps")):
+        snapshot = next(iter(sorted(folder.glob("step_*.checkpoint.npz"))), None)
+        if snapshot is None:
+            continue
+        try:
+            with np.load(snapshot, allow_pickle=False) as data:
+                recorded = json.loads(str(data["identity"]))
+        except Exception:  # noqa: BLE001 - not a snapshot this campaign can use
+            continue
+        if difference(recorded, identity, rounding=True) is not None:
+            continue
+        folder.rename(own)
+        if progress:
+            print(f"campaign: {job.name()}: its snapshots are those of {recorded['key']}, the "
+                  "same run (FE code whose runs the current code reproduces)", file=sys.stderr)
+        break
+    return own
+
+
 def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
                  scheduler: str | None = None, workers: int | None = None,
                  progress: bool = True,
@@ -356,6 +385,8 @@ def run_campaign(jobs: list[FemJob], cache_dir: str | Path = DEFAULT_CACHE, *,
     todo = [i for i, result in enumerate(results) if result is None]
     for i in todo:
         _adopt_checkpoint(cache, jobs[i], progress)
+        if jobs[i].follows is not None:
+            adopt_snapshots(cache, jobs[i].base(), progress)
     if progress:
         print(f"campaign: {len(jobs)} FE runs, {len(jobs) - len(todo)} cached, "
               f"{len(todo)} to run", file=sys.stderr)

@@ -255,7 +255,7 @@ _reproduces(_BRANCH_CODE, _DISSIPATION_CODE, _BRANCHES)
 
 # The "envelope" control (issues 36 and 37, docs/fem.md "The envelope control"): the repeated
 # history's reloads are not cut by the edge bound where the edge re-enters the flattened dent.
-_ENVELOPE_CODE = "b91341923e5d4e1f"
+_ENVELOPE_CODE = "4a1e7207570fa809"
 _ENVELOPE = ("the opt-in load-step control 'envelope' added (step_control='envelope', "
              "fem.run.ENVELOPE_CONTROLS; resolved to 'dissipation' for a history that never "
              "reloads, fem.settings.resolved_step_control, so such a run keeps its key): a run "
@@ -684,7 +684,7 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
 
 def _onset_off_virgin_loading(result: FemResult) -> bool:
     """Whether the run's fully plastic onset (summary ``fully_plastic_bracket_N``) was read on a
-    step that is not virgin loading: FE code before b91341923e5d4e1f read it on any step of
+    step that is not virgin loading: FE code before 4a1e7207570fa809 read it on any step of
     rising force, a reload below the envelope too (fem.run.fully_plastic_onset). Such a run is
     not reused (the reproduction of older runs holds for every other one: none of the 128
     committed runs had it)."""

@@ -391,16 +391,18 @@ ADAPTIVE_MIN_RATIO = 1.0 + 1e-6  # a step that must be smaller than this fails t
 # the same answer within 0.07 %).
 DISSIPATION_INCREMENT = 0.1  # plastic dissipation of one solve / dissipation before it ...
 DISSIPATION_FLOOR = 0.1  # ... or this fraction of the work of the force, if more
-# The control "envelope" (issue 36/37: the reloads of a cyclic history) is "dissipation" with the
-# edge bound counting only the contact edge's advance onto fresh surface below the envelope: a
-# solve that starts below the largest force the run has reached at the end of a load step
-# counts the edge's advance beyond the largest contact radius of those step ends, not its
-# advance over the dent the envelope already flattened. A reload of the weak grain's repeated
-# history to 410 kN (point 0 of the campaign of record) re-enters that dent node by node from
-# a/R 0.129 to 0.227 at tiny plastic flow (0.8 % of the dissipation); the edge bound, meant for
-# the plastic front of first loading, cut each reload into ~250 solves of 7 Newton iterations
-# (1340 of 4221 solves edge-limited, steps down to x1.0000028). On a loading solve from the
-# envelope (a monotonic ramp, a level, a new peak) the two controls are the same solves.
+# The control "envelope" (issues 36 and 37: the reloads of a cyclic history) is "dissipation" with
+# both bounds measured on the reload below the envelope, where a solve starts below the largest
+# force the run has reached at the end of a load step: the edge bound counts only the contact
+# edge's advance beyond the largest contact radius of those step ends (fresh surface), not its
+# advance back over the dent the envelope flattened; the dissipation bound holds a solve's
+# plastic dissipation to DISSIPATION_INCREMENT of the dissipation since the reload began (at
+# least DISSIPATION_FLOOR of the work since then), not of all the dissipation of the run, which
+# first loading made 100 times larger than a reload's. A reload of the weak grain's repeated
+# history to 410 kN (point 0 of the campaign of record) re-enters the dent node by node from a/R
+# 0.129 to 0.227 at a plastic flow of 0.8 % of the dissipation: "dissipation" cut each reload
+# into ~250 solves, mostly edge- and growth-limited, with steps down to x1.0000028. On a loading
+# solve from the envelope (a monotonic ramp, a new peak) the two controls are the same solves.
 ADAPTIVE_MEASURES = {"adaptive": "eqps", "dissipation": "dissipation",
                      "envelope": "dissipation"}
 # The controls whose edge bound counts only fresh surface below the envelope.
@@ -995,14 +997,32 @@ def _go_on_from(saved, path: Path, identity, material: Material, linear_solver: 
     return saved, solver
 
 
-def _envelope(rows: list[list[float]], control: AdaptiveSteps) -> tuple[float, float] | None:
-    """(largest force, largest contact radius) of the curve ``rows`` so far (the ends of the
-    load steps: a resumed run or a branch has the same), for a control of ``ENVELOPE_CONTROLS``;
+@dataclasses.dataclass(frozen=True)
+class Envelope:
+    """Where a run stands against its envelope, from its curve rows (the ends of its load
+    steps: a resumed run or a branch has the same): the largest force and contact radius
+    reached, and the plastic dissipation and work of the force (per half model, as the state
+    holds them) where the current reload began (the last step end after which the force rose)."""
+
+    force: float
+    radius: float
+    dissipation: float
+    work: float
+
+
+def _envelope(rows: list[list[float]], control: AdaptiveSteps) -> Envelope | None:
+    """The ``Envelope`` of the curve ``rows`` so far for a control of ``ENVELOPE_CONTROLS``;
     None for the others."""
     if control.control not in ENVELOPE_CONTROLS:
         return None
     force, radius = CURVE_COLUMNS.index("force_N"), CURVE_COLUMNS.index("contact_radius_m")
-    return max(row[force] for row in rows), max(row[radius] for row in rows)
+    start = len(rows) - 1
+    while start > 0 and rows[start - 1][force] < rows[start][force]:
+        start -= 1
+    began = rows[start]
+    return Envelope(max(row[force] for row in rows), max(row[radius] for row in rows),
+                    began[CURVE_COLUMNS.index("plastic_dissipation_J")] / PAIR,
+                    began[CURVE_COLUMNS.index("work_J")] / PAIR)
 
 
 def snapshot_path(folder: str | Path, step: int) -> Path:
@@ -1191,7 +1211,7 @@ def _rescue(solver: ContactSolver, state: State, target: float, step: int,
 
 def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: int,
                       control: AdaptiveSteps,
-                      envelope: tuple[float, float] | None = None) -> State:
+                      envelope: Envelope | None = None) -> State:
     """One requested load step with the adaptive control: unloading and loading below the
     first-yield force in one solve (``_advance``, elastic: path independent), loading above it
     through solves sized by ``control`` (``AdaptiveSteps.judge``). A requested step is cut into
@@ -1199,9 +1219,9 @@ def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: 
     that does not converge is tried again at ``ADAPTIVE_CUT`` of its step; after
     ``MAX_CUTBACKS`` such cuts in a row the rest of the step is solved in rescue mode
     (``_advance``). The state returned counts the Newton iterations of all the step's converged
-    solves, the rejected ones too. ``envelope``: (largest force, largest contact radius) of the
-    run's step ends so far, for the "envelope" control (``ENVELOPE_CONTROLS``): a solve that
-    starts below that force counts only the edge's advance beyond that radius."""
+    solves, the rejected ones too. ``envelope``: the run's ``Envelope`` for the "envelope"
+    control (``ENVELOPE_CONTROLS``): a solve that starts below its force counts only the edge's
+    advance beyond its radius, and the dissipation and work since the reload began."""
     if target <= state.force or target <= control.yield_force:
         control.solves += 1
         return _advance(solver, state, target, step)
@@ -1234,16 +1254,18 @@ def _advance_adaptive(solver: ContactSolver, state: State, target: float, step: 
         control.solves += 1
         iterations += trial.iterations
         trial_edge = solver.contact_radius(trial)
-        if envelope is None or current.force >= envelope[0]:
+        if envelope is None or current.force >= envelope.force:
             advance = abs(trial_edge - edge)
-        else:  # below the envelope: the edge's advance onto fresh surface only
-            advance = max(0.0, trial_edge - max(edge, envelope[1]))
+            dissipation, work = current.plastic_dissipation, current.work
+        else:  # below the envelope: fresh surface, and the reload's own dissipation and work
+            advance = max(0.0, trial_edge - max(edge, envelope.radius))
+            dissipation = current.plastic_dissipation - envelope.dissipation
+            work = current.work - envelope.work
         accepted, reason = control.judge(
             used, advance, control.element_at(max(edge, trial_edge)),
             float(np.max(trial.eqps - current.eqps, initial=0.0)),
             float(np.max(current.eqps, initial=0.0)), trial.iterations,
-            trial.plastic_dissipation - current.plastic_dissipation, current.plastic_dissipation,
-            current.work)
+            trial.plastic_dissipation - current.plastic_dissipation, dissipation, work)
         control.limited_by[reason] += 1
         if not accepted:
             control.rejected += 1

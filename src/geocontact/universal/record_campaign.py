@@ -141,12 +141,12 @@ def _snapshots_for(base, branches, cache: Path, progress: bool) -> None:
     reused from the cache (a new clone, or a session that stopped after it) has none, and each
     branch would compute the base's loading again; the base is then run again, once, only for
     them (the same run, so the same states to the bit)."""
-    from ..fem.campaign import snapshots_folder
+    from ..fem.campaign import adopt_snapshots
     from ..fem.checkpoint import checkpoint_path
     from ..fem.identity import equivalent_run, finished_run
     from ..fem.run import run_history, snapshot_path
 
-    folder = snapshots_folder(cache, base)
+    folder = adopt_snapshots(cache, base, progress)
     missing = [b for b in branches
                if finished_run(cache / b.key(), b.identity()) is None
                and equivalent_run(cache, b.identity()) is None
