@@ -310,15 +310,21 @@ def test_the_campaign_flags_reach_the_settings(monkeypatch):
 def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch):
     """Every point of the dataset is of one FE: a point whose provenance records other
     settings (the repeated history made with "dissipation" before "envelope") is not done."""
+    from geocontact.fem.identity import fe_code_hash
     from geocontact.universal import record_campaign
 
     settings = record.fe_settings()
     older = record.fe_settings(step_control=DEFAULT_STEP_CONTROL)
+    now = fe_code_hash()
     (tmp_path / "provenance.json").write_text(json.dumps({"points": {
-        "1": {"fe_settings": settings.as_dict()}, "3": {"fe_settings": older.as_dict()}}}))
+        "1": {"fe_settings": settings.as_dict(), "fe_code_hash": now},
+        "3": {"fe_settings": older.as_dict(), "fe_code_hash": now},
+        "7": {"fe_settings": settings.as_dict(), "fe_code_hash": "4aeedf54d2157bf5"},
+        "9": {"fe_settings": settings.as_dict(), "fe_code_hash": "b91341923e5d4e1f"}}}))
     monkeypatch.setattr(record_campaign, "read_points",
-                        lambda directory: {"index": np.array([1.0, 3.0, 5.0])})
-    assert record_campaign._done(tmp_path, settings) == {1}
+                        lambda directory: {"index": np.array([1.0, 3.0, 5.0, 7.0, 9.0])})
+    # 4aeedf54: code the current code reproduces; b9134192: an envelope control since changed
+    assert record_campaign._done(tmp_path, settings) == {1, 7}
     assert record_campaign._done(tmp_path, older) == {3}
 
 

@@ -215,15 +215,25 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
 
 
 def _done(directory: Path, settings: FeSettings) -> set[int]:
-    """The points of the dataset made with ``settings`` (their provenance's ``fe_settings``):
-    a change of the FE of record (e.g. the step control "envelope" for the repeated history)
-    makes the others again, so every point of the dataset is of one FE."""
+    """The points of the dataset made with ``settings`` (their provenance's ``fe_settings``)
+    by the current FE code or one whose runs it reproduces (``fe_code_hash``,
+    ``fem.identity.REPRODUCED_FE_CODE``): a change of the FE of record (e.g. the step control
+    "envelope" for the repeated history) makes the others again, so every point of the dataset
+    is of one FE."""
     import json
+
+    from ..fem.identity import fe_code_hash, reproduced_code
 
     made = _provenance(directory)["points"]
     wanted = json.loads(json.dumps(settings.as_dict()))
+
+    def same_fe(info: dict) -> bool:
+        code = info.get("fe_code_hash")
+        return info.get("fe_settings") == wanted and (
+            code == fe_code_hash() or reproduced_code(code) is not None)
+
     return {int(i) for i in read_points(directory)["index"]
-            if made.get(str(int(i)), {}).get("fe_settings") == wanted}
+            if same_fe(made.get(str(int(i)), {}))}
 
 
 def _prepare(directory: Path, progress: bool) -> None:
