@@ -309,23 +309,29 @@ def test_the_campaign_flags_reach_the_settings(monkeypatch):
 
 def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch):
     """Every point of the dataset is of one FE: a point whose provenance records other
-    settings (the repeated history made with "dissipation" before "envelope") is not done."""
+    settings (the repeated history made with "dissipation" before "envelope"), or a run made by
+    FE code the current code does not reproduce, is not done."""
     from geocontact.fem.identity import fe_code_hash
     from geocontact.universal import record_campaign
 
     settings = record.fe_settings()
     older = record.fe_settings(step_control=DEFAULT_STEP_CONTROL)
-    now = fe_code_hash()
+    cache = tmp_path / "cache"
+    for key, code in (("now", fe_code_hash()), ("reproduced", "4aeedf54d2157bf5"),
+                      ("changed", "b91341923e5d4e1f")):
+        (cache / key).mkdir(parents=True)
+        (cache / key / "summary.json").write_text(json.dumps({"identity": {"fe_code": code}}))
     (tmp_path / "provenance.json").write_text(json.dumps({"points": {
-        "1": {"fe_settings": settings.as_dict(), "fe_code_hash": now},
-        "3": {"fe_settings": older.as_dict(), "fe_code_hash": now},
-        "7": {"fe_settings": settings.as_dict(), "fe_code_hash": "4aeedf54d2157bf5"},
-        "9": {"fe_settings": settings.as_dict(), "fe_code_hash": "b91341923e5d4e1f"}}}))
+        "1": {"fe_settings": settings.as_dict(), "cache_keys": ["now", "reproduced"]},
+        "3": {"fe_settings": older.as_dict(), "cache_keys": ["now"]},
+        "7": {"fe_settings": settings.as_dict(), "cache_keys": ["reproduced", "changed"]},
+        "9": {"fe_settings": settings.as_dict(), "cache_keys": ["now", "gone"]}}}))
     monkeypatch.setattr(record_campaign, "read_points",
                         lambda directory: {"index": np.array([1.0, 3.0, 5.0, 7.0, 9.0])})
-    # 4aeedf54: code the current code reproduces; b9134192: an envelope control since changed
-    assert record_campaign._done(tmp_path, settings) == {1, 7}
-    assert record_campaign._done(tmp_path, older) == {3}
+    # 4aeedf54: code the current code reproduces; b9134192: an envelope control since changed;
+    # a run not in the cache: not made
+    assert record_campaign._done(tmp_path, settings, cache) == {1}
+    assert record_campaign._done(tmp_path, older, cache) == {3}
 
 
 def test_processes_adding_points_to_one_dataset_take_turns(tmp_path):

@@ -72,6 +72,7 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
     process); returns the dataset row and the point's provenance record."""
     from ..calibrate.campaign import extract_run
     from ..fem.campaign import remove_snapshots, run_campaign
+    from ..fem.identity import fe_code_hash
 
     material = point.material()
     cpu0, wall0 = _cpu(), time.perf_counter()
@@ -107,7 +108,7 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
             float(10.0 ** row[f"contact_{k}"]) for k in range(record.LEVELS)]},
         "repeated_history_forces_N": list(cyclic.forces),
         "cache_keys": [j.key() for j in [*probes, base, *jobs, cyclic]],
-        "fe_code_hash": every[0].summary["identity"]["fe_code"],
+        "fe_code_hash": fe_code_hash(),  # the campaign's; each run's is in its summary
         "elements": [r.summary["mesh"]["elements"] for r in every],
         "solves": [(r.summary.get("step_control") or {}).get("solves") for r in every],
         "newton_iterations": [r.summary.get("newton_iterations") for r in every],
@@ -175,7 +176,7 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
     settings = settings or record.fe_settings()
     directory, cache = Path(directory), Path(cache_dir)
     directory.mkdir(parents=True, exist_ok=True)
-    done = _done(directory, settings)
+    done = _done(directory, settings, cache)
     todo = [p for p in record.design_points(count)
             if p.index not in done and (only is None or p.index in only)]
     if progress:
@@ -214,12 +215,12 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
     return added
 
 
-def _done(directory: Path, settings: FeSettings) -> set[int]:
+def _done(directory: Path, settings: FeSettings, cache: Path) -> set[int]:
     """The points of the dataset made with ``settings`` (their provenance's ``fe_settings``)
-    by the current FE code or one whose runs it reproduces (``fe_code_hash``,
-    ``fem.identity.REPRODUCED_FE_CODE``): a change of the FE of record (e.g. the step control
-    "envelope" for the repeated history) makes the others again, so every point of the dataset
-    is of one FE."""
+    whose every run (``cache_keys``, read in the FE cache ``cache``) was made by the current FE
+    code or one whose runs it reproduces (``fem.identity.REPRODUCED_FE_CODE``): a change of the
+    FE of record (e.g. the step control "envelope" for the repeated history, or a change of
+    that control) makes the others again, so every point of the dataset is of one FE."""
     import json
 
     from ..fem.identity import fe_code_hash, reproduced_code
@@ -227,10 +228,16 @@ def _done(directory: Path, settings: FeSettings) -> set[int]:
     made = _provenance(directory)["points"]
     wanted = json.loads(json.dumps(settings.as_dict()))
 
+    def current(key: str) -> bool:
+        try:
+            code = json.loads((cache / key / "summary.json").read_text())["identity"]["fe_code"]
+        except (OSError, ValueError, KeyError, TypeError):
+            return False
+        return code == fe_code_hash() or reproduced_code(code) is not None
+
     def same_fe(info: dict) -> bool:
-        code = info.get("fe_code_hash")
-        return info.get("fe_settings") == wanted and (
-            code == fe_code_hash() or reproduced_code(code) is not None)
+        return (info.get("fe_settings") == wanted and bool(info.get("cache_keys"))
+                and all(current(key) for key in info["cache_keys"]))
 
     return {int(i) for i in read_points(directory)["index"]
             if same_fe(made.get(str(int(i)), {}))}
