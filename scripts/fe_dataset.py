@@ -81,7 +81,7 @@ def check_run(folder: Path) -> dict:
         return {**entry, "problem": "identity record does not hash to its key (edited?)"}
     forces = identity["inputs"]["forces_N"]
     current = ((identity.get("fe_code") == fe_code_hash()
-                or reproduced_code(identity.get("fe_code")) is not None)
+                or reproduced_code(identity.get("fe_code"), identity.get("inputs")) is not None)
                and identity.get("libraries") == library_versions())
     control = summary.get("step_control") or {}
     kernels = recorded_kernels(identity)

@@ -439,3 +439,16 @@ def test_a_run_whose_fully_plastic_onset_came_off_a_reload_is_not_reused():
     assert _onset_off_virgin_loading(result([0.0, 0.3]))
     assert not _onset_off_virgin_loading(result([5.0, 10.0]))  # step 2: virgin
     assert not _onset_off_virgin_loading(result(None))
+
+
+def test_an_entry_may_leave_out_the_runs_of_one_setting():
+    """The envelope control's second form reproduces every run of its first but those of the
+    envelope control (REPRODUCED_UNLESS), and through it the older codes' runs."""
+    from geocontact.fem.identity import reproduced_code
+
+    first = "b91341923e5d4e1f"
+    assert reproduced_code(first, {"step_control": "dissipation"}) is not None
+    assert reproduced_code(first, {"step_control": "envelope"}) is None
+    assert reproduced_code(first) is None  # without the inputs: not known to be reproduced
+    assert reproduced_code("4aeedf54d2157bf5", {"step_control": "dissipation"}) is not None
+    assert reproduced_code("4aeedf54d2157bf5") is not None  # it knew no envelope control

@@ -320,7 +320,8 @@ def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch
     for key, code in (("now", fe_code_hash()), ("reproduced", "4aeedf54d2157bf5"),
                       ("changed", "b91341923e5d4e1f")):
         (cache / key).mkdir(parents=True)
-        (cache / key / "summary.json").write_text(json.dumps({"identity": {"fe_code": code}}))
+        (cache / key / "summary.json").write_text(json.dumps({"identity": {
+            "fe_code": code, "inputs": {"step_control": "envelope"}}}))
     (tmp_path / "provenance.json").write_text(json.dumps({"points": {
         "1": {"fe_settings": settings.as_dict(), "cache_keys": ["now", "reproduced"]},
         "3": {"fe_settings": older.as_dict(), "cache_keys": ["now"]},

@@ -230,10 +230,11 @@ def _done(directory: Path, settings: FeSettings, cache: Path) -> set[int]:
 
     def current(key: str) -> bool:
         try:
-            code = json.loads((cache / key / "summary.json").read_text())["identity"]["fe_code"]
+            identity = json.loads((cache / key / "summary.json").read_text())["identity"]
+            code, inputs = identity["fe_code"], identity["inputs"]
         except (OSError, ValueError, KeyError, TypeError):
             return False
-        return code == fe_code_hash() or reproduced_code(code) is not None
+        return code == fe_code_hash() or reproduced_code(code, inputs) is not None
 
     def same_fe(info: dict) -> bool:
         return (info.get("fe_settings") == wanted and bool(info.get("cache_keys"))
