@@ -270,6 +270,18 @@ def _progress_or_none(checkpoint: Path) -> dict | None:
         return None
 
 
+def _same_run(path: Path, identity) -> dict | None:
+    """The identity record of the checkpoint (or snapshot) ``path`` if it is of the run
+    ``identity`` under another key (inputs equal to rounding, or written by FE code whose runs
+    the current code reproduces: ``fem.reuse.difference``), else None."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            recorded = json.loads(str(data["identity"]))
+    except Exception:  # noqa: BLE001 - not a checkpoint this campaign can use
+        return None
+    return recorded if difference(recorded, identity, rounding=True) is None else None
+
+
 def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
     """Move the checkpoint of the same run under another key (inputs equal to rounding, or
     written by FE code whose runs the current code reproduces: ``fem.reuse.difference``) to
@@ -281,12 +293,8 @@ def _adopt_checkpoint(cache: Path, job: FemJob, progress: bool) -> None:
         return
     identity = job.identity()
     for path in sorted(cache.glob("*.checkpoint.npz")):
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                recorded = json.loads(str(data["identity"]))
-        except Exception:  # noqa: BLE001 - not a checkpoint this campaign can use
-            continue
-        if difference(recorded, identity, rounding=True) is not None:
+        recorded = _same_run(path, identity)
+        if recorded is None:
             continue
         fields = fields_beside(path)
         path.rename(target)
@@ -314,14 +322,8 @@ def adopt_snapshots(cache: str | Path, job: FemJob, progress: bool = False) -> P
     identity = job.identity()
     for folder in sorted(cache.glob("*.steps")):
         snapshot = next(iter(sorted(folder.glob("step_*.checkpoint.npz"))), None)
-        if snapshot is None:
-            continue
-        try:
-            with np.load(snapshot, allow_pickle=False) as data:
-                recorded = json.loads(str(data["identity"]))
-        except Exception:  # noqa: BLE001 - not a snapshot this campaign can use
-            continue
-        if difference(recorded, identity, rounding=True) is not None:
+        recorded = None if snapshot is None else _same_run(snapshot, identity)
+        if recorded is None:
             continue
         folder.rename(own)
         if progress:
