@@ -316,23 +316,26 @@ def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch
 
     settings = record.fe_settings()
     older = record.fe_settings(step_control=DEFAULT_STEP_CONTROL)
-    cache = tmp_path / "cache"
-    for key, code in (("now", fe_code_hash()), ("reproduced", "4aeedf54d2157bf5"),
-                      ("changed", "b91341923e5d4e1f")):
-        (cache / key).mkdir(parents=True)
-        (cache / key / "summary.json").write_text(json.dumps({"identity": {
-            "fe_code": code, "inputs": {"step_control": "envelope"}}}))
+
+    def runs(*made):
+        return [{"key": "k", "fe_code": code, "step_control": control} for code, control in made]
+
+    now = fe_code_hash()
     (tmp_path / "provenance.json").write_text(json.dumps({"points": {
-        "1": {"fe_settings": settings.as_dict(), "cache_keys": ["now", "reproduced"]},
-        "3": {"fe_settings": older.as_dict(), "cache_keys": ["now"]},
-        "7": {"fe_settings": settings.as_dict(), "cache_keys": ["reproduced", "changed"]},
-        "9": {"fe_settings": settings.as_dict(), "cache_keys": ["now", "gone"]}}}))
+        "1": {"fe_settings": settings.as_dict(),
+              "runs": runs(("4aeedf54d2157bf5", "dissipation"), (now, "envelope"))},
+        "3": {"fe_settings": older.as_dict(), "runs": runs((now, "dissipation"))},
+        "5": {"fe_settings": settings.as_dict(),
+              "runs": runs(("b91341923e5d4e1f", "dissipation"), (now, "envelope"))},
+        "7": {"fe_settings": settings.as_dict(),
+              "runs": runs((now, "dissipation"), ("b91341923e5d4e1f", "envelope"))},
+        "9": {"fe_settings": settings.as_dict(), "cache_keys": ["k"]}}}))
     monkeypatch.setattr(record_campaign, "read_points",
                         lambda directory: {"index": np.array([1.0, 3.0, 5.0, 7.0, 9.0])})
-    # 4aeedf54: code the current code reproduces; b9134192: an envelope control since changed;
-    # a run not in the cache: not made
-    assert record_campaign._done(tmp_path, settings, cache) == {1}
-    assert record_campaign._done(tmp_path, older, cache) == {3}
+    # 4aeedf54 and b9134192's dissipation runs: code the current code reproduces; b9134192's
+    # envelope runs: that control has changed since; a point recorded before "runs": made again
+    assert record_campaign._done(tmp_path, settings) == {1, 5}
+    assert record_campaign._done(tmp_path, older) == {3}
 
 
 def test_processes_adding_points_to_one_dataset_take_turns(tmp_path):

@@ -108,7 +108,12 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
             float(10.0 ** row[f"contact_{k}"]) for k in range(record.LEVELS)]},
         "repeated_history_forces_N": list(cyclic.forces),
         "cache_keys": [j.key() for j in [*probes, base, *jobs, cyclic]],
-        "fe_code_hash": fe_code_hash(),  # the campaign's; each run's is in its summary
+        "fe_code_hash": fe_code_hash(),  # the campaign's
+        # the key, FE code and step control each result was made under (a reused run's own,
+        # which may be older code that the campaign's reproduces)
+        "runs": [{"key": r.summary["identity"]["key"], "fe_code": r.summary["identity"]["fe_code"],
+                  "step_control": r.summary["identity"]["inputs"].get("step_control")}
+                 for r in every],
         "elements": [r.summary["mesh"]["elements"] for r in every],
         "solves": [(r.summary.get("step_control") or {}).get("solves") for r in every],
         "newton_iterations": [r.summary.get("newton_iterations") for r in every],
@@ -176,7 +181,7 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
     settings = settings or record.fe_settings()
     directory, cache = Path(directory), Path(cache_dir)
     directory.mkdir(parents=True, exist_ok=True)
-    done = _done(directory, settings, cache)
+    done = _done(directory, settings)
     todo = [p for p in record.design_points(count)
             if p.index not in done and (only is None or p.index in only)]
     if progress:
@@ -215,12 +220,13 @@ def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
     return added
 
 
-def _done(directory: Path, settings: FeSettings, cache: Path) -> set[int]:
+def _done(directory: Path, settings: FeSettings) -> set[int]:
     """The points of the dataset made with ``settings`` (their provenance's ``fe_settings``)
-    whose every run (``cache_keys``, read in the FE cache ``cache``) was made by the current FE
-    code or one whose runs it reproduces (``fem.identity.REPRODUCED_FE_CODE``): a change of the
-    FE of record (e.g. the step control "envelope" for the repeated history, or a change of
-    that control) makes the others again, so every point of the dataset is of one FE."""
+    whose every run (their provenance's ``runs``) was made by the current FE code or one whose
+    runs it reproduces (``fem.identity.REPRODUCED_FE_CODE``): a change of the FE of record (e.g.
+    the step control "envelope" for the repeated history, or a change of that control) makes
+    the others again (their runs that it leaves as they were come from the cache), so every
+    point of the dataset is of one FE. A point recorded before ``runs`` is made again."""
     import json
 
     from ..fem.identity import fe_code_hash, reproduced_code
@@ -228,17 +234,14 @@ def _done(directory: Path, settings: FeSettings, cache: Path) -> set[int]:
     made = _provenance(directory)["points"]
     wanted = json.loads(json.dumps(settings.as_dict()))
 
-    def current(key: str) -> bool:
-        try:
-            identity = json.loads((cache / key / "summary.json").read_text())["identity"]
-            code, inputs = identity["fe_code"], identity["inputs"]
-        except (OSError, ValueError, KeyError, TypeError):
-            return False
-        return code == fe_code_hash() or reproduced_code(code, inputs) is not None
+    def current(run: dict) -> bool:
+        code = run.get("fe_code")
+        return code == fe_code_hash() or reproduced_code(
+            code, {"step_control": run.get("step_control")}) is not None
 
     def same_fe(info: dict) -> bool:
-        return (info.get("fe_settings") == wanted and bool(info.get("cache_keys"))
-                and all(current(key) for key in info["cache_keys"]))
+        return (info.get("fe_settings") == wanted and bool(info.get("runs"))
+                and all(current(run) for run in info["runs"]))
 
     return {int(i) for i in read_points(directory)["index"]
             if same_fe(made.get(str(int(i)), {}))}
