@@ -2,27 +2,30 @@
 
 A reload of a grain flattened far past first yield re-enters the dent the envelope made: the
 contact edge sweeps back over the flattened surface node by node while the plastic flow is a
-small fraction of the dissipation. The "dissipation" control's edge bound, written for the
-plastic front of first loading, cuts such a reload into many small solves; "envelope" counts the
-edge's advance only onto fresh surface below the largest force reached (fem.run.ENVELOPE_CONTROLS).
-This script runs the same repeated history (0 -> F -> 0, ``--cycles`` times) with:
+small fraction of the run's dissipation. The "dissipation" control's edge bound, written for the
+plastic front of first loading, cuts such a reload into many small solves; "envelope" measures a
+reload below the envelope against itself (fem.run.ENVELOPE_CONTROLS: the edge's advance onto
+fresh surface, the reload's own dissipation and work). This script runs the same repeated
+history (0 -> F -> 0, ``--cycles`` times) with:
 
 - ``dissipation``: the control the repeated histories were made with before;
 - ``envelope``: the new control;
 - ``envelope-fine``: the new control with its largest step capped at ``--fine-ratio`` (the
   step-convergence reference: every reload solve at most that force ratio),
 
-and compares, cycle by cycle, the plastic work, the residual and the peak approach and the
-loop work, each relative to the first cycle's value of the same quantity (the scale a shakedown
-fit reads), with the cost of each run (solves, Newton iterations, CPU time). The material and F
-default to point 0 of the campaign of record (E/sigma_c 1732, F = 410 kN on R = 0.1 m: a/R 0.23),
-on the coarse mesh (the default mesh is the campaign's; ``--mesh default`` runs it there).
+and compares, cycle by cycle from the second on, what a shakedown fit reads: each cycle's
+plastic work and residual-approach increment, relative to the fine reference's own value of that
+cycle (``per_cycle``), beside the largest difference of the plastic work, residual, peak
+approach and loop work relative to the first cycle's value (``to_first_cycle``), with the cost of
+each run (solves, Newton iterations, CPU time). The material and F default to point 0 of the
+campaign of record (E/sigma_c 1732, F = 410 kN on R = 0.1 m: a/R 0.23), on the coarse mesh
+(``--mesh default`` runs the campaign's). Runs are cached in ``--cache`` (fem.campaign).
 
     .venv/bin/python scripts/verify_envelope_control.py \\
         --json docs/verification/envelope-control.json
 
-Exit status 0 when "envelope" is within ``--tolerance`` of the fine reference in every compared
-quantity of every cycle, 1 otherwise.
+Exit status 0 when "envelope" is within ``--tolerance`` of the fine reference in every cycle's
+plastic work and residual increment, 1 otherwise.
 """
 
 from __future__ import annotations
@@ -77,6 +80,24 @@ def differences(run: dict, reference: dict) -> dict[str, float]:
     return out
 
 
+def per_cycle(run: dict, reference: dict) -> dict[str, list[float]]:
+    """Cycle by cycle from the second: the plastic work and the increment of the residual
+    approach, each relative to the reference's value of that cycle (signed)."""
+    mine, theirs = run["cycles"], reference["cycles"]
+
+    def increment(cycles, n):
+        return cycles[n]["residual_approach_m"] - cycles[n - 1]["residual_approach_m"]
+
+    return {"plastic_work": [mine[n]["plastic_work_J"] / theirs[n]["plastic_work_J"] - 1.0
+                             for n in range(1, len(mine))],
+            "residual_increment": [increment(mine, n) / increment(theirs, n) - 1.0
+                                   for n in range(1, len(mine))]}
+
+
+def largest(errors: dict[str, list[float]]) -> float:
+    return max(abs(e) for values in errors.values() for e in values)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = ArgumentParser(prog="verify_envelope_control.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--force", type=float, default=POINT_0_FORCE, help="peak force F (N)")
@@ -84,8 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--mesh", default="coarse", choices=("coarse", "default", "fine"))
     p.add_argument("--fine-ratio", type=float, default=1.05,
                    help="largest force ratio of a solve in the fine reference")
-    p.add_argument("--tolerance", type=float, default=0.01,
-                   help="allowed difference, relative to the first cycle's value")
+    p.add_argument("--tolerance", type=float, default=0.05,
+                   help="allowed difference of a cycle's plastic work and residual increment, "
+                        "relative to the fine reference's")
     p.add_argument("--json", type=Path, help="write the comparison here")
     p.add_argument("--cache", type=Path, default=Path("out/cache/envelope-control"),
                    help="FE result cache (runs found there are not made again)")
@@ -106,13 +128,17 @@ def main(argv: list[str] | None = None) -> int:
         reference = runs["envelope-fine"]
         compared = {name: differences(runs[name], reference)
                     for name in ("dissipation", "envelope")}
-        within = all(v <= args.tolerance for v in compared["envelope"].values())
-        for name, diff in compared.items():
-            print(f"{name} vs envelope-fine: " + ", ".join(
-                f"{k} {v:.2e}" for k, v in diff.items()))
+        cycles = {name: per_cycle(runs[name], reference) for name in ("dissipation", "envelope")}
+        within = largest(cycles["envelope"]) <= args.tolerance
+        for name in ("dissipation", "envelope"):
+            print(f"{name} vs envelope-fine, cycles 2-{args.cycles}: plastic work "
+                  + " ".join(f"{e:+.3f}" for e in cycles[name]["plastic_work"])
+                  + "; residual increment "
+                  + " ".join(f"{e:+.3f}" for e in cycles[name]["residual_increment"]))
         new, old = runs["envelope"], runs["dissipation"]
         print(f"envelope / dissipation: CPU {new['cpu_time_s'] / old['cpu_time_s']:.3f}, "
-              f"Newton iterations {new['newton_iterations'] / old['newton_iterations']:.3f}")
+              f"Newton iterations {new['newton_iterations'] / old['newton_iterations']:.3f}, "
+              f"solves {new['solves'] / old['solves']:.3f}")
         if args.json:
             write_json_atomic(args.json, {
                 "command": "scripts/verify_envelope_control.py", "version": __version__,
@@ -120,7 +146,8 @@ def main(argv: list[str] | None = None) -> int:
                 "inputs": {"material": POINT_0, "force_N": args.force, "cycles": args.cycles,
                            "mesh": args.mesh, "fine_ratio": args.fine_ratio,
                            "tolerance": args.tolerance},
-                "runs": runs, "largest_difference_to_fine": compared,
+                "runs": runs, "to_first_cycle": compared, "per_cycle": cycles,
+                "largest_per_cycle": {name: largest(c) for name, c in cycles.items()},
                 "envelope_within_tolerance": within})
         return 0 if within else 1
 
