@@ -56,11 +56,10 @@ def test_today_design_is_unchanged():
 def test_fe_settings_of_record_and_pilot_overrides():
     s = record.fe_settings()
     assert (s.mesh, s.kinematics, s.kernels) == ("default", "finite", "compiled")
-    # the record runs the FE's verified mesh rule (issue 36), whatever it becomes, and the
-    # "envelope" control: the default "dissipation" on runs that never reload (the same runs)
+    # the record runs the FE's verified defaults (issue 36), whatever they become
     defaults = FeSettings()
-    assert s.mesh_rule == defaults.mesh_rule == "auto"
-    assert s.step_control == "envelope" and DEFAULT_STEP_CONTROL == "dissipation"
+    assert (s.mesh_rule, s.step_control) == (defaults.mesh_rule, defaults.step_control)
+    assert (s.mesh_rule, s.step_control) == ("auto", DEFAULT_STEP_CONTROL)
     # the pilot's settings are the ones its committed provenance records
     pilot = record.fe_settings(**record.PILOT_FE)
     assert (pilot.mesh, pilot.kinematics, pilot.kernels) == ("coarse", "finite", "compiled")
@@ -159,13 +158,14 @@ def test_levels_are_branches_of_the_base_at_its_nearest_steps():
         cyclic.follows[1]]
     assert abs(math.log(cyclic.forces[1] / half)) <= math.log(force[1] / force[0]) / 2 + 1e-12
     assert len(cyclic.forces) == 21  # ten cycles 0 -> F -> 0
-    # the levels (two cycles) and the repeated history reload: "envelope"; the base never does:
-    # the default control's run, key and snapshots, whichever of the two the record asks for
-    for branch in (*runs, cyclic):
+    # with the "envelope" control the levels (two cycles) and the repeated history reload and
+    # keep it; the base never reloads: the default control's run, key and snapshots
+    envelope = record.fe_settings(mesh="coarse", step_control="envelope")
+    runs_e, cyclic_e = record.point_jobs(point, envelope, levels, base, curve)
+    for branch in (*runs_e, cyclic_e):
         assert branch.identity().settings.step_control == "envelope"
         assert branch.identity().base().key() == base.key()
-    plain = record.fe_settings(mesh="coarse", step_control=DEFAULT_STEP_CONTROL)
-    assert base.key() == record.base_job(point, plain, float(force[-1])).key()
+    assert record.base_job(point, envelope, float(force[-1])).key() == base.key()
     assert base.identity().settings.step_control == DEFAULT_STEP_CONTROL
     # steps too far apart for the levels: one line
     with pytest.raises(InputError, match="too far apart"):
@@ -314,8 +314,8 @@ def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch
     from geocontact.fem.identity import fe_code_hash
     from geocontact.universal import record_campaign
 
-    settings = record.fe_settings()
-    older = record.fe_settings(step_control=DEFAULT_STEP_CONTROL)
+    settings = record.fe_settings(step_control="envelope")
+    older = record.fe_settings()
 
     def runs(*made):
         return [{"key": "k", "fe_code": code, "step_control": control} for code, control in made]

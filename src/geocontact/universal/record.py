@@ -91,18 +91,15 @@ PILOT_FE = {"mesh": "coarse", "mesh_rule": "yield", "step_control": "fixed",
 def fe_settings(mesh: str = "default", kinematics: str = "finite", **changes) -> FeSettings:
     """The FE of record: ``mesh`` (default mesh), ``kinematics`` (finite strain), the compiled
     kernels (small or finite strain) and every other setting the FE's default: the mesh rule
-    "auto", the verified setting of issue 36 (docs/fem.md "Defaults"), and the "envelope" step
-    control (the default "dissipation" on the probes, the base and the levels, which never
-    reload: the same runs, the same keys; on the repeated history the edge bound counts only
-    fresh surface below the envelope, docs/fem.md "The envelope control"); ``changes``: any
-    other FeSettings field (``PILOT_FE`` for the pilot's). One-line InputError on a setting
-    the FE refuses. The load steps follow the "decade" rule: the
-    levels are branches of the base run at its recorded steps (``level_steps``), and at least
-    12 loading steps per decade of force (1.21 x apart) put each within about 5 % of its target
-    contact radius."""
+    "auto" and the "dissipation" step control, the verified settings of issue 36 (docs/fem.md
+    "Defaults"; the faster "envelope" control is not verified on the repeated history's late
+    cycles, docs/fem.md "The envelope control"); ``changes``: any other FeSettings field
+    (``PILOT_FE`` for the pilot's). One-line InputError on a setting the FE refuses. The
+    load steps follow the "decade" rule: the levels are branches of the base run at its
+    recorded steps (``level_steps``), and at least 12 loading steps per decade of force
+    (1.21 x apart) put each within about 5 % of its target contact radius."""
     changes.setdefault("kernels", "compiled")
     changes.setdefault("step_rule", "decade")
-    changes.setdefault("step_control", "envelope")
     return FeSettings(mesh=mesh, kinematics=kinematics, **changes)
 
 
