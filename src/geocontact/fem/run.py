@@ -400,9 +400,11 @@ DISSIPATION_FLOOR = 0.1  # ... or this fraction of the work of the force, if mor
 # least DISSIPATION_FLOOR of the work since then), not of all the dissipation of the run, which
 # first loading made 100 times larger than a reload's. A reload of the weak grain's repeated
 # history to 410 kN (point 0 of the campaign of record) re-enters the dent node by node from a/R
-# 0.129 to 0.227 at a plastic flow of 0.8 % of the dissipation: "dissipation" cut each reload
-# into ~250 solves, mostly edge- and growth-limited, with steps down to x1.0000028. On a loading
-# solve from the envelope (a monotonic ramp, a new peak) the two controls are the same solves.
+# 0.129 to 0.227 at a plastic flow of 0.8 % of the dissipation: "dissipation" cut the reloads
+# into solves mostly edge- and growth-limited, with steps down to x1.0000028 (docs/fem.md "The
+# envelope control"). On a loading solve from the envelope (a monotonic ramp, a new peak) the
+# two controls are the same solves. Not the campaign of record's control: its late cycles'
+# ratchet is not converged there (docs/verification/envelope-control.json).
 ADAPTIVE_MEASURES = {"adaptive": "eqps", "dissipation": "dissipation",
                      "envelope": "dissipation"}
 # The controls whose edge bound counts only fresh surface below the envelope.
