@@ -275,6 +275,37 @@ def test_the_envelope_control_lets_a_reload_over_the_dent_through_and_loads_fres
     assert past_by["edge"] > 0 and len(past) > len(reload("envelope", top, 50.0, 100.0)[0])
 
 
+def test_the_envelope_control_resolves_the_rim_of_the_dent_as_dissipation_does():
+    """Within ENVELOPE_RIM_ELEMENTS surface elements of the envelope's contact radius (the
+    dent's rim, where a shakedown cycle re-yields) the edge bound counts the edge's whole
+    advance, as "dissipation" does: a reload to the envelope's peak crosses the rim in solves
+    of at most about an element's advance each, and the dent inside it in far fewer solves than
+    "dissipation" takes there."""
+    element = 1e-5
+    ends = np.arange(0.0, 0.05, element)
+    top = fem_run.Envelope(100.0, 1e-3 * math.sqrt(100.0), 1.0, 12.0)
+    rim = top.radius - fem_run.ENVELOPE_RIM_ELEMENTS * element
+
+    def solves(step_control, envelope):
+        solver = _DentSolver(fails_above=10.0)
+        control = AdaptiveSteps(1.0, YIELD_STRAIN, ends, math.log(ADAPTIVE_MAX_RATIO),
+                                step_control)
+        control.log_ratio = math.log(1.02)
+        state = _State(2.0, np.array([0.01 * math.sqrt(2.0)]), plastic_dissipation=1.0,
+                       work=12.0)
+        done = fem_run._advance_adaptive(solver, state, 100.0, 1, control, envelope)
+        assert done.force == 100.0
+        radii = np.array([solver.contact_radius(_State(f, None)) for f in solver.solves])
+        return int(np.sum(radii < rim)), int(np.sum(radii >= rim))
+
+    inside, on_rim = solves("envelope", top)
+    inside_dissipation, on_rim_dissipation = solves("dissipation", None)
+    assert fem_run.ENVELOPE_RIM_ELEMENTS >= 1.0
+    assert on_rim >= fem_run.ENVELOPE_RIM_ELEMENTS  # at most ~1 element per accepted solve
+    assert on_rim >= 0.5 * on_rim_dissipation
+    assert inside < inside_dissipation / 4
+
+
 def test_an_envelope_run_without_reloads_is_the_dissipation_run_and_a_cyclic_one_is_not():
     """A history that never loads again after unloading reaches nothing below its envelope, so
     "envelope" resolves to "dissipation" there (one run, one key: the ramp a branch follows, a

@@ -56,10 +56,16 @@ def test_today_design_is_unchanged():
 def test_fe_settings_of_record_and_pilot_overrides():
     s = record.fe_settings()
     assert (s.mesh, s.kinematics, s.kernels) == ("default", "finite", "compiled")
-    # the record runs the FE's verified defaults (issue 36), whatever they become
+    # the record runs the FE's verified default mesh rule (issue 36), whatever it becomes, and
+    # the envelope control (the default control with the reload measured against itself)
     defaults = FeSettings()
-    assert (s.mesh_rule, s.step_control) == (defaults.mesh_rule, defaults.step_control)
-    assert (s.mesh_rule, s.step_control) == ("auto", DEFAULT_STEP_CONTROL)
+    assert s.mesh_rule == defaults.mesh_rule == "auto"
+    assert s.step_control == record.RECORD_STEP_CONTROL == "envelope"
+    assert DEFAULT_STEP_CONTROL == "dissipation"
+    # its base (a ramp, no reload) is the default control's run: the same key
+    point = record.design_points(1)[0]
+    assert record.base_job(point, s, 1.0).key() == record.base_job(
+        point, record.fe_settings(step_control=DEFAULT_STEP_CONTROL), 1.0).key()
     # the pilot's settings are the ones its committed provenance records
     pilot = record.fe_settings(**record.PILOT_FE)
     assert (pilot.mesh, pilot.kinematics, pilot.kernels) == ("coarse", "finite", "compiled")
@@ -314,8 +320,9 @@ def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch
     from geocontact.fem.identity import fe_code_hash
     from geocontact.universal import record_campaign
 
-    settings = record.fe_settings(step_control="envelope")
-    older = record.fe_settings()
+    settings = record.fe_settings()
+    assert settings.step_control == "envelope"
+    older = record.fe_settings(step_control="dissipation")
 
     def runs(*made):
         return [{"key": "k", "fe_code": code, "step_control": control} for code, control in made]
@@ -329,11 +336,14 @@ def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch
               "runs": runs(("b91341923e5d4e1f", "dissipation"), (now, "envelope"))},
         "7": {"fe_settings": settings.as_dict(),
               "runs": runs((now, "dissipation"), ("b91341923e5d4e1f", "envelope"))},
+        "11": {"fe_settings": settings.as_dict(),
+               "runs": runs((now, "dissipation"), ("4a1e7207570fa809", "envelope"))},
         "9": {"fe_settings": settings.as_dict(), "cache_keys": ["k"]}}}))
     monkeypatch.setattr(record_campaign, "read_points",
-                        lambda directory: {"index": np.array([1.0, 3.0, 5.0, 7.0, 9.0])})
+                        lambda directory: {"index": np.array([1.0, 3.0, 5.0, 7.0, 9.0, 11.0])})
     # 4aeedf54 and b9134192's dissipation runs: code the current code reproduces; b9134192's
-    # envelope runs: that control has changed since; a point recorded before "runs": made again
+    # and 4a1e7207's envelope runs: that control has changed since (the rim, 727fa141); a point
+    # recorded before "runs": made again
     assert record_campaign._done(tmp_path, settings) == {1, 5}
     assert record_campaign._done(tmp_path, older) == {3}
 

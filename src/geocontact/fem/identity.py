@@ -288,6 +288,16 @@ _ENVELOPE_RELOAD = ("the envelope control's reload also bounded by its own plast
                     "those of 'envelope' are not reproduced")
 _reproduces(_ENVELOPE_CODE, _ENVELOPE_FIRST_CODE, _ENVELOPE_RELOAD,
             unless={"step_control": ("envelope",)})
+# The third form (727fa14189b8b528): on the dent's rim, within ENVELOPE_RIM_ELEMENTS surface
+# elements of the envelope's contact radius, the edge bound counts the edge's whole advance
+# (docs/fem.md "The envelope control"; its late cycles converge there,
+# docs/verification/envelope-control.json).
+_ENVELOPE_RIM_CODE = "727fa14189b8b528"
+_ENVELOPE_RIM = ("the envelope control's edge bound counts the whole advance on the dent's rim "
+                 "(fem.run.ENVELOPE_RIM_ELEMENTS): the runs of every other control are solved as "
+                 "before, those of 'envelope' are not reproduced")
+_reproduces(_ENVELOPE_RIM_CODE, _ENVELOPE_CODE, _ENVELOPE_RIM,
+            unless={"step_control": ("envelope",)})
 
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
@@ -361,6 +371,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_ENVELOPE_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_ENVELOPE_CODE, *REPRODUCED_FE_CODE[_ENVELOPE_CODE])},
+    # and under the FE code of the envelope control's rim (reruns under it)
+    (_ENVELOPE_RIM_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_ENVELOPE_RIM_CODE, *REPRODUCED_FE_CODE[_ENVELOPE_RIM_CODE])},
 }
 
 
