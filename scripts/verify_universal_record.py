@@ -68,7 +68,7 @@ from geocontact.calibrate.acceptance import compare, draw_comparison_figures
 from geocontact.calibrate.cyclic_fit import cycle_table
 from geocontact.cli import main as cli_main
 from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
-from geocontact.fem.campaign import remove_snapshots, run_campaign
+from geocontact.fem.campaign import run_campaign
 from geocontact.fem.roundoff import fe_summary_resolutions
 from geocontact.files import atomic_directory, check_replaceable, json_safe, write_csv
 from geocontact.grain.hertz import incipient_yield
@@ -151,12 +151,9 @@ def dataset_scale(surfaces, material) -> dict:
 def probe_scale(material, settings, cache: str) -> dict:
     """a(F) of ``material`` from FE probes (``record_campaign.run_probes``) of its point of the
     box (the campaign's E and R: F/Fy and a/R are the same at any E and R by similarity), and
-    the lowest and top levels' a/R by the campaign's rule (``record.level_forces``). The probes'
-    snapshots are removed (no branch is made of them)."""
+    the lowest and top levels' a/R by the campaign's rule (``record.level_forces``)."""
     point = record.RecordPoint(0, *coordinates_of(material).tolist())
     probes, results = run_probes(point, settings, Path(cache))
-    for probe in probes:
-        remove_snapshots(cache, probe)
     at_point = point.material()
     force, radius = record.contact_curve(*[r.curve for r in results])
     levels = record.level_forces(at_point, force, radius)["target_contact_over_radius"]

@@ -153,10 +153,10 @@ def test_named_cases_and_contact_size_peaks():
     assert math.log(t2 / low) / math.log(high / low) == pytest.approx(script.U_SECOND)
 
 
-def test_probes_go_deeper_until_the_top_and_drop_the_earlier_snapshots(monkeypatch):
+def test_probes_go_deeper_until_the_top_without_snapshots(monkeypatch):
     """record_campaign.run_probes (the script's --peaks probe, the campaign's probes) on a fake
     FE whose contact grows as sqrt(F): the first probe (the validity force) reaches 0.2 R, the
-    second the aimed 1.1 x 0.3 R; the first probe's snapshots are removed."""
+    second the aimed 1.1 x 0.3 R; no probe saves snapshots (no branch follows a probe)."""
     import types
 
     import geocontact.fem.campaign as fem_campaign
@@ -165,20 +165,17 @@ def test_probes_go_deeper_until_the_top_and_drop_the_earlier_snapshots(monkeypat
     point = record.design_points(1)[0]
     material = point.material()
     scale = 0.2 * material.radius / math.sqrt(record.validity_force(material))
-    removed = []
-
     def fake_run(jobs, cache, **_):
         (job,) = jobs
+        assert not job.snapshots
         force = np.geomspace(1e-7 * job.forces[-1], job.forces[-1], 60)
         return [types.SimpleNamespace(curve={"force_N": force,
                                              "contact_radius_m": scale * np.sqrt(force)})]
 
     monkeypatch.setattr(fem_campaign, "run_campaign", fake_run)
-    monkeypatch.setattr(fem_campaign, "remove_snapshots",
-                        lambda cache, job: removed.append(job.key()))
     probes, results = run_probes(point, record.fe_settings(mesh="coarse"), Path("unused"),
                                  progress=False)
-    assert len(probes) == 2 and removed == [probes[0].key()]
+    assert len(probes) == 2
     reached = results[-1].curve["contact_radius_m"][-1] / material.radius
     assert reached == pytest.approx(record.PROBE_AIM * record.TOP_CONTACT_OVER_RADIUS)
 

@@ -48,14 +48,12 @@ def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
     one deeper until the contact reaches the top target, at most ``record.MAX_PROBES``), run
     or read from ``cache``; returns the jobs and their results (``record.contact_curve`` of
     the results is the point's a(F))."""
-    from ..fem.campaign import remove_snapshots, run_campaign
+    from ..fem.campaign import run_campaign
 
     material = point.material()
     probes, probe_results = [], []
     force = None
-    for attempt in range(record.MAX_PROBES):
-        if probes:  # a probe with snapshots (the pilot's design) is not followed once deeper
-            remove_snapshots(cache, probes[-1])
+    for attempt in range(record.MAX_PROBES):  # a probe saves no snapshots: no branch follows it
         probes.append(record.probe_job(point, settings, force, attempt))
         probe_results.append(run_campaign([probes[-1]], cache, workers=1,
                                           progress=progress)[0])
