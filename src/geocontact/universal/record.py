@@ -97,7 +97,7 @@ def fe_settings(mesh: str = "default", kinematics: str = "finite", **changes) ->
     kernels (small or finite strain), the "envelope" step control (the "dissipation" control,
     the FE's verified default of issue 36, with a reload over the flattened dent measured
     against itself: the same solves on the base's ramp, resolved to "dissipation" there; on the
-    repeated history 0.7 of its CPU, within 2.2 % of a step-converged reference in every
+    repeated history 0.7 of its CPU, within 2.0 % of a step-converged reference in every
     cycle's plastic work and ratchet, docs/fem.md "The envelope control") and every other
     setting the FE's default (the mesh rule "auto"); ``changes``: any other FeSettings field
     (``PILOT_FE`` for the pilot's). One-line InputError on a setting the FE refuses. The
