@@ -59,7 +59,9 @@ from geocontact.grain.material import Material  # noqa: E402
 from geocontact.universal.record import fe_settings  # noqa: E402
 
 DATASET = ROOT / "datasets" / "universal" / "record" / "provenance.json"
-RUNS = ("dissipation", "envelope", "dissipation-fine")
+# name: (step control, capped at --fine-ratio)
+VARIANTS = {"dissipation": ("dissipation", False), "envelope": ("envelope", False),
+            "dissipation-fine": ("dissipation", True)}
 COMPARED = ("plastic_work_J", "residual_approach_m", "max_approach_m", "loop_work_J")
 
 
@@ -139,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--tolerance", type=float, default=0.05,
                    help="allowed difference of a cycle's plastic work and residual increment, "
                         "relative to the fine reference's")
-    p.add_argument("--only", choices=RUNS, help="make this run only (into the cache)")
+    p.add_argument("--only", choices=tuple(VARIANTS), help="make this run only (into the cache)")
     p.add_argument("--json", type=Path, help="write the comparison here")
     p.add_argument("--cache", type=Path, default=Path("out/cache/envelope-control"),
                    help="FE result cache (runs found there are not made again)")
@@ -156,11 +158,10 @@ def main(argv: list[str] | None = None) -> int:
         material = Material(**fields)
         forces = [0.0] + [force, 0.0] * args.cycles
         runs = {}
-        for name, control, ratio in (("dissipation", "dissipation", None),
-                                     ("envelope", "envelope", None),
-                                     ("dissipation-fine", "dissipation", args.fine_ratio)):
+        for name, (control, capped) in VARIANTS.items():
             if args.only not in (None, name):
                 continue
+            ratio = args.fine_ratio if capped else None
             print(f"{name}: running", file=sys.stderr, flush=True)
             runs[name] = run_one(material, forces, args.mesh, control, ratio, args.cache)
             r = runs[name]

@@ -225,24 +225,29 @@ class _DentSolver(_Solver):
                                    work=10.0 + force)
 
 
+_DENT_ELEMENT = 1e-5  # fine surface elements: the edge bound binds
+
+
+def _reload(step_control, envelope, start, target):
+    """A reload over the dent (``_DentSolver``) from ``start`` to ``target`` under
+    ``step_control``: the forces of its solves and what set each next step."""
+    solver = _DentSolver(fails_above=10.0)
+    control = AdaptiveSteps(1.0, YIELD_STRAIN, np.arange(0.0, 0.05, _DENT_ELEMENT),
+                            math.log(ADAPTIVE_MAX_RATIO), step_control)
+    control.log_ratio = math.log(1.02)
+    state = _State(start, np.array([0.01 * math.sqrt(start)]), plastic_dissipation=1.0,
+                   work=10.0 + start)
+    done = fem_run._advance_adaptive(solver, state, target, 1, control, envelope)
+    assert done.force == target
+    return solver.solves, control.limited_by
+
+
 def test_the_envelope_control_lets_a_reload_over_the_dent_through_and_loads_fresh_surface_alike():
     """Below the largest force reached (the envelope), "envelope" counts only the edge's
     advance beyond the largest contact radius reached: a reload over the dent is not cut by the
     edge bound, which cuts the same reload under "dissipation" into solves of a tenth of an
     element's advance; from the envelope on, the two take the same solves."""
-    ends = np.arange(0.0, 0.05, 1e-5)  # fine surface elements: the edge bound binds
-
-    def reload(step_control, envelope, start, target):
-        solver = _DentSolver(fails_above=10.0)
-        control = AdaptiveSteps(1.0, YIELD_STRAIN, ends, math.log(ADAPTIVE_MAX_RATIO),
-                                step_control)
-        control.log_ratio = math.log(1.02)
-        state = _State(start, np.array([0.01 * math.sqrt(start)]), plastic_dissipation=1.0,
-                       work=10.0 + start)
-        done = fem_run._advance_adaptive(solver, state, target, 1, control, envelope)
-        assert done.force == target
-        return solver.solves, control.limited_by
-
+    reload = _reload
     # the envelope: F and a at the largest step end, D and W where the reload began
     top = fem_run.Envelope(100.0, 1e-3 * math.sqrt(100.0), 1.0, 12.0)
     old, old_by = reload("dissipation", None, 2.0, 50.0)
@@ -281,21 +286,11 @@ def test_the_envelope_control_resolves_the_rim_of_the_dent_as_dissipation_does()
     advance, as "dissipation" does: a reload to the envelope's peak crosses the rim in solves
     of at most about an element's advance each, and the dent inside it in far fewer solves than
     "dissipation" takes there."""
-    element = 1e-5
-    ends = np.arange(0.0, 0.05, element)
     top = fem_run.Envelope(100.0, 1e-3 * math.sqrt(100.0), 1.0, 12.0)
-    rim = top.radius - fem_run.ENVELOPE_RIM_ELEMENTS * element
+    rim = top.radius - fem_run.ENVELOPE_RIM_ELEMENTS * _DENT_ELEMENT
 
     def solves(step_control, envelope):
-        solver = _DentSolver(fails_above=10.0)
-        control = AdaptiveSteps(1.0, YIELD_STRAIN, ends, math.log(ADAPTIVE_MAX_RATIO),
-                                step_control)
-        control.log_ratio = math.log(1.02)
-        state = _State(2.0, np.array([0.01 * math.sqrt(2.0)]), plastic_dissipation=1.0,
-                       work=12.0)
-        done = fem_run._advance_adaptive(solver, state, 100.0, 1, control, envelope)
-        assert done.force == 100.0
-        radii = np.array([solver.contact_radius(_State(f, None)) for f in solver.solves])
+        radii = 1e-3 * np.sqrt(_reload(step_control, envelope, 2.0, 100.0)[0])  # _DentSolver's a
         return int(np.sum(radii < rim)), int(np.sum(radii >= rim))
 
     inside, on_rim = solves("envelope", top)
