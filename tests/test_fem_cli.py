@@ -177,8 +177,8 @@ def test_elastic_run_reports_round_off_plastic_work_as_zero(tmp_path, capsys):
 
 
 def test_fe_model_flags_reach_the_run(tmp_path, monkeypatch, capsys):
-    """--kinematics, --mesh-rule, --step-rule and --max-step-ratio of ``geocontact fem`` and
-    ``cycles`` are passed to the FE run (captured here instead of running it); a bad value is a
+    """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --newton of ``geocontact
+    fem`` and ``cycles`` are passed to the FE run (captured here instead of running it); a bad value is a
     one-line error."""
     seen = []
 
@@ -187,23 +187,28 @@ def test_fe_model_flags_reach_the_run(tmp_path, monkeypatch, capsys):
 
     def capture(*args, **kwargs):
         seen.append({k: kwargs.get(k)
-                     for k in ("kinematics", "mesh_rule", "step_rule", "max_step_ratio")})
+                     for k in ("kinematics", "mesh_rule", "step_rule", "max_step_ratio",
+                               "newton")})
         raise Stop
 
     monkeypatch.setattr(fem_run, "run_history", capture)
     history = str(_history(tmp_path))
     flags = ["--kinematics", "finite", "--mesh-rule", "contact", "--step-rule", "decade",
-             "--max-step-ratio", "1.01"]
+             "--max-step-ratio", "1.01", "--newton", "backtracking"]
     for command in ("fem", "cycles"):
         with pytest.raises(Stop):
             main([command, "--material", "reference", "--history", history, "--mesh", "coarse",
                   "--out", str(tmp_path / command), *flags])
     assert seen == [{"kinematics": "finite", "mesh_rule": "contact", "step_rule": "decade",
-                     "max_step_ratio": 1.01}] * 2
+                     "max_step_ratio": 1.01, "newton": "backtracking"}] * 2
     code = main(["fem", "--material", "reference", "--history", history,
                  "--out", str(tmp_path / "x"), "--kinematics", "large"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.count("\n") == 0 and "--kinematics" in err
+    code = main(["fem", "--material", "reference", "--history", history,
+                 "--out", str(tmp_path / "x"), "--newton", "damped"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "--newton" in err
     monkeypatch.undo()  # the real run: a cap <= 1 is refused before any work, in one line
     code = main(["fem", "--material", "reference", "--history", history,
                  "--out", str(tmp_path / "y"), "--max-step-ratio", "0.5"])

@@ -48,6 +48,7 @@ def test_defaults_are_the_verified_settings_and_resolve_per_history():
     ({"kernels": "compiled", "contact": "facet"},
      r"^kernels: 'compiled' is the engine with the node contact \(got contact 'facet'\)$"),
     ({"mesh_force": -1.0}, "^mesh_force: must be a positive number, got -1.0$"),
+    ({"newton": "damped"}, r"^newton: unknown 'damped' \(allowed: full, backtracking\)$"),
 ])
 def test_a_setting_the_fe_refuses_is_one_line_naming_it(keywords, message):
     with pytest.raises(InputError, match=message) as caught:
@@ -87,6 +88,13 @@ def test_the_identity_records_the_settings_as_before_and_round_trips():
     assert facet.inputs()["contact"] == "facet"
     node_numpy = FeRunIdentity.of(REFERENCE, FORCES, kernels="numpy").inputs()
     assert node_numpy["kernels"] == "numpy" and "contact" not in node_numpy
+    # the Newton updates: recorded only when backtracking, a run with full updates keeps its key
+    assert "newton" not in default
+    backtracked = FeRunIdentity.of(REFERENCE, FORCES, newton="backtracking")
+    assert backtracked.inputs()["newton"] == "backtracking"
+    assert backtracked.key() != FeRunIdentity.of(REFERENCE, FORCES).key()
+    assert FeSettings.of_record(backtracked.inputs()) == backtracked.settings
+    assert FemJob.of_inputs(backtracked.inputs()).key() == backtracked.key()
     job = FemJob(REFERENCE, tuple(FORCES), kinematics="finite", max_step_ratio=1.01)
     assert job.settings() == FeSettings(kinematics="finite", max_step_ratio=1.01)
     assert job.key() == FeRunIdentity.of(REFERENCE, FORCES, kinematics="finite",
@@ -102,9 +110,9 @@ def test_the_cli_flags_default_to_the_settings_and_give_its_keywords():
         name: getattr(defaults, name) for name in MODEL_FLAGS}
     assert FeSettings.model_of(args) == {name: getattr(defaults, name) for name in MODEL_FLAGS}
     chosen = parser.parse_args(["--kinematics", "finite", "--contact", "facet",
-                                "--max-step-ratio", "1.02"])
+                                "--max-step-ratio", "1.02", "--newton", "backtracking"])
     assert FeSettings(**FeSettings.model_of(chosen)) == FeSettings(
-        kinematics="finite", contact="facet", max_step_ratio=1.02)
+        kinematics="finite", contact="facet", max_step_ratio=1.02, newton="backtracking")
 
 
 def test_run_history_takes_the_settings_or_their_keywords_with_one_result():

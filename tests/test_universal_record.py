@@ -309,8 +309,9 @@ def test_the_campaign_flags_reach_the_settings(monkeypatch):
     assert campaign.main(["--points", "3", "--design", "record"]) == 0
     assert campaign.main(["--points", "3", "--design", "record", "--mesh", "coarse",
                           "--mesh-rule", "yield", "--step-control", "fixed",
-                          "--step-rule", "segment"]) == 0
+                          "--step-rule", "segment", "--newton", "full"]) == 0
     assert seen == [record.fe_settings(), record.fe_settings(**record.PILOT_FE)]
+    assert (seen[0].step_control, seen[0].newton) == ("envelope", "backtracking")
 
 
 def test_a_point_made_with_other_fe_settings_is_made_again(tmp_path, monkeypatch):

@@ -169,7 +169,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                step_rule: str = "segment",
                max_step_ratio: float | None = None, contact: str = "node",
                kernels: str | None = None,
-               step_control: str = DEFAULT_STEP_CONTROL) -> dict[str, Any]:
+               step_control: str = DEFAULT_STEP_CONTROL,
+               newton: str = "full") -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With
@@ -196,8 +197,9 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                                 kinematics=kinematics, mesh_rule=mesh_rule,
                                 step_rule=step_rule, max_step_ratio=max_step_ratio,
                                 contact=contact, kernels=kernels, step_control=step_control,
-                                resume=resume, fit_params=fit_params, progress=progress,
-                                inputs=inputs, previous_fe=out / "fe", checkpoint=checkpoint)
+                                newton=newton, resume=resume, fit_params=fit_params,
+                                progress=progress, inputs=inputs, previous_fe=out / "fe",
+                                checkpoint=checkpoint)
     from ..fem.checkpoint import remove_checkpoint
 
     remove_checkpoint(checkpoint)  # the analysis has landed
@@ -206,7 +208,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segment, tolerance,
                   kinematics, mesh_rule, step_rule, max_step_ratio, contact, kernels,
-                  step_control, resume, fit_params, progress, inputs, previous_fe: Path,
+                  step_control, newton, resume, fit_params, progress, inputs, previous_fe: Path,
                   checkpoint: Path) -> dict[str, Any]:
     """The body of ``run_cycles``, writing into the (temporary) folder ``out``."""
     from ..fem.run import run_history  # the FE is an optional extra: imported when used
@@ -222,7 +224,7 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
                                     kinematics=kinematics, mesh_rule=mesh_rule,
                                     step_rule=step_rule, max_step_ratio=max_step_ratio,
                                     contact=contact, kernels=kernels,
-                                    step_control=step_control)
+                                    step_control=step_control, newton=newton)
         why: list[str] = []
         result = finished_run(previous_fe, identity, fields=True, why=why)
         if why:
@@ -234,7 +236,8 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
                              progress=progress, write_fields=True, checkpoint=checkpoint,
                              kinematics=kinematics, mesh_rule=mesh_rule,
                              step_rule=step_rule, max_step_ratio=max_step_ratio,
-                             contact=contact, kernels=kernels, step_control=step_control)
+                             contact=contact, kernels=kernels, step_control=step_control,
+                             newton=newton)
     else:
         shutil.copytree(previous_fe, fe_dir)
         if progress:

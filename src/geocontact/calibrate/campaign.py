@@ -370,6 +370,8 @@ def fit_runs(material: Material, runs: list[CalibrationRun],
             # named where not "fixed": the load steps of every file written before the
             # adaptive control became the default (issue 36)
             **({"step_control": job.step_control} if job.step_control != "fixed" else {}),
+            # named where not "full" (fem.settings.NEWTON_UPDATES): files before it read as before
+            **({"newton": job.newton} if job.newton != "full" else {}),
             "steps_per_segment": job.steps_per_segment
             or runs[0].result.summary["inputs"]["steps_per_segment"],
             "elements": [r.result.summary["mesh"]["elements"] for r in runs],

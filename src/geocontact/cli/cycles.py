@@ -105,5 +105,5 @@ def _run(args, material, forces, params) -> dict:
         overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
         step_rule=args.step_rule, max_step_ratio=args.max_step_ratio, contact=args.contact,
         kernels=args.kernels,
-        step_control=args.step_control,
+        step_control=args.step_control, newton=args.newton,
     )

@@ -59,7 +59,7 @@ def run(args) -> int:
                              mesh_rule=args.mesh_rule, step_rule=args.step_rule,
                              max_step_ratio=args.max_step_ratio, contact=args.contact,
                              kernels=args.kernels,
-                             step_control=args.step_control,
+                             step_control=args.step_control, newton=args.newton,
                              progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:

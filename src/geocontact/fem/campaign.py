@@ -80,6 +80,7 @@ class FemJob:
     kernels: str | None = None  # "numpy" | "compiled" | None: the contact's default
     # "dissipation" | "adaptive" | "fixed" (fem.settings.STEP_CONTROLS, fem.run.AdaptiveSteps)
     step_control: str = DEFAULT_STEP_CONTROL
+    newton: str = "full"  # "full" | "backtracking" (fem.settings.NEWTON_UPDATES)
     # a branch: (base forces, step) of the loading ramp it follows (fem.run.run_history); the
     # base job is this one with those forces and no ``follows``
     follows: tuple | None = None
@@ -108,6 +109,7 @@ class FemJob:
                   contact=inputs.get("contact", "node"),
                   kernels=inputs.get("kernels"),
                   step_control=inputs.get("step_control", RECORD_DEFAULTS["step_control"]),
+                  newton=inputs.get("newton", RECORD_DEFAULTS["newton"]),
                   follows=(None if "follows" not in inputs else (
                       tuple(inputs["follows"]["forces_N"]), inputs["follows"]["step"])))
         return replace(job, **changes) if changes else job

@@ -299,6 +299,19 @@ _ENVELOPE_RIM = ("the envelope control's edge bound counts the whole advance on 
 _reproduces(_ENVELOPE_RIM_CODE, _ENVELOPE_CODE, _ENVELOPE_RIM,
             unless={"step_control": ("envelope",)})
 
+# Backtracking (issues 36 and 37, docs/fem.md "Backtracking"): the opt-in Newton updates of the
+# hard, perfectly plastic corner. Evidence: the cyclic history [0, 0.3 N] x 3 and the ramp under
+# "dissipation" and "envelope" (reference-weak, coarse mesh, finite strain, decade steps), old code
+# against new on one machine: byte-identical curve.csv, summaries equal but for identity and
+# times.
+_BACKTRACKING_CODE = "6b11bcf14a03e335"
+_BACKTRACKING = ("the opt-in Newton backtracking added (newton='backtracking', "
+                 "ContactSolver.backtracking; recorded in the identity as newton when not "
+                 "'full') and rescue mode's trial iterate shared with it (ContactSolver._trial, "
+                 "the same arithmetic): a run with full updates is solved, checkpointed and "
+                 "summarised as before")
+_reproduces(_BACKTRACKING_CODE, _ENVELOPE_RIM_CODE, _BACKTRACKING)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -375,6 +388,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_ENVELOPE_RIM_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_ENVELOPE_RIM_CODE, *REPRODUCED_FE_CODE[_ENVELOPE_RIM_CODE])},
+    # and under the FE code of the backtracking (reruns under it)
+    (_BACKTRACKING_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_BACKTRACKING_CODE, *REPRODUCED_FE_CODE[_BACKTRACKING_CODE])},
 }
 
 

@@ -749,10 +749,11 @@ def _solver(material: Material, fe_mesh, identity, linear_solver: str) -> Contac
     if identity.contact != "node":  # the default's arguments as they were
         return kind(material, fe_mesh, force_scale=max(identity.forces),
                     tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
-                    linear_solver=linear_solver, contact=identity.contact)
+                    linear_solver=linear_solver, contact=identity.contact,
+                    backtracking=identity.newton == "backtracking")
     return kind(material, fe_mesh, force_scale=max(identity.forces),
                 tolerance=identity.tolerance, bbar=bbar, volumetric_order=order,
-                linear_solver=linear_solver)
+                linear_solver=linear_solver, backtracking=identity.newton == "backtracking")
 
 
 def run_history(

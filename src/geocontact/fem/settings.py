@@ -64,10 +64,15 @@ def resolved_step_control(step_control: str, forces) -> str:
         return SAME_WITHOUT_RELOADS[step_control]
     return step_control
 DEFAULT_STEP_CONTROL = "dissipation"
+# How a plastic solve's Newton updates are taken (fem.solver, docs/fem.md "Backtracking"): "full"
+# (the default: every update whole) or "backtracking" (an update that does not lower the largest
+# residual is halved, at most fem.solver.BACKTRACK_HALVINGS times; for perfectly plastic, nearly
+# incompressible grains, whose full updates can cycle without converging).
+NEWTON_UPDATES = ("full", "backtracking")
 # The settings added after the first identity record: recorded only when not at their default,
 # so the keys (cache entries, checkpoints) of earlier runs stay valid.
 RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "contact",
-                     "kernels", "step_control")
+                     "kernels", "step_control", "newton")
 # The value each of them had by default when it entered the identity: a record leaves a setting
 # out only at this value and reads an absent one as it, so a default that moves later keeps every
 # older record meaning what it meant. mesh_rule entered as "yield" and step_control as "fixed";
@@ -77,7 +82,8 @@ RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "
 # records what "auto" chose where that is not "yield" and "adaptive". The kernels' absence is
 # read per FE code instead (fem.identity.recorded_kernels).
 RECORD_DEFAULTS = {"mesh_rule": "yield", "kinematics": "small", "step_rule": "segment",
-                   "max_step_ratio": None, "contact": "node", "step_control": "fixed"}
+                   "max_step_ratio": None, "contact": "node", "step_control": "fixed",
+                   "newton": "full"}
 # The mesh rule chosen from the material and the load (issue 36; docs/fem.md "The mesh rule
 # chosen from the material and the load"): "auto" resolves, with the history's largest force (the
 # mesh force), to "contact-dense" when that force is above AUTO_DENSE_FORCE_RATIO x the analytic
@@ -161,7 +167,7 @@ class FeSettings:
     ``contact``: "node" | "facet". ``kernels``: "numpy" | "compiled" (small or finite strain,
     node contact; fem.compiled) | None, the contact's default (``default_kernels``: compiled
     with the node contact, numpy with the facet contact), which the object holds in its place
-    once made.
+    once made. ``newton``: "full" (the default) | "backtracking" (``NEWTON_UPDATES``).
     """
 
     mesh: str = "coarse"
@@ -176,6 +182,7 @@ class FeSettings:
     contact: str = "node"
     kernels: str | None = None
     step_control: str = DEFAULT_STEP_CONTROL
+    newton: str = "full"
 
     def __post_init__(self) -> None:
         from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
@@ -193,7 +200,7 @@ class FeSettings:
         for name, allowed in (("volumetric", VOLUMETRIC), ("mesh_rule", MESH_RULE_CHOICES),
                               ("kinematics", KINEMATICS), ("step_rule", STEP_RULES),
                               ("contact", CONTACTS), ("kernels", KERNELS),
-                              ("step_control", STEP_CONTROLS)):
+                              ("step_control", STEP_CONTROLS), ("newton", NEWTON_UPDATES)):
             value = getattr(self, name)
             if value not in allowed:
                 raise InputError(f"{name}: unknown {value!r} (allowed: {', '.join(allowed)})")
@@ -283,6 +290,8 @@ class FeSettings:
             words.append(f"{self.kernels} kernels")
         if self.step_control != FeSettings.__dataclass_fields__["step_control"].default:
             words.append(f"{self.step_control} step control")
+        if self.newton != RECORD_DEFAULTS["newton"]:
+            words.append(f"{self.newton} Newton updates")
         return words
 
     def as_dict(self) -> dict[str, Any]:
@@ -295,8 +304,9 @@ class FeSettings:
     # --- the command line ----------------------------------------------------------------
     @staticmethod
     def add_model_flags(p) -> None:
-        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --step-control, --contact and
-        --kernels of the FE engine (docs/fem.md); their defaults are the settings'."""
+        """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --step-control, --contact,
+        --kernels and --newton of the FE engine (docs/fem.md); their defaults are the
+        settings'."""
         default = FeSettings.__dataclass_fields__
         p.add_argument("--kinematics", default=default["kinematics"].default,
                        choices=list(KINEMATICS),
@@ -348,14 +358,22 @@ class FeSettings:
                             "the default with the node contact) or 'numpy' (the default with "
                             "--contact facet): the same results within 1e-10, not bit for "
                             "bit (docs/fem.md)")
+        p.add_argument("--newton", default=default["newton"].default,
+                       choices=list(NEWTON_UPDATES),
+                       help="FE Newton updates of a plastic solve: 'full' (default) or "
+                            "'backtracking' (from the third iteration, an update that does "
+                            "not lower the largest residual is halved, up to twice: for "
+                            "perfectly plastic, nearly incompressible grains whose full "
+                            "updates cycle; a solve whose full updates all lower the residual "
+                            "is unchanged; docs/fem.md)")
 
     @staticmethod
     def model_of(args) -> dict[str, Any]:
         """The FE model the flags of ``add_model_flags`` chose, as settings keywords
-        (``contact``, ``kernels`` and ``step_control`` only when not the default, so the records
-        of default runs are unchanged)."""
+        (``contact``, ``kernels``, ``step_control`` and ``newton`` only when not the default, so
+        the records of default runs are unchanged)."""
         model = {key: getattr(args, key) for key in MODEL_FLAGS}
-        for name in ("contact", "kernels", "step_control"):
+        for name in ("contact", "kernels", "step_control", "newton"):
             if getattr(args, name) != FeSettings.__dataclass_fields__[name].default:
                 model[name] = getattr(args, name)
         return model

@@ -36,6 +36,14 @@ Rescue mode (``line_search``, set by ``run._advance`` only for a load step that 
 (``admissible``: with finite strain, an element turned inside out, J <= 0) is halved until it can
 (at most ``LINE_SEARCH_HALVINGS`` times), and so is the predictor's increment. Off, the arithmetic
 is the one the engine always had, so a run that converges without it is unchanged bit for bit.
+
+Backtracking (``backtracking``, FE setting ``newton="backtracking"``, opt-in): from the third
+Newton iteration of a plastic solve on, an update that does not lower the largest residual is
+halved (at most ``BACKTRACK_HALVINGS`` times; the last trial is taken if none lowers it), each trial
+one evaluation that is the next iterate's own (no evaluation is repeated). It cures the stall of a
+perfectly plastic, nearly incompressible grain, where full updates cycle between the elastic and
+the plastic branch of the points at the rim of the plastic zone (docs/fem.md "Backtracking"); a
+solve whose full updates all lower the residual takes the arithmetic it had without it.
 """
 
 from __future__ import annotations
@@ -73,6 +81,12 @@ EDGE_SURFACE_FACETS = 3
 LINE_SEARCH_HALVINGS = 12
 # Facet contact: the line search of the elastic iterations (``_facet_line_search``) stops when the
 # slope of the potential is down to this fraction of its start, or after this many evaluations.
+# Backtracking (newton="backtracking"): halvings of a plastic Newton update that does not lower the
+# largest residual, from iteration BACKTRACK_FROM on (the first iterations change the contact set
+# and the plastic zone, where a rising residual is Newton's normal path). Two halvings and the
+# third iteration: the setting of the point-3 trace (docs/fem.md "Backtracking").
+BACKTRACK_HALVINGS = 2
+BACKTRACK_FROM = 3
 FACET_SEARCH_SLOPE = 1e-2
 FACET_SEARCH_STEPS = 30
 
@@ -160,6 +174,7 @@ class ContactSolver:
     force_scale: float = 1.0  # N, the history's largest force
     linear_solver: str = "fast"  # "fast" | "reference" (see the module docstring)
     line_search: bool = False  # rescue mode (see the module docstring): off by default
+    backtracking: bool = False  # newton="backtracking" (see the module docstring): off by default
     contact: str = "node"  # "node" | "facet" (see the module docstring)
     _cache: dict = field(default_factory=dict, repr=False)
 
@@ -210,6 +225,7 @@ class ContactSolver:
         self._elastic_factors: OrderedDict = OrderedDict()  # contact set -> factor
         self.factorisations = 0  # linear systems factorised (both paths)
         self.line_search_halvings = 0  # Newton updates halved in rescue mode, in all
+        self.backtracked_updates = 0  # Newton updates halved by backtracking, in all (halvings)
         self.rescued_steps: list[dict] = []  # load steps solved in rescue mode (run._advance)
         if self.contact == "facet":
             from .facet_contact import FacetContact
@@ -465,10 +481,13 @@ class ContactSolver:
         tol = self.tolerance * scale
         top = self.top_dofs
         residual_norm = math.inf
+        evaluated = None  # the evaluation at u the backtracking made (``_backtracked_update``)
         for iteration in range(1, self.max_iterations + 1):
             u[top] = -w
-            stress, strain, eqps, status, f_int, tangent = self._response(old, u,
-                                                                          elastic=elastic)
+            if evaluated is None:
+                evaluated = self._response(old, u, elastic=elastic)
+            stress, strain, eqps, status, f_int, tangent = evaluated
+            evaluated = None
             reaction = f_int[cdofs]  # contact force on each candidate node (>0 compressive)
             gaps = z0 + u[cdofs]
             # Active-set update (primal-dual, complementarity lambda - c g with g = 0 or
@@ -511,6 +530,10 @@ class ContactSolver:
                     if u is None:
                         break
                     continue
+                if self.backtracking and not elastic and iteration >= BACKTRACK_FROM:
+                    u, w, evaluated = self._backtracked_update(
+                        old, force, u, w, step, free, cdofs[active], -z0[active], residual_norm)
+                    continue
                 u[free] += step[:n]
                 u[cdofs[active]] = -z0[active]
                 w += step[n]
@@ -537,6 +560,10 @@ class ContactSolver:
                 u, w = self._searched_update(u, w, step, free, cdofs[active], -z0[active])
                 if u is None:
                     break
+                continue
+            if self.backtracking and not elastic and iteration >= BACKTRACK_FROM:
+                u, w, evaluated = self._backtracked_update(
+                    old, force, u, w, step, free, cdofs[active], -z0[active], residual_norm)
                 continue
             u[free] += step[:n]
             u[cdofs[active]] = -z0[active]
@@ -721,22 +748,54 @@ class ContactSolver:
         """Rescue mode: the Newton update ``step`` ([du_free, dw], the active contact dofs moved
         to ``contact_values``) scaled by 1, 1/2, 1/4, ... until its iterate is admissible;
         (None, None) after ``LINE_SEARCH_HALVINGS`` halvings."""
-        n = len(free)
         scale = 1.0
         for _ in range(LINE_SEARCH_HALVINGS + 1):
-            trial = u.copy()
-            trial[free] += scale * step[:n]
-            if scale == 1.0:
-                trial[contact_dofs] = contact_values
-            else:
-                trial[contact_dofs] += scale * (contact_values - trial[contact_dofs])
-            trial_w = w + scale * step[n]
-            trial[self.top_dofs] = -trial_w
+            trial, trial_w = self._trial(u, w, step, free, contact_dofs, contact_values, scale)
             if self.admissible(trial):
                 return trial, trial_w
             scale *= 0.5
             self.line_search_halvings += 1
         return None, None
+
+    def _trial(self, u: np.ndarray, w: float, step: np.ndarray, free: np.ndarray,
+               contact_dofs: np.ndarray, contact_values: np.ndarray, scale: float):
+        """The iterate ``scale`` x the Newton update ``step`` ([du_free, dw]) from (u, w): the
+        active contact dofs moved to ``contact_values`` (at scale 1 exactly), the top column
+        at -w; a new array."""
+        n = len(free)
+        trial = u.copy()
+        trial[free] += scale * step[:n]
+        if scale == 1.0:
+            trial[contact_dofs] = contact_values
+        else:
+            trial[contact_dofs] += scale * (contact_values - trial[contact_dofs])
+        trial_w = w + scale * step[n]
+        trial[self.top_dofs] = -trial_w
+        return trial, trial_w
+
+    def _backtracked_update(self, old: State, force: float, u: np.ndarray, w: float,
+                            step: np.ndarray, free: np.ndarray, contact_dofs: np.ndarray,
+                            contact_values: np.ndarray, residual: float):
+        """Backtracking: the Newton update ``step`` scaled by 1, 1/2, ... (at most
+        ``BACKTRACK_HALVINGS`` halvings) until the largest residual of the iterate, on the same
+        free dofs and the same load, is below ``residual``, the current one; the last trial
+        if none is. Returns (u, w, the evaluation at u: ``_response``'s tuple, the next
+        iteration's own). A full update that lowers the residual is the plain Newton iterate
+        (``_trial`` at scale 1 is the arithmetic of the plain update)."""
+        scale = 1.0
+        for halving in range(BACKTRACK_HALVINGS + 1):
+            trial, trial_w = self._trial(u, w, step, free, contact_dofs, contact_values, scale)
+            response = self._response(old, trial, elastic=False)
+            if halving == BACKTRACK_HALVINGS:
+                break
+            f_int = response[4]
+            r_top = -np.sum(f_int[self.top_dofs]) - force
+            largest = max(np.max(np.abs(f_int[free]), initial=0.0), abs(r_top))
+            if largest < residual:  # NaN (an element inside out) compares False: halved
+                break
+            scale *= 0.5
+            self.backtracked_updates += 1
+        return trial, trial_w, response
 
     def _fast_step(self, tangent, active, prescribed, r_free, r_top, elastic) -> np.ndarray:
         """Newton correction [du_free, dw] on the fast path (see the module docstring)."""

@@ -28,7 +28,7 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import InputError, run_reporting_errors
-from ..fem.settings import MESH_RULE_CHOICES, STEP_CONTROLS, STEP_RULES
+from ..fem.settings import MESH_RULE_CHOICES, NEWTON_UPDATES, STEP_CONTROLS, STEP_RULES
 from ..files import provenance as provenance_record
 from ..files import write_json_atomic, write_text_atomic
 from ..grain.hertz import incipient_yield
@@ -287,8 +287,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="record only: the FE mesh rule (default: the FE's, 'auto'; the "
                              "pilot's: 'yield')")
     parser.add_argument("--step-control", default=None, choices=list(STEP_CONTROLS),
-                        help="record only: the FE load-step control (default: the FE's, "
-                             "'dissipation'; the pilot's: 'fixed')")
+                        help="record only: the FE load-step control (default: 'envelope', "
+                             "the record's; the pilot's: 'fixed')")
+    parser.add_argument("--newton", default=None, choices=list(NEWTON_UPDATES),
+                        help="record only: the FE's Newton updates (default: 'backtracking', "
+                             "the record's; the pilot's: 'full')")
     parser.add_argument("--step-rule", default=None, choices=list(STEP_RULES),
                         help="record only: the FE load-step rule (default: 'decade', so the "
                              "levels land near their targets; the pilot's: 'segment')")
@@ -301,7 +304,8 @@ def main(argv: list[str] | None = None) -> int:
 
         if args.design == "record":
             return _run_record(args)
-        for flag in ("mesh", "kinematics", "mesh_rule", "step_control", "step_rule", "only"):
+        for flag in ("mesh", "kinematics", "mesh_rule", "step_control", "step_rule", "newton",
+                     "only"):
             if getattr(args, flag) is not None:
                 raise InputError(f"--{flag.replace('_', '-')}: only with --design record "
                                  "(v1 is coarse, small strain, every point)")
@@ -325,7 +329,8 @@ def _run_record(args) -> int:
     record.design_points(args.points)  # one-line error on a bad count, before any work
     settings = record.fe_settings(**{k: v for k, v in (
         ("mesh", args.mesh), ("kinematics", args.kinematics), ("mesh_rule", args.mesh_rule),
-        ("step_control", args.step_control), ("step_rule", args.step_rule)) if v is not None})
+        ("step_control", args.step_control), ("step_rule", args.step_rule),
+        ("newton", args.newton)) if v is not None})
     added = record_campaign.run_points(
         args.points, args.dataset or record_campaign.DEFAULT_DATASET,
         args.cache or record_campaign.DEFAULT_CACHE, settings, only=args.only)
