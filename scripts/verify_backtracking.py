@@ -160,9 +160,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="compare the solve logs an earlier call left in --out (no runs)")
     p.add_argument("--child", type=Path, help=argparse_hidden())
     p.add_argument("--log", type=Path, help=argparse_hidden())
-    args = p.parse_args(argv)
 
     def run() -> int:
+        args = p.parse_args(argv)
         if args.child is not None:
             return _child(args.child, args.log)
         if not 0 <= args.point < 64:

@@ -287,7 +287,8 @@ def test_generators_report_bad_input_in_one_line(tmp_path, capsys, module):
 
 
 @pytest.mark.parametrize("module", ["make_bad_law_documents", "universal_report",
-                                    "verify_universal", "verify_envelope_control"])
+                                    "verify_universal", "verify_envelope_control",
+                                    "verify_backtracking"])
 def test_scripts_report_a_bad_flag_in_one_line(capsys, module):
     """Their parsers raise InputError, so they parse inside run_reporting_errors: a bad or
     missing flag is one line and exit code 2, never a traceback."""
@@ -296,6 +297,26 @@ def test_scripts_report_a_bad_flag_in_one_line(capsys, module):
     script = importlib.import_module(module)  # scripts/ (tests/conftest.py)
     assert script.main(["--bogus"]) == 2
     one_line_error(capsys, "--")
+
+
+def test_verify_backtracking_refuses_bad_values_and_a_folder_it_did_not_make(tmp_path, capsys):
+    """Out-of-range flags are one line each; --out is replaced only when the script's mark is in
+    it, so a user's folder is never removed."""
+    import verify_backtracking as script  # scripts/ (tests/conftest.py)
+
+    for flags, message in ((["--point", "64"], "--point: must be a design point 0-63"),
+                           (["--seconds", "1"], "--seconds: must be in [30, 86400]"),
+                           (["--gain", "0"], "--gain: must be in (0, 100]")):
+        assert script.main(flags) == 2
+        one_line_error(capsys, message)
+    mine = tmp_path / "results"
+    mine.mkdir()
+    (mine / "keep.txt").write_text("a user's file")
+    assert script.main(["--out", str(mine)]) == 2
+    one_line_error(capsys, "--out:", "was not made by this script")
+    assert (mine / "keep.txt").read_text() == "a user's file"
+    assert script.main(["--out", str(mine), "--logs-only"]) == 2
+    one_line_error(capsys, "--logs-only:")
 
 
 def test_golden_per_family_bounds(tmp_path, capsys):
