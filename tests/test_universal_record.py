@@ -482,3 +482,79 @@ def test_pilot_law_warns_beyond_its_top_level():
         contact.update(0.9 * top)  # inside: silent
     with pytest.warns(BeyondCalibratedRangeWarning, match="beyond the calibrated range"):
         contact.update(1.2 * top)
+
+
+# --- a probe the FE cannot finish -------------------------------------------------------------
+POINT5_PROBE = Path(__file__).resolve().parent.parent / (
+    "datasets/fe-runs/universal-record/1d1691d2809d57fae26a.checkpoint.npz")
+
+
+def _failed_probe_in(cache: Path):
+    """Point 5's first probe (E/sigma_c 1e5, beta 60 deg, nu 0.1, m 0; Newton failed at 1221 N,
+    its checkpoint committed at the last converged step) as a job with its checkpoint in
+    ``cache`` under the job's key of the current FE code (as the campaign adopts it)."""
+    import shutil
+
+    from geocontact.fem.campaign import FemJob, _cached
+    from geocontact.fem.checkpoint import checkpoint_path
+
+    with np.load(POINT5_PROBE, allow_pickle=False) as data:
+        inputs = json.loads(str(data["identity"]))["inputs"]
+    job = FemJob.of_inputs(inputs)
+    shutil.copyfile(POINT5_PROBE, checkpoint_path(_cached(cache, job)))
+    return job
+
+
+def test_a_probe_the_fe_cannot_finish_stands_for_its_converged_steps(tmp_path, monkeypatch):
+    """Its converged steps are read from its checkpoint and end the probing; the base aims at
+    FAILED_PROBE_FORCE x the last converged force at most, so it is not driven into the
+    failure; without a checkpoint the failure is the point's."""
+    from geocontact.fem.campaign import CampaignError
+    from geocontact.universal import record_campaign
+
+    job = _failed_probe_in(tmp_path)
+    calls = []
+
+    def failing(jobs, cache, **kwargs):
+        calls.append(jobs[0].key())
+        raise CampaignError("campaign: 1 of 1 FE runs failed", [])
+
+    monkeypatch.setattr("geocontact.fem.campaign.run_campaign", failing)
+    monkeypatch.setattr(record, "probe_job", lambda *args, **kwargs: job)
+    point = record.design_points(64)[5]
+    probes, results = record_campaign.run_probes(point, job.settings(), tmp_path,
+                                                 progress=False)
+    assert calls == [job.key()] and probes == [job]  # no deeper probe after a failure
+    failed = results[0]
+    assert isinstance(failed, record_campaign.FailedProbe)
+    assert failed.reached_N == pytest.approx(1197.0, rel=1e-3)  # step 24 of 25
+    assert "1 of 1 FE runs failed" in failed.error
+    force, radius = record.contact_curve(failed.curve)
+    assert radius[-1] / point.material().radius == pytest.approx(0.2567, rel=1e-3)
+    # (this probe's first loaded step, 9.3e-7 N, is above the lowest level, 2 Fy = 7.8e-7 N:
+    # the level rule refuses it in one line, the point's next obstacle, docs/universal.md)
+    with pytest.raises(InputError, match="record levels: the probe spans"):
+        record.base_force(point.material(), force, radius, failed=True)
+    # no checkpoint: the probe's failure is the point's
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(CampaignError):
+        record_campaign.run_probes(point, job.settings(), tmp_path / "empty", progress=False)
+
+
+def test_a_failed_probe_aims_the_base_below_its_reach_only_where_it_would_pass_it():
+    """``base_force(failed=True)``: the usual aim where that is below FAILED_PROBE_FORCE x the
+    reach (a failure beyond the top target changes nothing), else the cap, with the levels
+    then inside the base's reach."""
+    material = record.design_points(64)[0].material()
+    force = np.geomspace(1.0, 1e6, 60)
+    radius = 0.1 * 0.5 * (force / 1e6) ** 0.5  # a/R 0.0158 ... 0.5
+    usual = record.base_force(material, force, radius)
+    assert usual < record.FAILED_PROBE_FORCE * force[-1]
+    assert record.base_force(material, force, radius, failed=True) == usual
+    short = force <= 0.2 * 1e6  # a probe that failed at a/R 0.22
+    capped = record.base_force(material, force[short], radius[short], failed=True)
+    assert capped == pytest.approx(record.FAILED_PROBE_FORCE * force[short][-1])
+    assert record.base_force(material, force[short], radius[short]) > force[short][-1]
+    below = force <= capped
+    levels = record.level_forces(material, force[below], radius[below])
+    assert len(levels["forces_N"]) == record.LEVELS and levels["forces_N"][-1] <= capped

@@ -75,6 +75,12 @@ VALID_CONTACT_OVER_RADIUS = 0.5
 MIN_POINTS_OF_RECORD = 64
 # Probes: aim 10 % beyond the top radius (the mean pressure may still rise), at most MAX_PROBES
 PROBE_AIM = 1.1
+# A probe the FE cannot finish (point 5 of the design: E/sigma_c 1e5, beta 60 deg, nu 0.1, m 0;
+# every point of the grain yielded from 262 N on, the contact ran away, Newton failed at 1221 N on
+# the coarse mesh): the base stops at this fraction of the probe's last converged force, and the
+# point's top level is the contact the base reaches (docs/universal.md, "Grains the FE cannot
+# load to the top").
+FAILED_PROBE_FORCE = 0.9
 MAX_PROBES = 4
 # The top spans at least a doubling of the lowest level's contact radius, within 0.45 R
 MIN_SPAN = 2.0
@@ -215,14 +221,23 @@ def probe_job(point: RecordPoint, settings: FeSettings, force: float | None = No
     return job(material, (0.0, top), settings, f"record probe {attempt} F={top:.4g}N")
 
 
-def base_force(material: Material, force, radius) -> float:
+def base_force(material: Material, force, radius, *, failed: bool = False) -> float:
     """The force of the point's base run (``base_job``): the one that carries ``PROBE_AIM`` x the
     top target radius (never more than R/2) on the probes' a(F) (``contact_curve``), by log-log
     interpolation where the probes reach it, else at the mean pressure of the last probe's top
-    (as ``next_probe_force`` aims)."""
+    (as ``next_probe_force`` aims). ``failed``: the last probe is the converged part of one the
+    FE could not finish (``record_campaign.FailedProbe``): the base goes no further than
+    ``FAILED_PROBE_FORCE`` x its last converged force, so the FE of record is not driven into
+    the failure; the top level is then the contact the base reaches (``level_forces``)."""
     force, radius = np.asarray(force, float), np.asarray(radius, float)
     aim = min(PROBE_AIM * top_target(material, force, radius),
               VALID_CONTACT_OVER_RADIUS * material.radius)
+    if failed:
+        reach = FAILED_PROBE_FORCE * float(force[-1])
+        if radius[-1] < aim:
+            return reach
+        unique, first = np.unique(np.log(radius), return_index=True)
+        return min(reach, float(np.exp(np.interp(math.log(aim), unique, np.log(force)[first]))))
     if radius[-1] >= aim:
         unique, first = np.unique(np.log(radius), return_index=True)
         return float(np.exp(np.interp(math.log(aim), unique, np.log(force)[first])))

@@ -47,21 +47,63 @@ def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
     """The probes of one point (``record.probe_job``, ``record.next_probe_force``: each next
     one deeper until the contact reaches the top target, at most ``record.MAX_PROBES``), run
     or read from ``cache``; returns the jobs and their results (``record.contact_curve`` of
-    the results is the point's a(F))."""
-    from ..fem.campaign import run_campaign
+    the results is the point's a(F)).
+
+    A probe the FE cannot finish (Newton fails past every cutback and rescue mode, as a grain
+    that has yielded through does) ends the probing: its converged steps, read from its
+    checkpoint (``FailedProbe``), stand for it, and the point's depth is what the FE reached
+    (``record.base_force`` aims the base below it). A probe that fails before its first
+    loaded step with a contact fails the point."""
+    from ..fem.campaign import CampaignError, run_campaign
 
     material = point.material()
     probes, probe_results = [], []
     force = None
     for attempt in range(record.MAX_PROBES):  # a probe saves no snapshots: no branch follows it
         probes.append(record.probe_job(point, settings, force, attempt))
-        probe_results.append(run_campaign([probes[-1]], cache, workers=1,
-                                          progress=progress)[0])
+        try:
+            probe_results.append(run_campaign([probes[-1]], cache, workers=1,
+                                              progress=progress)[0])
+        except CampaignError as exc:
+            probe_results.append(FailedProbe.of(probes[-1], cache, exc))
+            if progress:
+                print(f"record campaign: point {point.index}: {probes[-1].name()} failed; its "
+                      f"converged steps (to {probe_results[-1].reached_N:.4g} N) are the "
+                      "point's reach", file=sys.stderr)
+            break
         force = record.next_probe_force(material, *record.contact_curve(
             *[r.curve for r in probe_results]))
         if force is None:
             break
     return probes, probe_results
+
+
+class FailedProbe:
+    """The converged part of a probe the FE could not finish: its curve up to the last
+    converged step (from its checkpoint in the cache), the force of that step and the error.
+    Stands for the probe's result in the level rule (``curve``); it has no summary."""
+
+    def __init__(self, curve: dict[str, np.ndarray], error: str):
+        self.curve, self.error = curve, error
+        self.reached_N = float(curve["force_N"][-1])
+
+    @classmethod
+    def of(cls, job, cache: Path, error: Exception) -> FailedProbe:
+        """The failed probe ``job``'s converged steps from its checkpoint in ``cache``; the
+        ``error`` again when there is none, or no loaded step with a contact in it."""
+        from ..fem.campaign import _cached
+        from ..fem.checkpoint import checkpoint_path, read_checkpoint
+        from ..fem.result import CURVE_COLUMNS
+
+        saved = read_checkpoint(checkpoint_path(_cached(cache, job)), job.identity(),
+                                len(CURVE_COLUMNS), notify=lambda _message: None)
+        if saved is None:
+            raise error
+        rows = np.asarray(saved.rows, dtype=float)
+        curve = {name: rows[:, k] for k, name in enumerate(CURVE_COLUMNS)}
+        if record.contact_curve(curve)[0].size < 2:
+            raise error
+        return cls(curve, str(error))
 
 
 def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
@@ -77,17 +119,23 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
     # the probes (coarse mesh) find the force of the base, one loading on the FE of record whose
     # curve places the levels and from which they branch
     probes, probe_results = run_probes(point, record.probe_settings(settings), cache, progress)
+    failed = isinstance(probe_results[-1], FailedProbe)
     base = record.base_job(point, settings, record.base_force(material, *record.contact_curve(
-        *[r.curve for r in probe_results])))
+        *[r.curve for r in probe_results]), failed=failed))
     base_result = run_campaign([base], cache, workers=1, progress=progress)[0]
     levels = record.level_forces(material, *_level_curve(material, base_result, probe_results))
+    if failed:  # the base's reach is the campaign's choice below a failure, not the FE's limit
+        levels["top"] = (f"the contact the base reached at {record.FAILED_PROBE_FORCE:g} x "
+                         f"{probe_results[-1].reached_N:.4g} N, the last converged force of a "
+                         f"probe the FE could not finish ({levels['top']})")
     jobs, cyclic = record.point_jobs(point, settings, levels, base, base_result.curve)
     _snapshots_for(base, [*jobs, cyclic], cache, progress)
     results = run_campaign([*jobs, cyclic], cache, workers=1, progress=progress)
     remove_snapshots(cache, base)  # a saving only, not committed: the branches are done
     runs = [extract_run(j, r) for j, r in zip(jobs, results[:-1], strict=True)]
     row = point_row(point, runs, results[-1])
-    every = [*probe_results, base_result, *results]
+    every = [*(r for r in probe_results if not isinstance(r, FailedProbe)), base_result,
+             *results]
     info = {
         "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
         "material": {k: getattr(material, k) for k in (
@@ -97,7 +145,9 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
         "probe_mesh": record.PROBE_MESH,
         "probes": [{"forces_N": list(p.forces), "cache_key": p.key(),
                     "contact_over_radius_reached": float(
-                        record.contact_curve(r.curve)[1][-1] / material.radius)}
+                        record.contact_curve(r.curve)[1][-1] / material.radius),
+                    **({"failed": r.error, "converged_to_N": r.reached_N}
+                       if isinstance(r, FailedProbe) else {})}
                    for p, r in zip(probes, probe_results, strict=True)],
         "base": {"forces_N": list(base.forces), "cache_key": base.key(),
                  "contact_over_radius_reached": float(
