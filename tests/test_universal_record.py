@@ -198,7 +198,10 @@ def test_level_rule_refuses_a_probe_without_contact_growth():
     m = record.design_points(1)[0].material()
     fy = incipient_yield(m).force
     with pytest.raises(InputError, match="record levels: the probe spans"):
-        record.level_forces(m, [3 * fy, 4 * fy], [1e-3, 1.1e-3])
+        record.level_forces(m, [0.5 * fy, 1.5 * fy], [1e-3, 1.1e-3])  # short of 2 Fy
+    # a probe that starts above 2 Fy: the lowest contact is Hertz's, and 3-4 Fy add too little
+    with pytest.raises(InputError, match="record levels: the probe's contact grows only"):
+        record.level_forces(m, [3 * fy, 4 * fy], [2.0e-4, 2.1e-4])
     with pytest.raises(InputError, match="fewer than 2"):
         record.level_forces(m, [3 * fy], [1e-3])
 
@@ -531,10 +534,17 @@ def test_a_probe_the_fe_cannot_finish_stands_for_its_converged_steps(tmp_path, m
     assert "1 of 1 FE runs failed" in failed.error
     force, radius = record.contact_curve(failed.curve)
     assert radius[-1] / point.material().radius == pytest.approx(0.2567, rel=1e-3)
-    # (this probe's first loaded step, 9.3e-7 N, is above the lowest level, 2 Fy = 7.8e-7 N:
-    # the level rule refuses it in one line, the point's next obstacle, docs/universal.md)
-    with pytest.raises(InputError, match="record levels: the probe spans"):
-        record.base_force(point.material(), force, radius, failed=True)
+    base = record.base_force(point.material(), force, radius, failed=True)
+    assert base == pytest.approx(record.FAILED_PROBE_FORCE * failed.reached_N)
+    # the same curve as a finished probe: the base would be aimed past the failure
+    assert record.base_force(point.material(), force, radius) > failed.reached_N
+    # the levels on that reach: seven, the lowest at 2 Fy (below this probe's first loaded
+    # step, 9.3e-7 N: its contact is Hertz's), the top where the curve ends
+    below = force <= base
+    levels = record.level_forces(point.material(), force[below], radius[below])
+    fy = incipient_yield(point.material()).force
+    assert len(levels["forces_N"]) == record.LEVELS and levels["forces_N"][-1] <= base
+    assert levels["forces_N"][0] == pytest.approx(2.0 * fy) and 2.0 * fy < force[0]
     # no checkpoint: the probe's failure is the point's
     (tmp_path / "empty").mkdir()
     with pytest.raises(CampaignError):

@@ -269,19 +269,32 @@ def next_probe_force(material: Material, force, radius) -> float | None:
     return float(math.pi * aim ** 2 * pressure)
 
 
+def lowest_force(material: Material) -> float:
+    """The lowest level's force: ``lowest_peak_over_yield`` x the analytic Fy (calibrate's)."""
+    from ..calibrate.campaign import settings as calibration_settings
+
+    fy = incipient_yield(material).force
+    return float(calibration_settings()["campaign"]["lowest_peak_over_yield"]) * fy
+
+
 def lowest_contact(material: Material, force, radius) -> tuple[float, float]:
     """The lowest level's force (``lowest_peak_over_yield`` x Fy) and its contact radius on a
-    probe's loading (log-log interpolation)."""
-    from ..calibrate.campaign import settings as calibration_settings
+    probe's loading (log-log interpolation). Below the probe's first loaded step (a probe
+    whose load schedule starts above 2 Fy: point 5's first step is at 2.4 Fy) the contact
+    radius is Hertz's: at 2 Fy the plastic zone is a small core, and where the FE runs of the
+    campaign span 2 Fy their contact there is 0.984-1.011 x Hertz's on 17 of 18 runs (the
+    18th, a coarse probe at E/sigma_c 1e5, resolves a/R 1e-5 poorly: 0.94; docs/universal.md)."""
+    from ..grain.hertz import contact_radius, hertz_approach
 
     force, radius = np.asarray(force, float), np.asarray(radius, float)
     if force.size < 2:
         raise InputError("record levels: the probe has fewer than 2 loaded steps with a contact")
-    fy = incipient_yield(material).force
-    low_force = float(calibration_settings()["campaign"]["lowest_peak_over_yield"]) * fy
-    if not force[0] <= low_force <= force[-1]:
+    low_force = lowest_force(material)
+    if not low_force <= force[-1]:
         raise InputError(f"record levels: the probe spans {force[0]:.4g}-{force[-1]:.4g} N, "
                          f"not the lowest peak {low_force:.4g} N")
+    if low_force < force[0]:
+        return low_force, float(contact_radius(material, hertz_approach(material, low_force)))
     return low_force, float(np.exp(np.interp(math.log(low_force), np.log(force),
                                               np.log(radius))))
 

@@ -177,13 +177,11 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
 def _level_curve(material, base_result, probe_results) -> tuple[np.ndarray, np.ndarray]:
     """The a(F) the level rule reads: the base's (``record.contact_curve``), or, where the
     base's mesh resolves no contact at the lowest level's force (a deep base's first steps),
-    the base's merged with the probes' below its first resolved contact."""
+    the base's merged with the probes' below its first resolved contact (where they do not
+    reach down to it either, ``record.lowest_contact`` takes Hertz's contact there)."""
     force, radius = record.contact_curve(base_result.curve)
-    try:
-        record.lowest_contact(material, force, radius)
+    if force.size >= 2 and force[0] <= record.lowest_force(material) <= force[-1]:
         return force, radius
-    except InputError:
-        pass
     low_force, low_radius = record.contact_curve(*[r.curve for r in probe_results])
     below = low_force < force[0]
     return (np.concatenate([low_force[below], force]),
