@@ -488,24 +488,28 @@ def test_pilot_law_warns_beyond_its_top_level():
 
 
 # --- a probe the FE cannot finish -------------------------------------------------------------
-POINT5_PROBE = Path(__file__).resolve().parent.parent / (
-    "datasets/fe-runs/universal-record/1d1691d2809d57fae26a.checkpoint.npz")
+RECORD_CACHE = Path(__file__).resolve().parent.parent / "datasets/fe-runs/universal-record"
 
 
 def _failed_probe_in(cache: Path):
     """Point 5's first probe (E/sigma_c 1e5, beta 60 deg, nu 0.1, m 0; Newton failed at 1221 N,
-    its checkpoint committed at the last converged step) as a job with its checkpoint in
-    ``cache`` under the job's key of the current FE code (as the campaign adopts it)."""
+    its checkpoint committed at the last converged step, under the key the campaign last gave
+    it) as a job with its checkpoint in ``cache`` under the job's key of the current FE code
+    (as the campaign adopts it)."""
     import shutil
 
     from geocontact.fem.campaign import FemJob, _cached
     from geocontact.fem.checkpoint import checkpoint_path
 
-    with np.load(POINT5_PROBE, allow_pickle=False) as data:
-        inputs = json.loads(str(data["identity"]))["inputs"]
-    job = FemJob.of_inputs(inputs)
-    shutil.copyfile(POINT5_PROBE, checkpoint_path(_cached(cache, job)))
-    return job
+    material = record.design_points(64)[5].material().to_dict()
+    for path in sorted(RECORD_CACHE.glob("*.checkpoint.npz")):
+        with np.load(path, allow_pickle=False) as data:
+            inputs = json.loads(str(data["identity"]))["inputs"]
+        if inputs["material"] == material and inputs["mesh"] == "coarse":
+            job = FemJob.of_inputs(inputs)
+            shutil.copyfile(path, checkpoint_path(_cached(cache, job)))
+            return job
+    raise AssertionError("point 5's failed probe: no committed checkpoint")
 
 
 def test_a_probe_the_fe_cannot_finish_stands_for_its_converged_steps(tmp_path, monkeypatch):
