@@ -71,6 +71,18 @@ def test_an_update_that_does_not_lower_the_residual_is_halved(material, mesh, ov
     np.testing.assert_array_equal(evaluated[4], solver._response(old, u, elastic=False)[4])
 
 
+def _count_calls(solver, name: str) -> list:
+    """The solver's method ``name`` wrapped to note each call in the list returned."""
+    calls, plain = [], getattr(solver, name)
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return plain(*args, **kwargs)
+
+    setattr(solver, name, counted)
+    return calls
+
+
 def test_a_solve_whose_full_updates_lower_the_residual_is_unchanged(material, mesh):
     """Plastic finite-strain steps of the reference grain (to 27.6 N, about 10 Fy) with full and
     with backtracked updates: no update is halved, the states are the same bit for bit and the
@@ -78,22 +90,8 @@ def test_a_solve_whose_full_updates_lower_the_residual_is_unchanged(material, me
     states, evaluations = {}, {}
     for backtracking in (False, True):
         solver = FiniteStrainSolver(material, mesh, backtracking=backtracking)
-        calls = []
-        plain = solver._response
-
-        def counted(*args, _plain=plain, _calls=calls, **kwargs):
-            _calls.append(1)
-            return _plain(*args, **kwargs)
-
-        solver._response = counted
-        searched = []
-        search = solver._backtracked_update
-
-        def watched(*args, _search=search, _searched=searched, **kwargs):
-            _searched.append(1)
-            return _search(*args, **kwargs)
-
-        solver._backtracked_update = watched
+        calls = _count_calls(solver, "_response")
+        searched = _count_calls(solver, "_backtracked_update")
         state = solver.initial_state()
         for force in (5.0, 15.0, 27.6):
             state = solver.solve_step(state, force)
