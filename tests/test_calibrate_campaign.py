@@ -57,6 +57,7 @@ def test_cli_writes_a_valid_calibrated_parameter_file(calibrated):
     assert (fe["kinematics"], fe["mesh_rule"], fe["step_rule"], fe["max_step_ratio"]) == (
         "small", "yield", "segment", None)
     assert "step_control" not in fe  # fixed load steps, named only when not fixed
+    assert "newton" not in fe  # full Newton updates, named only when "backtracking"
     assert doc["provenance"]["inputs"]["kinematics"] == "small"
     assert len(fe["peak_forces_N"]) == 4 and len(fe["cache_keys"]) == 4
     assert all((root / "cache" / key / "summary.json").exists() for key in fe["cache_keys"])
