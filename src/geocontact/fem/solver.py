@@ -79,14 +79,14 @@ EDGE_SURFACE_FACETS = 3
 # Rescue mode: halvings of a Newton update (or of the predictor's increment) whose iterate is not
 # admissible before the solve is given up (the caller then cuts the load step back).
 LINE_SEARCH_HALVINGS = 12
-# Facet contact: the line search of the elastic iterations (``_facet_line_search``) stops when the
-# slope of the potential is down to this fraction of its start, or after this many evaluations.
 # Backtracking (newton="backtracking"): halvings of a plastic Newton update that does not lower the
 # largest residual, from iteration BACKTRACK_FROM on (the first iterations change the contact set
 # and the plastic zone, where a rising residual is Newton's normal path). Two halvings and the
 # third iteration: the setting of the point-3 trace (docs/fem.md "Backtracking").
 BACKTRACK_HALVINGS = 2
 BACKTRACK_FROM = 3
+# Facet contact: the line search of the elastic iterations (``_facet_line_search``) stops when the
+# slope of the potential is down to this fraction of its start, or after this many evaluations.
 FACET_SEARCH_SLOPE = 1e-2
 FACET_SEARCH_STEPS = 30
 
