@@ -498,7 +498,7 @@ def _failed_probe_in(cache: Path):
     (as the campaign adopts it)."""
     import shutil
 
-    from geocontact.fem.campaign import FemJob, _cached
+    from geocontact.fem.campaign import FemJob
     from geocontact.fem.checkpoint import checkpoint_path
 
     material = record.design_points(64)[5].material().to_dict()
@@ -507,7 +507,7 @@ def _failed_probe_in(cache: Path):
             inputs = json.loads(str(data["identity"]))["inputs"]
         if inputs["material"] == material and inputs["mesh"] == "coarse":
             job = FemJob.of_inputs(inputs)
-            shutil.copyfile(path, checkpoint_path(_cached(cache, job)))
+            shutil.copyfile(path, checkpoint_path(cache / job.key()))
             return job
     raise AssertionError("point 5's failed probe: no committed checkpoint")
 

@@ -91,11 +91,10 @@ class FailedProbe:
     def of(cls, job, cache: Path, error: Exception) -> FailedProbe:
         """The failed probe ``job``'s converged steps from its checkpoint in ``cache``; the
         ``error`` again when there is none, or no loaded step with a contact in it."""
-        from ..fem.campaign import _cached
         from ..fem.checkpoint import checkpoint_path, read_checkpoint
         from ..fem.result import CURVE_COLUMNS
 
-        saved = read_checkpoint(checkpoint_path(_cached(cache, job)), job.identity(),
+        saved = read_checkpoint(checkpoint_path(cache / job.key()), job.identity(),
                                 len(CURVE_COLUMNS), notify=lambda _message: None)
         if saved is None:
             raise error
