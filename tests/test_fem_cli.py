@@ -178,8 +178,8 @@ def test_elastic_run_reports_round_off_plastic_work_as_zero(tmp_path, capsys):
 
 def test_fe_model_flags_reach_the_run(tmp_path, monkeypatch, capsys):
     """--kinematics, --mesh-rule, --step-rule, --max-step-ratio and --newton of ``geocontact
-    fem`` and ``cycles`` are passed to the FE run (captured here instead of running it); a bad value is a
-    one-line error."""
+    fem`` and ``cycles`` are passed to the FE run (captured here instead of running it); a bad
+    value is a one-line error."""
     seen = []
 
     class Stop(Exception):
