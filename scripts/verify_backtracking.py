@@ -23,6 +23,15 @@ the time, and the logs are compared:
 
 Exit status 0 when backtracking makes at least ``--gain`` x the progress per CPU second of full
 updates (default 1.3), 1 otherwise.
+
+``--pairs``: no run; every finished run of the campaign's cache (``--cache``) that has a twin
+there with the other Newton updates (identity inputs equal but ``newton``) is compared with it:
+the largest difference of each curve.csv column relative to that column's largest magnitude,
+the Newton iterations and CPU time of each. Exit status 0 when every pair agrees within
+``--pair-tolerance`` (default 1e-8, the Newton tolerance), 1 otherwise.
+
+    .venv/bin/python scripts/verify_backtracking.py --pairs \
+        --json docs/verification/backtracking-pairs.json
 """
 
 from __future__ import annotations
@@ -146,6 +155,57 @@ def _summary(log: Path, start_force: float) -> dict:
     }
 
 
+def _pairs(cache: Path, tolerance: float, json_path: Path | None, argv) -> int:
+    """``--pairs`` (the module docstring)."""
+    import numpy as np
+
+    from geocontact.fem.identity import load_result
+
+    twins: dict[str, dict[str, Path]] = {}
+    for summary in sorted(cache.glob("*/summary.json")):
+        inputs = dict(json.loads(summary.read_text())["identity"]["inputs"])
+        newton = inputs.pop("newton", "full")
+        twins.setdefault(json.dumps(inputs, sort_keys=True), {})[newton] = summary.parent
+    pairs = []
+    for key, runs in twins.items():
+        if set(runs) != set(VARIANTS):
+            continue
+        full, searched = (load_result(runs[n]) for n in VARIANTS)
+        inputs = json.loads(key)
+        worst, column = 0.0, None
+        for name, values in full.curve.items():
+            if name in ("iterations", "plastic_points", "step"):
+                continue
+            scale = float(np.max(np.abs(values)))
+            if scale > 0.0:
+                gap = float(np.max(np.abs(searched.curve[name] - values))) / scale
+                if gap > worst:
+                    worst, column = gap, name
+        pairs.append({
+            "keys": {n: runs[n].name for n in VARIANTS},
+            "material": inputs["material"], "forces": len(inputs["forces_N"]),
+            "follows": "follows" in inputs, "largest_relative_difference": worst,
+            "column": column,
+            "newton_iterations": {n: r.summary["newton_iterations"]
+                                  for n, r in zip(VARIANTS, (full, searched), strict=True)},
+            "cpu_time_s": {n: r.summary.get("cpu_time_s")
+                           for n, r in zip(VARIANTS, (full, searched), strict=True)}})
+    if not pairs:
+        raise InputError(f"--pairs: no run in {cache} has a twin with the other Newton updates")
+    identical = sum(p["largest_relative_difference"] == 0.0 for p in pairs)
+    largest = max(pairs, key=lambda p: p["largest_relative_difference"])
+    ok = largest["largest_relative_difference"] <= tolerance
+    print(f"{len(pairs)} pairs: {identical} identical, the largest difference "
+          f"{largest['largest_relative_difference']:.3g} ({largest['column']}; tolerance "
+          f"{tolerance:g}): {'PASS' if ok else 'FAIL'}")
+    if json_path is not None:
+        write_json_atomic(json_path, {
+            "version": __version__, "fe_code": fe_code_hash(), "command": _command(argv),
+            "cache": _shown(cache), "tolerance": tolerance, "pairs": pairs,
+            "identical": identical, "pass": ok})
+    return 0 if ok else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     p = ArgumentParser(prog="verify_backtracking.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--point", type=int, default=3,
@@ -156,6 +216,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="the progress ratio backtracking / full that passes")
     p.add_argument("--out", type=Path, default=Path("out/verify-backtracking"))
     p.add_argument("--json", type=Path, help="write the comparison here")
+    p.add_argument("--pairs", action="store_true",
+                   help="compare the cache's twin runs with full and backtracked updates")
+    p.add_argument("--cache", type=Path, default=CACHE, help="the cache --pairs reads")
+    p.add_argument("--pair-tolerance", type=float, default=1e-8)
     p.add_argument("--logs-only", action="store_true",
                    help="compare the solve logs an earlier call left in --out (no runs)")
     p.add_argument("--child", type=Path, help=argparse_hidden())
@@ -165,6 +229,11 @@ def main(argv: list[str] | None = None) -> int:
         args = p.parse_args(argv)
         if args.child is not None:
             return _child(args.child, args.log)
+        if args.pairs:
+            if not 0.0 < args.pair_tolerance < 1.0:
+                raise InputError(f"--pair-tolerance: must be in (0, 1), got "
+                                 f"{args.pair_tolerance:g}")
+            return _pairs(args.cache, args.pair_tolerance, args.json, argv)
         if not 0 <= args.point < 64:
             raise InputError(f"--point: must be a design point 0-63, got {args.point}")
         if not 30.0 <= args.seconds <= 86400.0:
@@ -235,13 +304,21 @@ def _compare(args, argv, source: Path) -> int:
             "version": __version__, "fe_code": fe_code_hash(),
             "compiled_code": compiled_code_hash(),
             "command": _command(argv), "runs_made_by": call["command"],
-            "point": args.point, "checkpoint": str(source.relative_to(ROOT)),
+            "point": args.point, "checkpoint": _shown(source),
             "material": inputs["material"],
             "settings": {k: v for k, v in inputs.items()
                          if k not in ("material", "forces_N", "newton")},
             "seconds_each": call["seconds_each"], "runs": runs, "gain": gain,
             "gain_required": args.gain, "pass": ok})
     return 0 if ok else 1
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the repository where it is inside it."""
+    try:
+        return str(path.resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
 
 
 def _command(argv) -> str:

@@ -934,3 +934,41 @@ def test_corpus_parameter_file_naming_a_folder(tmp_path, capsys):
     assert main(["law", "--params", str(tmp_path), "--approach", "a.csv", "--out",
                  str(tmp_path / "F.csv")]) == 2
     one_line_error(capsys, f"params: {tmp_path} is a directory, expected a file")
+
+
+def test_verify_backtracking_pairs_compares_twin_runs(tmp_path, capsys):
+    """--pairs on a cache holding one committed run with full updates and its twin with
+    backtracked ones (point 1's base, E/sigma_c 30: a few updates halved, 3.7e-9 apart): the pair
+    passes; the twin's curve moved by 1e-6 of a column fails; a cache without twins is one line."""
+    import json
+    import shutil
+
+    import verify_backtracking as script  # scripts/ (tests/conftest.py)
+
+    cache = script.CACHE
+    twins: dict = {}
+    for summary in sorted(cache.glob("*/summary.json")):
+        inputs = dict(json.loads(summary.read_text())["identity"]["inputs"])
+        twins.setdefault(json.dumps({k: v for k, v in inputs.items() if k != "newton"},
+                                    sort_keys=True), {})[inputs.get("newton", "full")] = (
+            summary.parent)
+    pair = next(runs for runs in twins.values() if set(runs) == {"full", "backtracking"})
+    for run in pair.values():
+        shutil.copytree(run, tmp_path / run.name)
+    out = tmp_path / "pairs.json"
+    assert script.main(["--pairs", "--cache", str(tmp_path), "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["pass"] is True
+    curve = tmp_path / pair["backtracking"].name / "curve.csv"
+    lines = curve.read_text().splitlines()
+    header, row = lines[0].split(","), lines[-1].split(",")
+    column = header.index("approach_m")
+    row[column] = repr(float(row[column]) * (1.0 + 1e-6))
+    curve.write_text("\n".join([*lines[:-1], ",".join(row)]) + "\n")
+    capsys.readouterr()
+    assert script.main(["--pairs", "--cache", str(tmp_path)]) == 1
+    assert "FAIL" in capsys.readouterr().out
+    (tmp_path / "none").mkdir()
+    assert script.main(["--pairs", "--cache", str(tmp_path / "none")]) == 2
+    one_line_error(capsys, "--pairs: no run in")
+    assert script.main(["--pairs", "--pair-tolerance", "2"]) == 2
+    one_line_error(capsys, "--pair-tolerance: must be in (0, 1)")
