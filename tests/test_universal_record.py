@@ -533,7 +533,7 @@ def test_a_probe_the_fe_cannot_finish_stands_for_its_converged_steps(tmp_path, m
                                                  progress=False)
     assert calls == [job.key()] and probes == [job]  # no deeper probe after a failure
     failed = results[0]
-    assert isinstance(failed, record_campaign.FailedProbe)
+    assert isinstance(failed, record_campaign.FailedRun)
     assert failed.reached_N == pytest.approx(1197.0, rel=1e-3)  # step 24 of 25
     assert "1 of 1 FE runs failed" in failed.error
     force, radius = record.contact_curve(failed.curve)
@@ -572,3 +572,69 @@ def test_a_failed_probe_aims_the_base_below_its_reach_only_where_it_would_pass_i
     below = force <= capped
     levels = record.level_forces(material, force[below], radius[below])
     assert len(levels["forces_N"]) == record.LEVELS and levels["forces_N"][-1] <= capped
+
+
+def test_a_base_the_fe_cannot_finish_gives_levels_and_branches_within_its_reach(monkeypatch):
+    """The base's failure is caught, its converged steps (``FailedRun``) place the levels, and
+    every branch follows it at one of those steps; run again for its snapshots, its failure at
+    the end is expected, while a finished base's is not."""
+    from geocontact.errors import ConvergenceError
+    from geocontact.fem.campaign import CampaignError
+    from geocontact.fem.result import CURVE_COLUMNS
+    from geocontact.universal import record_campaign
+
+    point = record.design_points(64)[0]
+    material = point.material()
+    fy = incipient_yield(material).force
+    force = np.geomspace(0.5 * fy, 3000.0 * fy, 120)  # a/R up to ~0.2, then the failure
+    radius = 0.1 * material.radius * (force / (300.0 * fy)) ** 0.5
+    curve = {name: np.zeros(len(force)) for name in CURVE_COLUMNS}
+    curve.update(force_N=force, contact_radius_m=radius)
+    monkeypatch.setattr(record_campaign, "run_probes",
+                        lambda *args, **kwargs: ([None], [type("R", (), {"curve": curve})()]))
+
+    def base_fails(jobs, cache, **kwargs):
+        raise CampaignError("campaign: 1 of 1 FE runs failed: the base", [])
+
+    reached = force[force <= 0.6 * force[-1]]
+    failed_base = record_campaign.FailedRun(
+        {name: values[: len(reached)] for name, values in curve.items()}, "the base failed")
+    monkeypatch.setattr("geocontact.fem.campaign.run_campaign", base_fails)
+    monkeypatch.setattr(record_campaign.FailedRun, "of",
+                        classmethod(lambda cls, job, cache, error: failed_base))
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def snapshots(base, branches, cache, progress, failed=False):
+        seen.update(base=base, branches=branches, failed=failed)
+        raise Stop
+
+    monkeypatch.setattr(record_campaign, "_snapshots_for", snapshots)
+    with pytest.raises(Stop):
+        record_campaign.run_point(point, record.fe_settings(), Path("unused"), progress=False)
+    assert seen["failed"] is True
+    steps = [branch.follows[1] for branch in seen["branches"]]
+    assert len(steps) == record.LEVELS + 1 and max(steps) < len(reached)
+    assert all(branch.follows[0] == seen["base"].forces for branch in seen["branches"])
+
+    # run again for its snapshots: a failed base's failure is expected, a finished one's not
+    monkeypatch.undo()
+    calls = []
+
+    def fails(*args, **kwargs):
+        calls.append(kwargs.get("snapshots"))
+        raise ConvergenceError("Newton did not converge")
+
+    monkeypatch.setattr("geocontact.fem.run.run_history", fails)
+    monkeypatch.setattr("geocontact.fem.campaign.adopt_snapshots",
+                        lambda cache, job, progress=False: Path("/nonexistent/steps"))
+    base = record.base_job(point, record.fe_settings(), 1000.0)
+    branch = record.job(material, [0.0, 10.0, 0.0], record.fe_settings(), "branch", 1000.0,
+                        follows=(base.forces, 3))
+    cache = Path("/nonexistent/cache")
+    record_campaign._snapshots_for(base, [branch], cache, False, failed=True)
+    with pytest.raises(ConvergenceError):
+        record_campaign._snapshots_for(base, [branch], cache, False)
+    assert len(calls) == 2

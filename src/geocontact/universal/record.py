@@ -226,7 +226,7 @@ def base_force(material: Material, force, radius, *, failed: bool = False) -> fl
     top target radius (never more than R/2) on the probes' a(F) (``contact_curve``), by log-log
     interpolation where the probes reach it, else at the mean pressure of the last probe's top
     (as ``next_probe_force`` aims). ``failed``: the last probe is the converged part of one the
-    FE could not finish (``record_campaign.FailedProbe``): the base goes no further than
+    FE could not finish (``record_campaign.FailedRun``): the base goes no further than
     ``FAILED_PROBE_FORCE`` x its last converged force, so the FE of record is not driven into
     the failure; the top level is then the contact the base reaches (``level_forces``)."""
     force, radius = np.asarray(force, float), np.asarray(radius, float)

@@ -51,9 +51,9 @@ def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
 
     A probe the FE cannot finish (Newton fails past every cutback and rescue mode, as a grain
     that has yielded through does) ends the probing: its converged steps, read from its
-    checkpoint (``FailedProbe``), stand for it, and the point's depth is what the FE reached
+    checkpoint (``FailedRun``), stand for it, and the point's depth is what the FE reached
     (``record.base_force`` aims the base below it). A probe that fails before its first
-    loaded step with a contact fails the point."""
+    loaded step with a contact fails the point; so does a base (``run_point``)."""
     from ..fem.campaign import CampaignError, run_campaign
 
     material = point.material()
@@ -65,7 +65,7 @@ def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
             probe_results.append(run_campaign([probes[-1]], cache, workers=1,
                                               progress=progress)[0])
         except CampaignError as exc:
-            probe_results.append(FailedProbe.of(probes[-1], cache, exc))
+            probe_results.append(FailedRun.of(probes[-1], cache, exc))
             if progress:
                 print(f"record campaign: point {point.index}: {probes[-1].name()} failed; its "
                       f"converged steps (to {probe_results[-1].reached_N:.4g} N) are the "
@@ -78,18 +78,19 @@ def run_probes(point: record.RecordPoint, settings: FeSettings, cache: Path,
     return probes, probe_results
 
 
-class FailedProbe:
-    """The converged part of a probe the FE could not finish: its curve up to the last
-    converged step (from its checkpoint in the cache), the force of that step and the error.
-    Stands for the probe's result in the level rule (``curve``); it has no summary."""
+class FailedRun:
+    """The converged part of a run the FE could not finish (a probe or a base): its curve up to
+    the last converged step (from its checkpoint in the cache), the force of that step and the
+    error. Stands for the run's result in the level rule and the branches (``curve``); it has
+    no summary."""
 
     def __init__(self, curve: dict[str, np.ndarray], error: str):
         self.curve, self.error = curve, error
         self.reached_N = float(curve["force_N"][-1])
 
     @classmethod
-    def of(cls, job, cache: Path, error: Exception) -> FailedProbe:
-        """The failed probe ``job``'s converged steps from its checkpoint in ``cache``; the
+    def of(cls, job, cache: Path, error: Exception) -> FailedRun:
+        """The failed run ``job``'s converged steps from its checkpoint in ``cache``; the
         ``error`` again when there is none, or no loaded step with a contact in it."""
         from ..fem.checkpoint import checkpoint_path, read_checkpoint
         from ..fem.result import CURVE_COLUMNS
@@ -110,7 +111,7 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
     """The probe, the levels and the repeated history of one point (one worker, in this
     process); returns the dataset row and the point's provenance record."""
     from ..calibrate.campaign import extract_run
-    from ..fem.campaign import remove_snapshots, run_campaign
+    from ..fem.campaign import CampaignError, remove_snapshots, run_campaign
     from ..fem.identity import fe_code_hash
 
     material = point.material()
@@ -118,23 +119,29 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
     # the probes (coarse mesh) find the force of the base, one loading on the FE of record whose
     # curve places the levels and from which they branch
     probes, probe_results = run_probes(point, record.probe_settings(settings), cache, progress)
-    failed = isinstance(probe_results[-1], FailedProbe)
+    failed = isinstance(probe_results[-1], FailedRun)
     base = record.base_job(point, settings, record.base_force(material, *record.contact_curve(
         *[r.curve for r in probe_results]), failed=failed))
-    base_result = run_campaign([base], cache, workers=1, progress=progress)[0]
+    try:
+        base_result = run_campaign([base], cache, workers=1, progress=progress)[0]
+    except CampaignError as exc:  # its converged steps and their snapshots are the base
+        base_result = FailedRun.of(base, cache, exc)
+        if progress:
+            print(f"record campaign: point {point.index}: its base failed; its converged steps "
+                  f"(to {base_result.reached_N:.4g} N) are the point's reach", file=sys.stderr)
     levels = record.level_forces(material, *_level_curve(material, base_result, probe_results))
     if failed:  # the base's reach is the campaign's choice below a failure, not the FE's limit
         levels["top"] = (f"the contact the base reached at {record.FAILED_PROBE_FORCE:g} x "
                          f"{probe_results[-1].reached_N:.4g} N, the last converged force of a "
                          f"probe the FE could not finish ({levels['top']})")
     jobs, cyclic = record.point_jobs(point, settings, levels, base, base_result.curve)
-    _snapshots_for(base, [*jobs, cyclic], cache, progress)
+    _snapshots_for(base, [*jobs, cyclic], cache, progress,
+                   failed=isinstance(base_result, FailedRun))
     results = run_campaign([*jobs, cyclic], cache, workers=1, progress=progress)
     remove_snapshots(cache, base)  # a saving only, not committed: the branches are done
     runs = [extract_run(j, r) for j, r in zip(jobs, results[:-1], strict=True)]
     row = point_row(point, runs, results[-1])
-    every = [*(r for r in probe_results if not isinstance(r, FailedProbe)), base_result,
-             *results]
+    every = [r for r in (*probe_results, base_result, *results) if not isinstance(r, FailedRun)]
     info = {
         "coordinates": dict(zip(record.AXIS_NAMES, point.coordinates, strict=True)),
         "material": {k: getattr(material, k) for k in (
@@ -146,11 +153,13 @@ def run_point(point: record.RecordPoint, settings: FeSettings, cache: Path,
                     "contact_over_radius_reached": float(
                         record.contact_curve(r.curve)[1][-1] / material.radius),
                     **({"failed": r.error, "converged_to_N": r.reached_N}
-                       if isinstance(r, FailedProbe) else {})}
+                       if isinstance(r, FailedRun) else {})}
                    for p, r in zip(probes, probe_results, strict=True)],
         "base": {"forces_N": list(base.forces), "cache_key": base.key(),
                  "contact_over_radius_reached": float(
-                     record.contact_curve(base_result.curve)[1][-1] / material.radius)},
+                     record.contact_curve(base_result.curve)[1][-1] / material.radius),
+                 **({"failed": base_result.error, "converged_to_N": base_result.reached_N}
+                    if isinstance(base_result, FailedRun) else {})},
         "levels": {**levels, "achieved_contact_over_radius": [
             float(10.0 ** row[f"contact_{k}"]) for k in range(record.LEVELS)]},
         "repeated_history_forces_N": list(cyclic.forces),
@@ -187,11 +196,14 @@ def _level_curve(material, base_result, probe_results) -> tuple[np.ndarray, np.n
             np.maximum.accumulate(np.concatenate([low_radius[below], radius])))
 
 
-def _snapshots_for(base, branches, cache: Path, progress: bool) -> None:
+def _snapshots_for(base, branches, cache: Path, progress: bool, failed: bool = False) -> None:
     """The base's snapshots at the steps of those ``branches`` not yet in the cache: a base run
     reused from the cache (a new clone, or a session that stopped after it) has none, and each
     branch would compute the base's loading again; the base is then run again, once, only for
-    them (the same run, so the same states to the bit)."""
+    them (the same run, so the same states to the bit). ``failed``: the base is one the FE
+    could not finish (``FailedRun``), whose run again fails where it failed, after the
+    snapshots of its converged steps (the branches' steps are among them)."""
+    from ..errors import ConvergenceError
     from ..fem.campaign import adopt_snapshots
     from ..fem.checkpoint import checkpoint_path
     from ..fem.identity import equivalent_run, finished_run
@@ -208,8 +220,12 @@ def _snapshots_for(base, branches, cache: Path, progress: bool) -> None:
     if progress:
         print(f"record campaign: {base.name()}: its snapshots for {len(missing)} branches are "
               "not here; running it again for them", file=sys.stderr)
-    run_history(base.material, list(base.forces), settings=base.settings(),
-                write_fields=False, snapshots=folder)
+    try:
+        run_history(base.material, list(base.forces), settings=base.settings(),
+                    write_fields=False, snapshots=folder)
+    except ConvergenceError:
+        if not failed:
+            raise
 
 
 def run_points(count: int, directory: str | Path = DEFAULT_DATASET,
