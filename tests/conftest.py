@@ -37,6 +37,17 @@ def make_params(**changes) -> LawParams:
     return LawParams(**values)
 
 
+@pytest.fixture(scope="module")
+def reference_coarse():
+    """The reference grain and a coarse FE mesh of it (contact zone 0.02 R, refined to 0.05 R):
+    (material, mesh), the solver tests' set-up."""
+    from geocontact.fem.mesh import build_mesh
+
+    material = preset("reference")
+    return material, build_mesh(material.radius, 0.02 * material.radius,
+                                0.05 * material.radius, "coarse")
+
+
 @pytest.fixture
 def params() -> LawParams:
     return make_params()

@@ -14,19 +14,17 @@ import numpy as np
 import pytest
 
 from geocontact.fem.finite_strain import FiniteStrainSolver
-from geocontact.fem.mesh import build_mesh
 from geocontact.fem.solver import BACKTRACK_HALVINGS, ContactSolver
-from geocontact.grain.material import preset
 
 
 @pytest.fixture(scope="module")
-def material():
-    return preset("reference")
+def material(reference_coarse):
+    return reference_coarse[0]
 
 
 @pytest.fixture(scope="module")
-def mesh(material):
-    return build_mesh(material.radius, 0.02 * material.radius, 0.05 * material.radius, "coarse")
+def mesh(reference_coarse):
+    return reference_coarse[1]
 
 
 def _largest_residual(solver, old, u, free, force):
