@@ -38,8 +38,8 @@ from geocontact.fem.compiled import (  # noqa: E402
     make_factoriser,
 )
 from geocontact.fem.finite_strain import FiniteStrainSolver  # noqa: E402
+from geocontact.fem.linear_algebra import _lu  # noqa: E402
 from geocontact.fem.run import _advance, history_mesh, load_schedule  # noqa: E402
-from geocontact.fem.solver import _lu  # noqa: E402
 from geocontact.grain.hertz import incipient_yield  # noqa: E402
 from geocontact.grain.material import preset  # noqa: E402
 

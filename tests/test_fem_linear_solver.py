@@ -7,7 +7,7 @@ import pytest
 import scipy.sparse as sp
 from conftest import YIELD_FIXED
 
-from geocontact.fem import solver as solver_module
+from geocontact.fem import linear_algebra
 from geocontact.fem.run import history_mesh
 from geocontact.fem.solver import ContactSolver
 from geocontact.fem.solver_comparison import ACCURACY, compare_linear_solvers
@@ -53,7 +53,7 @@ def test_fast_path_matches_reference_path(material, monkeypatch, cholmod):
     if cholmod:
         pytest.importorskip("sksparse.cholmod")
     else:
-        monkeypatch.setattr(solver_module, "_cholmod", lambda: None)
+        monkeypatch.setattr(linear_algebra, "_cholmod", lambda: None)
     report = compare_linear_solvers(material, HISTORY, mesh="coarse", steps_per_segment=3,
                                     **YIELD_FIXED)
     diff = report["max_relative_difference"]

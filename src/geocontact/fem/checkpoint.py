@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..files import atomic_path
-from .solver import State
+from .state import State
 
 FORMAT = 2  # 1: before fem.reuse (a hash of the inputs only, no fields)
 

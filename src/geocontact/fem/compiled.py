@@ -14,12 +14,13 @@ with two of its pieces replaced, the equations unchanged:
   element matrices through one precomputed map (element entry -> position in the reduced CSC
   data, with the sign of u_top = -w), and factorised by ``factoriser``: "cholmod" (default:
   CHOLMOD's supernodal LL^T on OpenBLAS, the tangent being symmetric to round-off, with the
-  LDL^T of :func:`~geocontact.fem.solver.factorise` for a matrix that is not positive definite;
+  LDL^T of :func:`~geocontact.fem.linear_algebra.factorise` for a matrix that is not positive
+  definite;
   a Newton step may instead be solved by CG preconditioned with an earlier factorisation,
   ``reuse_factor``), "cholmod-simplicial" (that LDL^T alone: the compiled path before),
   "umfpack" or "klu" (``geocontact.fem._sparse_lu``, SuiteSparse),
   "pardiso" or "pardiso-sym" (Intel MKL PARDISO's LU or LDL^T through pypardiso, if installed)
-  or "superlu" (the numpy path's :func:`~geocontact.fem.solver._lu`); all but SuperLU keep
+  or "superlu" (the numpy path's :func:`~geocontact.fem.linear_algebra._lu`); all but SuperLU keep
   the symbolic analysis of a contact set's pattern and reuse it at every iteration.
 
 Everything else (contact, load control, the predictor with its cached CHOLMOD factorisation,
@@ -186,8 +187,8 @@ class _Cholmod:
     the fastest of the modes and orderings on the 22 624-unknown tangent (docs/benchmarks.md
     "Newton iteration"; docs/fem.md "Compiled finite-strain kernels"). A matrix that is not
     positive definite (LL^T fails) gets the simplicial LDL^T of the engine's
-    :func:`~geocontact.fem.solver.factorise`, which takes an indefinite one; "simplicial" uses
-    only that."""
+    :func:`~geocontact.fem.linear_algebra.factorise`, which takes an indefinite one;
+    "simplicial" uses only that."""
 
     def __init__(self, indptr: np.ndarray, indices: np.ndarray, *, mode: str = "supernodal"):
         self.indptr, self.indices, self.mode = indptr, indices, mode
@@ -366,8 +367,8 @@ class CompiledFiniteStrainSolver(FiniteStrainSolver):
 
     def _ldlt(self, plan: _Plan, data: np.ndarray, *, keep: bool):
         """The solve function of CHOLMOD's LDL^T of the matrix (``keep``: it becomes the
-        contact set's preconditioner); as :func:`~geocontact.fem.solver.factorise`, SuperLU if
-        CHOLMOD fails or its solution is not finite."""
+        contact set's preconditioner); as :func:`~geocontact.fem.linear_algebra.factorise`,
+        SuperLU if CHOLMOD fails or its solution is not finite."""
         self.factorisations += 1
         factor = plan.factoriser.factorise(data)
         if factor is None:  # e.g. a zero pivot

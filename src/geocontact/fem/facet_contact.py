@@ -35,6 +35,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ConvergenceError
+from .state import State
+
 TWO_PI = 2.0 * math.pi
 PENALTY_FACTOR = 300.0  # epsilon = PENALTY_FACTOR * E' / h (module docstring)
 # The tangent of a contact that is open (to round-off) is replaced by a contact of the Hertz radius
@@ -168,3 +171,167 @@ class FacetContact:
         """Energy stored in the penalty layer, 1/2 int epsilon g^2 over the contact (J)."""
         n, g, weight, _ = self._points(self.gap(displacement))
         return float(0.5 * np.sum(self.penalty[:, None] * np.minimum(g, 0.0) ** 2 * weight))
+
+
+# The line search of the elastic iterations (``FacetNewton._facet_line_search``) stops when the
+# slope of the potential is down to this fraction of its start, or after this many evaluations.
+FACET_SEARCH_SLOPE = 1e-2
+FACET_SEARCH_STEPS = 30
+
+
+class FacetNewton:
+    """Newton's iteration with the facet contact (``contact="facet"``), mixed into
+    :class:`~geocontact.fem.solver.ContactSolver`: it reads the solver's ``facet_contact``,
+    evaluation (``_response``, ``_constitutive``), linear systems (``_reduced``, ``_factor``)
+    and ``_finish``; the finite-strain solver overrides ``_bulk_force_along``."""
+
+    def _iterate_facet(self, old: State, force: float, u: np.ndarray, w: float, *,
+                       elastic: bool, label: str, final: bool = False):
+        """Newton with the segment-based penalty contact (``contact="facet"``): no active set,
+        the contact forces and their tangent are part of the residual and of the matrix; every
+        candidate dof is free. Returns (u, w, State or None)."""
+        contact = self.facet_contact
+        scale = max(abs(force), 1e-3 * self.force_scale, 1e-30)
+        tol = self.tolerance * scale
+        top = self.top_dofs
+        reduced = self._reduced(np.zeros(len(self.candidate_dofs), dtype=bool))
+        free, n = reduced.free, reduced.n
+        residual_norm = math.inf
+        self.facet_residuals = []
+        for iteration in range(1, self.max_iterations + 1):
+            u[top] = -w
+            stress, strain, eqps, status, f_int, tangent = self._response(old, u,
+                                                                          elastic=elastic)
+            if force == 0.0:
+                # F = 0: the contact opens; the lowest surface node stays on the flat (as with
+                # the node contact), held by a spring that carries no force at equilibrium
+                gaps = self.gaps(u)
+                lowest = self.candidate_dofs[np.argmin(gaps)]
+                f_contact = np.zeros(self.ndofs)
+                f_contact[lowest] = -self._touch_stiffness * np.min(gaps)
+            else:
+                f_contact = contact.forces(u)
+            r_free = (f_int - f_contact)[free]
+            r_top = -np.sum(f_int[top]) - force
+            residual_norm = max(np.max(np.abs(r_free), initial=0.0), abs(r_top))
+            self.facet_residuals.append(residual_norm)  # of the last solve (tests)
+            if residual_norm <= tol and iteration > 1:
+                if not final:
+                    return u, w, None
+                active = f_contact[self.candidate_dofs] > 0.0
+                return u, w, self._finish(old, u, w, stress, strain, eqps, status, active,
+                                          force, iteration)
+            bulk = self.element_matrices(tangent)
+            if force == 0.0:
+                local = bulk.copy()
+                self._add_touch(local, lowest)
+            else:
+                local = contact.add_to(bulk, contact.stiffness(u, self._hertz_radius(force)))
+            factor = self._factor(local, reduced)
+            if factor is None:
+                break
+            step = factor(np.concatenate([-r_free, [-r_top]]))
+            if not np.all(np.isfinite(step)):
+                break
+            direction = np.zeros(self.ndofs)
+            direction[free] = step[:n]
+            direction[top] = -step[n]
+            reach = self._admissible_length(u, direction)
+            if reach is None:
+                break
+            if reach < 1.0:  # finite strain: the full step would turn an element inside out
+                direction *= reach
+                step = step * reach
+            bulk_force = self._bulk_force_along(old, u, direction, f_int, bulk,
+                                                elastic=elastic)
+            length = 1.0 if force == 0.0 else self._facet_line_search(
+                u, direction, bulk_force, force * step[n],
+                float(np.dot(f_int - f_contact, direction)))
+            u += length * direction
+            w += length * step[n]
+        if not final:
+            return u, w, None
+        raise ConvergenceError(
+            f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
+            f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
+        )
+
+    def _bulk_force_along(self, old: State, u: np.ndarray, direction: np.ndarray,
+                          f_int: np.ndarray, bulk: np.ndarray, *, elastic: bool):
+        """The internal force at u + a d as a function of a, for the facet line search
+        (elastic small strain: linear in a, from the element matrices ``bulk``; else the
+        return mapping at every a). ``FiniteStrainSolver`` evaluates its own kinematics."""
+        if elastic:
+            k_direction = self._local_product(bulk, direction)
+
+            def bulk_force(a):
+                return f_int + a * k_direction
+            return bulk_force
+
+        def bulk_force(a):
+            stress = self._constitutive(old, self.strain(u + a * direction), tangent=False)[0]
+            return self.internal_force(stress)
+        return bulk_force
+
+    def _hertz_radius(self, force: float) -> float:
+        """Hertz contact radius of the hemisphere on the flat at ``force`` (ball-wall)."""
+        e_wall = 2.0 * self.material.effective_modulus
+        return (0.75 * force * self.material.radius / e_wall) ** (1.0 / 3.0)
+
+    @property
+    def _touch_stiffness(self) -> float:
+        """Spring that keeps the lowest node on the flat at F = 0 (``contact="facet"``): the
+        penalty factor times the hemisphere's stiffness scale E R."""
+        return PENALTY_FACTOR * 2.0 * self.material.effective_modulus * self.material.radius
+
+    def _add_touch(self, local: np.ndarray, dof: int) -> None:
+        element = int(np.nonzero(np.any(self.element_dofs == dof, axis=0))[0][0])
+        position = int(np.nonzero(self.element_dofs[:, element] == dof)[0][0])
+        local[element, position, position] += self._touch_stiffness
+
+    def _facet_line_search(self, u: np.ndarray, direction: np.ndarray, bulk_force,
+                           load_rate: float, start: float) -> float:
+        """Step length along a Newton direction with the penalty contact (``contact="facet"``).
+
+        The increment (elastic, or with the return mapping of associated flow) is the minimum of
+        a convex incremental potential, whose slope along the direction d is
+        (f_int(u + a d) - f_contact(u + a d)) . d - F dw (``bulk_force(a)``: f_int at u + a d;
+        elastic: linear in a, no constitutive evaluation; ``start``: the first term at a = 0).
+        The full step is taken unless it
+        passes the minimum by more than ``FACET_SEARCH_SLOPE`` of the starting slope, else the
+        zero of the slope is found by regula falsi (Illinois). Without it Newton wanders for ~30
+        iterations when the contact zone starts far from its size (the first step from an open
+        contact), and fails on large plastic steps; near the solution a = 1, so the quadratic
+        convergence is kept.
+        """
+        contact = self.facet_contact
+
+        def slope(a: float) -> float:
+            return float(np.dot(bulk_force(a) - contact.forces(u + a * direction),
+                                direction)) - load_rate
+
+        low, s_low = 0.0, start - load_rate
+        if s_low >= 0.0:  # not a descent direction: the plain Newton step
+            return 1.0
+        enough = FACET_SEARCH_SLOPE * -s_low
+        high, s_high = 1.0, slope(1.0)
+        if s_high <= enough:
+            return 1.0
+        side = 0
+        length = 1.0
+        for _ in range(FACET_SEARCH_STEPS):
+            length = (low * s_high - high * s_low) / (s_high - s_low)
+            s = slope(length)
+            if abs(s) <= enough:
+                break
+            if s < 0.0:
+                low, s_low = length, s
+                if side == -1:
+                    s_high *= 0.5
+                side = -1
+            else:
+                high, s_high = length, s
+                if side == 1:
+                    s_low *= 0.5
+                side = 1
+        return length

@@ -51,8 +51,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .linear_algebra import _lu
 from .plasticity import DruckerPrager, elastic_strain, return_mapping
-from .solver import LINE_SEARCH_HALVINGS, ContactSolver, State, _lu
+from .solver import LINE_SEARCH_HALVINGS, ContactSolver
+from .state import State
 
 # 5-vector gradient components and their place in the 2x2 in-plane block
 RR, ZZ, TT, RZ, ZR = range(5)

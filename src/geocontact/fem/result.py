@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from .solver import ContactSolver, State
+from .solver import ContactSolver
+from .state import State
 
 CURVE_COLUMNS = (
     "step", "force_N", "approach_m", "contact_radius_m", "plastic_dissipation_J",

@@ -65,7 +65,8 @@ from .result import (
     FemResult,
 )
 from .settings import FeSettings, settings_choice
-from .solver import ContactSolver, State
+from .solver import ContactSolver
+from .state import State
 
 MAX_CUTBACKS = 8
 RESCUE_FAILURES = 16 * MAX_CUTBACKS  # failed solves a step in rescue mode may take in all

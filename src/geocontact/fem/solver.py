@@ -54,28 +54,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from ..errors import ConvergenceError
 from ..grain.material import Material
-from .plasticity import (
-    DruckerPrager,
-    elastic_energy_density,
-    elastic_strain,
-    return_mapping,
-    yield_ratio,
-)
+from .contact_outputs import TWO_PI, ContactOutputs
+from .facet_contact import FacetContact, FacetNewton
+from .linear_algebra import LinearSystems, solve_linear
+from .linear_algebra import _cholmod as _cholmod
+from .linear_algebra import _lu as _lu
+from .linear_algebra import _Reduced as _Reduced
+from .plasticity import DruckerPrager, elastic_energy_density, elastic_strain, return_mapping
+from .state import State
 
-TWO_PI = 2.0 * math.pi
+# (The names imported "as" themselves, and State, are what fem.compiled imports from here: its
+# code is in its runs' identity, so its imports stay as they are.)
 _IDENTITY = np.array([1.0, 1.0, 1.0, 0.0])
 CONTACT_CANDIDATE_HEIGHT = 0.3  # surface nodes with z0 < 0.3 R may touch the flat
-# A point counts as yielding (fully plastic onset, docs/model.md §4) when its Drucker-Prager ratio
-# is within 1 % of the yield surface: a point that yielded and unloads by round-off still counts.
-YIELD_RATIO_AT_YIELD = 0.99
-# The surface stress at the contact edge (edge_surface_ratio) is extrapolated from this many
-# surface facets just outside the contact (measured on the default mesh at 50 and 55 deg, 0.95-1.05
-# Fy: 2 facets differ from 3 by up to 1.2 %, 3, 4 and 6 agree within 0.4 %)
-EDGE_SURFACE_FACETS = 3
 # Rescue mode: halvings of a Newton update (or of the predictor's increment) whose iterate is not
 # admissible before the solve is given up (the caller then cuts the load step back).
 LINE_SEARCH_HALVINGS = 12
@@ -85,84 +79,18 @@ LINE_SEARCH_HALVINGS = 12
 # third iteration: the setting of the point-3 trace (docs/fem.md "Backtracking").
 BACKTRACK_HALVINGS = 2
 BACKTRACK_FROM = 3
-# Facet contact: the line search of the elastic iterations (``_facet_line_search``) stops when the
-# slope of the potential is down to this fraction of its start, or after this many evaluations.
-FACET_SEARCH_SLOPE = 1e-2
-FACET_SEARCH_STEPS = 30
-
-
-@dataclass
-class State:
-    """Converged state at the end of a load step (plain arrays; the half-model = one sphere)."""
-
-    displacement: np.ndarray  # (ndofs,)
-    top_displacement: float  # w: downward motion of the equatorial face = ball-wall approach
-    stress: np.ndarray  # (4, elements, points)
-    strain: np.ndarray  # (4, elements, points)
-    eqps: np.ndarray  # (elements, points)
-    status: np.ndarray  # (elements, points) ELASTIC / CONE / APEX in the last increment
-    active: np.ndarray  # (candidates,) bool, nodes in contact
-    force: float = 0.0  # N
-    plastic_dissipation: float = 0.0  # J, cumulative, one sphere
-    work: float = 0.0  # J, cumulative work of the force, one sphere
-    iterations: int = 0
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {
-            "displacement": self.displacement, "top_displacement": np.array(self.top_displacement),
-            "stress": self.stress, "strain": self.strain, "eqps": self.eqps,
-            "status": self.status, "active": self.active, "force": np.array(self.force),
-            "plastic_dissipation": np.array(self.plastic_dissipation),
-            "work": np.array(self.work),
-        }
-
-    @classmethod
-    def from_arrays(cls, data) -> State:
-        return cls(
-            displacement=np.array(data["displacement"]),
-            top_displacement=float(data["top_displacement"]),
-            stress=np.array(data["stress"]), strain=np.array(data["strain"]),
-            eqps=np.array(data["eqps"]), status=np.array(data["status"]),
-            active=np.array(data["active"], dtype=bool), force=float(data["force"]),
-            plastic_dissipation=float(data["plastic_dissipation"]), work=float(data["work"]),
-        )
-
-
-@dataclass
-class _Assembly:
-    """Sparse pattern of the global stiffness, reused by every assembly."""
-
-    rows: np.ndarray
-    cols: np.ndarray
-    slot: np.ndarray  # position of each element entry in the CSR data
-    indptr: np.ndarray
-    indices: np.ndarray
-
-
-@dataclass
-class _Reduced:
-    """Maps of the global pattern into the bordered system of one contact set."""
-
-    free: np.ndarray  # free global dofs, in reduced order
-    n: int  # free unknowns; unknown n is w
-    keep: np.ndarray  # global CSR entries that enter the reduced system
-    slot: np.ndarray  # their position in the reduced CSC data
-    weight: np.ndarray  # +-1: u_top = -w
-    indices: np.ndarray
-    indptr: np.ndarray
-    nnz: int
-    symbolic: object = None  # CHOLMOD's symbolic analysis (ordering, supernodes) of the pattern
-
 
 LINEAR_SOLVERS = ("fast", "reference")
 CONTACTS = ("node", "facet")  # the flat's contact: node-to-flat (default) | segment-based penalty
-REDUCED_CACHE = 8  # contact sets whose index maps are kept
-ELASTIC_FACTOR_CACHE = 4  # contact sets whose elastic factorisation is kept
 
 
 @dataclass
-class ContactSolver:
-    """Newton / active-set solver of the hemisphere-on-flat problem for one material and mesh."""
+class ContactSolver(FacetNewton, ContactOutputs, LinearSystems):
+    """Newton / active-set solver of the hemisphere-on-flat problem for one material and mesh.
+
+    Its parts: the set-up, element kernels, node contact's Newton iteration and state updates
+    here; the linear systems in ``fem.linear_algebra``, the contact's outputs in
+    ``fem.contact_outputs``, the facet contact's Newton iteration in ``fem.facet_contact``."""
 
     material: Material
     mesh: object  # skfem MeshTri2
@@ -228,8 +156,6 @@ class ContactSolver:
         self.backtracked_updates = 0  # Newton updates halved by backtracking, in all (halvings)
         self.rescued_steps: list[dict] = []  # load steps solved in rescue mode (run._advance)
         if self.contact == "facet":
-            from .facet_contact import FacetContact
-
             facets = self.sphere_facets()
             ends_z = self.mesh.p[1, self.mesh.facets[:, facets]]
             facets = facets[np.all(ends_z < CONTACT_CANDIDATE_HEIGHT * radius, axis=0)]
@@ -278,57 +204,6 @@ class ContactSolver:
             self._cache["projection"] = np.einsum("meq,emp->eqp", psi, weights)
         return self._cache["projection"]
 
-    def _pattern(self) -> _Assembly:
-        edofs = self.element_dofs
-        nloc = edofs.shape[0]
-        rows = np.repeat(edofs.T, nloc, axis=1).ravel()  # element-major, (e, j, k)
-        cols = np.tile(edofs.T, (1, nloc)).ravel()
-        key = rows.astype(np.int64) * self.ndofs + cols
-        unique, slot = np.unique(key, return_inverse=True)
-        urows = unique // self.ndofs
-        indices = (unique % self.ndofs).astype(np.int32)
-        indptr = np.zeros(self.ndofs + 1, dtype=np.int64)
-        np.add.at(indptr, urows + 1, 1)
-        return _Assembly(rows, cols, slot, np.cumsum(indptr), indices)
-
-    def sphere_facets(self) -> np.ndarray:
-        """Boundary facets on the spherical surface (both end vertices on the sphere)."""
-        radius = self.material.radius
-        facets = self.mesh.boundary_facets()
-        ends = self.mesh.p[:, self.mesh.facets[:, facets]]  # (2, 2, facets)
-        dist = np.hypot(ends[0], ends[1] - radius)
-        on = np.all(np.abs(dist - radius) < 1e-7 * radius, axis=0)
-        return facets[on & (np.max(ends[0], axis=0) > 0.0)]
-
-    def _tributary_areas(self, cand_points: np.ndarray,
-                         displacement: np.ndarray | None = None) -> np.ndarray:
-        """Ring area carried by each contact node: integral of its z shape function * 2 pi r
-        over the sphere's surface; with ``displacement``, over the surface of the current
-        configuration (r = R + u_r, line element |F t| dS with t the reference unit tangent)."""
-        from skfem import ElementTriP2, ElementVector, FacetBasis, LinearForm
-
-        facets = self.sphere_facets()
-        fb = FacetBasis(self.mesh, ElementTriP2(), facets=facets, intorder=6)
-
-        @LinearForm
-        def ring(v, w):
-            return TWO_PI * w.x[0] * v
-
-        if displacement is None:
-            return ring.assemble(fb)[cand_points]
-        vb = FacetBasis(self.mesh, ElementVector(ElementTriP2()), facets=facets, intorder=6)
-        u = vb.interpolate(displacement)
-
-        @LinearForm
-        def current_ring(v, w):
-            t_r, t_z = -w.n[1], w.n[0]  # reference unit tangent
-            du = w.u.grad  # (2, 2, ...): du_i/dX_k
-            stretch = np.hypot(t_r + du[0, 0] * t_r + du[0, 1] * t_z,
-                               t_z + du[1, 0] * t_r + du[1, 1] * t_z)
-            return TWO_PI * (w.x[0] + w.u[0]) * stretch * v
-
-        return current_ring.assemble(fb, u=u)[cand_points]
-
     # --- element kernels --------------------------------------------------------------------
     def strain(self, displacement: np.ndarray) -> np.ndarray:
         return np.einsum("jceq,je->ceq", self.B, displacement[self.element_dofs], optimize=True)
@@ -360,57 +235,6 @@ class ContactSolver:
         d = np.ascontiguousarray(tangent.transpose(2, 3, 0, 1)) * self.dvolume[:, :, None, None]
         b = self._B_eq  # (e, q, 12, 4)
         return np.einsum("eqjc,eqkc->ejk", b, np.matmul(b, d), optimize=True)
-
-    def _reduced(self, active: np.ndarray) -> _Reduced:
-        """Index maps of the bordered system [u_free, w] for one contact set (LRU cache)."""
-        key = active.tobytes()
-        maps = self._reduced_maps
-        if key in maps:
-            maps.move_to_end(key)
-            return maps[key]
-        free_mask = np.ones(self.ndofs, dtype=bool)
-        free_mask[self.axis_dofs] = False
-        free_mask[self.top_dofs] = False
-        free_mask[self.candidate_dofs[active]] = False
-        free = np.nonzero(free_mask)[0]
-        n = len(free)
-        index = np.full(self.ndofs, -1, dtype=np.int64)  # global dof -> reduced unknown
-        index[free] = np.arange(n)
-        index[self.top_dofs] = n  # u_top = -w
-        sign = np.ones(self.ndofs)
-        sign[self.top_dofs] = -1.0
-        a = self._assembly
-        grows = np.repeat(np.arange(self.ndofs), np.diff(a.indptr))
-        gcols = a.indices
-        rr, rc = index[grows], index[gcols]
-        keep = np.nonzero((rr >= 0) & (rc >= 0))[0]
-        # CSC of the symmetric bordered matrix: key column-major
-        rkey = rc[keep] * (n + 1) + rr[keep]
-        unique, slot = np.unique(rkey, return_inverse=True)
-        indptr = np.zeros(n + 2, dtype=np.int64)
-        np.add.at(indptr, unique // (n + 1) + 1, 1)
-        reduced = _Reduced(free=free, n=n, keep=keep, slot=slot,
-                           weight=sign[grows[keep]] * sign[gcols[keep]],
-                           indices=(unique % (n + 1)).astype(np.int32),
-                           indptr=np.cumsum(indptr), nnz=len(unique))
-        maps[key] = reduced
-        if len(maps) > REDUCED_CACHE:
-            maps.popitem(last=False)
-        return reduced
-
-    def _bordered_system(self, local: np.ndarray, reduced: _Reduced) -> sp.csc_matrix:
-        a = self._assembly
-        data = np.bincount(a.slot, weights=local.ravel(), minlength=len(a.indices))
-        rdata = np.bincount(reduced.slot, weights=data[reduced.keep] * reduced.weight,
-                            minlength=reduced.nnz)
-        size = reduced.n + 1
-        return sp.csc_matrix((rdata, reduced.indices, reduced.indptr), shape=(size, size))
-
-    def _local_product(self, local: np.ndarray, vector: np.ndarray) -> np.ndarray:
-        """K @ vector from the element matrices, without the global matrix."""
-        product = np.einsum("ejk,ke->je", local, vector[self.element_dofs], optimize=True)
-        return np.bincount(self.element_dofs.ravel(), weights=product.ravel(),
-                           minlength=self.ndofs)
 
     # --- states -----------------------------------------------------------------------------
     def initial_state(self) -> State:
@@ -575,94 +399,6 @@ class ContactSolver:
             f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
         )
 
-    def _iterate_facet(self, old: State, force: float, u: np.ndarray, w: float, *,
-                       elastic: bool, label: str, final: bool = False):
-        """Newton with the segment-based penalty contact (``contact="facet"``): no active set,
-        the contact forces and their tangent are part of the residual and of the matrix; every
-        candidate dof is free. Returns (u, w, State or None)."""
-        contact = self.facet_contact
-        scale = max(abs(force), 1e-3 * self.force_scale, 1e-30)
-        tol = self.tolerance * scale
-        top = self.top_dofs
-        reduced = self._reduced(np.zeros(len(self.candidate_dofs), dtype=bool))
-        free, n = reduced.free, reduced.n
-        residual_norm = math.inf
-        self.facet_residuals = []
-        for iteration in range(1, self.max_iterations + 1):
-            u[top] = -w
-            stress, strain, eqps, status, f_int, tangent = self._response(old, u,
-                                                                          elastic=elastic)
-            if force == 0.0:
-                # F = 0: the contact opens; the lowest surface node stays on the flat (as with
-                # the node contact), held by a spring that carries no force at equilibrium
-                gaps = self.gaps(u)
-                lowest = self.candidate_dofs[np.argmin(gaps)]
-                f_contact = np.zeros(self.ndofs)
-                f_contact[lowest] = -self._touch_stiffness * np.min(gaps)
-            else:
-                f_contact = contact.forces(u)
-            r_free = (f_int - f_contact)[free]
-            r_top = -np.sum(f_int[top]) - force
-            residual_norm = max(np.max(np.abs(r_free), initial=0.0), abs(r_top))
-            self.facet_residuals.append(residual_norm)  # of the last solve (tests)
-            if residual_norm <= tol and iteration > 1:
-                if not final:
-                    return u, w, None
-                active = f_contact[self.candidate_dofs] > 0.0
-                return u, w, self._finish(old, u, w, stress, strain, eqps, status, active,
-                                          force, iteration)
-            bulk = self.element_matrices(tangent)
-            if force == 0.0:
-                local = bulk.copy()
-                self._add_touch(local, lowest)
-            else:
-                local = contact.add_to(bulk, contact.stiffness(u, self._hertz_radius(force)))
-            factor = self._factor(local, reduced)
-            if factor is None:
-                break
-            step = factor(np.concatenate([-r_free, [-r_top]]))
-            if not np.all(np.isfinite(step)):
-                break
-            direction = np.zeros(self.ndofs)
-            direction[free] = step[:n]
-            direction[top] = -step[n]
-            reach = self._admissible_length(u, direction)
-            if reach is None:
-                break
-            if reach < 1.0:  # finite strain: the full step would turn an element inside out
-                direction *= reach
-                step = step * reach
-            bulk_force = self._bulk_force_along(old, u, direction, f_int, bulk,
-                                                elastic=elastic)
-            length = 1.0 if force == 0.0 else self._facet_line_search(
-                u, direction, bulk_force, force * step[n],
-                float(np.dot(f_int - f_contact, direction)))
-            u += length * direction
-            w += length * step[n]
-        if not final:
-            return u, w, None
-        raise ConvergenceError(
-            f"{label}Newton did not converge at F = {force:.6g} N in {self.max_iterations} "
-            f"iterations (residual {residual_norm:.3g} N, tolerance {tol:.3g} N)"
-        )
-
-    def _bulk_force_along(self, old: State, u: np.ndarray, direction: np.ndarray,
-                          f_int: np.ndarray, bulk: np.ndarray, *, elastic: bool):
-        """The internal force at u + a d as a function of a, for the facet line search
-        (elastic small strain: linear in a, from the element matrices ``bulk``; else the
-        return mapping at every a). ``FiniteStrainSolver`` evaluates its own kinematics."""
-        if elastic:
-            k_direction = self._local_product(bulk, direction)
-
-            def bulk_force(a):
-                return f_int + a * k_direction
-            return bulk_force
-
-        def bulk_force(a):
-            stress = self._constitutive(old, self.strain(u + a * direction), tangent=False)[0]
-            return self.internal_force(stress)
-        return bulk_force
-
     def _admissible_length(self, u: np.ndarray, direction: np.ndarray) -> float | None:
         """The largest of 1, 1/2, 1/4, ... whose step along ``direction`` keeps the iterate
         admissible (small strain: always 1); None after ``LINE_SEARCH_HALVINGS`` halvings."""
@@ -672,71 +408,6 @@ class ContactSolver:
                 return length
             length *= 0.5
         return None
-
-    def _hertz_radius(self, force: float) -> float:
-        """Hertz contact radius of the hemisphere on the flat at ``force`` (ball-wall)."""
-        e_wall = 2.0 * self.material.effective_modulus
-        return (0.75 * force * self.material.radius / e_wall) ** (1.0 / 3.0)
-
-    @property
-    def _touch_stiffness(self) -> float:
-        """Spring that keeps the lowest node on the flat at F = 0 (``contact="facet"``): the
-        penalty factor times the hemisphere's stiffness scale E R."""
-        from .facet_contact import PENALTY_FACTOR
-
-        return PENALTY_FACTOR * 2.0 * self.material.effective_modulus * self.material.radius
-
-    def _add_touch(self, local: np.ndarray, dof: int) -> None:
-        element = int(np.nonzero(np.any(self.element_dofs == dof, axis=0))[0][0])
-        position = int(np.nonzero(self.element_dofs[:, element] == dof)[0][0])
-        local[element, position, position] += self._touch_stiffness
-
-    def _facet_line_search(self, u: np.ndarray, direction: np.ndarray, bulk_force,
-                           load_rate: float, start: float) -> float:
-        """Step length along a Newton direction with the penalty contact (``contact="facet"``).
-
-        The increment (elastic, or with the return mapping of associated flow) is the minimum of
-        a convex incremental potential, whose slope along the direction d is
-        (f_int(u + a d) - f_contact(u + a d)) . d - F dw (``bulk_force(a)``: f_int at u + a d;
-        elastic: linear in a, no constitutive evaluation; ``start``: the first term at a = 0).
-        The full step is taken unless it
-        passes the minimum by more than ``FACET_SEARCH_SLOPE`` of the starting slope, else the
-        zero of the slope is found by regula falsi (Illinois). Without it Newton wanders for ~30
-        iterations when the contact zone starts far from its size (the first step from an open
-        contact), and fails on large plastic steps; near the solution a = 1, so the quadratic
-        convergence is kept.
-        """
-        contact = self.facet_contact
-
-        def slope(a: float) -> float:
-            return float(np.dot(bulk_force(a) - contact.forces(u + a * direction),
-                                direction)) - load_rate
-
-        low, s_low = 0.0, start - load_rate
-        if s_low >= 0.0:  # not a descent direction: the plain Newton step
-            return 1.0
-        enough = FACET_SEARCH_SLOPE * -s_low
-        high, s_high = 1.0, slope(1.0)
-        if s_high <= enough:
-            return 1.0
-        side = 0
-        length = 1.0
-        for _ in range(FACET_SEARCH_STEPS):
-            length = (low * s_high - high * s_low) / (s_high - s_low)
-            s = slope(length)
-            if abs(s) <= enough:
-                break
-            if s < 0.0:
-                low, s_low = length, s
-                if side == -1:
-                    s_high *= 0.5
-                side = -1
-            else:
-                high, s_high = length, s
-                if side == 1:
-                    s_low *= 0.5
-                side = 1
-        return length
 
     def admissible(self, displacement: np.ndarray) -> bool:
         """Whether the engine can evaluate the state at ``displacement`` (small strain: always;
@@ -797,34 +468,6 @@ class ContactSolver:
             self.backtracked_updates += 1
         return trial, trial_w, response
 
-    def _fast_step(self, tangent, active, prescribed, r_free, r_top, elastic) -> np.ndarray:
-        """Newton correction [du_free, dw] on the fast path (see the module docstring)."""
-        reduced = self._reduced(active)
-        local = self.element_matrices(tangent)
-        rhs = np.concatenate([-r_free, [-r_top]])
-        if np.any(prescribed != 0.0):
-            k_pre = self._local_product(local, prescribed)
-            rhs[:-1] -= k_pre[reduced.free]
-            rhs[-1] += float(np.sum(k_pre[self.top_dofs]))
-        factors = self._elastic_factors
-        key = active.tobytes()
-        if tangent is None and key in factors:  # the elastic matrix is one per contact set
-            factors.move_to_end(key)
-            factor = factors[key]
-        else:
-            factor = self._factor(local, reduced)
-            if tangent is None and factor is not None:
-                factors[key] = factor
-                if len(factors) > ELASTIC_FACTOR_CACHE:
-                    factors.popitem(last=False)
-        if factor is None:
-            return np.full_like(rhs, np.nan)
-        return factor(rhs)
-
-    def _factor(self, local: np.ndarray, reduced: _Reduced):
-        self.factorisations += 1
-        return factorise(self._bordered_system(local, reduced), reduced)
-
     def _dissipation(self, old: State, u: np.ndarray, stress: np.ndarray,
                      strain: np.ndarray) -> float:
         # Plastic dissipation of the increment, trapezoidal in the stress:
@@ -868,239 +511,3 @@ class ContactSolver:
     def reaction_force(self, state: State) -> float:
         return float(-np.sum(self.state_internal_force(state)[self.top_dofs]))
 
-    def candidate_radii(self, state: State) -> np.ndarray:
-        """Radii of the contact candidate nodes (in the configuration of ``state``)."""
-        return self.candidate_r
-
-    def contact_forces(self, state: State) -> np.ndarray:
-        if self.contact == "facet":  # at F = 0 open (``_iterate_facet``)
-            if state.force == 0.0:
-                return np.zeros(len(self.candidate_dofs))
-            return self.facet_contact.forces(state.displacement)[self.candidate_dofs]
-        f = self.state_internal_force(state)[self.candidate_dofs]
-        return np.where(state.active, f, 0.0)
-
-    def contact_pressure(self, state: State) -> tuple[np.ndarray, np.ndarray]:
-        """(r, pressure) at the surface nodes: nodal force / tributary ring area (with
-        ``contact="facet"`` the same: the penalty pressure at a node, epsilon times a gap of
-        ~1e-10 m, carries the displacement's discretisation error and is ~10 % off; the far node
-        of the facet the contact edge is in can carry a small negative consistent force)."""
-        return self.candidate_r, self._pressure(self.contact_forces(state), self.candidate_area)
-
-    def _pressure(self, force: np.ndarray, area: np.ndarray) -> np.ndarray:
-        """Nodal force / ring area; the axis node's ring area is zero (its P2 shape function
-        gives int N r ds = 0 on the first edge; round-off leaves ~1e-10 of the largest, which
-        made a 700 sigma_c spike), so it takes its neighbour's pressure."""
-        axis = self.candidate_r <= 1e-12 * self.material.radius
-        pressure = np.divide(force, area, out=np.zeros_like(area), where=~axis & (area > 0.0))
-        pressure[axis] = pressure[1]
-        return pressure
-
-    def contact_radius(self, state: State) -> float:
-        """Radius of the contact circle.
-
-        The outermost touching node bounds it from below, the first open node from above; in
-        between the edge is placed where the gap of the next two open nodes, extrapolated with
-        the Hertzian edge law g ~ (r - a)^(3/2), vanishes. The same with ``contact="facet"``
-        (a node touches when its penalty force does): the zero of the interpolated gap lags the
-        edge by up to an element, the gap inside being the small penetration.
-        """
-        # nodes carrying more than the equilibrium tolerance (at F = 0 none does)
-        threshold = 10.0 * self.tolerance * max(state.force, 1e-3 * self.force_scale)
-        active = state.active & (self.contact_forces(state) > threshold)
-        if not active.any():
-            return 0.0
-        last = int(np.nonzero(active)[0][-1])
-        r = self.candidate_radii(state)
-        if last + 2 >= len(r):
-            return float(r[last])
-        g = self.gaps(state.displacement)
-        g1, g2 = g[last + 1], g[last + 2]
-        if not (g1 > 0 and g2 > g1):
-            return float(r[last])
-        k = (g1 / g2) ** (2.0 / 3.0)
-        a = (r[last + 1] - k * r[last + 2]) / (1.0 - k)
-        return float(np.clip(a, r[last], r[last + 1]))
-
-    def yield_ratio(self, state: State) -> np.ndarray:
-        """Drucker-Prager measure at every point (1 on the yield surface)."""
-        return yield_ratio(self.model, state.stress, state.eqps)
-
-    def edge_surface_ratio(self, state: State) -> tuple[float, float]:
-        """(ratio, a): the Drucker-Prager ratio on the surface at the contact edge r = a
-        (``contact_radius``), where the analytic first yield is above the critical friction
-        angle (grain.hertz); 0 without contact. Used only to locate first yield.
-
-        The ratio has a cusp there (a square-root fall inside the contact and under the
-        surface), which the quadrature points, off the surface, sample below its peak
-        (docs/verification/edge_first_yield.md). Outside the contact the surface is traction
-        free and its field smooth (Hertz: sigma_rr = -sigma_tt ~ (a / r)^2, Johnson 1985
-        §3.4), so the edge value is recovered from outside: on each of the first
-        ``EDGE_SURFACE_FACETS`` surface facets beyond a, the surface strains at the facet's two
-        Gauss points (where the derivative of the P2 displacement is superconvergent) from the
-        displacement of its three nodes, e_ss = t . du/ds, e_tt = u_r / r, give the plane
-        stress of a free surface; each component, fitted linearly in (a / r)^2, is taken to
-        r = a. From the displacement rather than the quadrature stresses: those carry the
-        element-constant volumetric part of B-bar, which is not the surface's.
-        """
-        a = self.contact_radius(state)
-        if a <= 0.0:
-            return 0.0, 0.0
-        facets = self.sphere_facets()
-        ends = self.mesh.facets[:, facets]
-        nodes = np.stack([ends[0], facets, ends[1]])  # (vertex, facet, vertex) of each facet
-        inner = np.min(self.mesh.p[0, ends], axis=0)
-        beyond = np.nonzero(inner >= a)[0]
-        beyond = beyond[np.argsort(inner[beyond])][:EDGE_SURFACE_FACETS]
-        if len(beyond) < 2:
-            return 0.0, a
-        r, s_ss, s_tt = self._free_surface_stress(state, nodes[:, beyond])
-        x = (a / r) ** 2
-        at_edge = [np.polyval(np.polyfit(x, s, 1), 1.0) for s in (s_ss, s_tt)]
-        stress = np.array([[at_edge[0]], [0.0], [at_edge[1]], [0.0]])  # (tangent, normal, hoop)
-        return float(yield_ratio(self.model, stress, np.zeros(1))[0]), a
-
-    def _free_surface_stress(self, state: State, nodes: np.ndarray):
-        """Radius and plane stress (tangent, hoop) of a traction-free surface at the two Gauss
-        points of each P2 surface facet, ``nodes`` (3, facets): its first vertex, itself (its
-        middle dof), its second vertex."""
-        basis, u = self.basis, state.displacement
-        dofs = [np.stack([basis.nodal_dofs[c][nodes[0]], basis.facet_dofs[c][nodes[1]],
-                          basis.nodal_dofs[c][nodes[2]]]) for c in (0, 1)]
-        position = np.stack([basis.doflocs[c, dofs[c]] for c in (0, 1)])  # (2, 3, facets)
-        displacement = np.stack([u[dofs[c]] for c in (0, 1)])
-        modulus, nu = self.material.youngs_modulus, self.material.poissons_ratio
-        radii, tangent, hoop = [], [], []
-        for xi in 0.5 + np.array([-0.5, 0.5]) / math.sqrt(3.0):
-            n = np.array([(1.0 - xi) * (1.0 - 2.0 * xi), 4.0 * xi * (1.0 - xi),
-                          xi * (2.0 * xi - 1.0)])
-            dn = np.array([4.0 * xi - 3.0, 4.0 - 8.0 * xi, 4.0 * xi - 1.0])
-            dx = np.einsum("n,cnf->cf", dn, position)
-            ds = np.hypot(dx[0], dx[1])
-            r = n @ position[0]
-            e_ss = np.einsum("cf,cf->f", dx / ds, np.einsum("n,cnf->cf", dn, displacement)) / ds
-            e_tt = (n @ displacement[0]) / r
-            radii.append(r)
-            tangent.append(modulus / (1.0 - nu**2) * (e_ss + nu * e_tt))
-            hoop.append(modulus / (1.0 - nu**2) * (e_tt + nu * e_ss))
-        return np.concatenate(radii), np.concatenate(tangent), np.concatenate(hoop)
-
-    def surface_layer(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The quadrature points just under the spherical surface and the strip each stands for.
-
-        For every surface facet, the three quadrature points of its element nearest the facet
-        (with the 6-point rule about 0.1 of the element height deep, so the layer thins with the
-        mesh); each represents the part of the facet between the radii halfway to its
-        neighbours. Returns flat arrays (elements, points, r_inner, r_outer).
-        """
-        key = "surface_layer"
-        if key not in self._cache:
-            facets = self.sphere_facets()
-            ends = self.mesh.p[:, self.mesh.facets[:, facets]]  # (r/z, end, facet)
-            elements = self.mesh.f2t[0, facets]
-            (r1, r2), (z1, z2) = ends
-            qr, qz = self.radius_qp[elements], self.z_qp[elements]
-            chord = np.hypot(r2 - r1, z2 - z1)[:, None]
-            depth = np.abs((r2 - r1)[:, None] * (z1[:, None] - qz)
-                           - (z2 - z1)[:, None] * (r1[:, None] - qr)) / chord
-            points = np.argsort(depth, axis=1)[:, :3]
-            radii = np.take_along_axis(qr, points, axis=1)
-            order = np.argsort(radii, axis=1)
-            points = np.take_along_axis(points, order, axis=1)
-            radii = np.take_along_axis(radii, order, axis=1)
-            bounds = np.stack([np.minimum(r1, r2), 0.5 * (radii[:, 0] + radii[:, 1]),
-                               0.5 * (radii[:, 1] + radii[:, 2]), np.maximum(r1, r2)], axis=1)
-            self._cache[key] = (np.repeat(elements, 3), points.ravel(),
-                                bounds[:, :3].ravel(), bounds[:, 1:].ravel())
-        return self._cache[key]
-
-    def yielded_contact_fraction(self, state: State, extent: float = 1.0) -> float:
-        """Fraction of the projected area of the disc r < extent * a (a the contact radius)
-        whose surface layer (:meth:`surface_layer`) is at yield, i.e. within
-        ``YIELD_RATIO_AT_YIELD`` of the yield surface (docs/model.md §4, Fp); 0 without contact.
-        """
-        a = extent * self.contact_radius(state)
-        if a <= 0.0:
-            return 0.0
-        elements, points, r_inner, r_outer = self.surface_layer()
-        area = np.clip(r_outer, 0.0, a) ** 2 - np.clip(r_inner, 0.0, a) ** 2
-        at_yield = self.yield_ratio(state)[elements, points] >= YIELD_RATIO_AT_YIELD
-        return float(np.sum(area[at_yield]) / a**2)
-
-
-def solve_linear(matrix: sp.csc_matrix, rhs: np.ndarray) -> np.ndarray:
-    """SuperLU with the symmetric-mode minimum-degree ordering on A^T + A.
-
-    Measured on this problem (docs/fem.md): 2-3x faster than COLAMD / MMD_ATA on the default
-    and fine meshes. The tangent is symmetric (associated flow, B-bar), so SuperLU's symmetric
-    mode (diagonal pivots) applies; a failed or non-finite factor is retried with partial
-    pivoting.
-    """
-    try:
-        x = splu(matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                 options={"SymmetricMode": True}).solve(rhs)
-        if np.all(np.isfinite(x)):
-            return x
-    except RuntimeError:
-        pass
-    try:
-        return splu(matrix, permc_spec="COLAMD").solve(rhs)
-    except RuntimeError:
-        return np.full_like(rhs, np.nan)
-
-
-def factorise(matrix: sp.csc_matrix, reduced: _Reduced | None = None):
-    """A solve function for the symmetric positive definite bordered system, or None.
-
-    CHOLMOD (scikit-sparse) when installed: simplicial LDL^T with AMD ordering, measured the
-    fastest here (docs/benchmarks.md; the supernodal mode leans on BLAS and is slower on these
-    2-D systems), its symbolic analysis done once per contact set (``reduced``) and reused by
-    every numeric factorisation of that pattern. Without CHOLMOD, if it fails, or if its
-    solution is not finite: SuperLU (:func:`_lu`).
-    """
-    cholmod = _cholmod()
-    if cholmod is None:
-        return _lu(matrix)
-    analyze, errors = cholmod
-    try:
-        if reduced is None or reduced.symbolic is None:
-            symbolic = analyze(matrix, mode="simplicial", ordering_method="amd")
-            if reduced is not None:
-                reduced.symbolic = symbolic
-        else:
-            symbolic = reduced.symbolic
-        factor = symbolic.cholesky(matrix)
-    except errors:  # e.g. a zero pivot: LU below
-        return _lu(matrix)
-
-    def solve(rhs: np.ndarray) -> np.ndarray:
-        x = factor.solve_A(rhs)
-        if np.all(np.isfinite(x)):
-            return x
-        lu = _lu(matrix)
-        return lu(rhs) if lu is not None else x
-
-    return solve
-
-
-def _lu(matrix: sp.csc_matrix):
-    """SuperLU as in :func:`solve_linear` (symmetric mode, then COLAMD with partial pivoting)."""
-    for kwargs in ({"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
-                    "options": {"SymmetricMode": True}}, {"permc_spec": "COLAMD"}):
-        try:
-            lu = splu(matrix, **kwargs)
-        except RuntimeError:
-            continue
-        probe = lu.solve(np.ones(matrix.shape[0]))
-        if np.all(np.isfinite(probe)):
-            return lu.solve
-    return None
-
-
-def _cholmod():
-    """(sksparse.cholmod.analyze, its error class), or None without scikit-sparse."""
-    try:
-        from sksparse.cholmod import CholmodError, analyze
-    except ImportError:
-        return None
-    return analyze, CholmodError

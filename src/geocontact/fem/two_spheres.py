@@ -54,6 +54,7 @@ from ..errors import InputError
 from ..files import check_replaceable
 from ..grain.material import Material
 from .identity import FeRunIdentity, fe_code_hash, library_versions, load_result
+from .linear_algebra import ELASTIC_FACTOR_CACHE, REDUCED_CACHE, factorise
 from .mesh import build_mesh, elements_across
 from .result import CURVE_COLUMNS, TOLERANCE, VOLUMETRIC, FemResult
 from .run import (
@@ -69,13 +70,8 @@ from .run import (
     tip_contact_radius,
     write_result,
 )
-from .solver import (
-    ELASTIC_FACTOR_CACHE,
-    REDUCED_CACHE,
-    ContactSolver,
-    State,
-    factorise,
-)
+from .solver import ContactSolver
+from .state import State
 
 SCHEMA = "geocontact.fe-pair-identity/1"
 # Slave nodes: sphere 1's surface nodes out to this fraction of the smaller radius (the half
@@ -233,8 +229,8 @@ class PairSolver(ContactSolver):
     def _fast_step(self, tangent, active, prescribed, r_free, r_top, elastic) -> np.ndarray:
         """Newton correction [du_free, dw]: the bordered system of ``ContactSolver``'s reference
         path (unknowns [v_free, w], v_top = -w) from the transformed tangent, factorised as on
-        its fast path (``solver.factorise``: CHOLMOD, symbolic analysis and the elastic factor
-        kept per contact set)."""
+        its fast path (``linear_algebra.factorise``: CHOLMOD, symbolic analysis and the elastic
+        factor kept per contact set)."""
         key = active.tobytes()
         maps = self._reduced_maps
         if key not in maps:
@@ -274,7 +270,7 @@ class PairSolver(ContactSolver):
 @dataclass
 class _Bordered:
     """The map of one contact set's unknowns [v_free, w] into v (v_top = -w), and CHOLMOD's
-    symbolic analysis of its system (``solver.factorise``)."""
+    symbolic analysis of its system (``linear_algebra.factorise``)."""
 
     border: sp.csr_matrix
     border_t: sp.csr_matrix
