@@ -354,11 +354,12 @@ def test_forces_beyond_what_the_fe_mesh_resolves(tmp_path, capsys):
     # --max-force 1.8e308 overflowed in the geometric peak series (a numpy warning)
     assert main(["calibrate", "--material", "reference", "--out", str(tmp_path / "P.json"),
                  "--max-force", "1.7976931348622103e+308"]) == 2
-    one_line_error(capsys, "--max-force: must be <= 1.364e+05 N", "a <= R/2")
+    one_line_error(capsys, "--max-force: must be <= 1.778e+07 N",
+                   "Hertz contact radius exceeds 0.5 R")
     (tmp_path / "h.toml").write_text("[history]\nforces = [0, 1e9, 0]\n")
     assert main(["fem", "--material", "reference", "--history", str(tmp_path / "h.toml"),
                  "--out", str(tmp_path / "run")]) == 2
-    one_line_error(capsys, "history.forces: must be <= 1.364e+05 N")
+    one_line_error(capsys, "history.forces: must be <= 1.778e+07 N")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["h.toml"]
 
 
@@ -680,7 +681,7 @@ BOUNDS = [
     ("cycles", ["--steps", "10001"], ["--steps"]),
     ("calibrate", ["--levels", "2"], ["--levels"]),
     ("calibrate", ["--max-force", "-1"], ["--max-force"]),
-    ("calibrate", ["--max-force", "1e9"], ["--max-force", "a <= R/2"]),
+    ("calibrate", ["--max-force", "1e9"], ["--max-force", "exceeds 0.5 R"]),
     ("calibrate", ["--workers", "0"], ["--workers"]),
     ("calibrate", ["--peak-forces", "100,-5,300"], ["--peak-forces"]),
     ("sweep", ["--peak-force", "-1"], ["--peak-force"]),

@@ -25,6 +25,12 @@ class ConvergenceError(GeocontactError, RuntimeError):
     """A solver did not converge; the message names the step and the load."""
 
 
+class ContactBeyondMeshError(ConvergenceError):
+    """An FE run whose measured contact outgrew the mesh's refined zone (fem.mesh
+    ``CONTACT_RADIUS_LIMIT``): the run stands for its steps before, as one that stopped
+    converging does."""
+
+
 def check_count(field: str, value: int | None, high: int, why: str = "") -> None:
     """An optional integer argument in [1, high]; ``why`` says where the bound comes from."""
     if value is not None and not 1 <= value <= high:

@@ -327,6 +327,22 @@ _SPLIT = ("ContactSolver split into modules (fem.state, fem.linear_algebra, fem.
           "checkpointed and summarised as before")
 _reproduces(_SPLIT_CODE, _BACKTRACKING_CODE, _SPLIT)
 
+# The force bound from the measured contact (issue 37, docs/fem.md "The largest contact a run
+# resolves"): a run stops at the first recorded step whose contact radius passes
+# mesh.CONTACT_RADIUS_LIMIT R (ContactBeyondMeshError, a ConvergenceError), where the older code
+# went on out of the mesh's refined zone; such a run is not reused (_contact_beyond_mesh; none of
+# the 216 committed runs, the largest contact 0.467 R). The mesh's clip at R/2 is the same
+# constant. Evidence: old code (a worktree of the commit before) against new on one machine, the
+# cyclic history [0, 0.3 N] x 3 and the ramp under "dissipation" and "envelope"
+# (reference-weak, coarse, finite strain, decade steps): byte-identical curve.csv, summaries
+# equal but for identity and times.
+_CONTACT_LIMIT_CODE = "069f7583caba9102"
+_CONTACT_LIMIT = ("a run stops where its measured contact radius passes the mesh's refined "
+                  "zone (fem.mesh.CONTACT_RADIUS_LIMIT R; fem.run.step_loop): every run whose "
+                  "contact stayed within it is solved, checkpointed and summarised as before, "
+                  "and one that did not is not reused (_contact_beyond_mesh)")
+_reproduces(_CONTACT_LIMIT_CODE, _SPLIT_CODE, _CONTACT_LIMIT)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -411,6 +427,10 @@ AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (_SPLIT_CODE, _DEFAULT_COMPILED_CODE): {
         older: _KERNELS_AGREE
         for older in (_SPLIT_CODE, *REPRODUCED_FE_CODE[_SPLIT_CODE])},
+    # and under the FE code of the measured contact's bound (reruns under it)
+    (_CONTACT_LIMIT_CODE, _DEFAULT_COMPILED_CODE): {
+        older: _KERNELS_AGREE
+        for older in (_CONTACT_LIMIT_CODE, *REPRODUCED_FE_CODE[_CONTACT_LIMIT_CODE])},
 }
 
 
@@ -753,6 +773,9 @@ def finished_run(directory: str | Path, identity: FeRunIdentity, *, fields: bool
             reason = "not in the folder of its key"
         if reason is None and _onset_off_virgin_loading(result):
             reason = "its fully plastic onset was read off a reload (older FE code)"
+        if reason is None and _contact_beyond_mesh(result):
+            reason = ("its contact outgrew the mesh's refined zone (older FE code; the current "
+                      "code stops there)")
         if reason is None and fields:
             names = result.summary.get("fields")  # a run with fields has at least one
             if not isinstance(names, list) or not names or not all(
@@ -778,6 +801,22 @@ def _onset_off_virgin_loading(result: FemResult) -> bool:
     steps = np.flatnonzero(force == bracket[1])
     return steps.size > 0 and all(force[k] <= np.max(force[:k], initial=-np.inf)
                                   for k in steps)
+
+
+def _contact_beyond_mesh(result: FemResult) -> bool:
+    """Whether the run's contact radius passed ``mesh.CONTACT_RADIUS_LIMIT`` R at a recorded
+    step: FE code before 069f7583caba9102 went on there, out of the mesh's refined zone; the
+    current code stops (fem.run.step_loop). Such a run is not reused (the reproduction of older
+    runs holds for every other one: none of the 216 committed runs had it, the largest contact
+    0.467 R)."""
+    from .mesh import CONTACT_RADIUS_LIMIT
+
+    radius = np.asarray(result.curve.get("contact_radius_m", ()), dtype=float)
+    try:
+        grain = float(result.summary["inputs"]["material"]["radius"])
+    except (KeyError, TypeError, ValueError):
+        return False
+    return radius.size > 0 and float(np.max(radius)) > CONTACT_RADIUS_LIMIT * grain
 
 
 def recorded_identities(cache: str | Path) -> list[tuple[Path, Any]]:

@@ -1,5 +1,5 @@
 """The bounds of what the FE is asked, checked before any work starts: load steps per segment,
-local worker processes, and the largest force whose contact the mesh resolves."""
+local worker processes, and the largest force whose contact the mesh could resolve."""
 
 from __future__ import annotations
 
@@ -26,22 +26,22 @@ def check_workers(value: int | None) -> None:
 
 
 def check_resolved_force(material, force: float | None, field: str) -> None:
-    """A peak force the FE mesh resolves: its contact radius estimate (``fem.run``) within the
-    refined zone, a <= R/2 (``fem.mesh.build_mesh`` clips there); beyond it the contact would
-    outgrow the mesh (and 1e308 N overflowed). The bound is found on that same estimate."""
+    """A peak force the FE mesh can resolve at all: its Hertz contact radius within the refined
+    zone, a <= R/2 (``fem.mesh.CONTACT_RADIUS_LIMIT``; ``fem.mesh.build_mesh`` clips there).
+    Hertz's is the smallest contact radius of the grain at that force (a plastic contact is
+    wider), so beyond this bound no run could reach the force (and 1e308 N overflowed). Below
+    it the run itself stops where the contact it measures passes R/2 (``fem.run.step_loop``),
+    so a grain whose plastic contact stays small (a hard, high-friction one) is loaded as deep
+    as its contact allows, not as deep as an estimate of it would."""
     if force is None or not (math.isfinite(force) and force > 0):
         return  # the command's own checks name it
-    from .run import largest_contact_radius_estimate  # here: the CLI starts without the FE stack
-    def resolved(f: float) -> bool:
-        return largest_contact_radius_estimate(material, f) <= 0.5 * material.radius
+    from .mesh import CONTACT_RADIUS_LIMIT  # here: the CLI starts without the FE stack
 
-    if resolved(force):
+    radius = CONTACT_RADIUS_LIMIT * material.radius
+    # Hertz: a^3 = 3 F R* / (4 E*), so the force at a = R/2
+    bound = 4.0 * material.effective_modulus * radius**3 / (3.0 * material.effective_radius)
+    if force <= bound:
         return
-    low, high = 0.0, force
-    for _ in range(200):  # bisection in log F: the estimate grows with the force
-        mid = math.sqrt(low * high) if low > 0 else high * 1e-12
-        low, high = (mid, high) if resolved(mid) else (low, mid)
-        if low > 0 and high / low < 1.0 + 1e-6:
-            break
-    raise InputError(f"{field}: must be <= {low:.4g} N for this material (the largest force "
-                     f"whose contact radius the FE mesh resolves, a <= R/2), got {force:g}")
+    raise InputError(f"{field}: must be <= {bound:.4g} N for this material (beyond it even the "
+                     f"elastic, Hertz contact radius exceeds {CONTACT_RADIUS_LIMIT:g} R, the FE "
+                     f"mesh's refined zone), got {force:g}")

@@ -33,6 +33,11 @@ import numpy as np
 
 from ..errors import InputError
 
+# The largest contact radius a run resolves, a fraction of the grain's radius: the refined zone
+# of every mesh ends there (build_mesh clips a_max to it), and a run stops at the first recorded
+# step whose measured contact radius is larger (fem.run.step_loop: ContactBeyondMeshError).
+CONTACT_RADIUS_LIMIT = 0.5
+
 
 @dataclass(frozen=True)
 class MeshPreset:
@@ -155,7 +160,7 @@ def build_mesh(radius: float, a_min: float, a_max: float, preset: str | MeshPres
         raise InputError(f"mesh: need 0 < a_min <= a_max, got {a_min:g}, {a_max:g}")
     if rule not in MESH_RULES:
         raise InputError(f"mesh_rule: unknown {rule!r} (allowed: {', '.join(MESH_RULES)})")
-    a_max = min(a_max, 0.5 * radius)
+    a_max = min(a_max, CONTACT_RADIUS_LIMIT * radius)
     a_min = min(a_min, a_max)
     band = None
     if rule != "yield":

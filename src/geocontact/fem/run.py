@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..errors import ConvergenceError, InputError
+from ..errors import ContactBeyondMeshError, ConvergenceError, InputError
 from ..files import atomic_directory, atomic_path, check_replaceable, write_json_atomic
 from ..grain.force_history import (
     cycle_peak,
@@ -49,6 +49,7 @@ from .checkpoint import (
     warn_checkpoint,
 )
 from .mesh import (
+    CONTACT_RADIUS_LIMIT,
     ELEMENTS_ACROSS_SMALLEST_CONTACT,
     MIN_ELEMENTS_ACROSS_CONTACT,
     PRESETS,
@@ -1072,6 +1073,7 @@ def step_loop(p: PreparedRun, started: RunClock, *, keep_states: bool = False,
                                  sub_steps(state.force, p.targets[k], p.yield_force,
                                            p.identity.max_step_ratio))
             run.record(step, state)
+            _check_contact_within_mesh(run, step)
             if keep_states:
                 states.append(state)
             if step in p.field_steps:
@@ -1098,6 +1100,20 @@ def step_loop(p: PreparedRun, started: RunClock, *, keep_states: bool = False,
             bar.close()
     p.state = state
     return states
+
+
+def _check_contact_within_mesh(run: _Run, step: int) -> None:
+    """Stop the run at a recorded step whose contact radius passes ``CONTACT_RADIUS_LIMIT`` R
+    (before its checkpoint: the run stands for the steps before it)."""
+    row = run.rows[-1]
+    radius = row[CURVE_COLUMNS.index("contact_radius_m")]
+    limit = CONTACT_RADIUS_LIMIT * run.material.radius
+    if radius > limit:
+        raise ContactBeyondMeshError(
+            f"step {step}: the contact radius {radius:.4g} m passed {CONTACT_RADIUS_LIMIT:g} R "
+            f"({limit:.4g} m, the mesh's refined zone) at F = "
+            f"{row[CURVE_COLUMNS.index('force_N')]:.6g} N; the run stops there (its steps "
+            "before are kept in its checkpoint): ask for a lower force")
 
 
 def run_summary(p: PreparedRun, curve: dict[str, np.ndarray], started: RunClock,

@@ -22,11 +22,13 @@ no repeated history), which keeps the shipped dataset working. Select it with
   indexed by their position u = k / (LEVELS - 1) between the lowest peak and the top, so that
   rows are comparable across E/sigma_c.
 * **Validity limit**: the FE mesh's refined zone, a <= R/2 (``fem.mesh.build_mesh`` clips its
-  contact zone there). The FE commands bound the force by an upper *estimate* of the contact
-  radius (``fem.limits.check_resolved_force``: a mean pressure of 2.5 sigma_c), which for a
-  hardening or pressure-sensitive grain is far too cautious (the pilot's centre point carries 24
-  sigma_c at a/R = 0.13, where that bound stops it). The campaign therefore measures the contact
-  instead: the first probe goes to that bound (``validity_force``), and while the probe's
+  contact zone there). The campaign's first probe goes to the force at which an upper *estimate*
+  of the contact radius reaches R/2 (``fem.run.largest_contact_radius_estimate``: 1.2 x Hertz's
+  or a mean pressure of 2.5 sigma_c; the FE commands' own bound until they stopped at the
+  measured contact instead, ``fem.limits.check_resolved_force``), which for a hardening or
+  pressure-sensitive grain is far too cautious (the pilot's centre point carries 24 sigma_c at
+  a/R = 0.13, where that estimate stops it). The campaign therefore measures the contact
+  instead: the first probe goes to that force (``validity_force``), and while the probe's
   contact is below the top target the next probe goes to the force that carries 1.1 x the
   target at the mean pressure the last one reached (``next_probe_force``, at most
   ``MAX_PROBES``, never aimed beyond R/2). The top is the smaller of the target and the last
@@ -177,9 +179,9 @@ def outside_range(material: Material) -> list[str]:
 
 # --- the level rule --------------------------------------------------------------------------
 def validity_force(material: Material) -> float:
-    """The largest force whose contact the FE mesh resolves: ``largest_contact_radius_estimate``
-    <= R/2 (the bound of ``fem.limits.check_resolved_force``), by bisection in log F on that
-    same estimate (it grows with F)."""
+    """The force at which the upper estimate of the contact radius reaches R/2
+    (``largest_contact_radius_estimate``; the FE commands' bound before they stopped at the
+    measured contact), by bisection in log F on that same estimate (it grows with F)."""
     from ..fem.run import largest_contact_radius_estimate
 
     bound = VALID_CONTACT_OVER_RADIUS * material.radius
