@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
 	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite \
 	calibrate-weak-finite-coarse paper-histories-finite sample-study sample-study-reference \
-	sample-study-quartz-like sample-study-twice-the-grains
+	sample-study-quartz-like sample-study-twice-the-grains sample-study-drained
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -214,8 +214,15 @@ $(STAIRCASE_RUNS): staircase-%: $(STAMP)
 # a finished one only redraws its report.
 SAMPLE_STUDY ?= datasets/sample-study
 SAMPLE_STUDY_GRAINS ?= 500
-sample-study: sample-study-reference sample-study-quartz-like sample-study-twice-the-grains
+sample-study: sample-study-reference sample-study-quartz-like sample-study-twice-the-grains \
+  sample-study-drained
 	$(VENV)/bin/geocontact report $(SAMPLE_STUDY)
+# the reference grain at 100 Pa drained between cycles (--drained): cyclic mobility or modulus
+# reduction (docs/sample-study.md); about as long as the 100 Pa half of sample-study-reference
+sample-study-drained: $(STAMP) plugin
+	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json \
+	  --cyclic-extension off --stress 1e2 --drained --grains $(SAMPLE_STUDY_GRAINS) \
+	  --out $(SAMPLE_STUDY)/reference-drained
 sample-study-twice-the-grains: $(STAMP) plugin
 	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json --stress 1e5 \
 	  --cyclic-extension off --grains $$((2 * $(SAMPLE_STUDY_GRAINS))) \

@@ -342,7 +342,7 @@ class FiniteStrainSolver(ContactSolver):
         return np.bincount(self.element_dofs.ravel(), weights=local.ravel(),
                            minlength=self.ndofs)
 
-    def state_internal_force(self, state: State) -> np.ndarray:
+    def _state_internal_force(self, state: State) -> np.ndarray:
         return self._force(self.kinematics(state.displacement)[3], state.stress)
 
     def element_matrices(self, tangent):

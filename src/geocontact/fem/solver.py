@@ -505,7 +505,19 @@ class ContactSolver(FacetNewton, ContactOutputs, LinearSystems):
         return energy
 
     def state_internal_force(self, state: State) -> np.ndarray:
-        """Nodal internal forces of a converged state."""
+        """Nodal internal forces of a converged state (read-only). Kept for the last state
+        asked: the step control's contact radius, the record's outputs and the next load
+        step's predictor ask for the same state's several times, and with finite strain each
+        is a pass of the kinematics over the mesh."""
+        cached = self._cache.get("state_internal_force")
+        if cached is not None and cached[0] is state:
+            return cached[1]
+        force = self._state_internal_force(state)
+        force.flags.writeable = False
+        self._cache["state_internal_force"] = (state, force)
+        return force
+
+    def _state_internal_force(self, state: State) -> np.ndarray:
         return self.internal_force(state.stress)
 
     def reaction_force(self, state: State) -> float:
