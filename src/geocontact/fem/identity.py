@@ -34,6 +34,7 @@ from ..errors import InputError
 from ..grain.force_history import validate_forces
 from ..grain.hertz import incipient_yield
 from ..grain.material import Material
+from .mesh import CONTACT_RADIUS_LIMIT
 from .result import (
     CURVE_COLUMNS,
     TOLERANCE,
@@ -403,53 +404,19 @@ _KERNELS_AGREE = Agreement(
          "equations in another order of round-off; reruns of committed runs took the same "
          "steps and Newton iterations and agreed within 3.4e-12"),
     tolerance=AGREEMENT_TOLERANCE, evidence="docs/verification/fe-kernels-agreement.json")
+# The FE codes whose engine on the compiled default's kernels agrees with the numpy runs of its
+# own FE code and of every code it reproduces bit for bit (the committed runs' among them), each
+# with its reruns in the evidence file: the compiled default's code, then the codes after it
+# (the "auto" mesh rule, the switched defaults, the dissipation control, the branches, the
+# envelope control and its rim, backtracking, the solver's split, the measured contact's bound,
+# the internal force kept).
+_KERNELS_AGREE_CODES = (_DEFAULT_FE_CODE, _AUTO_MESH_RULE_CODE, _DEFAULTS_CODE, _DISSIPATION_CODE,
+                        _BRANCH_CODE, _ENVELOPE_CODE, _ENVELOPE_RIM_CODE, _BACKTRACKING_CODE,
+                        _SPLIT_CODE, _CONTACT_LIMIT_CODE, _FORCE_KEPT_CODE)
 AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
-    # the compiled default's engine against the numpy runs of its own FE code and of every code
-    # whose runs it reproduces bit for bit (the committed runs' among them)
-    (_DEFAULT_FE_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_DEFAULT_FE_CODE, *REPRODUCED_FE_CODE[_DEFAULT_FE_CODE])},
-    # the same compiled code under the FE code of the "auto" mesh rule (reruns under it)
-    (_AUTO_MESH_RULE_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_AUTO_MESH_RULE_CODE, *REPRODUCED_FE_CODE[_AUTO_MESH_RULE_CODE])},
-    # and under the FE code of the switched defaults (reruns under it)
-    (_DEFAULTS_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_DEFAULTS_CODE, *REPRODUCED_FE_CODE[_DEFAULTS_CODE])},
-    # and under the FE code of the dissipation control (reruns under it)
-    (_DISSIPATION_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_DISSIPATION_CODE, *REPRODUCED_FE_CODE[_DISSIPATION_CODE])},
-    # and under the FE code of the branches (reruns under it)
-    (_BRANCH_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_BRANCH_CODE, *REPRODUCED_FE_CODE[_BRANCH_CODE])},
-    # and under the FE code of the envelope control (reruns under it)
-    (_ENVELOPE_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_ENVELOPE_CODE, *REPRODUCED_FE_CODE[_ENVELOPE_CODE])},
-    # and under the FE code of the envelope control's rim (reruns under it)
-    (_ENVELOPE_RIM_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_ENVELOPE_RIM_CODE, *REPRODUCED_FE_CODE[_ENVELOPE_RIM_CODE])},
-    # and under the FE code of the backtracking (reruns under it)
-    (_BACKTRACKING_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_BACKTRACKING_CODE, *REPRODUCED_FE_CODE[_BACKTRACKING_CODE])},
-    # and under the FE code of the solver's split (reruns under it)
-    (_SPLIT_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_SPLIT_CODE, *REPRODUCED_FE_CODE[_SPLIT_CODE])},
-    # and under the FE code of the measured contact's bound (reruns under it)
-    (_CONTACT_LIMIT_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_CONTACT_LIMIT_CODE, *REPRODUCED_FE_CODE[_CONTACT_LIMIT_CODE])},
-    # and under the FE code that keeps a state's internal force (reruns under it)
-    (_FORCE_KEPT_CODE, _DEFAULT_COMPILED_CODE): {
-        older: _KERNELS_AGREE
-        for older in (_FORCE_KEPT_CODE, *REPRODUCED_FE_CODE[_FORCE_KEPT_CODE])},
-}
+    (code, _DEFAULT_COMPILED_CODE): {older: _KERNELS_AGREE
+                                     for older in (code, *REPRODUCED_FE_CODE[code])}
+    for code in _KERNELS_AGREE_CODES}
 
 
 def agreed_code(recorded: Any, compiled_code: Any) -> Agreement | None:
@@ -827,8 +794,6 @@ def _contact_beyond_mesh(result: FemResult) -> bool:
     current code stops (fem.run.step_loop). Such a run is not reused (the reproduction of older
     runs holds for every other one: none of the 216 committed runs had it, the largest contact
     0.467 R)."""
-    from .mesh import CONTACT_RADIUS_LIMIT
-
     radius = np.asarray(result.curve.get("contact_radius_m", ()), dtype=float)
     try:
         grain = float(result.summary["inputs"]["material"]["radius"])

@@ -35,11 +35,12 @@ def check_resolved_force(material, force: float | None, field: str) -> None:
     as its contact allows, not as deep as an estimate of it would."""
     if force is None or not (math.isfinite(force) and force > 0):
         return  # the command's own checks name it
+    from ..grain.hertz import hertz_force
     from .mesh import CONTACT_RADIUS_LIMIT  # here: the CLI starts without the FE stack
 
     radius = CONTACT_RADIUS_LIMIT * material.radius
-    # Hertz: a^3 = 3 F R* / (4 E*), so the force at a = R/2
-    bound = 4.0 * material.effective_modulus * radius**3 / (3.0 * material.effective_radius)
+    # Hertz's force at the contact radius a = R/2: its approach is a^2 / R*
+    bound = float(hertz_force(material, radius**2 / material.effective_radius))
     if force <= bound:
         return
     raise InputError(f"{field}: must be <= {bound:.4g} N for this material (beyond it even the "
