@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: valgrind demo test lint bench examples calibrate-examples check-calibrations clean plugin \
 	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
-	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite \
+	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite calibrate-reference-deep \
 	calibrate-weak-finite-coarse paper-histories-finite sample-study sample-study-reference \
 	sample-study-quartz-like sample-study-twice-the-grains sample-study-drained
 
@@ -155,6 +155,19 @@ calibrate-weak-finite: $(STAMP)
 	  --acceptance $(WEAK_FINITE_FE) --workers 1 --cache datasets/fe-runs/weak-finite \
 	  --residual-form table --loading-form segments \
 	  --out out/calibrate/params-reference-weak-finite.json
+
+# The reference grain (sigma_c = 10 MPa) calibrated deep (issue 35): 10 levels from 2 Fy to
+# 600 kN on R = 0.1 m (a/R ~ 0.3), the depths the contacts of a sample reach at MPa (the shipped
+# params-reference.json stops at 6000 N, delta_max/delta_y 249). The FE of record (docs/fem.md):
+# default mesh, finite strain, the "envelope" step control and backtracked Newton updates, as the
+# universal campaign of record. Many CPU hours, so its FE runs are a committed, resumable dataset
+# (datasets/fe-runs/reference-deep, like calibrate-weak-finite): interrupt it at any time, commit
+# the folder, and the next call goes on. Written into out/ until the campaign is complete.
+REFERENCE_DEEP_FE := --material reference --mesh default --levels 10 --max-force 6e5 \
+  --kinematics finite --step-rule decade --step-control envelope --newton backtracking
+calibrate-reference-deep: $(STAMP)
+	$(VENV)/bin/geocontact calibrate $(REFERENCE_DEEP_FE) --workers 2 \
+	  --cache datasets/fe-runs/reference-deep --out out/calibrate/params-reference-deep.json
 
 # Its coarse-mesh pilot (cap 1.02): within 0.25 % (peak) and 0.8 % (loading curve) of the default
 # mesh at the levels both have (scripts/fe_dataset.py --compare), far cheaper; the shipped file's

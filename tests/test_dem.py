@@ -355,3 +355,39 @@ def test_every_test_refuses_the_flags_it_does_not_take(tmp_path, capsys, flag):
         assert "\n" not in err and f"--{option}: only for the {TESTS_TAKING[flag][0]}" in err
         assert f"not for {test}" in err
         assert not (tmp_path / "x").exists()
+
+
+def test_seeds_give_each_cycles_mean_and_spread_over_the_samples(tmp_path, capsys):
+    """`--seeds 2`: two samples (seeds 11, 12) in seed-11/ and seed-12/, each a whole result
+    folder of its own, and summary.json's statistics are those of the samples' own cycles;
+    cycles.csv has every sample's cycle. A folder of the user's in the way is refused."""
+    from geocontact.analyses.dem_seeds import MEASURES
+
+    out = tmp_path / "seeds"
+    assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "300", "--inertia", "1e-2",
+                 "--targets", "1.5", "0.5", "--seed", "11", "--seeds", "2",
+                 "--out", str(out)]) == 0
+    assert "2 samples (seeds 11-12)" in capsys.readouterr().out
+    assert verify_manifest(out) == []
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["schema"] == "geocontact.dem-seeds/1" and doc["seeds"] == [11, 12]
+    runs = [json.loads((out / f"seed-{s}" / "summary.json").read_text())["runs"]["geocontact"]
+            for s in (11, 12)]
+    assert runs[0]["packing_fraction"] != runs[1]["packing_fraction"]  # two samples
+    (cycle,) = doc["laws"]["geocontact"]["cycles"]
+    for m in ("peak_void_ratio", "unload_modulus_Pa", "loop_area_top_wall_J_m3", "wall_work_J"):
+        values = [r["cycles"][0][m] for r in runs]
+        assert cycle[m]["count"] == 2
+        assert cycle[m]["mean"] == pytest.approx(np.mean(values), rel=1e-12)
+        assert cycle[m]["std"] == pytest.approx(np.std(values, ddof=1), rel=1e-9)
+        assert cycle[m]["min"] == min(values) and cycle[m]["max"] == max(values)
+    assert set(cycle) == {"cycle", "history", *MEASURES}
+    assert read_csv_column(out / "cycles.csv", "seed").tolist() == [11, 12]
+    assert main(["report", str(out)]) == 0
+    page = (out / "report.html").read_text()
+    assert "DEM oedometer, 2 samples" in page and "DEM oedometer seed-12" in page
+    assert verify_manifest(out) == []
+    (out / "mine.txt").write_text("a user's file")
+    assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "300", "--seeds", "2",
+                 "--out", str(out)]) == 2
+    assert (out / "mine.txt").exists() and "not written by geocontact" in capsys.readouterr().err

@@ -74,7 +74,9 @@ def register(sub) -> None:
                    help="cyclic-shear: cycles per amplitude, the last measured (default 3)")
     p.add_argument("--seeds", type=int, default=None,
                    help="cyclic-shear: samples per law and stress, seeds --seed, --seed + 1, "
-                        "... (default 3)")
+                        "... (default 3); oedometer: run that many samples into --out/seed-K "
+                        "and give every cycle's mean and spread over them (default: one "
+                        "sample, no seed folders)")
     p.add_argument("--friction", type=float, default=None,
                    help="cyclic-shear: Coulomb friction coefficient of the contacts "
                         "(default 0.5)")
@@ -113,7 +115,8 @@ TESTS_TAKING = {
     "strain": ("seismic",), "decimate": ("seismic",),
     "baseline": ("seismic", "cyclic-shear"),
     "restitution": ("oedometer", "seismic"), "memory": ("oedometer", "seismic"),
-    **dict.fromkeys(("amplitudes", "cycles", "seeds", "friction", "damping", "drained",
+    "seeds": ("cyclic-shear", "oedometer"),
+    **dict.fromkeys(("amplitudes", "cycles", "friction", "damping", "drained",
                      "cyclic_extension"),
                     ("cyclic-shear",)),
 }
@@ -160,6 +163,8 @@ def run(args) -> int:
     if args.memory is not None:
         settings.extra["memory"] = args.memory
     contacts = contact_choice(args.contact)
+    if args.seeds is not None:
+        return run_seeds(args, settings, contacts)
     with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
         document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
                            out=args.out, overwrite=args.force, progress=_progress)
@@ -190,6 +195,44 @@ def run(args) -> int:
                   f"{r['walls_beyond_range_contacts']}")
     print(f"wrote {args.out}")
     return 0
+
+
+def run_seeds(args, settings, contacts: tuple[str, ...]) -> int:
+    """``--seeds N`` on the oedometer: N samples, every cycle's mean and spread over them."""
+    from ..analyses.dem_seeds import run_dem_seeds
+
+    with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
+        document = run_dem_seeds(args.test, args.law, settings, seeds=args.seeds,
+                                 contacts=contacts, ranks=args.ranks, out=args.out,
+                                 overwrite=args.force, progress=_progress)
+    if args.json:
+        print_json(document)
+        return 0
+    print(f"{len(document['seeds'])} samples (seeds {document['seeds'][0]}-"
+          f"{document['seeds'][-1]}), mean +- standard deviation over them:")
+    for contact, law in document["laws"].items():
+        e0 = law["void_ratio_at_stress"]
+        print(f"{contact}: e {_pm(e0)} at the reference stress")
+        for c in law["cycles"]:
+            print(f"  cycle {c['cycle']} to {_pm(c['peak_stress_Pa'], 1e6)} MPa: e peak "
+                  f"{_pm(c['peak_void_ratio'])}, M reload {_pm(c['reload_modulus_Pa'], 1e6)} MPa,"
+                  f" unload {_pm(c['unload_modulus_Pa'], 1e6)} MPa; Cc "
+                  f"{_pm(c['compression_index'])}, Cs {_pm(c['swelling_index'])}; loop "
+                  f"{_pm(c['loop_area_top_wall_J_m3'])} J/m3 (top wall); law "
+                  f"{_pm(c['law_share'])} of the walls' work")
+        r = law["calibrated_range"]
+        if r is not None:
+            print(f"  calibrated range: at most {r['beyond_range_contacts_max']} contacts beyond "
+                  f"the file's depth {_num(r['calibrated_max_depth'])} in a sample (deepest "
+                  f"{r['beyond_range_max_depth']:.4g} delta_y)")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def _pm(stats: dict, unit: float = 1.0) -> str:
+    if stats["mean"] is None:
+        return "-"
+    return f"{stats['mean'] / unit:.4g} +- {stats['std'] / unit:.2g}"
 
 
 def _num(value) -> str:

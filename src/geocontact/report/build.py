@@ -12,7 +12,8 @@ Recognised, in DIR itself and in its immediate sub-directories:
 * a cyclic-history run (``geocontact cycles``: ``summary.json`` with ``analyses``): the ratios of
   cycle N to cycle 1 with their power laws, the shakedown states and critical cycles;
 * the paper's loading-history study (``findings.json``);
-* a DEM run (``geocontact dem``: ``summary.json`` with ``"schema": "geocontact.dem/1"``);
+* a DEM run (``geocontact dem``: ``summary.json`` with ``"schema": "geocontact.dem/1"``), and
+  an oedometer on several samples (``--seeds``: ``"schema": "geocontact.dem-seeds/1"``);
 * a laboratory-test fit (``geocontact fit``: ``fit.json`` with
   ``"schema": "geocontact.labfit/1"``).
 
@@ -38,6 +39,7 @@ from .common import (
 from .cycles import cycles_section, is_cycles
 from .dem import dem_section, is_dem
 from .dem_cyclic import dem_cyclic_section, is_dem_cyclic
+from .dem_seeds import dem_seeds_section, is_dem_seeds
 from .fe import fe_section, is_fe_run
 from .html import Report, is_our_report, render_html
 from .labfit import is_labfit, labfit_section
@@ -53,6 +55,7 @@ SECTIONS: list[tuple[Callable[[Path], bool], Callable]] = [
     (is_cycles, cycles_section),
     (is_dem, dem_section),
     (is_dem_cyclic, dem_cyclic_section),
+    (is_dem_seeds, dem_seeds_section),
     (is_labfit, labfit_section),
     (is_fe_run, fe_section),
 ]
