@@ -4,6 +4,7 @@ cycled, for the geocontact law and LAMMPS's granular Hertz-Mindlin, on 1 and 2 r
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import signal
@@ -366,7 +367,7 @@ def test_seeds_give_each_cycles_mean_and_spread_over_the_samples(tmp_path, capsy
     out = tmp_path / "seeds"
     assert main(["dem", "oedometer", "--law", str(LAW), "--grains", "300", "--inertia", "1e-2",
                  "--targets", "1.5", "0.5", "--seed", "11", "--seeds", "2",
-                 "--out", str(out)]) == 0
+                 "--contact", "both", "--out", str(out)]) == 0
     assert "2 samples (seeds 11-12)" in capsys.readouterr().out
     assert verify_manifest(out) == []
     doc = json.loads((out / "summary.json").read_text())
@@ -382,7 +383,17 @@ def test_seeds_give_each_cycles_mean_and_spread_over_the_samples(tmp_path, capsy
         assert cycle[m]["std"] == pytest.approx(np.std(values, ddof=1), rel=1e-9)
         assert cycle[m]["min"] == min(values) and cycle[m]["max"] == max(values)
     assert set(cycle) == {"cycle", "history", *MEASURES}
-    assert read_csv_column(out / "cycles.csv", "seed").tolist() == [11, 12]
+    # like for like: the law over its elastic baseline on the same sample, seed by seed
+    elastic = [json.loads((out / f"seed-{s}" / "summary.json").read_text())["runs"]["elastic"]
+               for s in (11, 12)]
+    (ratio,) = doc["paired"]["geocontact/elastic"]
+    ratios = [g["cycles"][0]["unload_modulus_Pa"] / e["cycles"][0]["unload_modulus_Pa"]
+              for g, e in zip(runs, elastic, strict=True)]
+    assert ratio["unload_modulus_Pa"]["mean"] == pytest.approx(np.mean(ratios), rel=1e-12)
+    assert read_csv_column(out / "cycles.csv", "seed").tolist() == [11, 12, 11, 12]
+    with open(out / "cycles.csv") as f:
+        assert [row["contact"] for row in csv.DictReader(f)] == ["geocontact"] * 2 + [
+            "elastic"] * 2
     assert main(["report", str(out)]) == 0
     page = (out / "report.html").read_text()
     assert "DEM oedometer, 2 samples" in page and "DEM oedometer seed-12" in page

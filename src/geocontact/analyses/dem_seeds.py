@@ -59,6 +59,30 @@ def statistics(values: list[float | None]) -> dict:
             "min": float(x.min()), "max": float(x.max())}
 
 
+# The measures compared law against baseline sample by sample (the same seed: the same random
+# sample, consolidated with each law), as ratios.
+PAIRED = ("reload_modulus_Pa", "unload_modulus_Pa", "unload_modulus_initial_Pa",
+          "compression_index", "swelling_index", "loop_area_J_m3", "loop_area_top_wall_J_m3",
+          "wall_work_J")
+
+
+def paired(documents: dict[int, dict], law: str, baseline: str) -> list[dict]:
+    """Per cycle, each ``PAIRED`` measure of ``law`` over ``baseline`` on the same sample (seed),
+    with its statistics over the samples: a like-for-like comparison whose spread is the
+    seeds' effect on the ratio, smaller than the spread of either law's values."""
+    cycles = []
+    for k, first in enumerate(next(iter(documents.values()))["runs"][law]["cycles"]):
+        row = {"cycle": first["cycle"]}
+        for m in PAIRED:
+            ratios = []
+            for doc in documents.values():
+                a, b = doc["runs"][law]["cycles"][k][m], doc["runs"][baseline]["cycles"][k][m]
+                ratios.append(a / b if a is not None and b not in (None, 0.0) else None)
+            row[m] = statistics(ratios)
+        cycles.append(row)
+    return cycles
+
+
 def summarise(documents: dict[int, dict], contacts: tuple[str, ...]) -> dict:
     """Per contact law: per cycle, every measure's statistics over the samples, and the
     calibrated range's worst sample."""
@@ -135,6 +159,9 @@ def run_dem_seeds(test: str, law: str | Path, settings: Settings, *, seeds: int,
                     "law_label": documents[settings.seed]["law_label"],
                     "seeds": [settings.seed + k for k in range(seeds)],
                     "laws": summarise(documents, contacts),
+                    "paired": {f"geocontact/{b}": paired(documents, "geocontact", b)
+                               for b in contacts if b != "geocontact" and
+                               "geocontact" in contacts},
                     "provenance": provenance("dem", inputs)}
         write_csv(tmp / "cycles.csv", cycles_table(documents, contacts))
         write_json_atomic(tmp / "summary.json", document)

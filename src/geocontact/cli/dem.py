@@ -225,6 +225,13 @@ def run_seeds(args, settings, contacts: tuple[str, ...]) -> int:
             print(f"  calibrated range: at most {r['beyond_range_contacts_max']} contacts beyond "
                   f"the file's depth {_num(r['calibrated_max_depth'])} in a sample (deepest "
                   f"{r['beyond_range_max_depth']:.4g} delta_y)")
+    for pair, cycles in document["paired"].items():
+        print(f"{pair} on the same sample, mean +- standard deviation of the ratio:")
+        for c in cycles:
+            print(f"  cycle {c['cycle']}: M reload {_pm(c['reload_modulus_Pa'])}, unload "
+                  f"{_pm(c['unload_modulus_Pa'])}; Cc {_pm(c['compression_index'])}, Cs "
+                  f"{_pm(c['swelling_index'])}; loop {_pm(c['loop_area_top_wall_J_m3'])} "
+                  "(top wall)")
     print(f"wrote {args.out}")
     return 0
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..analyses.dem_seeds import PAIRED
 from ..figures import Figure
 from ..files import read_csv_column
 from .common import read_summary, relative_dir, save_to_figures
@@ -66,9 +67,17 @@ def dem_seeds_section(report, directory: Path, root: Path, figures: Path) -> Non
         for c in law["cycles"]:
             rows.append([contact, c["cycle"], mean_spread(c["peak_stress_Pa"], 1e-3),
                          *(mean_spread(c[m], scale) for _, m, scale in COLUMNS)])
-    ranges = [f"<p>{html.escape(contact)}: at most {r['beyond_range_contacts_max']} contacts beyond the file's "
-              f"calibrated depth in a sample (deepest {r['beyond_range_max_depth']:.4g} δy)</p>"
+    ranges = [f"<p>{html.escape(contact)}: at most {r['beyond_range_contacts_max']} contacts "
+              f"beyond the file's calibrated depth in a sample (deepest "
+              f"{r['beyond_range_max_depth']:.4g} δy)</p>"
               for contact, law in s["laws"].items() if (r := law["calibrated_range"])]
+    pairs = []
+    for pair, cycles in s.get("paired", {}).items():
+        pairs.append(f"<p>{html.escape(pair)}, the ratio on the same sample (seed), mean ± "
+                     "standard deviation over the samples:</p>")
+        pairs.append(table(["cycle", *(c for c, m, _ in COLUMNS if m in PAIRED)],
+                           [[c["cycle"], *(mean_spread(c[m]) for _, m, _ in COLUMNS
+                                           if m in PAIRED)] for c in cycles]))
     report.add(f"DEM {s['test']}, {len(s['seeds'])} samples {rel or '.'}", figure,
                table(["contact", "cycle", "peak σ'v (kPa)", *(c for c, _, _ in COLUMNS)], rows),
-               *ranges)
+               *pairs, *ranges)
