@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: valgrind demo test lint bench examples calibrate-examples check-calibrations clean plugin \
 	staircase-finite-facet staircase-facet-24 staircase-facet-48 \
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
-	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite calibrate-reference-deep \
+	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite calibrate-reference-deep oedometer-study \
 	calibrate-weak-finite-coarse paper-histories-finite sample-study sample-study-reference \
 	sample-study-quartz-like sample-study-twice-the-grains sample-study-drained
 
@@ -252,6 +252,19 @@ $(SAMPLE_STUDY)/params-quartz-like.json: | $(STAMP)
 sample-study-quartz-like: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
 	$(VENV)/bin/geocontact dem cyclic-shear --law $(SAMPLE_STUDY)/params-quartz-like.json \
 	  --cyclic-extension off --stress 1e5 1e7 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/quartz-like
+
+# The oedometer of the sample study (issue 35, docs/sample-study.md "The oedometer"): the law and
+# its elastic baseline through the same pair style, three samples of 2000 grains each, at a
+# stress where no contact yields and at one where most do; then the report. Minutes a case. The
+# reference grain's cases join when its deep calibration (calibrate-reference-deep) is shipped.
+OEDOMETER_STUDY ?= out/oedometer-study
+OEDOMETER := dem oedometer --contact both --seeds 3 --grains 2000 --inertia 3e-3
+oedometer-study: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
+	$(VENV)/bin/geocontact $(OEDOMETER) --law $(SAMPLE_STUDY)/params-quartz-like.json \
+	  --stress 5e3 --out $(OEDOMETER_STUDY)/quartz-like-5kPa
+	$(VENV)/bin/geocontact $(OEDOMETER) --law $(SAMPLE_STUDY)/params-quartz-like.json \
+	  --stress 5e6 --targets 2 0.5 2 0.5 4 1 4 1 --out $(OEDOMETER_STUDY)/quartz-like-5MPa
+	$(VENV)/bin/geocontact report $(OEDOMETER_STUDY)
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
 # from out/cache/fem; cold cache: ~30 min) and compare every number with examples/ (exit 1 on a

@@ -288,7 +288,7 @@ def test_generators_report_bad_input_in_one_line(tmp_path, capsys, module):
 
 @pytest.mark.parametrize("module", ["make_bad_law_documents", "universal_report",
                                     "verify_universal", "verify_envelope_control",
-                                    "verify_backtracking"])
+                                    "verify_backtracking", "verify_hard_band_start"])
 def test_scripts_report_a_bad_flag_in_one_line(capsys, module):
     """Their parsers raise InputError, so they parse inside run_reporting_errors: a bad or
     missing flag is one line and exit code 2, never a traceback."""
@@ -297,6 +297,21 @@ def test_scripts_report_a_bad_flag_in_one_line(capsys, module):
     script = importlib.import_module(module)  # scripts/ (tests/conftest.py)
     assert script.main(["--bogus"]) == 2
     one_line_error(capsys, "--")
+
+
+def test_verify_hard_band_start_refuses_bad_values_before_any_fe(tmp_path, capsys):
+    import verify_hard_band_start as script  # scripts/ (tests/conftest.py)
+
+    for flags, message in ((["--late", "0.2"], "--late: each a_min / R must be in (0, 0.1)"),
+                           (["--resolved", "0.5"], "--resolved: must be in [1, 100]"),
+                           (["--force", "1e12"], "--force")):
+        assert script.main(flags) == 2
+        one_line_error(capsys, message)
+    mine = tmp_path / "mine.json"
+    mine.write_text("{}")
+    assert script.main(["--force", "1e-9", "--json", str(mine)]) == 2
+    one_line_error(capsys, "--json")
+    assert mine.read_text() == "{}"
 
 
 def test_verify_backtracking_refuses_bad_values_and_a_folder_it_did_not_make(tmp_path, capsys):
