@@ -163,14 +163,28 @@ def run(args) -> int:
     if args.memory is not None:
         settings.extra["memory"] = args.memory
     contacts = contact_choice(args.contact)
-    if args.seeds is not None:
-        return run_seeds(args, settings, contacts)
+    common = {"contacts": contacts, "ranks": args.ranks, "out": args.out,
+              "overwrite": args.force, "progress": _progress}
     with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
-        document = run_dem(args.test, args.law, settings, contacts=contacts, ranks=args.ranks,
-                           out=args.out, overwrite=args.force, progress=_progress)
+        if args.seeds is None:
+            document = run_dem(args.test, args.law, settings, **common)
+        else:
+            from ..analyses.dem_seeds import run_dem_seeds
+
+            document = run_dem_seeds(args.test, args.law, settings, seeds=args.seeds, **common)
     if args.json:
         print_json(document)
-        return 0
+    elif args.seeds is None:
+        print_runs(document)
+        print(f"wrote {args.out}")
+    else:
+        print_seeds(document)
+        print(f"wrote {args.out}")
+    return 0
+
+
+def print_runs(document: dict) -> None:
+    """One oedometer: per contact model its sample and every cycle's measures."""
     for contact, s in document["runs"].items():
         print(f"{contact}: {s['grains']} grains, {s['steps']} steps in {s['runtime_s']:.1f} s "
               f"(dt {s['timestep_s']:.3g} s), packing fraction {s['packing_fraction']:.3f}, "
@@ -193,21 +207,11 @@ def run(args) -> int:
                   f"depth {_num(r['calibrated_max_depth'])} at the end (deepest "
                   f"{r['beyond_range_max_depth']:.4g} delta_y); walls "
                   f"{r['walls_beyond_range_contacts']}")
-    print(f"wrote {args.out}")
-    return 0
 
 
-def run_seeds(args, settings, contacts: tuple[str, ...]) -> int:
-    """``--seeds N`` on the oedometer: N samples, every cycle's mean and spread over them."""
-    from ..analyses.dem_seeds import run_dem_seeds
-
-    with claim([Output(args.out, "folder", "--out")], "dem", overwrite=args.force):
-        document = run_dem_seeds(args.test, args.law, settings, seeds=args.seeds,
-                                 contacts=contacts, ranks=args.ranks, out=args.out,
-                                 overwrite=args.force, progress=_progress)
-    if args.json:
-        print_json(document)
-        return 0
+def print_seeds(document: dict) -> None:
+    """``--seeds N``: every cycle's mean and spread over the samples, and the law over its
+    baseline on the same sample."""
     print(f"{len(document['seeds'])} samples (seeds {document['seeds'][0]}-"
           f"{document['seeds'][-1]}), mean +- standard deviation over them:")
     for contact, law in document["laws"].items():
@@ -232,8 +236,6 @@ def run_seeds(args, settings, contacts: tuple[str, ...]) -> int:
                   f"{_pm(c['unload_modulus_Pa'])}; Cc {_pm(c['compression_index'])}, Cs "
                   f"{_pm(c['swelling_index'])}; loop {_pm(c['loop_area_top_wall_J_m3'])} "
                   "(top wall)")
-    print(f"wrote {args.out}")
-    return 0
 
 
 def _pm(stats: dict, unit: float = 1.0) -> str:
