@@ -67,6 +67,9 @@ def one_run(material, force: float, mesh: str, late: float | None) -> dict:
             "plastic_work_J": s["cycles"][0].get("plastic_work_J")}
 
 
+PROFILE_MULTIPLES = (2.0, 5.0, 10.0, 20.0, 50.0, 100.0)
+
+
 def loading(r: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     f = np.asarray(r["force_N"])
     top = int(np.argmax(f))
@@ -80,7 +83,15 @@ def compare(full: dict, late: dict, radius: float, resolved: float) -> dict:
     keep = a1 >= resolved * late["a_min_over_R"] * radius
     ref = np.interp(d1[keep], d0, f0)
     rel = (f1[keep] - ref) / ref
+    # how the difference fades as the contact grows past the late mesh's first resolved one
+    profile = []
+    for multiple in PROFILE_MULTIPLES:
+        beyond = a1[keep] >= multiple * late["a_min_over_R"] * radius
+        if beyond.any():
+            profile.append({"from_contact_over_a_min": multiple,
+                            "largest_force_difference": float(np.max(np.abs(rel[beyond])))})
     return {"a_min_over_R": late["a_min_over_R"], "steps_compared": int(keep.sum()),
+            "force_difference_beyond": profile,
             "from_contact_over_R": float(a1[keep][0] / radius) if keep.any() else None,
             "largest_force_difference": float(np.max(np.abs(rel))) if keep.any() else None,
             "force_difference_at_peak": float(rel[-1]) if keep.any() else None,
@@ -91,6 +102,17 @@ def compare(full: dict, late: dict, radius: float, resolved: float) -> dict:
             "cpu_ratio": late["cpu_s"] / full["cpu_s"],
             "solves_ratio": (late["solves"] / full["solves"]
                              if late["solves"] and full["solves"] else None)}
+
+
+def describe(r: dict) -> str:
+    if not r["steps_compared"]:
+        return "no loading step with the contact resolved on the late mesh"
+    fading = ", ".join(f"{100 * p['largest_force_difference']:.2f} % beyond "
+                       f"{p['from_contact_over_a_min']:g} a_min"
+                       for p in r["force_difference_beyond"])
+    return (f"force from a/R {r['from_contact_over_R']:.3g} on within "
+            f"{100 * r['largest_force_difference']:.2f} % ({fading}; peak "
+            f"{100 * r['force_difference_at_peak']:+.2f} %)")
 
 
 def main(argv=None) -> int:
@@ -124,14 +146,13 @@ def main(argv=None) -> int:
                 rows.append(compare(runs[0], runs[-1], material.radius, args.resolved))
                 r = rows[-1]
                 print(f"a_min = {f:g} R: {runs[-1]['elements']} elements, CPU "
-                      f"x{r['cpu_ratio']:.2f}; force from a/R {r['from_contact_over_R']:.3g} on "
-                      f"within {100 * r['largest_force_difference']:.2f} % (peak "
-                      f"{100 * r['force_difference_at_peak']:+.2f} %), residual approach "
+                      f"x{r['cpu_ratio']:.2f}; {describe(r)}; residual approach "
                       f"x{r['residual_approach_ratio']:.4f}", flush=True)
             if args.json:
+                inputs = {**vars(args), "json": str(args.json)}
                 write_json_atomic(args.json, {"runs": runs, "comparison": rows,
                                               "provenance": provenance(
-                                                  "verify_hard_band_start", vars(args))})
+                                                  "verify_hard_band_start", inputs)})
         return 0
 
     return run_reporting_errors(work)
