@@ -92,3 +92,21 @@ def test_a_run_whose_contact_outgrew_the_mesh_is_not_reused():
     assert 0.46 * grain < np.max(radius) <= CONTACT_RADIUS_LIMIT * grain
     grown = dict(run.curve, contact_radius_m=radius * 1.1)
     assert _contact_beyond_mesh(dataclasses.replace(run, curve=grown))
+
+
+def test_a_campaign_reports_the_run_in_one_line_without_the_workers_traceback(tmp_path,
+                                                                             capfd):
+    """Through Dask's local cluster (two jobs, two workers): the soft grain past R/2 fails in
+    one line naming it, the other run finishes, and the workers print no traceback of theirs
+    (their "Compute Failed" log is silenced; the campaign's own line says what failed)."""
+    from geocontact.fem.campaign import CampaignError, FemJob, run_campaign
+
+    jobs = [FemJob(soft(), (0.0, FORCE, 0.0), mesh="coarse", steps_per_segment=4, **YIELD_FIXED),
+            FemJob(soft(), (0.0, 100.0, 0.0), mesh="coarse", steps_per_segment=4, **YIELD_FIXED)]
+    with pytest.raises(CampaignError):
+        run_campaign(jobs, tmp_path / "cache", workers=2, progress=True, progress_every=None)
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and "Compute Failed" not in err, err
+    (failed,) = [line for line in err.splitlines() if "FAILED" in line]
+    assert "ContactBeyondMeshError" in failed and "passed 0.5 R" in failed
+    assert (tmp_path / "cache" / jobs[1].key() / "summary.json").is_file()

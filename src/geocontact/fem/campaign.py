@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 import os
 import sys
 import threading
@@ -482,8 +483,10 @@ def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failu
     cluster = None
     if scheduler is None:
         n = workers or min(len(todo), os.cpu_count() or 1)
+        # silence_logs: a run that fails is reported in one line by _failed; the workers' own
+        # "Compute Failed" log would print its traceback on the user's terminal as well
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
         client = Client(cluster)
     else:
         try:
