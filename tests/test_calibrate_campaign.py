@@ -441,3 +441,25 @@ def test_params_and_acceptance_reference_each_other_and_stale_ones_go(calibrated
                  "--force"]) == 0
     assert not stale.exists() and not (work / "P.acceptance.json").exists()
     assert not (work / "P.acceptance").exists()
+
+
+def test_a_mesh_force_keeps_the_runs_of_a_campaign_whose_top_moves():
+    """``mesh_force``: every level and held-out run is sized for it, so the levels of a
+    campaign whose top peak is lowered (or raised) keep their keys; by default the mesh is the
+    top peak's, as before."""
+    from geocontact.calibrate.acceptance import held_out_jobs
+    from geocontact.calibrate.campaign import calibration_jobs
+    from geocontact.grain.material import preset
+
+    material = preset("reference")
+    wide = calibration_jobs(material, [10.0, 100.0, 1000.0], "coarse", mesh_force=6e5)
+    narrow = calibration_jobs(material, [10.0, 100.0], "coarse", mesh_force=6e5)
+    assert [j.key() for j in narrow] == [j.key() for j in wide[:2]]
+    assert {j.identity().mesh_force for j in wide} == {6e5}
+    default = calibration_jobs(material, [10.0, 100.0], "coarse")
+    assert {j.identity().mesh_force for j in default} == {100.0}
+    assert default[0].key() != narrow[0].key()
+    held = held_out_jobs(material, "coarse", max_force=1000.0, mesh_force=6e5)
+    assert {job.identity().mesh_force for _, job in held} == {6e5}
+    assert {job.identity().mesh_force for _, job in held_out_jobs(
+        material, "coarse", max_force=1000.0)} >= {1000.0}

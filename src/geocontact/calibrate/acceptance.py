@@ -116,10 +116,12 @@ def held_out_jobs(material: Material, mesh: str = "default",
                   steps_per_segment: int | None = None,
                   max_force: float | None = None,
                   fe_model: dict[str, str] | None = None,
+                  mesh_force: float | None = None,
                   ) -> list[tuple[dict[str, Any], FemJob]]:
-    """The held-out FE runs of data/calibration.toml for this material's force range."""
+    """The held-out FE runs of data/calibration.toml for this material's force range, on the
+    calibration's shared mesh (sized for ``mesh_force``, default the range's top)."""
     low, high = force_range(material, max_force)
-    mesh_force = shared_mesh_force([high])
+    mesh_force = shared_mesh_force([high]) if mesh_force is None else float(mesh_force)
     jobs = []
     for spec in settings()["acceptance"]["runs"]:
         peak = low * (high / low) ** float(spec["u"])
@@ -136,10 +138,11 @@ def run_acceptance(params: LawParams, material: Material, *, mesh: str = "defaul
                    steps_per_segment: int | None = None, max_force: float | None = None,
                    cache_dir=DEFAULT_CACHE, scheduler: str | None = None,
                    workers: int | None = None, progress: bool = True,
-                   fe_model: dict[str, str] | None = None) -> list[Comparison]:
-    """Run (or read from the cache) the held-out FE runs (with the calibration's FE model)
-    and compare the law with each."""
-    specs = held_out_jobs(material, mesh, steps_per_segment, max_force, fe_model)
+                   fe_model: dict[str, str] | None = None,
+                   mesh_force: float | None = None) -> list[Comparison]:
+    """Run (or read from the cache) the held-out FE runs (with the calibration's FE model and
+    mesh) and compare the law with each."""
+    specs = held_out_jobs(material, mesh, steps_per_segment, max_force, fe_model, mesh_force)
     results = run_campaign([job for _, job in specs], cache_dir, scheduler=scheduler,
                            workers=workers, progress=progress)
     return [compare(params, job, result, name=spec["name"], kind="held-out",

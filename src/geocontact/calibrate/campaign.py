@@ -106,12 +106,15 @@ def shared_mesh_force(peaks) -> float | None:
 
 def calibration_jobs(material: Material, peaks, mesh: str = "default",
                      steps_per_segment: int | None = None,
-                     fe_model: dict[str, str] | None = None) -> list[FemJob]:
+                     fe_model: dict[str, str] | None = None,
+                     mesh_force: float | None = None) -> list[FemJob]:
     """The calibration levels' FE runs; ``fe_model``: kinematics, mesh_rule, step_rule,
     max_step_ratio of ``FemJob`` (the FE defaults when None: small strain, the mesh rule "auto",
-    adaptive load steps)."""
+    adaptive load steps). ``mesh_force``: the force the shared mesh is sized for (default the
+    highest peak, ``shared_mesh_force``): a campaign whose top is moved keeps its runs when it
+    keeps their mesh."""
     shape = settings()["campaign"]["history"]
-    mesh_force = shared_mesh_force(peaks)
+    mesh_force = shared_mesh_force(peaks) if mesh_force is None else float(mesh_force)
     return [FemJob(material, tuple(float(s) * peak for s in shape), mesh=mesh,
                    steps_per_segment=steps_per_segment, label=f"calibration F={peak:.4g}N",
                    mesh_force=mesh_force, **(fe_model or {}))
@@ -236,11 +239,12 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
               scheduler: str | None = None, workers: int | None = None,
               progress: bool = True, fe_model: dict[str, str] | None = None,
               residual_form: str = SATURATING, loading_form: str = REGIMES,
+              mesh_force: float | None = None,
               ) -> tuple[LawParams, list[CalibrationRun]]:
     """FE campaign + extraction + fit. Returns the law and the runs it was fitted to.
     ``fe_model``: the FE's kinematics, mesh_rule, step_rule and max_step_ratio (``FemJob``;
     default the FE's). ``residual_form``, ``loading_form``: of the residual approach and the
-    virgin curve (``fit_law``)."""
+    virgin curve (``fit_law``). ``mesh_force``: see ``calibration_jobs``."""
     if residual_form not in RESIDUAL_FORMS:  # before the FE work
         raise InputError(f"residual form: must be one of {', '.join(RESIDUAL_FORMS)}, got "
                          f"{residual_form!r}")
@@ -249,7 +253,7 @@ def calibrate(material: Material, *, peaks=None, levels: int | None = None,
                          f"{loading_form!r}")
     peaks = (check_peaks(material, peaks) if peaks is not None
              else peak_forces(material, levels, max_force))
-    jobs = calibration_jobs(material, peaks, mesh, steps_per_segment, fe_model)
+    jobs = calibration_jobs(material, peaks, mesh, steps_per_segment, fe_model, mesh_force)
     cyclic = cyclic_job(material, max(peaks), mesh, steps_per_segment, fe_model)
     results = run_campaign(jobs + ([cyclic] if cyclic else []), cache_dir, scheduler=scheduler,
                            workers=workers, progress=progress)

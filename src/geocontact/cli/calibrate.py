@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -35,6 +36,10 @@ def register(sub) -> None:
                         help="explicit peak loads in N (comma-separated)")
     p.add_argument("--max-force", type=float, default=None, metavar="F",
                    help="highest peak load, N (default 6000)")
+    p.add_argument("--mesh-force", type=float, default=None, metavar="F",
+                   help="the force, N, the campaign's shared mesh is sized for (default: the "
+                   "highest peak; at least that): a campaign whose top peak is moved keeps "
+                   "the runs it made on that mesh")
     p.add_argument("--residual-form", default="saturating", choices=["saturating", "table"],
                    help="residual approach: the closed saturating form fitted to the levels "
                    "(default), or a table through the levels (monotone cubic in ln ln x, "
@@ -89,12 +94,21 @@ def run(args) -> int:
         default = settings()["campaign"]["max_force_N"]
         check_resolved_force(material, default if args.max_force is None else args.max_force,
                              "--max-force")
+    if args.mesh_force is not None:
+        top = max(peaks) if peaks else (settings()["campaign"]["max_force_N"]
+                                        if args.max_force is None else args.max_force)
+        if not (math.isfinite(args.mesh_force) and args.mesh_force >= top):
+            raise InputError(f"--mesh-force: must be at least the highest peak, {top:g} N, "
+                             f"got {args.mesh_force:g}")
+        check_resolved_force(material, args.mesh_force, "--mesh-force")
     cache = check_output_folder(args.cache, "--cache") if args.cache else DEFAULT_CACHE
     inputs = {"material": args.material, "mesh": args.mesh, "steps": args.steps,
               "levels": args.levels, "peak_forces": args.peak_forces,
               "max_force": args.max_force, "cache": str(cache)}
     if args.loading_form != "regimes":  # recorded when not the default (shipped files unchanged)
         inputs["loading_form"] = args.loading_form
+    if args.mesh_force is not None:  # recorded when given (shipped files unchanged)
+        inputs["mesh_force"] = args.mesh_force
     fe_model = fe_model_of(args)
     inputs.update({k: v for k, v in fe_model.items() if k != "step_control"})
     # the load-step control named where it is not "fixed", its default when it entered the
@@ -114,7 +128,8 @@ def run(args) -> int:
             acceptance=args.acceptance, mesh=args.mesh, steps_per_segment=args.steps,
             cache_dir=cache, scheduler=args.scheduler, workers=args.workers,
             progress=not args.json, overwrite=args.force, fe_model=fe_model,
-            residual_form=args.residual_form, loading_form=args.loading_form)
+            residual_form=args.residual_form, loading_form=args.loading_form,
+            mesh_force=args.mesh_force)
     acceptance_note = _acceptance_lines(table) if table is not None else ""
     wall = time.perf_counter() - started
     if args.json:
