@@ -42,9 +42,12 @@ def check_seeds(settings: Settings, seeds: int) -> None:
         raise InputError(f"seed: must be at most {2**31 - 2 - seeds}, got {settings.seed}")
 
 
-def _share(cycle: dict) -> float | None:
+def measures(cycle: dict) -> dict:
+    """A run's cycle with the law's share of the walls' work added (``MEASURES``' last
+    derived one)."""
     work = cycle["wall_work_J"]
-    return cycle["law_dissipated_J"] / work if work and work > 0 else None
+    share = cycle["law_dissipated_J"] / work if work and work > 0 else None
+    return {**cycle, "law_share": share}
 
 
 def statistics(values: list[float | None]) -> dict:
@@ -94,7 +97,7 @@ def summarise(documents: dict[int, dict], contacts: tuple[str, ...]) -> dict:
             raise InputError(f"seeds: the samples ran different numbers of cycles {counts}")
         cycles = []
         for k in range(counts.pop()):
-            rows = {seed: {**r["cycles"][k], "law_share": _share(r["cycles"][k])}
+            rows = {seed: measures(r["cycles"][k])
                     for seed, r in runs.items()}
             first = next(iter(rows.values()))
             cycles.append({"cycle": first["cycle"], "history": first["history"],
@@ -123,13 +126,13 @@ def summarise(documents: dict[int, dict], contacts: tuple[str, ...]) -> dict:
 
 def cycles_table(documents: dict[int, dict], contacts: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Every sample's cycles in one table (contact, seed, cycle, the measures)."""
-    rows = [(contact, seed, c) for contact in contacts for seed, doc in documents.items()
-            for c in doc["runs"][contact]["cycles"]]
+    rows = [(contact, seed, measures(c)) for contact in contacts
+            for seed, doc in documents.items() for c in doc["runs"][contact]["cycles"]]
     table = {"contact": np.array([r[0] for r in rows]),
              "seed": np.array([r[1] for r in rows]),
              "cycle": np.array([r[2]["cycle"] for r in rows])}
     for m in MEASURES:
-        values = [_share(r[2]) if m == "law_share" else r[2][m] for r in rows]
+        values = [r[2][m] for r in rows]
         table[m] = np.array([math.nan if v is None else v for v in values], dtype=float)
     return table
 
