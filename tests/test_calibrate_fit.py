@@ -135,6 +135,32 @@ def test_segments_form_follows_a_bending_curve_the_regimes_miss():
     assert segments["rms_relative_error"] < 0.5 * regimes["rms_relative_error"]
 
 
+def test_segments_form_adds_segments_where_one_per_decade_misses_the_goal():
+    """A contact that runs away at the top (the reference grain loaded to a/R 0.35: log-slope
+    1.35 -> 0.4 over its last decade): one segment per decade misses the 2 % loading goal, so
+    the form steps its density up until the fit meets it; a gently bending curve keeps one per
+    decade (the shipped weak-grain file is fitted at that density)."""
+    from geocontact.calibrate import fit
+    from geocontact.grain.hertz import hertz_coefficient
+
+    params = make_params()
+    dy, kh = params.yield_approach, hertz_coefficient(params.material)
+    fy = kh * dy**1.5
+    lx = np.linspace(0.0, np.log(6000.0), 600)
+    start = np.log(600.0)
+    slope = np.where(lx < start, 1.48 - 0.02 * lx,
+                     1.48 - 0.02 * start - 1.0 * (lx - start) / (lx[-1] - start))
+    y = np.concatenate([[0.0], np.cumsum(0.5 * (slope[1:] + slope[:-1]) * np.diff(lx))])
+    d, f = np.exp(lx) * dy, fy * np.exp(y)
+    one = fit._fit_segments_at(lx[1:], y[1:], fit._trapezoid_weights(lx[1:]), 1)
+    assert one["rms_relative_error"] > fit.LOADING_GOAL
+    denser = fit.fit_loading(d, f, dy, kh, form="segments")
+    assert denser["rms_relative_error"] <= fit.LOADING_GOAL
+    assert len(denser["loading_segments"].depth) > len(one["loading_segments"].depth)
+    gentle = fit.fit_loading(d[lx < start], f[lx < start], dy, kh, form="segments")
+    assert len(gentle["loading_segments"].depth) == 3  # 2.8 decades: at least 3 segments
+
+
 def test_unknown_loading_form_is_a_one_line_error():
     from geocontact.errors import InputError
 
