@@ -276,3 +276,33 @@ def test_campaign_does_not_report_a_run_waiting_for_a_worker(material, tmp_path,
 def test_bad_progress_interval(material, tmp_path, every):
     with pytest.raises(InputError, match=r"^progress_every: must be a number of seconds > 0"):
         run_campaign([FemJob(material, (0.0, 1.0, 0.0))], tmp_path, progress_every=every)
+
+
+def test_a_second_campaign_on_the_machine_prints_no_port_warning(capfd):
+    """Two campaigns at once (a calibration and its acceptance, or the universal campaign's
+    processes): the second one's scheduler found Dask's default HTTP port 8787 taken and
+    printed a "Port 8787 is already in use" warning. With 8787 held here, a local cluster
+    starts without a word."""
+    import socket
+    import warnings
+
+    from dask.distributed import Client
+
+    from geocontact.fem.campaign import local_cluster
+
+    holder = socket.socket()
+    try:
+        holder.bind(("", 8787))
+        holder.listen()
+    except OSError:
+        pass  # something else holds it: the case under test all the same
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with local_cluster(1) as cluster, Client(cluster) as client:
+                assert client.submit(sum, [1, 2]).result() == 3
+                assert ":8787/" not in cluster.dashboard_link  # its HTTP server, on a free port
+    finally:
+        holder.close()
+    err = capfd.readouterr().err
+    assert "already in use" not in err, err

@@ -477,16 +477,27 @@ def _campaign_error(jobs: list[FemJob], failures: dict[int, BaseException],
         "cache, an interrupted run goes on from its checkpoint)", records)
 
 
+def local_cluster(workers: int):
+    """The local Dask cluster of a campaign: one single-threaded process a worker, quiet.
+
+    silence_logs: a run that fails is reported in one line (``_failed``); the workers' own
+    "Compute Failed" log would print its traceback on the user's terminal as well. No
+    dashboard, and the scheduler's HTTP server (health and metrics routes, on even without
+    the dashboard) on a free port: on its default 8787, a second campaign on the machine
+    printed a "Port 8787 is already in use" warning."""
+    from dask.distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                        dashboard_address=None, silence_logs=logging.CRITICAL,
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+
+
 def _run_on_dask(jobs, todo, cache, results, scheduler, workers, progress, failures) -> None:
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
 
     cluster = None
     if scheduler is None:
-        n = workers or min(len(todo), os.cpu_count() or 1)
-        # silence_logs: a run that fails is reported in one line by _failed; the workers' own
-        # "Compute Failed" log would print its traceback on the user's terminal as well
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.CRITICAL)
+        cluster = local_cluster(workers or min(len(todo), os.cpu_count() or 1))
         client = Client(cluster)
     else:
         try:

@@ -138,7 +138,7 @@ def run_points(count: int, directory: str | Path | None = None,
     """Run the first ``count`` design points not yet in the dataset; returns the indices
     added. A point whose FE runs fail is recorded as failed in provenance.json and retried by
     the next call; the others go on."""
-    from ..fem.campaign import CampaignError, check_scheduler_address, run_campaign
+    from ..fem.campaign import CampaignError, check_scheduler_address, local_cluster, run_campaign
     from ..fem.identity import fe_code_hash
 
     directory = Path(directory or default_directory())
@@ -155,10 +155,7 @@ def run_points(count: int, directory: str | Path | None = None,
         scheduler = check_scheduler_address(scheduler)
     cluster = None
     if scheduler is None:
-        from dask.distributed import LocalCluster
-
-        cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        cluster = local_cluster(workers or 2)
         scheduler = cluster.scheduler_address
     added = []
     started = time.perf_counter()
