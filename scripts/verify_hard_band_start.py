@@ -23,35 +23,26 @@ and each run's elements, solves, Newton iterations and CPU time.
 
 from __future__ import annotations
 
-import contextlib
 import time
 from pathlib import Path
-from unittest import mock
 
 import numpy as np
 
 from geocontact.errors import ArgumentParser, InputError, run_reporting_errors
-from geocontact.fem import run
 from geocontact.fem.limits import check_resolved_force
+from geocontact.fem.run import run_history
+from geocontact.fem.settings import RESOLVE_FROM_RANGE
 from geocontact.files import Output, claim, provenance, write_json_atomic
 from geocontact.grain.material import load_material
 
 
 def one_run(material, force: float, mesh: str, late: float | None) -> dict:
     """The run 0 -> force -> 0 (finite strain, the FE's defaults otherwise, backtracked Newton
-    updates as the campaign of record's), its smallest resolved contact late * R if given."""
-    stack = contextlib.ExitStack()
-    if late is not None:
-        tip = run.tip_contact_radius
-
-        def later(material, min_force, mesh):
-            return max(tip(material, min_force, mesh), late * material.radius)
-
-        stack.enter_context(mock.patch.object(run, "tip_contact_radius", later))
+    updates as the campaign of record's), its smallest resolved contact late * R if given (the
+    FE setting ``resolve_from``)."""
     started = time.process_time()
-    with stack:
-        result = run.run_history(material, [0.0, force, 0.0], mesh=mesh, write_fields=False,
-                                 kinematics="finite", newton="backtracking")
+    result = run_history(material, [0.0, force, 0.0], mesh=mesh, write_fields=False,
+                         kinematics="finite", newton="backtracking", resolve_from=late)
     s = result.summary
     c = result.curve
     return {"a_min_over_R": late, "elements": s["mesh"]["elements"],
@@ -128,9 +119,11 @@ def main(argv=None) -> int:
 
     def work() -> int:
         args = parser.parse_args(argv)
+        low, high = RESOLVE_FROM_RANGE
         for f in args.late:
-            if not 0.0 < f < 0.1:
-                raise InputError(f"--late: each a_min / R must be in (0, 0.1), got {f:g}")
+            if not low <= f <= high:
+                raise InputError(f"--late: each a_min / R must be in [{low:g}, {high:g}], "
+                                 f"got {f:g}")
         if not 1.0 <= args.resolved <= 100.0:
             raise InputError(f"--resolved: must be in [1, 100], got {args.resolved:g}")
         material = load_material(args.material)

@@ -302,7 +302,7 @@ def test_scripts_report_a_bad_flag_in_one_line(capsys, module):
 def test_verify_hard_band_start_refuses_bad_values_before_any_fe(tmp_path, capsys):
     import verify_hard_band_start as script  # scripts/ (tests/conftest.py)
 
-    for flags, message in ((["--late", "0.2"], "--late: each a_min / R must be in (0, 0.1)"),
+    for flags, message in ((["--late", "0.2"], "--late: each a_min / R must be in [1e-05, 0.05]"),
                            (["--resolved", "0.5"], "--resolved: must be in [1, 100]"),
                            (["--force", "1e12"], "--force")):
         assert script.main(flags) == 2
@@ -692,6 +692,9 @@ def test_corpus_wrong_kind_of_path(tmp_path, capsys, no_work, case):
 BOUNDS = [
     ("fem", ["--steps", "0"], ["--steps", "[1, 10000]"]),
     ("fem", ["--max-step-ratio", "0.5"], ["max_step_ratio"]),
+    ("fem", ["--resolve-from", "0.2"], ["resolve_from", "[1e-05, 0.05]"]),
+    ("cycles", ["--resolve-from", "1e-7"], ["resolve_from", "[1e-05, 0.05]"]),
+    ("calibrate", ["--resolve-from", "nan"], ["resolve_from", "[1e-05, 0.05]"]),
     ("cycles", ["--tolerance", "-1"], ["--tolerance"]),
     ("cycles", ["--steps", "10001"], ["--steps"]),
     ("calibrate", ["--levels", "2"], ["--levels"]),

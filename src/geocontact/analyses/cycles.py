@@ -39,7 +39,7 @@ from ..calibrate.cyclic_fit import (
     with_cyclic,
 )
 from ..errors import InputError
-from ..fem.settings import DEFAULT_STEP_CONTROL
+from ..fem.settings import FeSettings
 from ..files import atomic_directory, provenance, write_csv, write_json_atomic
 from ..grain.force_history import cycle_peak
 
@@ -165,12 +165,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
                steps_per_segment: int | None = None, tolerance: float = DEFAULT_TOLERANCE,
                resume: bool = False, fit_params=None, progress: bool = False,
                inputs: dict[str, Any] | None = None, overwrite: bool = False,
-               kinematics: str = "small", mesh_rule: str = "auto",
-               step_rule: str = "segment",
-               max_step_ratio: float | None = None, contact: str = "node",
-               kernels: str | None = None,
-               step_control: str = DEFAULT_STEP_CONTROL,
-               newton: str = "full") -> dict[str, Any]:
+               **fe_model: Any) -> dict[str, Any]:
     """FE run of ``forces`` in ``out/fe`` (checkpointed), the law beside it when ``params`` is
     given (driven by the FE's approach path and by the force history), the cycle analysis of
     each, and ``out/summary.json``, ``out/cycles.csv`` (and law paths as CSV). With
@@ -179,7 +174,12 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
     ``out`` is written as one unit (``io.atomic_directory``): an interrupted rerun never leaves
     new files beside old ones, and an existing ``out`` is replaced only if it is a cycles
     result of ours (unless ``overwrite``). The FE checkpoint (``checkpoint_of(out)``) lives
-    beside ``out`` until the analysis has landed. Returns the summary."""
+    beside ``out`` until the analysis has landed. ``fe_model``: the FE run's other settings
+    (``fem.settings.FeSettings`` keywords: kinematics, mesh_rule, step_control, newton, ...;
+    their defaults the FE's). Returns the summary."""
+    unknown = sorted(set(fe_model) - set(FeSettings.names()))
+    if unknown:
+        raise TypeError(f"run_cycles: unknown FE settings {', '.join(unknown)}")
     forces = [float(f) for f in forces]
     check_cyclic_history(forces)
     if not (isinstance(tolerance, (int, float)) and 0.0 < tolerance < 1.0):
@@ -194,10 +194,7 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
     with atomic_directory(out, "cycles", overwrite=overwrite) as work:
         summary = _write_cycles(work, material, forces, params=params, mesh=mesh,
                                 steps_per_segment=steps_per_segment, tolerance=tolerance,
-                                kinematics=kinematics, mesh_rule=mesh_rule,
-                                step_rule=step_rule, max_step_ratio=max_step_ratio,
-                                contact=contact, kernels=kernels, step_control=step_control,
-                                newton=newton, resume=resume, fit_params=fit_params,
+                                fe_model=fe_model, resume=resume, fit_params=fit_params,
                                 progress=progress, inputs=inputs, previous_fe=out / "fe",
                                 checkpoint=checkpoint)
     from ..fem.checkpoint import remove_checkpoint
@@ -207,9 +204,8 @@ def run_cycles(material, forces, out, *, params=None, mesh: str = "default",
 
 
 def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segment, tolerance,
-                  kinematics, mesh_rule, step_rule, max_step_ratio, contact, kernels,
-                  step_control, newton, resume, fit_params, progress, inputs, previous_fe: Path,
-                  checkpoint: Path) -> dict[str, Any]:
+                  fe_model: dict[str, Any], resume, fit_params, progress, inputs,
+                  previous_fe: Path, checkpoint: Path) -> dict[str, Any]:
     """The body of ``run_cycles``, writing into the (temporary) folder ``out``."""
     from ..fem.run import run_history  # the FE is an optional extra: imported when used
 
@@ -221,10 +217,7 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
         from ..fem.identity import FeRunIdentity, finished_run
 
         identity = FeRunIdentity.of(material, forces, mesh, steps_per_segment=steps_per_segment,
-                                    kinematics=kinematics, mesh_rule=mesh_rule,
-                                    step_rule=step_rule, max_step_ratio=max_step_ratio,
-                                    contact=contact, kernels=kernels,
-                                    step_control=step_control, newton=newton)
+                                    **fe_model)
         why: list[str] = []
         result = finished_run(previous_fe, identity, fields=True, why=why)
         if why:
@@ -234,10 +227,7 @@ def _write_cycles(out: Path, material, forces, *, params, mesh, steps_per_segmen
         result = run_history(material, forces, mesh=mesh, out=fe_dir,
                              steps_per_segment=steps_per_segment, resume=resume,
                              progress=progress, write_fields=True, checkpoint=checkpoint,
-                             kinematics=kinematics, mesh_rule=mesh_rule,
-                             step_rule=step_rule, max_step_ratio=max_step_ratio,
-                             contact=contact, kernels=kernels, step_control=step_control,
-                             newton=newton)
+                             **fe_model)
     else:
         shutil.copytree(previous_fe, fe_dir)
         if progress:

@@ -38,8 +38,8 @@ def fe_model_of(args) -> dict:
 
 
 def add_fe_model_flags(p) -> None:
-    """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --contact and --kernels of the
-    FE engine (``fem.settings.FeSettings.add_model_flags``; docs/fem.md)."""
+    """The FE engine's model flags, --kinematics to --resolve-from
+    (``fem.settings.FeSettings.add_model_flags``; docs/fem.md)."""
     from ..fem.settings import FeSettings
 
     FeSettings.add_model_flags(p)

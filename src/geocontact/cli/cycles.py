@@ -8,7 +8,7 @@ from ..errors import InputError
 from ..fem.limits import check_resolved_force, check_steps
 from ..files import Output, check_file_replaceable, claim
 from ..grain.force_history import cycle_windows
-from .common import add_fe_model_flags, add_force_flag, print_json
+from .common import add_fe_model_flags, add_force_flag, fe_model_of, print_json
 from .common import load_history_arg as load_history
 from .common import load_material_arg as load_material
 
@@ -102,8 +102,5 @@ def _run(args, material, forces, params) -> dict:
         progress=sys.stderr.isatty() or not args.json,
         inputs={"material": str(args.material), "history": str(args.history),
                 "params": args.params},
-        overwrite=args.force, kinematics=args.kinematics, mesh_rule=args.mesh_rule,
-        step_rule=args.step_rule, max_step_ratio=args.max_step_ratio, contact=args.contact,
-        kernels=args.kernels,
-        step_control=args.step_control, newton=args.newton,
+        overwrite=args.force, **fe_model_of(args),
     )

@@ -60,6 +60,7 @@ def run(args) -> int:
                              max_step_ratio=args.max_step_ratio, contact=args.contact,
                              kernels=args.kernels,
                              step_control=args.step_control, newton=args.newton,
+                             resolve_from=args.resolve_from,
                              progress=sys.stderr.isatty() or not args.json)
     s = result.summary
     if args.json:

@@ -82,6 +82,7 @@ class FemJob:
     # "dissipation" | "adaptive" | "fixed" (fem.settings.STEP_CONTROLS, fem.run.AdaptiveSteps)
     step_control: str = DEFAULT_STEP_CONTROL
     newton: str = "full"  # "full" | "backtracking" (fem.settings.NEWTON_UPDATES)
+    resolve_from: float | None = None  # smallest resolved contact over R (FeSettings)
     # a branch: (base forces, step) of the loading ramp it follows (fem.run.run_history); the
     # base job is this one with those forces and no ``follows``
     follows: tuple | None = None
@@ -111,6 +112,7 @@ class FemJob:
                   kernels=inputs.get("kernels"),
                   step_control=inputs.get("step_control", RECORD_DEFAULTS["step_control"]),
                   newton=inputs.get("newton", RECORD_DEFAULTS["newton"]),
+                  resolve_from=inputs.get("resolve_from"),
                   follows=(None if "follows" not in inputs else (
                       tuple(inputs["follows"]["forces_N"]), inputs["follows"]["step"])))
         return replace(job, **changes) if changes else job

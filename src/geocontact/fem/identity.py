@@ -358,6 +358,20 @@ _FORCE_KEPT = ("the internal force of a converged state computed once and kept f
                "run is solved, checkpointed and summarised as before")
 _reproduces(_FORCE_KEPT_CODE, _CONTACT_LIMIT_CODE, _FORCE_KEPT)
 
+# The mesh's smallest resolved contact as an opt-in setting (issue 37, docs/fem.md "Starting the
+# resolved mesh later"): FeSettings.resolve_from, recorded in the identity only when given;
+# run_cycles takes the FE settings as keywords (the same values reach run_history). Evidence:
+# old code (a worktree of the commit before) against new on one machine, the cyclic history
+# [0, 0.3 N] x 3 under "dissipation" and "envelope", the ramp under "dissipation" and with
+# backtracking (reference-weak, coarse, finite strain, decade steps, compiled kernels), the
+# cyclic history in small strain on the numpy path and the ramp with the facet contact:
+# byte-identical curve.csv, summaries equal but for identity and times.
+_RESOLVE_FROM_CODE = "06dd17f121d8098b"
+_RESOLVE_FROM = ("the opt-in smallest resolved contact added (resolve_from, fem.run.history_mesh; "
+                 "recorded in the identity only when given): every run without it is meshed, "
+                 "solved, checkpointed and summarised as before")
+_reproduces(_RESOLVE_FROM_CODE, _FORCE_KEPT_CODE, _RESOLVE_FROM)
+
 # Changes whose runs reproduce the older runs within a stated tolerance, not bit for bit (the
 # agreement rule; docs/fem.md "The agreement rule"): e.g. the compiled element kernels
 # (fem.compiled) against the numpy path they were written after, whose round-off differs
@@ -409,10 +423,10 @@ _KERNELS_AGREE = Agreement(
 # with its reruns in the evidence file: the compiled default's code, then the codes after it
 # (the "auto" mesh rule, the switched defaults, the dissipation control, the branches, the
 # envelope control and its rim, backtracking, the solver's split, the measured contact's bound,
-# the internal force kept).
+# the internal force kept, the smallest resolved contact).
 _KERNELS_AGREE_CODES = (_DEFAULT_FE_CODE, _AUTO_MESH_RULE_CODE, _DEFAULTS_CODE, _DISSIPATION_CODE,
                         _BRANCH_CODE, _ENVELOPE_CODE, _ENVELOPE_RIM_CODE, _BACKTRACKING_CODE,
-                        _SPLIT_CODE, _CONTACT_LIMIT_CODE, _FORCE_KEPT_CODE)
+                        _SPLIT_CODE, _CONTACT_LIMIT_CODE, _FORCE_KEPT_CODE, _RESOLVE_FROM_CODE)
 AGREED_FE_CODE: dict[tuple[str, str], dict[str, Agreement]] = {
     (code, _DEFAULT_COMPILED_CODE): {older: _KERNELS_AGREE
                                      for older in (code, *REPRODUCED_FE_CODE[code])}

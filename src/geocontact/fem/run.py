@@ -157,7 +157,8 @@ def contact_band_radius(material: Material) -> float:
 
 
 def history_mesh(material: Material, max_force: float, mesh: str = "default",
-                 min_force: float | None = None, rule: str = "yield"):
+                 min_force: float | None = None, rule: str = "yield",
+                 resolve_from: float | None = None):
     """The mesh of a history whose largest force is ``max_force`` and smallest load step
     ``min_force``: it resolves every contact radius from the smallest (``tip_contact_radius``)
     to the largest one (``mesh.build_mesh``).
@@ -165,10 +166,14 @@ def history_mesh(material: Material, max_force: float, mesh: str = "default",
     ``min_force`` None: the first step of a ramp 0 -> ``max_force`` with the preset's steps.
     ``rule``: "yield" (the verified meshes), "contact" or "contact-dense" (``mesh.MESH_RULES``;
     a surface band from ``contact_band_radius`` to the largest contact radius).
+    ``resolve_from``: None, or the smallest contact radius resolved as a fraction of R
+    (``FeSettings.resolve_from``), where that is above the tip rule's.
     """
     if min_force is None:
         min_force = smallest_resolved_force(material, [0.0, max_force], STEPS_PER_SEGMENT[mesh])
     a_min = tip_contact_radius(material, min_force, mesh)
+    if resolve_from is not None:
+        a_min = max(a_min, resolve_from * material.radius)
     a_max = max(largest_contact_radius_estimate(material, max_force), 2.0 * a_min)
     return build_mesh(material.radius, a_min, a_max, mesh, rule=rule,
                       a_band=max(contact_band_radius(material), a_min))
@@ -956,7 +961,7 @@ def prepare_run(material: Material, identity, out, *, resume: bool, checkpoint,
         fe_mesh = history_mesh(material, identity.mesh_force, identity.mesh,
                                min_force=smallest_resolved_force(material, sized_history, steps,
                                                                  identity.step_rule),
-                               rule=identity.mesh_rule)
+                               rule=identity.mesh_rule, resolve_from=identity.resolve_from)
         solver = _solver(material, fe_mesh, identity, linear_solver)
         if pending is not None:
             remove_pending_fields(pending)  # files of an earlier, other run

@@ -72,7 +72,7 @@ NEWTON_UPDATES = ("full", "backtracking")
 # The settings added after the first identity record: recorded only when not at their default,
 # so the keys (cache entries, checkpoints) of earlier runs stay valid.
 RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "contact",
-                     "kernels", "step_control", "newton")
+                     "kernels", "step_control", "newton", "resolve_from")
 # The value each of them had by default when it entered the identity: a record leaves a setting
 # out only at this value and reads an absent one as it, so a default that moves later keeps every
 # older record meaning what it meant. mesh_rule entered as "yield" and step_control as "fixed";
@@ -83,7 +83,13 @@ RECORDED_WHEN_SET = ("mesh_rule", "kinematics", "step_rule", "max_step_ratio", "
 # read per FE code instead (fem.identity.recorded_kernels).
 RECORD_DEFAULTS = {"mesh_rule": "yield", "kinematics": "small", "step_rule": "segment",
                    "max_step_ratio": None, "contact": "node", "step_control": "fixed",
-                   "newton": "full"}
+                   "newton": "full", "resolve_from": None}
+# The smallest contact radius a mesh resolves, as a fraction of R (``FeSettings.resolve_from``):
+# None (the default) resolves every contact from the first load step's (fem.run.
+# tip_contact_radius); a value lifts that to resolve_from x R, below which the first steps have
+# one or two surface elements under the contact. For runs whose first decades of contact size
+# are known (docs/fem.md "Starting the resolved mesh later"): a hard grain's a_y is ~3e-5 R.
+RESOLVE_FROM_RANGE = (1e-5, 0.05)
 # The mesh rule chosen from the material and the load (issue 36; docs/fem.md "The mesh rule
 # chosen from the material and the load"): "auto" resolves, with the history's largest force (the
 # mesh force), to "contact-dense" when that force is above AUTO_DENSE_FORCE_RATIO x the analytic
@@ -168,6 +174,9 @@ class FeSettings:
     node contact; fem.compiled) | None, the contact's default (``default_kernels``: compiled
     with the node contact, numpy with the facet contact), which the object holds in its place
     once made. ``newton``: "full" (the default) | "backtracking" (``NEWTON_UPDATES``).
+    ``resolve_from``: None (the default) or the smallest contact radius the mesh resolves, a
+    fraction of R in ``RESOLVE_FROM_RANGE`` (the first steps' contacts below it are not
+    resolved: their forces, and first yield, are the coarse tip's).
     """
 
     mesh: str = "coarse"
@@ -183,6 +192,7 @@ class FeSettings:
     kernels: str | None = None
     step_control: str = DEFAULT_STEP_CONTROL
     newton: str = "full"
+    resolve_from: float | None = None
 
     def __post_init__(self) -> None:
         from .compiled import KERNELS  # the FE stack, not needed by the CLI's flags
@@ -214,6 +224,11 @@ class FeSettings:
         if self.mesh_force is not None and not (_is_number(self.mesh_force)
                                                 and self.mesh_force > 0):
             raise InputError(f"mesh_force: must be a positive number, got {self.mesh_force!r}")
+        low, high = RESOLVE_FROM_RANGE
+        if self.resolve_from is not None and not (_is_number(self.resolve_from)
+                                                  and low <= self.resolve_from <= high):
+            raise InputError(f"resolve_from: must be a contact radius over R in [{low:g}, "
+                             f"{high:g}] or None, got {self.resolve_from!r}")
 
     def resolved(self, forces, material=None) -> FeSettings:
         """The settings of a run of the force history ``forces`` with the defaults resolved
@@ -292,6 +307,8 @@ class FeSettings:
             words.append(f"{self.step_control} step control")
         if self.newton != RECORD_DEFAULTS["newton"]:
             words.append(f"{self.newton} Newton updates")
+        if self.resolve_from is not None:
+            words.append(f"contacts resolved from a = {self.resolve_from:g} R")
         return words
 
     def as_dict(self) -> dict[str, Any]:
@@ -305,8 +322,8 @@ class FeSettings:
     @staticmethod
     def add_model_flags(p) -> None:
         """--kinematics, --mesh-rule, --step-rule, --max-step-ratio, --step-control, --contact,
-        --kernels and --newton of the FE engine (docs/fem.md); their defaults are the
-        settings'."""
+        --kernels, --newton and --resolve-from of the FE engine (docs/fem.md); their defaults
+        are the settings'."""
         default = FeSettings.__dataclass_fields__
         p.add_argument("--kinematics", default=default["kinematics"].default,
                        choices=list(KINEMATICS),
@@ -366,14 +383,23 @@ class FeSettings:
                             "perfectly plastic, nearly incompressible grains whose full "
                             "updates cycle; a solve whose full updates all lower the residual "
                             "is unchanged; docs/fem.md)")
+        low, high = RESOLVE_FROM_RANGE
+        p.add_argument("--resolve-from", type=float, default=default["resolve_from"].default,
+                       metavar="A_OVER_R",
+                       help="FE mesh: resolve contacts from this contact radius on, as a "
+                            f"fraction of R in [{low:g}, {high:g}] (default: from the first "
+                            "load step's; the steps below it have one or two surface elements "
+                            "under the contact, so their forces and first yield are not "
+                            "resolved; for deep runs of hard grains whose first decades of "
+                            "contact size are known; docs/fem.md)")
 
     @staticmethod
     def model_of(args) -> dict[str, Any]:
         """The FE model the flags of ``add_model_flags`` chose, as settings keywords
-        (``contact``, ``kernels``, ``step_control`` and ``newton`` only when not the default, so
-        the records of default runs are unchanged)."""
+        (``contact``, ``kernels``, ``step_control``, ``newton`` and ``resolve_from`` only when
+        not the default, so the records of default runs are unchanged)."""
         model = {key: getattr(args, key) for key in MODEL_FLAGS}
-        for name in ("contact", "kernels", "step_control", "newton"):
+        for name in ("contact", "kernels", "step_control", "newton", "resolve_from"):
             if getattr(args, name) != FeSettings.__dataclass_fields__[name].default:
                 model[name] = getattr(args, name)
         return model
