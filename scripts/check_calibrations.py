@@ -55,6 +55,14 @@ CALIBRATIONS = {
         "--kinematics", "finite", "--mesh-rule", "contact", "--max-step-ratio", "1.01",
         "--step-control", "fixed", "--cache", "datasets/fe-runs/weak-finite",
         "--residual-form", "table", "--loading-form", "segments"],
+    "params-reference-deep.json": [
+        "--material", "reference", "--mesh", "default", "--max-force", "1.2e5",
+        "--mesh-force", "6e5", "--peak-forces",
+        "5.51442617326556,20.00452331949273,72.56982697134328,263.25944900266944,"
+        "955.0186404131393,3464.4933239502184,12568.04158974666,24000,45592.718655177036,"
+        "80000,120000", "--kinematics", "finite", "--step-rule", "decade", "--step-control",
+        "envelope", "--newton", "backtracking", "--residual-form", "table", "--loading-form",
+        "segments", "--cache", "datasets/fe-runs/reference-deep"],
 }
 
 # Why 1e-6: the fits are deterministic least squares on the FE curves, and the FE solves to a
