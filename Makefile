@@ -268,7 +268,9 @@ sample-study-quartz-like: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.jso
 # its elastic baseline through the same pair style, three samples of 2000 grains each, at a
 # stress where no contact yields and at one where most do; then the report. Minutes a case. The
 # reference grain's cases use its deep calibration (examples/params-reference-deep.json, to
-# 6152 delta_y: the depths its contacts reach at mega-pascals).
+# 6152 delta_y): 5 kPa, and 0.25 -> 0.5 -> 1 MPa with loops, where at most 2 pair and 12 wall
+# contacts of a sample go beyond that depth (at 2 MPa, --preset high-stress, 128 and 76, to 19 000
+# delta_y, where the contact has passed R/2: beyond any sphere-contact law; docs/sample-study.md).
 OEDOMETER_STUDY ?= out/oedometer-study
 OEDOMETER := dem oedometer --contact both --seeds 3 --grains 2000 --inertia 3e-3
 oedometer-study: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
@@ -279,7 +281,7 @@ oedometer-study: $(STAMP) plugin $(SAMPLE_STUDY)/params-quartz-like.json
 	$(VENV)/bin/geocontact $(OEDOMETER) --law examples/params-reference-deep.json \
 	  --stress 5e3 --out $(OEDOMETER_STUDY)/reference-5kPa
 	$(VENV)/bin/geocontact $(OEDOMETER) --law examples/params-reference-deep.json \
-	  --preset high-stress --out $(OEDOMETER_STUDY)/reference-high-stress
+	  --stress 2.5e5 --targets 2 0.5 2 0.5 4 1 4 1 --out $(OEDOMETER_STUDY)/reference-1MPa
 	$(VENV)/bin/geocontact report $(OEDOMETER_STUDY)
 
 # The shipped calibrations must regenerate: rerun calibrate-examples into a temporary folder (FE
