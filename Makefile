@@ -9,7 +9,8 @@ STAMP  := $(VENV)/.installed
 	staircase-finite-dense staircase-dense-24 staircase-dense-48 \
 	test-plugin ccx chromium check-figures cholmod suitesparse blas calibrate-weak-finite calibrate-reference-deep oedometer-study \
 	calibrate-weak-finite-coarse paper-histories-finite sample-study sample-study-reference \
-	sample-study-quartz-like sample-study-twice-the-grains sample-study-drained
+	sample-study-quartz-like sample-study-twice-the-grains sample-study-drained \
+	sample-study-reference-deep
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -239,7 +240,7 @@ $(STAIRCASE_RUNS): staircase-%: $(STAMP)
 SAMPLE_STUDY ?= datasets/sample-study
 SAMPLE_STUDY_GRAINS ?= 500
 sample-study: sample-study-reference sample-study-quartz-like sample-study-twice-the-grains \
-  sample-study-drained
+  sample-study-drained sample-study-reference-deep
 	$(VENV)/bin/geocontact report $(SAMPLE_STUDY)
 # the reference grain at 100 Pa drained between cycles (--drained): cyclic mobility or modulus
 # reduction (docs/sample-study.md); about as long as the 100 Pa half of sample-study-reference
@@ -254,6 +255,12 @@ sample-study-twice-the-grains: $(STAMP) plugin
 sample-study-reference: $(STAMP) plugin
 	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference.json \
 	  --cyclic-extension off --stress 1e2 1e5 --grains $(SAMPLE_STUDY_GRAINS) --out $(SAMPLE_STUDY)/reference
+# the reference grain at 100 kPa on its deep calibration (examples/params-reference-deep.json, to
+# 6152 delta_y; its contacts reach 1100-1260 delta_y there, 4.5-5 times the shipped file's depth)
+sample-study-reference-deep: $(STAMP) plugin
+	$(VENV)/bin/geocontact dem cyclic-shear --law examples/params-reference-deep.json \
+	  --cyclic-extension off --stress 1e5 --grains $(SAMPLE_STUDY_GRAINS) \
+	  --out $(SAMPLE_STUDY)/reference-deep
 # made once (order-only: a fresh clone's newer .venv must not remake it): the file records when
 # it was made, so a remade file has another sha256 and the committed runs that read it would no
 # longer be this study's. Delete it to make it again (and the quartz-like runs with it).
