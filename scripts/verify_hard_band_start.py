@@ -14,6 +14,12 @@ grain's run could start its mesh where the sphere's size begins to matter.
     PYTHONPATH=src .venv/bin/python scripts/verify_hard_band_start.py \\
         --material reference-weak --force 1900 --late 1e-3 3e-3 \\
         --json docs/verification/hard-band-start.json
+    PYTHONPATH=src .venv/bin/python scripts/verify_hard_band_start.py \\
+        --point 2 --force 1000 --late 1e-3 3e-3 \\
+        --json docs/verification/hard-band-start-point2.json
+
+``--point N``: the material of the campaign of record's design point N (of its 64; point 2 is a
+hard grain, E/sigma_c 1e5, beta 0, nu 0.1, m 0.3) instead of ``--material``.
 
 Measures, against the fully resolved run: the force at the same approach along the loading,
 over the steps whose contact radius is at least ``--resolved`` x a_min of the late mesh (the
@@ -34,6 +40,8 @@ from geocontact.fem.run import run_history
 from geocontact.fem.settings import RESOLVE_FROM_RANGE
 from geocontact.files import Output, claim, provenance, write_json_atomic
 from geocontact.grain.material import load_material
+from geocontact.universal.design import material_at
+from geocontact.universal.record import MIN_POINTS_OF_RECORD, design_points
 
 
 def one_run(material, force: float, mesh: str, late: float | None) -> dict:
@@ -109,6 +117,8 @@ def describe(r: dict) -> str:
 def main(argv=None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--material", default="reference-weak")
+    parser.add_argument("--point", type=int, default=None,
+                        help="the campaign of record's design point N's material instead")
     parser.add_argument("--force", type=float, default=1900.0, help="peak force, N")
     parser.add_argument("--mesh", default="coarse", choices=["coarse", "default", "fine"])
     parser.add_argument("--late", type=float, nargs="+", default=[1e-3, 3e-3],
@@ -126,7 +136,14 @@ def main(argv=None) -> int:
                                  f"got {f:g}")
         if not 1.0 <= args.resolved <= 100.0:
             raise InputError(f"--resolved: must be in [1, 100], got {args.resolved:g}")
-        material = load_material(args.material)
+        if args.point is None:
+            material = load_material(args.material)
+        else:
+            if not 0 <= args.point < MIN_POINTS_OF_RECORD:
+                raise InputError(f"--point: must be a design point in [0, "
+                                 f"{MIN_POINTS_OF_RECORD - 1}], got {args.point}")
+            point = design_points(MIN_POINTS_OF_RECORD)[args.point]
+            material = material_at(point.coordinates)
         check_resolved_force(material, args.force, "--force")
         outputs = [Output(args.json, "file", "--json")] if args.json else []
         with claim(outputs, "verify_hard_band_start"):
@@ -143,7 +160,8 @@ def main(argv=None) -> int:
                       f"x{r['residual_approach_ratio']:.4f}", flush=True)
             if args.json:
                 inputs = {**vars(args), "json": str(args.json)}
-                write_json_atomic(args.json, {"runs": runs, "comparison": rows,
+                write_json_atomic(args.json, {"material": material.to_dict(),
+                                              "runs": runs, "comparison": rows,
                                               "provenance": provenance(
                                                   "verify_hard_band_start", inputs)})
         return 0

@@ -304,6 +304,7 @@ def test_verify_hard_band_start_refuses_bad_values_before_any_fe(tmp_path, capsy
 
     for flags, message in ((["--late", "0.2"], "--late: each a_min / R must be in [1e-05, 0.05]"),
                            (["--resolved", "0.5"], "--resolved: must be in [1, 100]"),
+                           (["--point", "64"], "--point: must be a design point in [0, 63]"),
                            (["--force", "1e12"], "--force")):
         assert script.main(flags) == 2
         one_line_error(capsys, message)
