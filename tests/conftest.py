@@ -115,14 +115,16 @@ def no_work(monkeypatch):
 def fe_setting_reaching_the_run(monkeypatch, tmp_path, setting: str, flags: list[str]) -> list:
     """The value of the FE run's keyword ``setting`` that ``geocontact fem`` and ``cycles``
     pass on with ``flags`` (a short history on the coarse mesh; the run itself is captured, not
-    made): one value per command."""
+    made): one value per command. A setting not passed is the one run_history makes of it,
+    FeSettings' default."""
     import geocontact.fem.run as fem_run
     from geocontact.cli import main
+    from geocontact.fem.settings import FeSettings
 
     seen = []
 
     def capture(*args, **kwargs):
-        seen.append(kwargs.get(setting))
+        seen.append(kwargs.get(setting, FeSettings.__dataclass_fields__[setting].default))
         raise Reached
 
     monkeypatch.setattr(fem_run, "run_history", capture)
